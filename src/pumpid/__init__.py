@@ -1,0 +1,1 @@
+"""pumpid: identify small physical models from measured input/output data."""
