@@ -1,0 +1,531 @@
+"""Identification: one entry point, two methods, one result type.
+
+``method="lm"`` (default)
+    Levenberg-Marquardt (scipy.optimize.least_squares, MINPACK) on log-parameters, so every
+    physical parameter stays positive, with the exact Jacobian from the sensitivity system.
+``method="newton-fd"``
+    The paper's inverse-optimization method exactly as eqs. (16)-(22) and (25)-(27) describe
+    it: Newton-Raphson on the gradient of E, with the model output's first and second
+    derivatives (including the mixed ones) by central differences at 0.1 % of each parameter,
+    the scale's and offset's derivatives exact, and the stop test ||dx|| / ||x0|| <= eps0.
+    No library implements this particular scheme, hence the hand-written loop.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any, Literal
+
+import numpy as np
+import scipy.optimize
+from numpy.typing import ArrayLike, NDArray
+
+from .models import Model
+from .problem import Problem, build_problem, initial_state_label
+from .result import FitResult, Units
+from .simulate import InitialState, Integrator
+
+__all__ = ["fit"]
+
+Method = Literal["lm", "newton-fd"]
+_LOG_MAX = 700.0  # keeps exp() of a log-parameter finite during wild trial steps
+
+
+def _start_theta(
+    model: Model | type[Model], x0: Mapping[str, float] | Model | ArrayLike | None
+) -> tuple[type[Model], NDArray[np.float64] | None, dict[str, float]]:
+    """Model class, starting parameters (None: automatic) and extra start values (C, offset)."""
+    extras: dict[str, float] = {}
+    if isinstance(model, Model):
+        cls: type[Model] = type(model)
+        theta: NDArray[np.float64] | None = model.values
+    elif isinstance(model, type) and issubclass(model, Model):
+        cls, theta = model, None
+    else:
+        raise TypeError(
+            "model must be a model instance (a starting guess, e.g. Kelvin(k0=4, m=1, c1=0.2, "
+            f"k1=4)) or a model class (automatic start), got {model!r}"
+        )
+    if x0 is None:
+        return cls, theta, extras
+    if isinstance(x0, Model):
+        if type(x0) is not cls:
+            raise TypeError(f"x0 is a {type(x0).__name__}, the model a {cls.__name__}")
+        return cls, x0.values, extras
+    if isinstance(x0, Mapping):
+        names = cls.param_names()
+        unknown = set(x0) - set(names) - {"C", "D", "offset"}
+        if unknown:
+            raise ValueError(f"x0: unknown names {sorted(unknown)}; parameters are {names}")
+        base = theta if theta is not None else None
+        values = []
+        for i, name in enumerate(names):
+            if name in x0:
+                values.append(float(x0[name]))
+            elif base is not None:
+                values.append(float(base[i]))
+            else:
+                raise ValueError(f"x0: missing {name!r} (give all of {names} or a model)")
+        for key in ("C", "D", "offset"):
+            if key in x0:
+                extras[key] = float(x0[key])
+        return cls, np.array(values), extras
+    arr = np.asarray(x0, dtype=float).ravel()
+    return cls, cls.from_values(arr).values, extras
+
+
+def _initial_linear(
+    problem: Problem, theta: NDArray[np.float64], extras: Mapping[str, float]
+) -> tuple[float, float]:
+    """Starting C and offset: given ones, else the best ones for the starting parameters."""
+    y = problem.outputs(theta)
+    scale = problem.scale_fixed if problem.scale_fixed is not None else None
+    offset = problem.offset_fixed
+    if scale is None:
+        if "C" in extras:
+            scale = extras["C"]
+        elif "D" in extras:
+            scale = math.exp(extras["D"])
+    if scale is None or (offset is None and "offset" not in extras):
+        if problem.residual == "log":
+            with np.errstate(divide="ignore", invalid="ignore"):
+                d = float(np.mean(np.log(problem.data) - np.log(y)))
+            scale = math.exp(d) if math.isfinite(d) else 1.0
+        else:
+            cols = [y] if scale is None else []
+            rhs = problem.data - (0.0 if scale is None else scale * y)
+            if offset is None:
+                cols.append(np.ones_like(y))
+            if cols:
+                coef, *_ = np.linalg.lstsq(np.column_stack(cols), rhs, rcond=None)
+                if scale is None:
+                    scale = float(coef[0]) if coef[0] > 0 and np.isfinite(coef[0]) else 1.0
+                if offset is None:
+                    offset = float(coef[-1]) if np.isfinite(coef[-1]) else 0.0
+    if offset is None:
+        offset = extras.get("offset", 0.0)
+    return float(scale), float(offset)
+
+
+# --------------------------------------------------------------------------- lm
+def _solve_lm(
+    problem: Problem, theta0: NDArray[np.float64], scale0: float, offset0: float, tol: float,
+    max_nfev: int | None,
+) -> dict[str, Any]:
+    p = problem.n_params
+    log_res = problem.residual == "log"
+    z0 = list(np.log(theta0))
+    if problem.scale_fixed is None:
+        z0.append(math.log(scale0))
+    if problem.offset_fixed is None:
+        z0.append(offset0)
+    z0_arr = np.array(z0)
+    penalty = 1e3 * (float(np.ptp(problem.data)) + 1.0)
+    history: list[dict[str, float]] = []
+    best = [math.inf]
+    counter = {"nfev": 0}
+
+    def unpack(z: NDArray[np.float64]) -> tuple[NDArray[np.float64], float, float]:
+        zc = np.clip(z, -_LOG_MAX, _LOG_MAX)
+        theta = np.exp(zc[:p])
+        i = p
+        scale = problem.scale_fixed if problem.scale_fixed is not None else math.exp(zc[i])
+        i += problem.scale_fixed is None
+        offset = problem.offset_fixed if problem.offset_fixed is not None else float(z[i])
+        return theta, float(scale), float(offset)
+
+    def fun(z: NDArray[np.float64]) -> NDArray[np.float64]:
+        counter["nfev"] += 1
+        theta, scale, offset = unpack(z)
+        with np.errstate(all="ignore"):
+            y = problem.outputs(theta)
+            r = problem.residual_vector(y, scale, offset)
+        if not np.all(np.isfinite(r)):
+            # A non-physical trial point (overflow, or y <= 0 with the log residual): a large
+            # finite residual makes the trust region shrink instead of crashing MINPACK.
+            return np.full(problem.data.size, penalty)
+        cost = 0.5 * float(r @ r)
+        if cost < best[0]:
+            best[0] = cost
+            row: dict[str, float] = {"iteration": float(len(history))}
+            row.update(zip(problem.model_cls.param_names(), theta.tolist(), strict=True))
+            if problem.scale_fixed is None:
+                row["D" if log_res else "C"] = math.log(scale) if log_res else scale
+            if problem.offset_fixed is None:
+                row["offset"] = offset
+            row["cost"] = cost
+            history.append(row)
+        return r
+
+    def jac(z: NDArray[np.float64]) -> NDArray[np.float64]:
+        theta, scale, _ = unpack(z)
+        with np.errstate(all="ignore"):
+            y, dy = problem.output_and_sensitivities(theta)
+            if log_res:
+                cols = [dy * (theta / y[:, None])]
+            else:
+                cols = [scale * dy * theta]
+            if problem.scale_fixed is None:
+                cols.append((np.ones_like(y) if log_res else scale * y)[:, None])
+            if problem.offset_fixed is None:
+                cols.append(np.ones((y.size, 1)))
+            jm = np.hstack(cols)
+        if not np.all(np.isfinite(jm)):
+            return np.zeros_like(jm)
+        return jm
+
+    try:
+        sol = scipy.optimize.least_squares(
+            fun, z0_arr, jac=jac, method="lm", xtol=tol, ftol=tol, gtol=tol,
+            max_nfev=max_nfev,
+        )
+    except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
+        return {"ok": False, "reason": f"solver error: {exc}", "history": history,
+                "nfev": counter["nfev"], "iterations": len(history) - 1}
+    theta, scale, offset = unpack(sol.x)
+    reasons = {
+        0: "stopped: the maximum number of function evaluations was reached",
+        1: f"converged: the gradient fell below gtol = {tol:g}",
+        2: f"converged: the relative cost reduction fell below ftol = {tol:g}",
+        3: f"converged: the relative step fell below xtol = {tol:g}",
+        4: f"converged: cost reduction and step both below tolerance {tol:g}",
+    }
+    ok = bool(sol.status > 0) and bool(np.all(np.isfinite(sol.fun))) and not np.all(
+        sol.fun == penalty
+    )
+    return {
+        "ok": ok,
+        "reason": reasons.get(sol.status, sol.message),
+        "theta": theta, "scale": scale, "offset": offset,
+        "history": history,
+        "nfev": counter["nfev"],
+        "iterations": int(sol.njev) if sol.njev is not None else len(history) - 1,
+    }
+
+
+# --------------------------------------------------------------------------- newton-fd
+def _fd_points(theta: NDArray[np.float64], h: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Parameter sets for central differences: base, +-e_i, and the four corners of each pair."""
+    p = theta.size
+    pts = [theta.copy()]
+    for i in range(p):
+        for s in (1.0, -1.0):
+            q = theta.copy()
+            q[i] += s * h[i]
+            pts.append(q)
+    for i in range(p):
+        for j in range(i + 1, p):
+            for si, sj in ((1.0, 1.0), (-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0)):
+                q = theta.copy()
+                q[i] += si * h[i]
+                q[j] += sj * h[j]
+                pts.append(q)
+    return np.array(pts)
+
+
+def _fd_derivatives(
+    g: NDArray[np.float64], h: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """First (N, p) and second (N, p, p) derivatives of g from the :func:`_fd_points` runs.
+
+    Eq. (22) and the four-point mixed formula that follows it.
+    """
+    p = h.size
+    n = g.shape[1]
+    g0 = g[0]
+    d1 = np.empty((n, p))
+    d2 = np.empty((n, p, p))
+    for i in range(p):
+        gp, gm = g[1 + 2 * i], g[2 + 2 * i]
+        d1[:, i] = (gp - gm) / (2 * h[i])
+        d2[:, i, i] = (gp - 2 * g0 + gm) / h[i] ** 2
+    k = 1 + 2 * p
+    for i in range(p):
+        for j in range(i + 1, p):
+            gpp, gmm, gmp, gpm = g[k], g[k + 1], g[k + 2], g[k + 3]
+            k += 4
+            d2[:, i, j] = d2[:, j, i] = (gpp + gmm - gmp - gpm) / (4 * h[i] * h[j])
+    return d1, d2
+
+
+def _solve_newton_fd(
+    problem: Problem, theta0: NDArray[np.float64], scale0: float, offset0: float,
+    eps0: float, max_iter: int, rel_step: float,
+) -> dict[str, Any]:
+    p = problem.n_params
+    log_res = problem.residual == "log"
+    free_scale = problem.scale_fixed is None
+    free_offset = problem.offset_fixed is None
+    names = problem.model_cls.param_names()
+    x0 = problem.join(theta0, scale0, offset0)
+    x = x0.copy()
+    norm_x0 = float(np.linalg.norm(x0)) or 1.0
+    history: list[dict[str, float]] = []
+    nfev = 0
+    q = x.size
+
+    def row(it: int, xv: NDArray[np.float64], eps: float) -> dict[str, float]:
+        out: dict[str, float] = {"iteration": float(it)}
+        out.update(zip(names, xv[:p].tolist(), strict=True))
+        if free_scale:
+            out["D" if log_res else "C"] = float(xv[p])
+        if free_offset:
+            out["offset"] = float(xv[-1])
+        out["epsilon"] = eps
+        return out
+
+    history.append(row(0, x, math.nan))
+    for it in range(1, max_iter + 1):
+        theta, scale, offset = problem.split(x)
+        if np.any(theta <= 0):
+            bad = names[int(np.flatnonzero(theta <= 0)[0])]
+            return _nfd_fail(history, nfev, it - 1,
+                             f"Newton step {it - 1} made {bad} non-positive; the paper's "
+                             "method has no safeguard (start closer, or use method='lm')")
+        h = rel_step * np.abs(theta)
+        with np.errstate(all="ignore"):
+            y_all = problem.outputs(_fd_points(theta, h))
+            nfev += y_all.shape[0]
+            g = np.log(y_all) if log_res else y_all
+        if not np.all(np.isfinite(g)):
+            what = "a non-positive model output (log residual)" if log_res else "overflow"
+            return _nfd_fail(history, nfev, it - 1,
+                             f"iteration {it}: the model runs gave {what}")
+        d1, d2 = _fd_derivatives(g, h)
+        r = problem.residual_vector(y_all[0], scale, offset)
+        history[-1]["cost"] = 0.5 * float(r @ r)
+        # Derivatives of the residual with respect to the free values (theta, C|D, offset).
+        jr = np.zeros((r.size, q))
+        hr = np.zeros((q, q))
+        c_theta = 1.0 if log_res else scale
+        jr[:, :p] = c_theta * d1
+        hr[:p, :p] = c_theta * np.einsum("n,nij->ij", r, d2)
+        col = p
+        if free_scale:
+            jr[:, col] = 1.0 if log_res else g[0]
+            if not log_res:
+                # d2 r / dtheta_i dC = dy/dtheta_i: exact in C, central difference in theta.
+                cross = r @ d1
+                hr[:p, col] += cross
+                hr[col, :p] += cross
+            col += 1
+        if free_offset:
+            jr[:, col] = 1.0
+        grad = jr.T @ r
+        hess = jr.T @ jr + hr
+        try:
+            dx = np.linalg.solve(hess, -grad)
+        except np.linalg.LinAlgError:
+            return _nfd_fail(history, nfev, it - 1,
+                             f"iteration {it}: the Hessian of eq. (18) is singular")
+        if not np.all(np.isfinite(dx)):
+            return _nfd_fail(history, nfev, it - 1,
+                             f"iteration {it}: the Newton step is not finite (singular Hessian)")
+        x = x + dx
+        eps = float(np.linalg.norm(dx)) / norm_x0
+        history.append(row(it, x, eps))
+        if eps <= eps0:
+            theta, scale, offset = problem.split(x)
+            if np.any(theta <= 0):
+                return _nfd_fail(history, nfev, it, "converged to non-physical parameters")
+            if np.linalg.eigvalsh(0.5 * (hess + hess.T)).min() <= 0:
+                # Newton-Raphson finds any stationary point of E; a saddle or maximum is not
+                # an answer even though the step test is met.
+                return _nfd_fail(history, nfev, it,
+                                 "the iteration stopped at a stationary point of E that is not "
+                                 "a minimum (the Hessian of eq. 18 is not positive definite)")
+            r = problem.residual_vector(problem.outputs(theta), scale, offset)
+            nfev += 1
+            history[-1]["cost"] = 0.5 * float(r @ r)
+            return {"ok": True, "theta": theta, "scale": scale, "offset": offset,
+                    "history": history, "nfev": nfev, "iterations": it,
+                    "reason": f"converged: relative step ||dx||/||x0|| = {eps:.3g} <= "
+                              f"eps0 = {eps0:g} (eq. 21)"}
+    theta, scale, offset = problem.split(x)
+    res = _nfd_fail(history, nfev, max_iter,
+                    f"stopped: {max_iter} iterations without meeting eps0 = {eps0:g}")
+    return res
+
+
+def _nfd_fail(history: list[dict[str, float]], nfev: int, iterations: int,
+              reason: str) -> dict[str, Any]:
+    return {"ok": False, "reason": reason, "history": history, "nfev": nfev,
+            "iterations": iterations}
+
+
+# --------------------------------------------------------------------------- entry point
+def fit(
+    model: Model | type[Model],
+    t: ArrayLike,
+    load: ArrayLike,
+    displacement: ArrayLike,
+    *,
+    method: Method = "lm",
+    integrator: Integrator = "exact",
+    scale: float | str = 1.0,
+    residual: Literal["linear", "log"] = "linear",
+    x0: Mapping[str, float] | Model | ArrayLike | None = None,
+    observe: str | None = None,
+    initial_state: InitialState = "rest",
+    offset: bool | float = False,
+    period: float | None = None,
+    units: Units | None = None,
+    eps0: float = 1e-10,
+    max_iter: int = 200,
+    rel_step: float = 1e-3,
+    tol: float = 1e-12,
+    max_nfev: int | None = None,
+) -> FitResult:
+    """Identify a model's parameters from a load record and the measured displacement.
+
+    Parameters
+    ----------
+    model : Model instance or Model class
+        An instance is the starting guess (e.g. ``Kelvin(k0=4, m=1, c1=0.2, k1=4)``).
+    t, load, displacement : array_like, shape (N,)
+        Time (s, strictly increasing, N >= 10), the input (load) and the measured output
+        (displacement) in the user's units.
+    method : {"lm", "newton-fd"}
+        ``lm``: exact sensitivities, log-parameters, scipy.optimize.least_squares (MINPACK).
+        ``newton-fd``: the paper's Newton-Raphson with central differences.
+    integrator : {"exact", "euler"}
+        Forward model: exact first-order-hold discretization, or the paper's explicit Euler.
+    scale : float or "free"
+        The output scale factor C (fixed, default 1) or ``"free"``. For models with the scale
+        symmetry (MSD, Kelvin, Maxwell) started from a load-driven state, a free C is not
+        identifiable: the gauge C = 1 is fixed and a warning says so.
+    residual : {"linear", "log"}
+        ``linear``: C y + offset - data (eq. 14). ``log``: D + ln y - ln data (eq. 25),
+        D = ln C; needs positive data.
+    x0 : mapping, Model or array, optional
+        Starting values (overrides the instance's); may include ``C``/``D`` and ``offset``.
+    observe : str, optional
+        Observed state (default: the model's; ``u2`` for Kelvin).
+    initial_state : {"rest", "equilibrium", "periodic"} or numbers
+        See :func:`pumpid.simulate`.
+    offset : bool or float
+        Fit an additive position offset (True), or subtract a fixed one (float).
+    period : float, optional
+        Stroke period (s) for ``initial_state="periodic"``.
+    units : Units, optional
+        Units of load and position, recorded in the result (default N and m).
+    eps0, max_iter, rel_step : float, int, float
+        The paper's method: stop at ||dx||/||x0|| <= eps0; at most ``max_iter`` iterations;
+        finite-difference step as a fraction of each parameter (0.1 %).
+    tol, max_nfev : float, int
+        The lm method's tolerances (xtol = ftol = gtol) and evaluation budget.
+
+    Returns
+    -------
+    FitResult
+        Never raises for a failed or divergent fit: ``converged`` is False and ``reason``
+        says why. Bad input raises ``ValueError`` naming the problem.
+    """
+    if method not in ("lm", "newton-fd"):
+        raise ValueError(f"method must be 'lm' or 'newton-fd', got {method!r}")
+    cls, theta0, extras = _start_theta(model, x0)
+    warnings: list[str] = []
+    problem = build_problem(
+        cls, t, load, displacement, observe=observe, initial_state=initial_state,
+        integrator=integrator, residual=residual, scale=scale, offset=offset, period=period,
+        warnings=warnings,
+    )
+    if theta0 is None:
+        from .start import initial_estimate
+
+        theta0, start_note = initial_estimate(problem)
+        warnings.append(start_note) if start_note else None
+    if problem.gauge_fixed and ("C" in extras or "D" in extras):
+        # Keep the user's start on the same curve: move it onto the gauge C = 1.
+        c_start = extras.pop("C", None) or math.exp(extras.pop("D", 0.0))
+        theta0 = theta0 / c_start
+    scale0, offset0 = _initial_linear(problem, theta0, extras)
+    if method == "lm":
+        raw = _solve_lm(problem, theta0, scale0, offset0, tol, max_nfev)
+    else:
+        raw = _solve_newton_fd(problem, theta0, scale0, offset0, eps0, max_iter, rel_step)
+    return assemble_result(problem, raw, method, units or Units(), warnings)
+
+
+def assemble_result(
+    problem: Problem, raw: Mapping[str, Any], method: str, units: Units, warnings: list[str]
+) -> FitResult:
+    """Turn a solver's raw output into a :class:`FitResult` with fit statistics."""
+    cls = problem.model_cls
+    theta = raw.get("theta")
+    model: Model | None = None
+    converged = bool(raw["ok"])
+    reason = str(raw["reason"])
+    scale = float(raw.get("scale", math.nan))
+    offset = float(raw.get("offset", math.nan))
+    jac = None
+    if theta is not None and np.all(np.isfinite(theta)) and np.all(np.asarray(theta) > 0):
+        try:
+            model = cls.from_values(theta)
+        except ValueError as exc:
+            converged = False
+            reason = f"{reason}; final parameters invalid: {exc}"
+    if model is not None:
+        with np.errstate(all="ignore"):
+            y, dy = problem.output_and_sensitivities(model.values)
+        fitted = scale * y + offset
+        jac = _physical_jacobian(problem, y, dy, scale)
+    else:
+        converged = False
+        fitted = np.full_like(problem.data, np.nan)
+    if not np.all(np.isfinite(fitted)):
+        converged = False
+        reason = f"{reason}; the fitted response is not finite"
+    res = fitted - problem.data
+    finite = bool(np.all(np.isfinite(res)))
+    rmse = float(np.sqrt(np.mean(res**2))) if finite else math.nan
+    sst = float(np.sum((problem.data - problem.data.mean()) ** 2))
+    r2 = 1.0 - float(np.sum(res**2)) / sst if finite and sst > 0 else math.nan
+    if model is not None:
+        rr = problem.residual_vector(y, scale, offset)
+        cost = 0.5 * float(rr @ rr)
+    else:
+        cost = math.nan
+    params = model.as_dict() if model is not None else dict.fromkeys(cls.param_names(), math.nan)
+    return FitResult(
+        model=model,
+        params=params,
+        scale=scale if model is not None else math.nan,
+        offset=offset if model is not None else math.nan,
+        converged=converged,
+        reason=reason,
+        iterations=int(raw.get("iterations", 0)),
+        nfev=int(raw.get("nfev", 0)),
+        history=list(raw.get("history", [])),
+        rmse=rmse,
+        r2=r2,
+        warnings=warnings,
+        method=method,
+        integrator=problem.integrator,
+        residual=problem.residual,
+        observe=problem.observe,
+        initial_state=initial_state_label(problem.initial_state),
+        units=units,
+        free=problem.free_names,
+        cost=cost,
+        t=problem.grid.t,
+        load=problem.load,
+        data=problem.data,
+        fitted=fitted,
+        jacobian=jac,
+        extra={"model_name": cls.__name__, "gauge": "C = 1" if problem.gauge_fixed else None},
+    )
+
+
+def _physical_jacobian(
+    problem: Problem, y: NDArray[np.float64], dy: NDArray[np.float64], scale: float
+) -> NDArray[np.float64]:
+    """Exact d(residual)/d(free values) in physical coordinates (theta, C or D, offset)."""
+    log_res = problem.residual == "log"
+    cols = [dy / y[:, None] if log_res else scale * dy]
+    if problem.scale_fixed is None:
+        cols.append((np.ones_like(y) if log_res else y)[:, None])
+    if problem.offset_fixed is None:
+        cols.append(np.ones((y.size, 1)))
+    return np.hstack(cols)

@@ -1,0 +1,276 @@
+"""Automatic initial estimates: no guess needed.
+
+The physical models are linear ODEs, so their transfer-function coefficients follow from a
+*linear* least-squares problem (equation error), as in continuous-time system identification:
+
+* records that start from a state (rest, equilibrium, a given one) are passed through a
+  state-variable filter lambda^n / (s + lambda)^n, which yields smooth derivatives of the
+  displacement and the load without differentiating noisy data; unknown initial conditions
+  and a position offset enter as a few extra regressors (t^j exp(-lambda t) and a filtered
+  constant), so the estimate does not depend on knowing them;
+* periodic strokes are fitted over their harmonics, where s = i k omega is exact.
+
+Each model maps its coefficients back to physical parameters in closed form
+(MODEL-NOTES section 1). Several filter bandwidths give several candidates; the best ones
+are polished by a short Levenberg-Marquardt run and the best of those is the start.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .models import FirstOrder, Kelvin, MassSpringDamper, Maxwell, Model
+from .problem import Problem
+from .simulate import _discretize, _scan
+
+__all__ = ["candidate_starts", "initial_estimate"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class _Regression:
+    """Equation-error form of a model: target = sum coef_j * regressor_j.
+
+    ``y_orders`` / ``f_orders`` are the derivative orders of the displacement and the load used
+    as regressors; ``target`` names the left-hand side (("f", 0) or ("y", 1)).
+    """
+
+    target: tuple[str, int]
+    y_orders: tuple[int, ...]
+    f_orders: tuple[int, ...]
+    to_theta: Callable[[Array], Array | None]
+    order: int
+
+
+def _positive(*vals: float) -> bool:
+    return all(math.isfinite(v) and v > 0 for v in vals)
+
+
+def _kelvin_u2(c: Array) -> Array | None:
+    # F = a3 y''' + a2 y'' + a1 y' + a0 y with a3 = m c1/k0, a2 = m (k0+k1)/k0, a1 = c1, a0 = k1
+    a3, a2, a1, a0 = c
+    c1, k1 = a1, a0
+    if not _positive(a3, c1, k1):
+        return None
+    m = a2 - k1 * a3 / c1
+    k0 = m * c1 / a3
+    return np.array([k0, m, c1, k1]) if _positive(k0, m) else None
+
+
+def _kelvin_u(c: Array) -> Array | None:
+    # F = e3 y''' + e2 y'' + e1 y' + e0 y - g1 F'
+    # e2 = m, g1 = c1/(k0+k1), e1 = g1 k0, e0 = k0 k1/(k0+k1)
+    _e3, e2, e1, e0, neg_g1 = c
+    g1, m = -neg_g1, e2
+    if not _positive(g1, m, e1, e0):
+        return None
+    k0 = e1 / g1
+    if k0 <= e0:
+        return None
+    k1 = e0 * k0 / (k0 - e0)
+    c1 = g1 * (k0 + k1)
+    return np.array([k0, m, c1, k1]) if _positive(k0, m, c1, k1) else None
+
+
+def _maxwell_u(c: Array) -> Array | None:
+    # F = e3 y''' + e2 y'' + e1 y' + e0 y - tau F', tau = c1/k1, e2 = m, e1 = (k0+k1) tau, e0 = k0
+    _e3, e2, e1, e0, neg_tau = c
+    tau, m, k0 = -neg_tau, e2, e0
+    if not _positive(tau, m, k0):
+        return None
+    k1 = e1 / tau - k0
+    c1 = tau * k1
+    return np.array([k0, m, c1, k1]) if _positive(k1, c1) else None
+
+
+def _msd(c: Array) -> Array | None:
+    m, cc, k = c
+    return np.array([m, cc, k]) if _positive(m, cc, k) else None
+
+
+def _first_order(c: Array) -> Array | None:
+    # y' = gain * f - y / tau (gain = C when the scale is free, else fixed to 1)
+    neg_inv_tau = c[-1]
+    return np.array([-1.0 / neg_inv_tau]) if _positive(-neg_inv_tau) else None
+
+
+_FORMS: dict[tuple[type[Model], str], _Regression] = {
+    (Kelvin, "u2"): _Regression(("f", 0), (3, 2, 1, 0), (), _kelvin_u2, 3),
+    (Kelvin, "u"): _Regression(("f", 0), (3, 2, 1, 0), (1,), _kelvin_u, 3),
+    (Maxwell, "u"): _Regression(("f", 0), (3, 2, 1, 0), (1,), _maxwell_u, 3),
+    (MassSpringDamper, "u"): _Regression(("f", 0), (2, 1, 0), (), _msd, 2),
+    (FirstOrder, "u"): _Regression(("y", 1), (0,), (0,), _first_order, 1),
+}
+
+
+def _svf(signal: Array, grid_t: Array, lam: float, order: int, problem: Problem) -> Array:
+    """Filtered derivatives s^k lambda^n/(s+lambda)^n x, k = 0..n, from rest (exact FOH)."""
+    n = order
+    # Companion form of 1/(s+lambda)^n: w^(n) = -sum binom(n,j) lambda^(n-j) w^(j) + x.
+    a = np.zeros((n, n))
+    a[:-1, 1:] = np.eye(n - 1)
+    coeffs = np.array([math.comb(n, j) * lam ** (n - j) for j in range(n)])
+    a[-1, :] = -coeffs
+    b = np.zeros(n)
+    b[-1] = 1.0
+    if problem.grid.uniform:
+        phi, g0, g1 = _discretize(a, b, problem.grid.dt, "exact")
+        z = np.zeros((signal.size, n))
+        z[1:] = g0 * signal[:-1, None] + g1 * signal[1:, None]
+        w = _scan(phi, z, varying=False)
+    else:
+        phi, g0, g1 = _discretize(a[None], b[None], problem.grid.steps, "exact")
+        phi = np.concatenate([np.eye(n)[None], phi])
+        z = np.zeros((signal.size, n))
+        z[1:] = g0 * signal[:-1, None] + g1 * signal[1:, None]
+        w = _scan(phi, z, varying=True)
+    top = signal - w @ coeffs
+    out = np.column_stack([w, top]) * lam**n
+    return out  # column k = s^k L(s) x
+
+
+def _time_rows(problem: Problem, form: _Regression, lam: float, y: Array) -> tuple[Array, Array]:
+    t = problem.grid.t - problem.grid.t[0]
+    n = form.order
+    yf = _svf(y, t, lam, n, problem)
+    ff = _svf(problem.load, t, lam, n, problem)
+    onesf = _svf(np.ones_like(y), t, lam, n, problem)[:, 0]
+    cols = [yf[:, k] for k in form.y_orders] + [ff[:, k] for k in form.f_orders]
+    # Unknown initial conditions (and filter start-up) appear as t^j exp(-lambda t) terms.
+    decay = np.exp(-lam * t)
+    extra = [decay * (lam * t) ** j for j in range(n)] + [onesf]
+    target = ff[:, form.target[1]] if form.target[0] == "f" else yf[:, form.target[1]]
+    return np.column_stack(cols + extra), target
+
+
+def _harmonic_rows(
+    problem: Problem, form: _Regression, lam: float, y: Array
+) -> tuple[Array, Array] | None:
+    grid = problem.grid
+    if not grid.uniform:
+        return None
+    n_samples = grid.n
+    period = problem.period if problem.period is not None else n_samples * grid.dt
+    if not math.isclose(period, n_samples * grid.dt, rel_tol=1e-6):
+        return None
+    yk = np.fft.rfft(y) / n_samples
+    fk = np.fft.rfft(problem.load) / n_samples
+    first = 0 if problem.offset_fixed is not None else 1
+    kmax = min(yk.size - 1, 40)
+    k = np.arange(first, kmax + 1)
+    s = 2j * math.pi * k / period
+    weight = (lam / (s + lam)) ** form.order
+    cols = [weight * s**j * yk[k] for j in form.y_orders]
+    cols += [weight * s**j * fk[k] for j in form.f_orders]
+    tgt = (fk[k] if form.target[0] == "f" else yk[k]) * s ** form.target[1] * weight
+    mat = np.column_stack(cols)
+    return np.vstack([mat.real, mat.imag]), np.concatenate([tgt.real, tgt.imag])
+
+
+def _solve(mat: Array, target: Array) -> Array | None:
+    norms = np.linalg.norm(mat, axis=0)
+    keep = norms > 0
+    if not keep.any():
+        return None
+    coef = np.zeros(mat.shape[1])
+    sol, *_ = np.linalg.lstsq(mat[:, keep] / norms[keep], target, rcond=None)
+    coef[keep] = sol / norms[keep]
+    return coef if np.all(np.isfinite(coef)) else None
+
+
+def _heuristic(problem: Problem, y: Array) -> Array:
+    """A rough physical guess from the record's amplitude ratio and length."""
+    gain = float(np.ptp(y)) / max(float(np.ptp(problem.load)), 1e-300)
+    gain = gain if gain > 0 else 1.0
+    span = problem.grid.t[-1] - problem.grid.t[0]
+    omega = 2 * math.pi * 3 / span
+    k = 1.0 / gain
+    cls = problem.model_cls
+    if cls is FirstOrder:
+        return np.array([span / 5])
+    if cls is MassSpringDamper:
+        return np.array([k / omega**2, k / omega, k])
+    return np.array([2 * k, 2 * k / omega**2, 2 * k / omega, 2 * k])
+
+
+def candidate_starts(problem: Problem) -> list[Array]:
+    """Physical parameter candidates from equation error at several filter bandwidths."""
+    key = (problem.model_cls, problem.observe)
+    form = _FORMS.get(key)
+    scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
+    y = problem.data / scale
+    if problem.residual == "log" or form is None:
+        return [_heuristic(problem, y)]
+    span = problem.grid.t[-1] - problem.grid.t[0]
+    dt_min = float(np.min(problem.grid.steps))
+    base = 2 * math.pi / span
+    lams = [base * f for f in (1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0)]
+    lams = [lam for lam in lams if lam * dt_min < 0.5] or [0.5 / dt_min]
+    periodic = problem.initial_state == "periodic"
+    found: list[Array] = []
+    for lam in lams:
+        rows = _harmonic_rows(problem, form, lam, y) if periodic else _time_rows(
+            problem, form, lam, y
+        )
+        if rows is None:
+            rows = _time_rows(problem, form, lam, y)
+        coef = _solve(*rows)
+        if coef is None:
+            continue
+        n_model = len(form.y_orders) + len(form.f_orders)
+        theta = form.to_theta(coef[:n_model])
+        if theta is not None and np.all(np.isfinite(theta)):
+            found.append(theta)
+    found.append(_heuristic(problem, y))
+    return found
+
+
+def initial_estimate(problem: Problem, polish: int = 3) -> tuple[Array, str]:
+    """Best automatic start for a problem: candidates, ranked by cost, the best few polished.
+
+    Returns
+    -------
+    theta : ndarray
+        Starting parameters (canonical order).
+    note : str
+        A sentence for the result saying how the start was found.
+    """
+    from .fit import _initial_linear, _solve_lm  # the polish reuses the default solver
+
+    cands = candidate_starts(problem)
+    scored: list[tuple[float, Array]] = []
+    for theta in cands:
+        try:
+            scale, offset = _initial_linear(problem, theta, {})
+            with np.errstate(all="ignore"):
+                r = problem.residual_vector(problem.outputs(theta), scale, offset)
+            cost = float(r @ r)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        if math.isfinite(cost):
+            scored.append((cost, theta))
+    if not scored:
+        return _heuristic(problem, problem.data), "automatic start: heuristic (no candidate)"
+    scored.sort(key=lambda item: item[0])
+    best_cost, best = scored[0]
+    for _cost, theta in scored[:polish]:
+        scale, offset = _initial_linear(problem, theta, {})
+        raw = _solve_lm(problem, theta, scale, offset, tol=1e-8, max_nfev=60)
+        if "theta" not in raw:
+            continue
+        with np.errstate(all="ignore"):
+            r = problem.residual_vector(problem.outputs(raw["theta"]), raw["scale"],
+                                        raw["offset"])
+        cost = float(r @ r)
+        if math.isfinite(cost) and cost < best_cost:
+            best_cost, best = cost, raw["theta"]
+    return best, (
+        f"automatic start: equation-error estimate over {len(cands)} candidate(s), "
+        f"best {min(polish, len(scored))} polished"
+    )
