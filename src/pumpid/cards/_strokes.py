@@ -1,0 +1,194 @@
+"""Splitting a multi-stroke time record into single strokes."""
+
+from __future__ import annotations
+
+from itertools import pairwise
+
+import numpy as np
+
+from ._errors import CardError
+from ._types import Card
+
+__all__ = ["split_strokes"]
+
+# Hysteresis levels, as fractions of the robust position range. A stroke boundary needs the
+# rod to go below LOW and then above HIGH, so noise around mid-stroke (or a wiggle at the
+# bottom) cannot create extra strokes.
+_LOW, _HIGH = 0.35, 0.65
+# A position minimum at the edge of the record is a real bottom of stroke only if the rod is
+# seen turning around there (TURN of the range) or it sits at the usual bottom level (LEVEL).
+_TURN, _LEVEL = 0.05, 0.01
+
+
+def _upward_crossings(pos: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Indices where the position, having been below ``lo``, first gets above ``hi``."""
+    state = np.where(pos < lo, -1, np.where(pos > hi, 1, 0))
+    idx = np.where(state != 0, np.arange(pos.size), 0)
+    np.maximum.accumulate(idx, out=idx)  # carry the last decided state through the band
+    held = state[idx]
+    return np.flatnonzero((held[1:] == 1) & (held[:-1] == -1)) + 1
+
+
+def _noise_sd(x: np.ndarray) -> float:
+    """Robust sample-noise estimate from second differences (smooth motion barely has any)."""
+    if x.size < 5:
+        return 0.0
+    d2 = np.diff(x, n=2)
+    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
+
+
+def _whole(card: Card) -> Card:
+    """A card holding one stroke, returned whole and marked as one period."""
+    changes: dict[str, object] = {"card_id": f"{card.card_id}#0", "periodic": True}
+    note = (
+        "single stroke (no complete stroke between two bottoms found): returned whole and "
+        "treated as one period of a periodic motion"
+    )
+    if card.period is None and card.dt is not None:
+        period = card.n * card.dt
+        changes.update(period=period, spm=60.0 / period)
+        note += f"; period taken as N*dt = {period:.6g} s"
+    return card.replace(note=note, **changes)
+
+
+def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
+    """Split a time record into strokes at the bottom of each stroke.
+
+    Boundaries are the position minima between successive upward crossings of the
+    mid-stroke band (below 35 % then above 65 % of the robust position range), so noise and
+    small wiggles do not create strokes. Partial strokes at the start and end of the record
+    are dropped unless the record visibly turns around at the bottom there. Each stroke
+    holds the samples from one bottom up to (not including) the next, so with ``N`` samples
+    its period is the time from its first sample to the next stroke's first sample.
+
+    Parameters
+    ----------
+    card : Card
+        A single stroke or a multi-stroke record.
+    min_samples : int, default 20
+        Strokes with fewer samples are dropped (and the other strokes' notes say so).
+
+    Returns
+    -------
+    list of Card
+        Strokes with ids ``"<card_id>#<k>"`` (k from 0), time restarted at 0 (original start
+        in ``metadata["t0"]``), ``period``/``spm`` from the boundary times when time is
+        known, ``periodic=True`` and a note. A card holding a single stroke (no two bottoms
+        of stroke with the rod seen turning around at both) is returned whole, as one stroke
+        ``"<card_id>#0"`` marked ``periodic``.
+
+    Raises
+    ------
+    CardError
+        If the position is constant, no complete stroke is found, or every stroke is
+        shorter than ``min_samples``.
+    """
+    pos = card.position
+    if card.n < 2 or pos.max() == pos.min():
+        raise CardError(f"card {card.card_id!r}: constant position, no strokes", field="position")
+    with np.errstate(over="ignore", invalid="ignore"):
+        p_lo, p_hi = (float(v) for v in np.percentile(pos, [1.0, 99.0]))
+        span = p_hi - p_lo
+    if not np.isfinite(span) or span <= 0:
+        p_lo, p_hi = float(pos.min()), float(pos.max())
+        span = p_hi - p_lo
+    ups = _upward_crossings(pos, p_lo + _LOW * span, p_lo + _HIGH * span)
+
+    lo = p_lo + _LOW * span
+    if ups.size == 0:
+        return [_whole(card)]
+    if ups.size == 1:
+        # One upward crossing: normally a single stroke. Only if the record visibly turns
+        # around at the bottom both before and after it does it hold more than one stroke,
+        # and then exactly one complete stroke lies between those two bottoms.
+        head = int(np.argmin(pos[: ups[0]]))
+        tail = int(ups[0] + np.argmin(pos[ups[0] :]))
+        turn = _TURN * span
+        if not (
+            pos[: head + 1].max() - pos[head] >= turn
+            and pos[tail] < lo
+            and pos[tail:].max() - pos[tail] >= turn
+        ):
+            return [_whole(card)]
+        interior: list[int] = []
+        head_ok = tail_ok = True
+    else:
+        # Minima are taken on a lightly smoothed copy (window about 5 % of a stroke) so that
+        # sample noise on the flat bottom of the stroke does not move the boundary around.
+        width = 2 * int(np.median(np.diff(ups)) // 40) + 1
+        if width > 1:
+            padded = np.pad(pos, width // 2, mode="reflect")
+            pos = np.convolve(padded, np.ones(width) / width, mode="valid")
+        interior = [int(a + np.argmin(pos[a:b])) for a, b in pairwise(ups)]
+        bottom = float(np.median(pos[interior]))
+        head = int(np.argmin(pos[: ups[0]]))
+        tail = int(ups[-1] + np.argmin(pos[ups[-1] :]))
+        # "At the usual bottom level" must allow for noise and drift, measured by how much
+        # the interior bottoms scatter and by the sample noise of the raw position.
+        level = max(_LEVEL * span, float(np.ptp(pos[interior])), 3.0 * _noise_sd(card.position))
+        # The head minimum lies below ``lo`` by construction (the record was below it before
+        # the first upward crossing); the tail minimum must be checked, or a record ending
+        # near the top would give a bogus short last stroke.
+        head_ok = (pos[: head + 1].max() - pos[head] >= _TURN * span) or (
+            pos[head] - bottom <= level
+        )
+        tail_ok = pos[tail] < lo and (
+            (pos[tail:].max() - pos[tail] >= _TURN * span) or (pos[tail] - bottom <= level)
+        )
+    bounds = ([head] if head_ok else []) + interior + ([tail] if tail_ok else [])
+    if len(bounds) < 2:
+        raise CardError(
+            f"card {card.card_id!r}: no complete stroke found (a record with several strokes "
+            "needs two bottoms of stroke)",
+            field="position",
+        )
+    segments = list(pairwise(bounds))
+    kept = [(a, b) for a, b in segments if b - a >= min_samples]
+    if not kept:
+        raise CardError(
+            f"card {card.card_id!r}: every stroke is shorter than {min_samples} samples",
+            field="position",
+        )
+    dropped = []
+    if bounds[0] > 0:
+        dropped.append(f"partial stroke before sample {bounds[0]}")
+    if bounds[-1] < card.n - 1:
+        dropped.append(f"partial stroke after sample {bounds[-1]}")
+    if len(kept) < len(segments):
+        dropped.append(f"{len(segments) - len(kept)} stroke(s) shorter than {min_samples} samples")
+
+    strokes = []
+    for k, (a, b) in enumerate(kept):
+        t = period = spm = None
+        meta = {**card.metadata, "stroke_index": k, "sample_range": (a, b)}
+        if card.t is not None:
+            t = card.t[a:b] - card.t[a]
+            period = float(card.t[b] - card.t[a])
+            spm = 60.0 / period
+            meta["t0"] = float(card.t[a])
+        for key, value in card.metadata.items():
+            # Per-sample extra columns follow the samples they belong to.
+            if isinstance(value, np.ndarray) and value.shape == (card.n,):
+                meta[key] = value[a:b]
+        note = (
+            f"stroke {k} of {len(kept)} cut from {card.card_id!r} at position minima "
+            f"(samples {a}-{b - 1}"
+            + (f", t0 = {card.t[a]:.6g} s, time restarted at 0" if card.t is not None else "")
+            + "); treated as one period"
+        )
+        if dropped:
+            note += "; dropped: " + ", ".join(dropped)
+        strokes.append(
+            card.replace(
+                position=card.position[a:b],
+                load=card.load[a:b],
+                t=t,
+                period=period,
+                spm=spm,
+                card_id=f"{card.card_id}#{k}",
+                periodic=True,
+                metadata=meta,
+                note=note,
+            )
+        )
+    return strokes
