@@ -30,6 +30,7 @@ __all__ = ["fit"]
 
 Method = Literal["lm", "newton-fd"]
 _LOG_MAX = 700.0  # keeps exp() of a log-parameter finite during wild trial steps
+_WINDOW = math.log(1e6)  # the lm search window: natural scale times/divided by 1e6
 
 
 def _start_theta(
@@ -115,6 +116,11 @@ def _solve_lm(
 ) -> dict[str, Any]:
     p = problem.n_params
     log_res = problem.residual == "log"
+    # Wide window around the data's natural scales (widened to contain the start): a
+    # parameter leaving it is at a boundary (0 or infinity), recognised afterwards.
+    ref = np.log(problem.reference_scales())
+    z_lo = np.minimum(ref - _WINDOW, np.log(theta0) - 1.0)
+    z_hi = np.maximum(ref + _WINDOW, np.log(theta0) + 1.0)
     z0 = list(np.log(theta0))
     if problem.scale_fixed is None:
         z0.append(math.log(scale0))
@@ -128,7 +134,7 @@ def _solve_lm(
 
     def unpack(z: NDArray[np.float64]) -> tuple[NDArray[np.float64], float, float]:
         zc = np.clip(z, -_LOG_MAX, _LOG_MAX)
-        theta = np.exp(zc[:p])
+        theta = np.exp(np.clip(zc[:p], z_lo, z_hi))
         i = p
         scale = problem.scale_fixed if problem.scale_fixed is not None else math.exp(zc[i])
         i += problem.scale_fixed is None
@@ -162,10 +168,12 @@ def _solve_lm(
         theta, scale, _ = unpack(z)
         with np.errstate(all="ignore"):
             y, dy = problem.output_and_sensitivities(theta)
+            # Outside the window the residual is flat in that coordinate.
+            inside = (z[:p] > z_lo) & (z[:p] < z_hi)
             if log_res:
-                cols = [dy * (theta / y[:, None])]
+                cols = [dy * (theta * inside / y[:, None])]
             else:
-                cols = [scale * dy * theta]
+                cols = [scale * dy * theta * inside]
             if problem.scale_fixed is None:
                 cols.append((np.ones_like(y) if log_res else scale * y)[:, None])
             if problem.offset_fixed is None:
@@ -184,6 +192,8 @@ def _solve_lm(
         return {"ok": False, "reason": f"solver error: {exc}", "history": history,
                 "nfev": counter["nfev"], "iterations": len(history) - 1}
     theta, scale, offset = unpack(sol.x)
+    edges = [(i, "infinity" if sol.x[i] >= z_hi[i] else "zero") for i in range(p)
+             if not z_lo[i] < sol.x[i] < z_hi[i]]
     reasons = {
         0: "stopped: the maximum number of function evaluations was reached",
         1: f"converged: the gradient fell below gtol = {tol:g}",
@@ -197,7 +207,7 @@ def _solve_lm(
     return {
         "ok": ok,
         "reason": reasons.get(sol.status, sol.message),
-        "theta": theta, "scale": scale, "offset": offset,
+        "theta": theta, "scale": scale, "offset": offset, "edges": edges,
         "history": history,
         "nfev": counter["nfev"],
         "iterations": int(sol.njev) if sol.njev is not None else len(history) - 1,
@@ -431,11 +441,11 @@ def fit(
         integrator=integrator, residual=residual, scale=scale, offset=offset, period=period,
         warnings=warnings,
     )
+    start_note = None
     if theta0 is None:
         from .start import initial_estimate
 
         theta0, start_note = initial_estimate(problem)
-        warnings.append(start_note) if start_note else None
     if problem.gauge_fixed and ("C" in extras or "D" in extras):
         # Keep the user's start on the same curve: move it onto the gauge C = 1.
         c_start = extras.pop("C", None) or math.exp(extras.pop("D", 0.0))
@@ -445,7 +455,69 @@ def fit(
         raw = _solve_lm(problem, theta0, scale0, offset0, tol, max_nfev)
     else:
         raw = _solve_newton_fd(problem, theta0, scale0, offset0, eps0, max_iter, rel_step)
-    return assemble_result(problem, raw, method, units or Units(), warnings)
+    result = assemble_result(problem, raw, method, units or Units(), warnings)
+    if start_note:
+        result.extra["start"] = start_note
+    if raw.get("edges"):
+        result.extra["edges"] = raw["edges"]
+    if not raw["ok"]:
+        result.status = "failed"
+    if result.model is not None and np.isfinite(result.cost):
+        _check_boundaries(result, problem, {
+            "method": method, "integrator": integrator, "residual": residual,
+            "offset": offset, "period": period, "units": units, "eps0": eps0,
+            "max_iter": max_iter, "rel_step": rel_step, "tol": tol, "max_nfev": max_nfev,
+        }, scale)
+    return result
+
+
+def _check_boundaries(
+    result: FitResult, problem: Problem, options: dict[str, Any], scale_option: float | str
+) -> None:
+    """Mark a boundary solution and fit the limiting model the data want (when pumpid has it)."""
+    from .boundaries import find_boundaries
+
+    assert result.model is not None
+    found = find_boundaries(problem, result.model.values, result.scale, result.offset,
+                            result.cost, result.extra.get("edges", []))
+    if not found:
+        return
+    result.status = "boundary"
+    result.converged = False
+    result.reason = (
+        f"{result.reason}; but {', '.join(b.name for b in found)} ran to a bound: "
+        "the solution is a limiting model, not an interior optimum"
+    )
+    result.warnings.extend(b.describe() for b in found)
+    result.extra["boundaries"] = [
+        {"name": b.name, "direction": b.direction, "limit": b.limit.description} for b in found
+    ]
+    target = next((b for b in found if b.limit.reduced is not None), None)
+    if target is None or not isinstance(problem.initial_state, str):
+        return
+    limit = target.limit
+    start, gain = limit.to_reduced(result.params)  # type: ignore[misc]
+    reduced_cls = limit.reduced
+    assert reduced_cls is not None
+    reduced_scale: float | str = scale_option
+    if not math.isclose(gain, 1.0) and not reduced_cls.scale_symmetric:
+        reduced_scale = "free"
+    x0 = {**start, "C": gain * result.scale} if reduced_scale == "free" else None
+    reduced = fit(
+        reduced_cls(**start), problem.grid.t, problem.load, problem.data,
+        observe=limit.observe, initial_state=problem.initial_state, scale=reduced_scale,
+        x0=x0, **options,
+    )
+    result.extra["reduced"] = {
+        "model": reduced.model_name, "params": reduced.params, "scale": reduced.scale,
+        "offset": reduced.offset, "units": reduced.param_units(), "rmse": reduced.rmse,
+        "r2": reduced.r2, "converged": reduced.converged, "status": reduced.status,
+        "reason": reduced.reason,
+    }
+    result.warnings.append(
+        f"reduced model {reduced.model_name} ({limit.description.split(':')[0]}) fitted: "
+        f"R^2 = {reduced.r2:.6g}, RMSE = {reduced.rmse:.4g} {result.units.position}"
+    )
 
 
 def assemble_result(

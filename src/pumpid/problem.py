@@ -75,6 +75,29 @@ class Problem:
         """Index of the observed state."""
         return self.model_cls.output_index(self.observe)
 
+    def reference_scales(self) -> NDArray[np.float64]:
+        """Natural size of each parameter from the data, by its unit.
+
+        Stiffness ~ C * (load range) / (displacement range), time ~ period / (2 pi), masses
+        and dampers accordingly. Used to keep the optimizer inside a wide but finite window,
+        so that a parameter the data drive to 0 or infinity stops at a recognisable edge
+        instead of at values where the matrix exponential loses precision.
+        """
+        scale = self.scale_fixed if self.scale_fixed is not None else 1.0
+        load_span = float(np.ptp(self.load)) or float(np.max(np.abs(self.load))) or 1.0
+        stiffness = scale * load_span / float(np.ptp(self.data))
+        span = float(self.grid.t[-1] - self.grid.t[0])
+        if self.period is not None:
+            span = self.period
+        time = span / (2 * math.pi)
+        refs = []
+        for info in self.model_cls.param_info():
+            unit = info.unit
+            s_exp = 2 if "s^2" in unit else (1 if ("*s" in unit or unit == "s") else 0)
+            k_exp = 1 if "{load}" in unit and "/{position}" in unit else 0
+            refs.append(stiffness**k_exp * time**s_exp)
+        return np.array(refs)
+
     def split(self, x: ArrayLike) -> tuple[NDArray[np.float64], float, float]:
         """Free vector (physical values) -> (theta, C, offset)."""
         xv = np.asarray(x, dtype=float)

@@ -106,6 +106,8 @@ class FitResult:
     fitted: NDArray[np.float64] = field(repr=False)
     jacobian: NDArray[np.float64] | None = field(default=None, repr=False)
     extra: dict[str, Any] = field(default_factory=dict, repr=False)
+    #: "converged", "boundary" (a parameter ran to 0 or infinity) or "failed".
+    status: str = "converged"
 
     # ------------------------------------------------------------------ derived
     @property
@@ -148,6 +150,7 @@ class FitResult:
             "offset": self.offset,
             "free": list(self.free),
             "converged": self.converged,
+            "status": self.status,
             "reason": self.reason,
             "iterations": self.iterations,
             "nfev": self.nfev,
@@ -190,7 +193,8 @@ class FitResult:
             f"integrator {self.integrator}, {self.residual} residual",
             f"  data: {self.t.size} samples over {self.t[-1] - self.t[0]:.6g} s; observed "
             f"output {self.observe}; initial state {self.initial_state}",
-            f"  status: {'converged' if self.converged else 'NOT converged'} -- {self.reason}",
+            f"  status: {self.status}"
+            f"{'' if self.converged else ' (not an ordinary converged answer)'} -- {self.reason}",
             f"  iterations: {self.iterations}, model simulations: {self.nfev}",
             "",
             "  parameter        value            unit",
@@ -215,6 +219,18 @@ class FitResult:
             f"  fit quality: RMSE = {_fmt(self.rmse, 6)} {self.units.position}, "
             f"R^2 = {_fmt(self.r2, 8)}",
         ]
+        reduced = self.extra.get("reduced")
+        if reduced:
+            lines.append("")
+            lines.append(f"  reduced model ({reduced['model']}, the limit the data want):")
+            for name, value in reduced["params"].items():
+                unit = reduced.get("units", {}).get(name, "")
+                lines.append(f"  {name:<15}  {_fmt(value, 10):<15}  {unit}")
+            lines.append(f"  {'C (scale)':<15}  {_fmt(reduced['scale'], 10):<15}  -")
+            lines.append(
+                f"  fit quality: RMSE = {_fmt(reduced['rmse'], 6)} {self.units.position}, "
+                f"R^2 = {_fmt(reduced['r2'], 8)}"
+            )
         if self.warnings:
             lines.append("")
             lines.append("  warnings:")

@@ -199,6 +199,66 @@ def _heuristic(problem: Problem, y: Array) -> Array:
     return np.array([2 * k, 2 * k / omega**2, 2 * k / omega, 2 * k])
 
 
+def _shape_grid(problem: Problem) -> Array:
+    """Dimensionless parameter shapes (unit stiffness level) spanning plausible dynamics.
+
+    The frequencies are relative to the record's fundamental (the stroke for a periodic
+    card); the overall stiffness level is left to :func:`_grid_candidates`, which solves it
+    linearly thanks to the scale symmetry.
+    """
+    span = problem.grid.t[-1] - problem.grid.t[0]
+    if problem.initial_state == "periodic" and problem.grid.uniform:
+        span = problem.period or span + problem.grid.dt
+    w0 = 2 * math.pi / span
+    cls = problem.model_cls
+    ratios = (0.5, 1.0, 2.0, 4.0, 8.0, 16.0)  # natural frequency / fundamental
+    rows: list[list[float]] = []
+    if cls is FirstOrder:
+        return np.array([[span * f] for f in (0.01, 0.03, 0.1, 0.3, 1.0, 3.0)])
+    if cls is MassSpringDamper:
+        for r in ratios:
+            for zeta in (0.05, 0.2, 0.7, 2.0):
+                wn = r * w0
+                rows.append([1.0 / wn**2, 2 * zeta / wn, 1.0])
+        return np.array(rows)
+    for r in ratios:
+        for k0_over_k1 in (0.3, 1.0, 3.0, 30.0):
+            for tau_w0 in (0.1, 1.0, 10.0):  # dashpot time constant c1/k1 times w0
+                k1, k0 = 1.0, k0_over_k1
+                k_static = k0 * k1 / (k0 + k1) if cls is Kelvin else k0 + k1
+                m = k_static / (r * w0) ** 2
+                rows.append([k0, m, k1 * tau_w0 / w0, k1])
+    return np.array(rows)
+
+
+def _grid_candidates(problem: Problem, keep: int = 6) -> list[Array]:
+    """Best grid shapes, each scaled to the data's amplitude (one batched simulation)."""
+    shapes = _shape_grid(problem)
+    with np.errstate(all="ignore"):
+        ys = problem.outputs(shapes)
+    scale_fixed = problem.scale_fixed if problem.scale_fixed is not None else None
+    data = problem.data
+    scored: list[tuple[float, Array]] = []
+    for theta, y in zip(shapes, ys, strict=True):
+        if not np.all(np.isfinite(y)) or np.ptp(y) == 0:
+            continue
+        symmetric = problem.model_cls.scale_symmetric
+        cols = [y] + ([np.ones_like(y)] if problem.offset_fixed is None else [])
+        rhs = data - (problem.offset_fixed or 0.0)
+        coef, *_ = np.linalg.lstsq(np.column_stack(cols), rhs, rcond=None)
+        a = float(coef[0])
+        if not (a > 0 and math.isfinite(a)):
+            continue
+        fitted = np.column_stack(cols) @ coef
+        cost = float(np.sum((fitted - rhs) ** 2))
+        if symmetric and scale_fixed is not None:
+            # y(lambda theta) = y(theta) / lambda, so the fitted amplitude a * C_fixed sets lambda.
+            theta = theta * (scale_fixed / a)
+        scored.append((cost, theta))
+    scored.sort(key=lambda item: item[0])
+    return [theta for _cost, theta in scored[:keep]]
+
+
 def candidate_starts(problem: Problem) -> list[Array]:
     """Physical parameter candidates from equation error at several filter bandwidths."""
     key = (problem.model_cls, problem.observe)
@@ -206,7 +266,8 @@ def candidate_starts(problem: Problem) -> list[Array]:
     scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
     y = problem.data / scale
     if problem.residual == "log" or form is None:
-        return [_heuristic(problem, y)]
+        grid = _grid_candidates(problem) if problem.residual != "log" else []
+        return [*grid, _heuristic(problem, y)]
     span = problem.grid.t[-1] - problem.grid.t[0]
     dt_min = float(np.min(problem.grid.steps))
     base = 2 * math.pi / span
@@ -227,6 +288,8 @@ def candidate_starts(problem: Problem) -> list[Array]:
         theta = form.to_theta(coef[:n_model])
         if theta is not None and np.all(np.isfinite(theta)):
             found.append(theta)
+    if problem.residual != "log":
+        found.extend(_grid_candidates(problem))
     found.append(_heuristic(problem, y))
     return found
 

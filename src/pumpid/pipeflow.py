@@ -1,0 +1,726 @@
+"""Reference simulator of transient laminar pipe flow of a power-law fluid.
+
+The module produces "CFD-like" pressure-drop -> flow-rate time series without a CFD package, so
+that first-order surrogates (a time constant and a gain) can be fitted to and tested against
+physically meaningful data. It depends only on numpy and scipy.
+
+Model
+-----
+Axisymmetric, fully developed, laminar, incompressible flow in a rigid straight pipe of radius
+``R`` and length ``L``. The axial velocity ``w(r, t)`` obeys
+
+    rho dw/dt = dp(t)/L + (1/r) d/dr ( r eta(gamma) dw/dr ),   gamma = |dw/dr|,
+    w(R, t) = 0,   dw/dr(0, t) = 0,
+
+with the power-law viscosity ``eta = K gamma**(n - 1)``, regularized at zero shear rate (see
+:func:`simulate_pipe_flow`), and the flow rate ``Q(t) = 2 pi int_0^R w r dr``.
+
+Numerics (method of lines)
+--------------------------
+* Space: conservative cell-centred finite volumes in ``r`` on a grid refined toward the wall.
+  The first cell touches the axis, where the face "area" ``r`` vanishes, so the symmetry
+  condition is built in exactly (no flux through ``r = 0``, no ``1/r`` singularity). Each
+  cell's unknown is its r-weighted mean velocity, located at ``r_i^2 = (r_w^2 + r_e^2)/2``.
+  Face gradients are differences in ``s = r^2`` (``dw/dr = 2 r dw/ds``): the steady Newtonian
+  profile is linear in ``s``, so it is reproduced to rounding, including ``Q``. The wall shear
+  uses a one-sided quadratic in ``s`` through the no-slip value. Because the scheme is
+  conservative, ``dQ/dt = (pi R^2 dp/L - 2 pi R tau_wall) / rho`` holds exactly at the
+  discrete level, and ``Q = 2 pi sum_i w_i int_cell r dr`` needs no extra quadrature.
+* Time: the semi-discrete system is stiff (stiffness ratio ~1e5 at 200 cells, far more for
+  ``n < 1`` where the viscosity grows without bound toward the axis), so an implicit solver
+  is mandatory. We use :func:`scipy.integrate.solve_ivp` with an analytic *tridiagonal*
+  Jacobian in sparse form, so each Newton solve is ``O(N)``. The default is the variable-order
+  BDF method (orders 1-5): the Jacobian is a symmetric-in-the-cell-volume-weighted-norm
+  diffusion operator (apart from the wall closure), so its spectrum lies on the negative real
+  axis, where every BDF order up to 5 is stable; it needs one real LU per Jacobian update and
+  was 2-10x cheaper than Radau IIA (``method="Radau"``, 5th order, L-stable) at equal accuracy
+  in our tests, especially with kinks in ``dp(t)`` or the ``"truncated"`` viscosity. Time
+  integration errors stay ~100x below the spatial error at the default ``rtol``. For ``n = 1``
+  the problem is linear and the constant Jacobian is handed over once.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import Any, Literal
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
+from scipy.integrate import solve_ivp
+from scipy.special import jn_zeros
+
+__all__ = [
+    "Pipe",
+    "PipeFlowResult",
+    "PowerLawFluid",
+    "newtonian_slowest_time_constant",
+    "power_law_time_scale",
+    "radial_grid",
+    "simulate_pipe_flow",
+    "steady_power_law_flow_rate",
+    "steady_power_law_velocity",
+    "szymanski_flow_rate",
+]
+
+#: First zero of the Bessel function J0.
+J01 = float(jn_zeros(0, 1)[0])
+
+FloatArray = NDArray[np.float64]
+DpInput = Callable[[float], float] | ArrayLike | tuple[ArrayLike, ArrayLike]
+
+
+def _check_positive_finite(name: str, value: Any) -> float:
+    """Return ``value`` as float, raising a clear ValueError unless it is positive and finite."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a real number, got {value!r}") from exc
+    if not math.isfinite(x) or x <= 0.0:
+        raise ValueError(f"{name} must be positive and finite, got {value!r}")
+    return x
+
+
+@dataclass(frozen=True)
+class PowerLawFluid:
+    """Generalized-Newtonian power-law fluid, ``eta = K * gamma**(n - 1)`` (SI units).
+
+    Parameters
+    ----------
+    K : float
+        Consistency index in Pa s^n (for ``n = 1`` this is the dynamic viscosity in Pa s).
+    n : float
+        Flow-behaviour index (``n < 1`` shear-thinning, ``n = 1`` Newtonian).
+    rho : float
+        Density in kg/m^3.
+    """
+
+    K: float
+    n: float
+    rho: float
+
+    def __post_init__(self) -> None:
+        # Normalize to plain floats so that numpy scalars / ints behave identically everywhere.
+        object.__setattr__(
+            self, "K", _check_positive_finite("PowerLawFluid.K (consistency)", self.K)
+        )
+        object.__setattr__(
+            self, "n", _check_positive_finite("PowerLawFluid.n (flow index)", self.n)
+        )
+        object.__setattr__(
+            self, "rho", _check_positive_finite("PowerLawFluid.rho (density)", self.rho)
+        )
+
+    @classmethod
+    def newtonian(cls, mu: float, rho: float) -> PowerLawFluid:
+        """Newtonian fluid of dynamic viscosity ``mu`` (Pa s) and density ``rho`` (kg/m^3)."""
+        return cls(K=mu, n=1.0, rho=rho)
+
+
+@dataclass(frozen=True)
+class Pipe:
+    """Straight rigid pipe.
+
+    Parameters
+    ----------
+    radius : float
+        Inner radius ``R`` in m.
+    length : float
+        Length ``L`` in m over which the pressure drop acts.
+    """
+
+    radius: float
+    length: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "radius", _check_positive_finite("Pipe.radius", self.radius))
+        object.__setattr__(self, "length", _check_positive_finite("Pipe.length", self.length))
+
+
+@dataclass(frozen=True)
+class PipeFlowResult:
+    """Output of :func:`simulate_pipe_flow`.
+
+    Attributes
+    ----------
+    t : ndarray, shape (m,)
+        Output times in s.
+    q : ndarray, shape (m,)
+        Volume flow rate in m^3/s at the output times.
+    dp : ndarray, shape (m,)
+        Pressure drop in Pa at the output times (as seen by the solver).
+    r : ndarray, shape (N,) or None
+        Radii of the cell nodes in m (only with ``return_profile=True``).
+    w : ndarray, shape (m, N) or None
+        Cell-mean axial velocities in m/s at ``r`` (only with ``return_profile=True``); the wall
+        value is zero by construction.
+    info : dict
+        Solver statistics and the numerical settings actually used (grid size, ``gamma_reg``,
+        number of right-hand-side and Jacobian evaluations, LU decompositions, wall time, ...).
+    """
+
+    t: FloatArray
+    q: FloatArray
+    dp: FloatArray
+    r: FloatArray | None = None
+    w: FloatArray | None = None
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------------------------
+# Closed-form helpers
+# ----------------------------------------------------------------------------------------------
+
+
+def steady_power_law_flow_rate(dp: ArrayLike, fluid: PowerLawFluid, pipe: Pipe) -> Any:
+    """Steady (fully developed) flow rate of an unregularized power-law fluid.
+
+    ``Q = pi n R^3 / (3 n + 1) * (R |dp| / (2 K L))**(1/n)``, with the sign of ``dp``.
+
+    Parameters
+    ----------
+    dp : float or array_like
+        Pressure drop(s) in Pa.
+    fluid : PowerLawFluid
+    pipe : Pipe
+
+    Returns
+    -------
+    float or ndarray
+        Flow rate in m^3/s (same shape as ``dp``).
+    """
+    d = np.asarray(dp, dtype=float)
+    n, R = fluid.n, pipe.radius
+    wall_stress = R * np.abs(d) / (2.0 * pipe.length)  # exact in steady flow, any rheology
+    q = np.sign(d) * math.pi * n * R**3 / (3.0 * n + 1.0) * (wall_stress / fluid.K) ** (1.0 / n)
+    return float(q) if q.ndim == 0 else q
+
+
+def steady_power_law_velocity(
+    r: ArrayLike, dp: float, fluid: PowerLawFluid, pipe: Pipe
+) -> FloatArray:
+    """Steady velocity profile of an unregularized power-law fluid.
+
+    ``w(r) = n/(n+1) (|dp|/(2 K L))**(1/n) (R**((n+1)/n) - r**((n+1)/n))`` with the sign of
+    ``dp``. Handy as ``initial_velocity`` to start a simulation from steady flow.
+    """
+    rr = np.abs(np.asarray(r, dtype=float))
+    n, R = fluid.n, pipe.radius
+    a = (abs(dp) / (2.0 * fluid.K * pipe.length)) ** (1.0 / n)
+    e = (n + 1.0) / n
+    return np.sign(dp) * n / (n + 1.0) * a * (R**e - np.minimum(rr, R) ** e)
+
+
+@lru_cache(maxsize=16)
+def _bessel_j0_zeros(n_terms: int) -> FloatArray:
+    z = jn_zeros(0, n_terms)
+    z.setflags(write=False)
+    return z
+
+
+def szymanski_flow_rate(
+    t: ArrayLike,
+    dp: float,
+    mu: float,
+    rho: float,
+    pipe: Pipe,
+    n_terms: int | None = None,
+) -> FloatArray:
+    """Szymanski's series for Newtonian start-up flow after a pressure-drop step at ``t = 0``.
+
+    ``Q(t) / Q_s = 1 - 32 sum_k exp(-j_k^2 nu t / R^2) / j_k^4`` with ``j_k`` the zeros of
+    ``J0``, ``Q_s = pi R^4 dp / (8 mu L)`` and ``nu = mu / rho``; ``Q = 0`` for ``t <= 0``.
+
+    Parameters
+    ----------
+    t : array_like
+        Times in s.
+    dp : float
+        Pressure drop applied for ``t > 0`` (Pa).
+    mu, rho : float
+        Dynamic viscosity (Pa s) and density (kg/m^3).
+    pipe : Pipe
+    n_terms : int, optional
+        Number of series terms. By default it is chosen so that the first omitted term,
+        ``exp(-j^2 nu t / R^2)``, is below 1e-17 at the smallest positive time (at most 20000
+        terms; the truncation error is also bounded by ``32 / (3 pi^4 n_terms^3)`` times
+        ``Q_s`` since ``sum_k j_k^-4 = 1/32``).
+
+    Returns
+    -------
+    ndarray
+        Flow rate in m^3/s, same shape as ``t``.
+    """
+    mu = _check_positive_finite("mu", mu)
+    rho = _check_positive_finite("rho", rho)
+    tt = np.asarray(t, dtype=float)
+    R = pipe.radius
+    q_s = math.pi * R**4 * float(dp) / (8.0 * mu * pipe.length)
+    s = mu / rho * tt / R**2  # dimensionless time nu t / R^2
+    pos = s > 0.0
+    if n_terms is None:
+        s_min = float(s[pos].min()) if np.any(pos) else 1.0
+        # exp(-j^2 s) < 1e-17 for j > sqrt(39.2 / s); j_k ~ pi (k - 1/4).
+        n_terms = int(min(20000, max(50, math.ceil(math.sqrt(39.2 / s_min) / math.pi) + 2)))
+    elif int(n_terms) < 1:
+        raise ValueError(f"n_terms must be a positive integer, got {n_terms!r}")
+    j = _bessel_j0_zeros(int(n_terms))
+    sp_ = s[pos].reshape(-1, 1)
+    series = np.exp(-(j**2) * sp_) @ (1.0 / j**4)
+    out = np.zeros_like(s)
+    out[pos] = 1.0 - 32.0 * series
+    return q_s * out
+
+
+def newtonian_slowest_time_constant(mu: float, rho: float, pipe: Pipe) -> float:
+    """Slowest time constant of Newtonian start-up flow, ``rho R^2 / (mu j01^2)`` in s."""
+    mu = _check_positive_finite("mu", mu)
+    rho = _check_positive_finite("rho", rho)
+    return rho * pipe.radius**2 / (mu * J01**2)
+
+
+def power_law_time_scale(dp: float, fluid: PowerLawFluid, pipe: Pipe) -> float:
+    """Apparent slowest time constant ``rho R^2 / (eta_w j01^2)`` of start-up under ``dp``.
+
+    ``eta_w = K gamma_w^(n - 1)`` is the viscosity at the steady wall shear rate
+    ``gamma_w = (R |dp| / (2 K L))^(1/n)``; for ``n = 1`` this is
+    :func:`newtonian_slowest_time_constant`. For ``n != 1`` it is a scale, not an exact
+    eigenvalue (the final approach to steady flow is slower than ``exp(-t / scale)``, by a
+    factor of about 1.6 in the exponent for ``n = 0.4``), and it grows like
+    ``|dp|^((1 - n)/n)``: the response of a shear-thinning fluid to a larger step is *slower*
+    (the model is self-similar, see :func:`simulate_pipe_flow`). Useful to choose output
+    times.
+    """
+    d = _check_positive_finite("|dp|", abs(float(dp)))
+    gamma_w = (pipe.radius * d / (2.0 * fluid.K * pipe.length)) ** (1.0 / fluid.n)
+    eta_w = fluid.K * gamma_w ** (fluid.n - 1.0)
+    return fluid.rho * pipe.radius**2 / (eta_w * J01**2)
+
+
+# ----------------------------------------------------------------------------------------------
+# Finite-volume discretization
+# ----------------------------------------------------------------------------------------------
+
+
+def radial_grid(
+    n_radial: int, radius: float, wall_clustering: float = 0.5
+) -> tuple[FloatArray, FloatArray]:
+    """Cell faces and nodes of the radial finite-volume grid.
+
+    Faces follow the smooth map ``r = R [(1 - c) xi + c sin(pi xi / 2)]`` of a uniform
+    ``xi`` grid: cells shrink toward the wall (where the shear and, after a step, the boundary
+    layer live) by the factor ``1 - c`` relative to a uniform grid, and grow toward the axis by
+    ``1 + c (pi/2 - 1)``. A smooth map keeps the scheme second order on the stretched grid.
+
+    Parameters
+    ----------
+    n_radial : int
+        Number of cells (>= 3).
+    radius : float
+        Pipe radius in m.
+    wall_clustering : float
+        ``c`` in [0, 1); 0 gives a uniform grid.
+
+    Returns
+    -------
+    faces : ndarray, shape (n_radial + 1,)
+        Face radii from 0 to ``radius``.
+    nodes : ndarray, shape (n_radial,)
+        Node radii ``sqrt((r_w^2 + r_e^2) / 2)``: the r-weighted cell mean of a parabola equals
+        its value there, which makes the discrete steady Newtonian profile exact.
+    """
+    if int(n_radial) != n_radial or n_radial < 3:
+        raise ValueError(f"n_radial must be an integer >= 3, got {n_radial!r}")
+    c = float(wall_clustering)
+    if not (0.0 <= c < 1.0):
+        raise ValueError(f"wall_clustering must be in [0, 1), got {wall_clustering!r}")
+    xi = np.linspace(0.0, 1.0, int(n_radial) + 1)
+    faces = radius * ((1.0 - c) * xi + c * np.sin(0.5 * math.pi * xi))
+    faces[0], faces[-1] = 0.0, radius
+    nodes = np.sqrt(0.5 * (faces[:-1] ** 2 + faces[1:] ** 2))
+    return faces, nodes
+
+
+class _Discretization:
+    """Right-hand side and tridiagonal Jacobian of the semi-discrete momentum balance.
+
+    The state is the vector of cell-mean velocities divided by ``u_scale`` (so that absolute
+    tolerances are meaningful whatever the units). Face index ``k`` runs over the interior
+    faces ``1..N-1`` and the wall face ``N``; the axis face carries no flux.
+    """
+
+    def __init__(
+        self,
+        fluid: PowerLawFluid,
+        pipe: Pipe,
+        n_radial: int,
+        wall_clustering: float,
+        gamma_reg: float,
+        regularization: str,
+        u_scale: float,
+        dp_of_t: Callable[[float], float],
+    ) -> None:
+        R = pipe.radius
+        self.faces, self.nodes = radial_grid(n_radial, R, wall_clustering)
+        f, x = self.faces, self.nodes
+        self.n = int(n_radial)
+        self.vol = 0.5 * (f[1:] ** 2 - f[:-1] ** 2)  # int r dr over each cell (per radian)
+        self.rf = f[1:]  # radii of faces 1..N (interior faces then the wall)
+        # Gradients are taken in the variable s = r^2 and converted with dw/dr = 2 r dw/ds.
+        # The steady Newtonian profile is linear in s, and a cell's r-weighted mean is the
+        # plain mean over s, so two-point differences in s make that profile exact.
+        sx = x * x
+        self.inv_dx = 2.0 * f[1:-1] / np.diff(sx)  # interior faces 1..N-1
+        # Wall: derivative at s = R^2 of the quadratic in s through the last two nodes and the
+        # no-slip value (exact for a parabola in s, i.e. a quartic in r).
+        h1, h2 = R * R - sx[-1], R * R - sx[-2]
+        self.wall_a = 2.0 * R * h1 / (h2 * (h2 - h1))  # coefficient of w[N-2] in dw/dr(R)
+        self.wall_b = -2.0 * R * h2 / (h1 * (h2 - h1))  # coefficient of w[N-1]
+        self.fluid = fluid
+        self.newtonian = fluid.n == 1.0
+        self.gamma_reg = float(gamma_reg)
+        self.regularization = regularization
+        self.u_scale = float(u_scale)
+        self.g_scale = fluid.K / fluid.rho  # flux is linear in u_scale: rhs in state units
+        self.force = 1.0 / (pipe.length * fluid.rho * self.u_scale)
+        self.dp_of_t = dp_of_t
+        self._inv_rho_vol = 1.0 / self.vol
+        if self.newtonian:
+            self._jac_const = self._assemble(self.rf.copy())
+
+    def gradients(self, y: FloatArray) -> FloatArray:
+        """dw/dr (in state units per m) at faces 1..N."""
+        g = np.empty(self.n)
+        g[:-1] = np.diff(y) * self.inv_dx
+        g[-1] = self.wall_a * y[-2] + self.wall_b * y[-1]
+        return g
+
+    def _eta_over_k(self, gamma: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """eta/K and d(eta gamma)/d gamma / K at physical shear rates ``gamma >= 0``."""
+        n, c = self.fluid.n, self.gamma_reg
+        if self.newtonian:
+            one = np.ones_like(gamma)
+            return one, one
+        if self.regularization == "carreau":
+            s = gamma * gamma + c * c
+            eta = s ** (0.5 * (n - 1.0))
+            # d/dg [g (g^2 + c^2)^m] = (g^2 + c^2)^(m-1) (n g^2 + c^2),  m = (n-1)/2
+            deta = eta * (n * gamma * gamma + c * c) / s
+            return eta, deta
+        # "truncated": Newtonian plateau below gamma_reg (the cut-off used by CFD codes).
+        gm = np.maximum(gamma, c)
+        eta = gm ** (n - 1.0)
+        deta = np.where(gamma > c, n * eta, eta)
+        return eta, deta
+
+    def fluxes(self, y: FloatArray) -> tuple[FloatArray, FloatArray]:
+        g = self.gradients(y)
+        eta, deta = self._eta_over_k(np.abs(g) * self.u_scale)
+        return self.rf * eta * g, self.rf * deta
+
+    def rhs(self, t: float, y: FloatArray) -> FloatArray:
+        flux, _ = self.fluxes(y)
+        div = np.empty(self.n)
+        div[0] = flux[0]
+        div[1:] = np.diff(flux)
+        return self.force * self.dp_of_t(t) + self.g_scale * div * self._inv_rho_vol
+
+    def _assemble(self, dflux: FloatArray) -> sp.csc_matrix:
+        """Tridiagonal Jacobian given d(flux)/d(gradient) at faces 1..N."""
+        n = self.n
+        s_int = dflux[:-1] * self.inv_dx  # interior faces: dF_k/dw_k = s, dF_k/dw_{k-1} = -s
+        scale = self.g_scale * self._inv_rho_vol
+        main = np.zeros(n)
+        upper = np.zeros(n - 1)
+        lower = np.zeros(n - 1)
+        # Cell i gets +F_{i+1} - F_i (faces numbered so that cell i lies between i and i+1).
+        main[:-1] -= s_int  # +F_{i+1} depends on w_i with -s
+        upper += s_int  # ... and on w_{i+1} with +s
+        main[1:] -= s_int  # -F_i depends on w_i with +s
+        lower += s_int  # ... and on w_{i-1} with -s
+        # Wall face: +F_N in the last cell, F_N = dflux_N * (a w_{N-2} + b w_{N-1}).
+        main[-1] += dflux[-1] * self.wall_b
+        lower[-1] += dflux[-1] * self.wall_a
+        main *= scale
+        upper *= scale[:-1]
+        lower *= scale[1:]
+        return sp.diags([lower, main, upper], [-1, 0, 1], format="csc")
+
+    def jac(self, t: float, y: FloatArray) -> sp.csc_matrix:
+        if self.newtonian:
+            return self._jac_const
+        _, dflux = self.fluxes(y)
+        return self._assemble(dflux)
+
+    def flow_rate(self, y: FloatArray) -> FloatArray:
+        """Q = 2 pi sum_i vol_i w_i (exact for the discrete cell means)."""
+        return 2.0 * math.pi * self.u_scale * (self.vol @ y)
+
+
+# ----------------------------------------------------------------------------------------------
+# Simulation driver
+# ----------------------------------------------------------------------------------------------
+
+
+def _as_dp_function(dp: DpInput, t_out: FloatArray) -> tuple[Callable[[float], float], FloatArray]:
+    """Return a scalar function dp(t) and its values at the output times."""
+    if callable(dp):
+        fun = dp
+
+        def dp_of_t(tau: float) -> float:
+            return float(fun(tau))
+
+        values = np.array([dp_of_t(float(tk)) for tk in t_out], dtype=float)
+        if not np.all(np.isfinite(values)):
+            raise ValueError("dp(t) returned a non-finite value at an output time")
+        return dp_of_t, values
+
+    if isinstance(dp, tuple) and len(dp) == 2:
+        ts = np.asarray(dp[0], dtype=float)
+        ps = np.asarray(dp[1], dtype=float)
+        if ts.ndim != 1 or ps.shape != ts.shape or ts.size < 1:
+            raise ValueError("dp samples (t_i, dp_i) must be two 1-D arrays of equal length")
+        if not (np.all(np.isfinite(ts)) and np.all(np.isfinite(ps))):
+            raise ValueError("dp samples must be finite")
+        if ts.size > 1 and np.any(np.diff(ts) <= 0):
+            raise ValueError("dp sample times must be strictly increasing")
+    else:
+        ps = np.asarray(dp, dtype=float)
+        ts = t_out
+        if ps.ndim == 0:
+            ps = np.full_like(t_out, float(ps))
+        if ps.shape != t_out.shape:
+            raise ValueError(
+                f"dp array must be aligned with t: got shape {ps.shape}, expected {t_out.shape}"
+            )
+        if not np.all(np.isfinite(ps)):
+            raise ValueError("dp must be finite")
+
+    def dp_interp(tau: float) -> float:
+        # Piecewise linear, held constant outside the samples.
+        return float(np.interp(tau, ts, ps))
+
+    return dp_interp, np.interp(t_out, ts, ps)
+
+
+def simulate_pipe_flow(
+    t: ArrayLike,
+    dp: DpInput,
+    *,
+    fluid: PowerLawFluid,
+    pipe: Pipe,
+    n_radial: int = 200,
+    rtol: float = 1e-7,
+    initial_velocity: Callable[[FloatArray], ArrayLike] | ArrayLike | None = None,
+    return_profile: bool = False,
+    regularization: Literal["carreau", "truncated"] = "carreau",
+    gamma_reg: float | None = None,
+    gamma_reg_factor: float = 1e-5,
+    wall_clustering: float = 0.5,
+    method: Literal["BDF", "Radau"] = "BDF",
+    breakpoints: Sequence[float] = (),
+) -> PipeFlowResult:
+    """Simulate transient laminar flow of a power-law fluid in a pipe under a pressure drop.
+
+    Parameters
+    ----------
+    t : array_like, shape (m,)
+        Output times in s, strictly increasing. The initial state applies at ``t[0]``.
+    dp : callable, array_like or (t_i, dp_i) tuple
+        Pressure drop in Pa (positive drives flow toward positive ``Q``). A callable
+        ``dp(t) -> float``; or an array aligned with ``t`` (a scalar is broadcast); or a pair of
+        sample arrays ``(t_i, dp_i)``. Samples are interpolated piecewise linearly and held
+        constant outside their range.
+    fluid : PowerLawFluid
+    pipe : Pipe
+    n_radial : int
+        Number of radial finite-volume cells. The scheme is second order: with the default
+        (200 cells) the flow rate after a step from rest is within ~1e-5 relative of the exact
+        Newtonian solution from 1 % of the slowest time constant on, and steady power-law flow
+        rates for n = 0.3 ... 0.8 are within ~1e-5 of the closed form. The error falls by
+        about 4 per doubling of ``n_radial``.
+    rtol : float
+        Relative tolerance of the time integrator; the absolute tolerance is
+        ``1e-3 * rtol`` times the velocity scale (the steady centre-line velocity at the
+        largest ``|dp|``), so that small early flow rates are resolved too. The default keeps
+        the time-integration error well below the spatial error (~1e-7 relative).
+    initial_velocity : callable, array_like or None
+        Initial axial velocity (m/s). ``None`` means rest. A callable ``w0(r)`` is evaluated at
+        the cell nodes; an array must have ``n_radial`` entries on the nodes returned by
+        :func:`radial_grid` (e.g. a row of a previous result's ``w``).
+    return_profile : bool
+        Also return the radial nodes and velocity profiles.
+    regularization : {"carreau", "truncated"}
+        Zero-shear regularization of the viscosity (ignored for ``n = 1``, where
+        ``eta = K`` exactly):
+
+        * ``"carreau"`` (default): ``eta = K (gamma^2 + gamma_reg^2)^((n - 1)/2)``. It is smooth
+          (C-infinity) and the shear stress stays a strictly increasing function of the shear
+          rate, which the Newton iterations and the error estimator of the implicit
+          integrator need; it tends to the power law for ``gamma >> gamma_reg``.
+        * ``"truncated"``: ``eta = K max(gamma, gamma_reg)^(n - 1)``, the Newtonian plateau
+          cut-off used by many CFD codes (kink at ``gamma_reg``; slower to integrate).
+    gamma_reg : float, optional
+        Regularization shear rate in 1/s. By default ``gamma_reg_factor`` times the steady
+        wall shear rate at the largest ``|dp|``. In steady flow the relative effect on ``Q``
+        is about ``(gamma_reg / gamma_wall)^(3n + 1)``, i.e. below 1e-9 for the defaults at
+        ``n >= 0.3``; transients that pass through rest are affected a little more. Tying the
+        default to the driving pressure keeps the model exactly self-similar in ``dp`` (see
+        :func:`power_law_time_scale`); pass an absolute ``gamma_reg`` to model a fluid with
+        a real zero-shear plateau instead. For callables, ``|dp|`` is sampled at ``t`` only.
+    gamma_reg_factor : float
+        See ``gamma_reg``.
+    wall_clustering : float
+        Grid clustering toward the wall in [0, 1); see :func:`radial_grid`. Moderate values
+        are best: stronger clustering starves the core, where the transient and (for
+        ``n < 1``) the nearly plug-like centre carry most of the discretization error.
+    method : {"BDF", "Radau"}
+        Implicit integrator of :func:`scipy.integrate.solve_ivp` (see the module notes).
+    breakpoints : sequence of float
+        Times at which a callable ``dp`` is discontinuous (e.g. a step); integration is
+        restarted there so that the jump is not smeared by the step-size control.
+
+    Returns
+    -------
+    PipeFlowResult
+
+    Raises
+    ------
+    ValueError
+        On invalid times, pressure drops, grid or tolerance settings.
+    RuntimeError
+        If the time integrator fails.
+    """
+    start_clock = time.perf_counter()
+    if not isinstance(fluid, PowerLawFluid):
+        raise ValueError("fluid must be a PowerLawFluid")
+    if not isinstance(pipe, Pipe):
+        raise ValueError("pipe must be a Pipe")
+    t_out = np.asarray(t, dtype=float)
+    if t_out.ndim != 1 or t_out.size < 1:
+        raise ValueError("t must be a non-empty 1-D array of output times")
+    if not np.all(np.isfinite(t_out)):
+        raise ValueError("t must be finite")
+    if t_out.size > 1 and np.any(np.diff(t_out) <= 0.0):
+        raise ValueError("t must be strictly increasing")
+    if int(n_radial) != n_radial or n_radial < 3:
+        raise ValueError(f"n_radial must be an integer >= 3, got {n_radial!r}")
+    n_radial = int(n_radial)
+    rtol = float(rtol)
+    if not (1e-13 <= rtol <= 1e-2):
+        raise ValueError(f"rtol must be in [1e-13, 1e-2], got {rtol!r}")
+    if regularization not in ("carreau", "truncated"):
+        raise ValueError(f"regularization must be 'carreau' or 'truncated', got {regularization!r}")
+    if method not in ("Radau", "BDF"):
+        raise ValueError(f"method must be 'Radau' or 'BDF', got {method!r}")
+
+    dp_of_t, dp_out = _as_dp_function(dp, t_out)
+    R, L, K, n = pipe.radius, pipe.length, fluid.K, fluid.n
+    faces, nodes = radial_grid(n_radial, R, wall_clustering)
+
+    # Initial state (m/s on the nodes).
+    if initial_velocity is None:
+        w0 = np.zeros(n_radial)
+    elif callable(initial_velocity):
+        w0 = np.asarray(initial_velocity(nodes.copy()), dtype=float) * np.ones(n_radial)
+    else:
+        w0 = np.asarray(initial_velocity, dtype=float)
+        if w0.shape != (n_radial,):
+            raise ValueError(
+                f"initial_velocity array must have shape ({n_radial},) (values on the grid "
+                f"nodes), got {w0.shape}"
+            )
+    if not np.all(np.isfinite(w0)):
+        raise ValueError("initial_velocity must be finite")
+
+    # Velocity and shear-rate scales from the largest driving pressure drop: they set the
+    # absolute tolerance and the default regularization, so results do not depend on units.
+    dp_max = float(np.max(np.abs(dp_out)))
+    if dp_max > 0.0:
+        wall_stress = R * dp_max / (2.0 * L)
+        gamma_wall = (wall_stress / K) ** (1.0 / n)
+        u_scale = n / (n + 1.0) * gamma_wall * R  # steady centre-line velocity
+    else:
+        u_scale = 0.0
+    u_scale = max(u_scale, float(np.max(np.abs(w0)))) if w0.size else u_scale
+    if u_scale == 0.0:  # nothing drives the flow at the output times; any scale will do
+        u_scale = 1.0
+        gamma_wall = 1.0 / R
+    else:
+        gamma_wall = max(gamma_wall if dp_max > 0.0 else 0.0, u_scale / R)
+    if gamma_reg is None:
+        gamma_reg_factor = _check_positive_finite("gamma_reg_factor", gamma_reg_factor)
+        gamma_reg_used = gamma_reg_factor * gamma_wall
+    else:
+        gamma_reg_used = _check_positive_finite("gamma_reg", gamma_reg)
+
+    disc = _Discretization(
+        fluid, pipe, n_radial, wall_clustering, gamma_reg_used, regularization, u_scale, dp_of_t
+    )
+    y0 = w0 / u_scale
+    atol = 1e-3 * rtol
+
+    # Integration segments: restart at user-declared discontinuities.
+    t0, t1 = float(t_out[0]), float(t_out[-1])
+    cuts = sorted({float(b) for b in breakpoints if t0 < float(b) < t1})
+    edges = [t0, *cuts, t1]
+    ys = np.empty((n_radial, t_out.size))
+    ys[:, 0] = y0
+    stats = {"nfev": 0, "njev": 0, "nlu": 0, "segments": 0}
+    jac = disc._jac_const if disc.newtonian else disc.jac
+    y_start = y0
+    for a, b in itertools.pairwise(edges):
+        if b <= a:
+            continue
+        sel = (t_out > a) & (t_out <= b)
+        t_eval = t_out[sel]
+        n_sel = t_eval.size
+        if n_sel == 0 or t_eval[-1] != b:  # the segment end is needed to restart
+            t_eval = np.append(t_eval, b)
+        sol = solve_ivp(
+            disc.rhs,
+            (a, b),
+            y_start,
+            method=method,
+            t_eval=t_eval,
+            rtol=rtol,
+            atol=atol,
+            jac=jac,
+            dense_output=False,
+        )
+        if sol.status != 0:
+            raise RuntimeError(f"time integration failed at t = {sol.t[-1]:g} s: {sol.message}")
+        ys[:, sel] = sol.y[:, :n_sel]
+        y_start = sol.y[:, -1]
+        stats["nfev"] += int(sol.nfev)
+        stats["njev"] += int(sol.njev)
+        stats["nlu"] += int(sol.nlu)
+        stats["segments"] += 1
+
+    q = disc.flow_rate(ys)
+    info: dict[str, Any] = {
+        **stats,
+        "method": method,
+        "rtol": rtol,
+        "atol_velocity": atol * u_scale,
+        "n_radial": n_radial,
+        "wall_clustering": float(wall_clustering),
+        "min_cell_width": float(np.min(np.diff(faces))),
+        "regularization": "none (n = 1)" if disc.newtonian else regularization,
+        "gamma_reg": None if disc.newtonian else gamma_reg_used,
+        "velocity_scale": u_scale,
+        "wall_time_s": time.perf_counter() - start_clock,
+    }
+    return PipeFlowResult(
+        t=t_out.copy(),
+        q=q,
+        dp=dp_out,
+        r=nodes.copy() if return_profile else None,
+        w=(ys.T * u_scale) if return_profile else None,
+        info=info,
+    )
