@@ -27,10 +27,10 @@ demo: $(STAMP)
 	$(VENV)/bin/pumpid demo --out demo-output
 
 lint: $(TSTAMP)
-	$(PY) -m ruff check src tests benchmarks scripts
+	$(PY) -m ruff check src tests scripts
 
 test: $(TSTAMP)
-	$(PY) -m ruff check src tests benchmarks scripts
+	$(PY) -m ruff check src tests scripts
 	MPLBACKEND=Agg $(PY) -m pytest -q
 
 bench: $(STAMP)

@@ -48,14 +48,21 @@ class Boundary:
     direction: str  # "infinity" or "zero"
     value: float
     limit: Limit
+    #: "push": moving the parameter further leaves the cost unchanged; "nested": the
+    #: reduced model fits as well (likelihood-ratio test).
+    evidence: str = "push"
 
     def describe(self) -> str:
         """Plain-language statement."""
         where = "to infinity" if self.direction == "infinity" else "to zero"
+        why = (
+            f"pushing it a further factor {_PUSH:g} leaves the fit unchanged"
+            if self.evidence == "push"
+            else "the limiting model fits the data as well (likelihood-ratio test, 95 %)"
+        )
         return (
-            f"{self.name} runs {where} (fitted value {self.value:.4g} is arbitrary: pushing "
-            f"it a further factor {_PUSH:g} leaves the fit unchanged); the data want the "
-            f"limit {self.limit.description}"
+            f"{self.name} runs {where} (fitted value {self.value:.4g} is arbitrary: {why}); "
+            f"the data want the limit {self.limit.description}"
         )
 
 
@@ -145,3 +152,31 @@ def find_boundaries(
             limit = LIMITS.get((problem.model_cls, name, direction), _generic(name, direction))
             found.append(Boundary(name, direction, float(theta[i]), limit))
     return found
+
+
+#: A parameter this far from its natural scale (toward a known limit) triggers the nested test.
+SUSPICION = 30.0
+
+
+def nested_candidates(
+    problem: Problem, theta: Array, edges: list[tuple[int, str]] | None, stopped_early: bool
+) -> list[tuple[str, str, Limit]]:
+    """Known limits with a reduced model that the fitted point may be heading to.
+
+    The push test of :func:`find_boundaries` moves one parameter with the others fixed; when
+    the others compensate (a curved valley toward the limit) it cannot see the boundary, so
+    these candidates are decided by fitting the reduced model and comparing costs.
+    """
+    names = problem.model_cls.param_names()
+    ref = problem.reference_scales()
+    edge_dir = dict(edges or [])
+    out = []
+    for (cls, name, direction), limit in LIMITS.items():
+        if cls is not problem.model_cls or limit.reduced is None:
+            continue
+        i = names.index(name)
+        ratio = theta[i] / ref[i]
+        far = ratio > SUSPICION if direction == "infinity" else ratio < 1 / SUSPICION
+        if far or edge_dir.get(i) == direction or stopped_early:
+            out.append((name, direction, limit))
+    return out

@@ -206,6 +206,7 @@ def _solve_lm(
     )
     return {
         "ok": ok,
+        "stopped_early": sol.status == 0,
         "reason": reasons.get(sol.status, sol.message),
         "theta": theta, "scale": scale, "offset": offset, "edges": edges,
         "history": history,
@@ -467,57 +468,98 @@ def fit(
             "method": method, "integrator": integrator, "residual": residual,
             "offset": offset, "period": period, "units": units, "eps0": eps0,
             "max_iter": max_iter, "rel_step": rel_step, "tol": tol, "max_nfev": max_nfev,
-        }, scale)
+        }, scale, stopped_early=bool(raw.get("stopped_early")))
     return result
 
 
 def _check_boundaries(
-    result: FitResult, problem: Problem, options: dict[str, Any], scale_option: float | str
+    result: FitResult, problem: Problem, options: dict[str, Any], scale_option: float | str,
+    stopped_early: bool,
 ) -> None:
-    """Mark a boundary solution and fit the limiting model the data want (when pumpid has it)."""
-    from .boundaries import find_boundaries
+    """Mark a boundary solution and fit the limiting model the data want (when pumpid has it).
+
+    Two tests: pushing one parameter further leaves the cost unchanged (see
+    :func:`pumpid.boundaries.find_boundaries`), or -- for limits pumpid can fit -- the reduced
+    model fits as well as the full one by a likelihood-ratio test at the 95 % level
+    (SSR_reduced - SSR_full <= 3.84 sigma^2, sigma^2 = SSR_full / (N - p)).
+    """
+    from .boundaries import Boundary, find_boundaries, nested_candidates
 
     assert result.model is not None
-    found = find_boundaries(problem, result.model.values, result.scale, result.offset,
-                            result.cost, result.extra.get("edges", []))
+    theta = result.model.values
+    found = find_boundaries(problem, theta, result.scale, result.offset, result.cost,
+                            result.extra.get("edges", []))
+    reduced_fit: FitResult | None = None
+    reduced_limit = None
+    n_free = len(problem.free_names)
+    sigma2 = 2.0 * result.cost / max(problem.data.size - n_free, 1)
+    sst = float(np.sum((problem.data - problem.data.mean()) ** 2))
+    if isinstance(problem.initial_state, str):
+        candidates = nested_candidates(problem, theta, result.extra.get("edges"), stopped_early)
+        known = {b.name for b in found}
+        for name, direction, limit in candidates:
+            red = _fit_reduced(result, problem, limit, options, scale_option)
+            if red is None or not np.isfinite(red.cost):
+                continue
+            excess = 2.0 * (red.cost - result.cost)
+            if excess <= 3.84 * sigma2 + 1e-12 * sst:
+                if name not in known:
+                    i = problem.model_cls.param_names().index(name)
+                    found.append(Boundary(name, direction, float(theta[i]), limit, "nested"))
+                if reduced_fit is None or red.cost < reduced_fit.cost:
+                    reduced_fit, reduced_limit = red, limit
     if not found:
         return
     result.status = "boundary"
     result.converged = False
     result.reason = (
-        f"{result.reason}; but {', '.join(b.name for b in found)} ran to a bound: "
+        f"{result.reason}; {', '.join(b.name for b in found)} ran to a bound: "
         "the solution is a limiting model, not an interior optimum"
     )
     result.warnings.extend(b.describe() for b in found)
     result.extra["boundaries"] = [
         {"name": b.name, "direction": b.direction, "limit": b.limit.description} for b in found
     ]
-    target = next((b for b in found if b.limit.reduced is not None), None)
-    if target is None or not isinstance(problem.initial_state, str):
+    if reduced_fit is None:
+        target = next((b for b in found if b.limit.reduced is not None), None)
+        if target is not None and isinstance(problem.initial_state, str):
+            reduced_limit = target.limit
+            reduced_fit = _fit_reduced(result, problem, target.limit, options, scale_option)
+    if reduced_fit is None or reduced_limit is None:
         return
-    limit = target.limit
-    start, gain = limit.to_reduced(result.params)  # type: ignore[misc]
+    result.extra["reduced"] = {
+        "model": reduced_fit.model_name, "params": reduced_fit.params,
+        "scale": reduced_fit.scale, "offset": reduced_fit.offset,
+        "units": reduced_fit.param_units(), "rmse": reduced_fit.rmse, "r2": reduced_fit.r2,
+        "converged": reduced_fit.converged, "status": reduced_fit.status,
+        "reason": reduced_fit.reason,
+    }
+    result.warnings.append(
+        f"reduced model {reduced_fit.model_name} ({reduced_limit.description.split(':')[0]}) "
+        f"fitted: R^2 = {reduced_fit.r2:.6g}, RMSE = {reduced_fit.rmse:.4g} "
+        f"{result.units.position}"
+    )
+
+
+def _fit_reduced(
+    result: FitResult, problem: Problem, limit: Any, options: dict[str, Any],
+    scale_option: float | str,
+) -> FitResult | None:
+    """Fit the limiting model, started from the full model's parameters mapped onto it."""
+    start, gain = limit.to_reduced(result.params)
     reduced_cls = limit.reduced
-    assert reduced_cls is not None
     reduced_scale: float | str = scale_option
     if not math.isclose(gain, 1.0) and not reduced_cls.scale_symmetric:
         reduced_scale = "free"
     x0 = {**start, "C": gain * result.scale} if reduced_scale == "free" else None
-    reduced = fit(
-        reduced_cls(**start), problem.grid.t, problem.load, problem.data,
-        observe=limit.observe, initial_state=problem.initial_state, scale=reduced_scale,
-        x0=x0, **options,
-    )
-    result.extra["reduced"] = {
-        "model": reduced.model_name, "params": reduced.params, "scale": reduced.scale,
-        "offset": reduced.offset, "units": reduced.param_units(), "rmse": reduced.rmse,
-        "r2": reduced.r2, "converged": reduced.converged, "status": reduced.status,
-        "reason": reduced.reason,
-    }
-    result.warnings.append(
-        f"reduced model {reduced.model_name} ({limit.description.split(':')[0]}) fitted: "
-        f"R^2 = {reduced.r2:.6g}, RMSE = {reduced.rmse:.4g} {result.units.position}"
-    )
+    try:
+        return fit(
+            reduced_cls(**start), problem.grid.t, problem.load, problem.data,
+            observe=limit.observe, initial_state=problem.initial_state, scale=reduced_scale,
+            x0=x0, **options,
+        )
+    except ValueError:
+        return None
 
 
 def assemble_result(

@@ -39,6 +39,7 @@ __all__ = [
     "prediction_stats",
     "save_figures",
     "save_png",
+    "status_text",
 ]
 
 #: Resolution of written PNGs: sharp on a normal screen, small enough to embed in a report.
@@ -85,6 +86,16 @@ def _note(ax: Axes, text: str) -> None:
     ax.text(0.98, 0.03, text, transform=ax.transAxes, ha="right", va="bottom",
             fontsize=10, color="tab:red",
             bbox={"boxstyle": "round", "facecolor": "white", "edgecolor": "tab:red"})
+
+
+def status_text(result: FitResult) -> str:
+    """Short status: "converged", "boundary (limiting model)" or "NOT converged"."""
+    status = getattr(result, "status", None) or ("converged" if result.converged else "failed")
+    if status == "converged" and result.converged:
+        return "converged"
+    if status == "boundary":
+        return "boundary (limiting model)"
+    return "NOT converged"
 
 
 def _model_label(result: FitResult) -> str:
@@ -185,8 +196,10 @@ def plot_residuals(result: FitResult) -> Figure:
         ax.legend(loc="best")
     else:
         _note(ax, "no finite residuals (the fit failed)")
+        if result.t.size > 1:
+            ax.set_xlim(float(result.t[0]), float(result.t[-1]))
     ax.set_xlabel(_label("time", u.time))
-    ax.set_ylabel(_label("residual (fitted − measured)", u.position))
+    ax.set_ylabel(_label("residual (fitted - measured)", u.position))
     ax.set_title(f"{result.model_name}: residuals, RMSE = {_fmt(result.rmse)} {u.position}, "
                  f"{_r2_text(result.r2)}")
     axh.set_xlabel(_label("count", "samples"))
@@ -223,6 +236,8 @@ def _positive(values: NDArray[np.float64]) -> NDArray[np.float64]:
 def plot_history(result: FitResult) -> Figure:
     """Convergence history: cost and relative change of every fitted value per iteration.
 
+    The cost is drawn on a log axis when it spans at least a factor 10, else on a linear one.
+
     The relative change of a parameter at iteration k is ``|x_k - x_(k-1)| / ref`` with
     ``ref`` the size of its final value; the offset can legitimately end near zero, so its
     change is measured against the range of the data instead. Zero changes are not drawn on
@@ -241,7 +256,7 @@ def plot_history(result: FitResult) -> Figure:
     hist = result.history
     fig = _new_figure(8.0, 6.4)
     ax_cost, ax_step = fig.subplots(2, 1, sharex=True)
-    status = "converged" if result.converged else "NOT converged"
+    status = status_text(result)
     fig.suptitle(f"{result.model_name}: convergence ({result.method}, {status}), "
                  f"{len(hist)} recorded iterations, {_r2_text(result.r2)}")
     cost_unit = f"{u.position}²" if result.residual == "linear" else "-"
@@ -255,9 +270,18 @@ def plot_history(result: FitResult) -> Figure:
         return fig
 
     it = _history_array(hist, "iteration")
+    # Markers show individual iterations of short runs; on long runs they only smear lines.
+    marker = "o-" if len(hist) <= 60 else "-"
     cost = _positive(_history_array(hist, "cost"))
     if _finite_any(cost):
-        ax_cost.semilogy(it, cost, "o-", color="black", markersize=4, label="cost")
+        ax_cost.plot(it, cost, marker, color="black", markersize=4, label="cost")
+        # A log axis over less than a decade has no major ticks and labels its minor ticks
+        # with identical rounded numbers (a fit started at its optimum changes the cost only
+        # in the 7th digit); a linear axis with an offset reads correctly there.
+        if np.nanmax(cost) >= 10.0 * np.nanmin(cost):
+            ax_cost.set_yscale("log")
+        else:
+            ax_cost.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4), useOffset=True)
     else:
         _note(ax_cost, "no positive finite cost recorded")
 
@@ -281,7 +305,7 @@ def plot_history(result: FitResult) -> Figure:
         change = _positive(np.abs(np.diff(vals)) / ref)
         if not _finite_any(change):
             continue
-        ax_step.semilogy(it[1:], change, "o-", markersize=3, linewidth=1.2, label=name)
+        ax_step.semilogy(it[1:], change, marker, markersize=3, linewidth=1.2, label=name)
         drawn += 1
     if "epsilon" in history_columns(hist):
         eps = _positive(_history_array(hist, "epsilon"))

@@ -28,6 +28,7 @@ from .plots import (
     make_figures,
     plot_prediction,
     prediction_stats,
+    status_text,
 )
 from .result import FitResult
 
@@ -45,10 +46,11 @@ CAPTIONS: dict[str, str] = {
     "prediction": "Prediction of a record the model was not fitted on.",
 }
 
-# Keys of result.extra that have their own section (or are internal), so the catch-all
-# "other results" section leaves them out.
-_KNOWN_EXTRA = ("model_name", "gauge", "stderr", "ci95", "correlation", "identifiability",
-                "prediction")
+# Keys of result.extra that have their own section, so the catch-all "other results" section
+# leaves them out. "edges" (solver indices that hit the log-parameter clip) is internal: its
+# meaning is reported by "boundaries".
+_KNOWN_EXTRA = ("model_name", "gauge", "start", "card", "stderr", "ci95", "correlation",
+                "identifiability", "boundaries", "reduced", "prediction", "edges")
 _PREDICTION_KEYS = ("t", "load", "measured", "predicted")
 
 _CSS = """
@@ -62,6 +64,7 @@ th { background: #f2f2f2; }
 td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace; }
 table.history td { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace; }
 .ok { color: #176a2c; font-weight: bold; }
+.warn { color: #9a5b00; font-weight: bold; }
 .bad { color: #b00020; font-weight: bold; }
 figure { margin: 1em 0; }
 figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
@@ -223,10 +226,16 @@ def _param_unit(result: FitResult, infos: Mapping[str, ParamInfo], name: str) ->
     return ""
 
 
-def _prediction(result: FitResult) -> dict[str, Any] | None:
-    """``result.extra["prediction"]`` when it holds equal-length arrays t, load, measured,
-    predicted (optionally a "label"); None otherwise (then it is shown as raw data)."""
-    pred = result.extra.get("prediction")
+def _prediction_label(pred: Mapping[str, Any]) -> str:
+    if pred.get("label"):
+        return str(pred["label"])
+    if pred.get("card") is not None:
+        return f"card {pred['card']}"
+    return "another stroke"
+
+
+def _prediction_arrays(pred: Any) -> dict[str, Any] | None:
+    """A prediction with equal-length arrays t, load, measured, predicted, or None."""
     if not isinstance(pred, Mapping) or not all(k in pred for k in _PREDICTION_KEYS):
         return None
     try:
@@ -236,7 +245,11 @@ def _prediction(result: FitResult) -> dict[str, Any] | None:
     sizes = {a.size for a in arrays.values()}
     if len(sizes) != 1 or sizes == {0}:
         return None
-    return {**arrays, "label": str(pred.get("label", "another stroke"))}
+    return {**arrays, "label": _prediction_label(pred)}
+
+
+def _prediction_source(result: FitResult, prediction: Mapping[str, Any] | None) -> Any:
+    return prediction if prediction is not None else result.extra.get("prediction")
 
 
 def _version() -> str:
@@ -268,11 +281,14 @@ def _summary_html(result: FitResult) -> str:
     ]
     if result.extra.get("gauge"):
         rows.append(("gauge fixed", str(result.extra["gauge"])))
+    if result.extra.get("start"):
+        rows.append(("starting values", str(result.extra["start"])))
     return _table(("item", "value"), rows)
 
 
 def _status_html(result: FitResult) -> str:
-    cls, word = ("ok", "converged") if result.converged else ("bad", "NOT converged")
+    word = status_text(result)
+    cls = {"converged": "ok", "boundary (limiting model)": "warn"}.get(word, "bad")
     rows = [
         ("iterations", str(result.iterations)),
         ("model simulations", str(result.nfev)),
@@ -381,13 +397,66 @@ def _figures_html(pngs: Mapping[str, bytes]) -> str:
     return "\n".join(out)
 
 
-def _prediction_html(result: FitResult, pred: Mapping[str, Any]) -> str:
-    rmse, r2 = prediction_stats(pred["measured"], pred["predicted"])
-    rows = [("record", pred["label"], ""),
-            ("samples", str(pred["t"].size), "-"),
-            ("RMSE", _num(rmse), result.units.position),
-            ("R²", _num(r2, 8), "-")]
-    return _table(("quantity", "value", "unit"), rows)
+def _prediction_html(result: FitResult, pred: Any) -> str | None:
+    """Scores of a prediction: computed from its arrays, or as stored (scores only)."""
+    arrays = _prediction_arrays(pred)
+    if arrays is not None:
+        rmse, r2 = prediction_stats(arrays["measured"], arrays["predicted"])
+        record = f"{arrays['label']} ({arrays['t'].size} samples)"
+    elif isinstance(pred, Mapping) and ("rmse" in pred or "r2" in pred):
+        rmse, r2 = pred.get("rmse"), pred.get("r2")
+        record = _prediction_label(pred)
+    else:
+        return None
+    rows = [("RMSE", _num(rmse), result.units.position), ("R²", _num(r2, 8), "-")]
+    return (f"<p>The fitted parameters (with the same C and offset) applied to the load of a "
+            f"record the model was not fitted on: {_e(record)}.</p>\n"
+            + _table(("quantity", "value", "unit"), rows, num_cols=(1,)))
+
+
+def _input_html(result: FitResult) -> str | None:
+    """Where the data came from: ``extra["card"]`` as stored by the card fitter."""
+    card = result.extra.get("card")
+    if not isinstance(card, Mapping):
+        return None
+    labels = {"id": ("card", ""), "well": ("well", ""), "source": ("source", ""),
+              "time_source": ("time axis from", ""), "spm": ("pumping speed", "strokes/min"),
+              "period": ("stroke period", result.units.time)}
+    rows = []
+    for key, (label, unit) in labels.items():
+        value = card.get(key)
+        if value is None or value == "":
+            continue
+        text = _num(value) if isinstance(value, int | float) else str(value)
+        rows.append((label, text, unit))
+    return _table(("item", "value", "unit"), rows) if rows else None
+
+
+def _boundary_html(result: FitResult) -> str | None:
+    """Parameters that ran to 0 or infinity and the reduced (limiting) model fitted instead."""
+    bounds = result.extra.get("boundaries")
+    reduced = result.extra.get("reduced")
+    parts = []
+    if isinstance(bounds, list) and bounds:
+        rows = [(str(b.get("name", "")), str(b.get("direction", "")), str(b.get("limit", "")))
+                for b in bounds if isinstance(b, Mapping)]
+        parts.append("<p>These parameters ran to a bound: their fitted values are arbitrary "
+                     "and the solution is a limiting model.</p>")
+        parts.append(_table(("parameter", "runs to", "limit"), rows))
+    if isinstance(reduced, Mapping) and isinstance(reduced.get("params"), Mapping):
+        units = reduced.get("units") if isinstance(reduced.get("units"), Mapping) else {}
+        rows = [(str(n), _num(v, 8), str(units.get(n, ""))) for n, v in reduced["params"].items()]
+        rows.append(("C", _num(reduced.get("scale"), 8), "-"))
+        if reduced.get("offset") is not None:
+            rows.append(("offset", _num(reduced.get("offset"), 8), result.units.position))
+        rows.append(("RMSE", _num(reduced.get("rmse")), result.units.position))
+        rows.append(("R²", _num(reduced.get("r2"), 8), "-"))
+        status = reduced.get("status") or ("converged" if reduced.get("converged") else "failed")
+        why = f": {reduced['reason']}" if reduced.get("reason") else ""
+        parts.append(f"<p>Reduced model fitted: <b>{_e(reduced.get('model', '?'))}</b> "
+                     f"({_e(status)}{_e(why)})</p>")
+        parts.append(_table(("parameter", "value", "unit"), rows, num_cols=(1,)))
+    return "\n".join(parts) if parts else None
 
 
 def _extra_sections_html(
@@ -420,13 +489,24 @@ def _to_pngs(figures: Mapping[str, Figure | bytes], dpi: float) -> dict[str, byt
     return out
 
 
-def _default_figures(result: FitResult) -> dict[str, Figure]:
+def _default_figures(
+    result: FitResult, prediction: Mapping[str, Any] | None = None
+) -> dict[str, Figure]:
     figs: dict[str, Figure] = dict(make_figures(result))
-    pred = _prediction(result)
+    pred = _prediction_arrays(_prediction_source(result, prediction))
     if pred is not None:
         figs["prediction"] = plot_prediction(result, pred["t"], pred["load"], pred["measured"],
                                              pred["predicted"], label=pred["label"])
     return figs
+
+
+def _all_notes(result: FitResult, notes: str | Sequence[str] | None) -> list[str]:
+    """The caller's notes, then the card's own notes not already among them."""
+    out = [notes] if isinstance(notes, str) else [str(n) for n in notes or ()]
+    card = result.extra.get("card")
+    if isinstance(card, Mapping) and isinstance(card.get("notes"), list | tuple):
+        out += [str(n) for n in card["notes"] if str(n) not in out]
+    return out
 
 
 # --------------------------------------------------------------------------- public API
@@ -437,6 +517,7 @@ def render_html(
     figures: Mapping[str, Figure | bytes] | None = None,
     extra_sections: Mapping[str, Any] | Iterable[tuple[str, Any]] | None = None,
     notes: str | Sequence[str] | None = None,
+    prediction: Mapping[str, Any] | None = None,
     dpi: float = DEFAULT_DPI,
 ) -> str:
     """The fit report as one self-contained HTML5 document.
@@ -449,13 +530,18 @@ def render_html(
         Page title and heading (default ``"pumpid fit: <model> model"``).
     figures : mapping of name to Figure or PNG bytes, optional
         Figures to embed, in order. None renders the standard ones (displacement, card,
-        residuals, history, and a prediction when ``result.extra["prediction"]`` holds
-        ``t``, ``load``, ``measured``, ``predicted``); an empty mapping embeds none.
+        residuals, history, and the prediction when it has arrays); an empty mapping embeds
+        none.
     extra_sections : mapping or iterable of (heading, body), optional
         More sections at the end; a string body is shown as preformatted text, anything
         else (list, mapping, numbers) as lists and tables. All text is escaped.
     notes : str or sequence of str, optional
-        Notes on the input data (source, cleaning, stroke chosen, ...).
+        Notes on the input data (source, cleaning, stroke chosen, ...). Notes stored in
+        ``result.extra["card"]["notes"]`` are added when not already given.
+    prediction : mapping, optional
+        A prediction of another record, as returned by ``identify.predict_card``: arrays
+        ``t``, ``load``, ``measured``, ``predicted`` and a ``card`` id or ``label``. Default:
+        ``result.extra["prediction"]`` (arrays, or only its ``rmse``/``r2`` scores).
     dpi : float
         Resolution of figures given as Figure objects.
 
@@ -466,22 +552,31 @@ def render_html(
     """
     page_title = title if title is not None else f"pumpid fit: {result.model_name} model"
     if figures is None:
-        figures = _default_figures(result)
+        figures = _default_figures(result, prediction)
     pngs = _to_pngs(figures, dpi)
+    pos = result.units.position
 
     body: list[str] = [f"<h1>{_e(page_title)}</h1>"]
-    verdict = "converged" if result.converged else "did NOT converge"
     body.append(
-        f"<p>{_e(result.model_name)} model, {_e(result.method)} fit {_e(verdict)}: "
-        f"RMSE = {_e(_num(result.rmse))} {_e(result.units.position)}, "
+        f"<p>{_e(result.model_name)} model, {_e(result.method)} fit: "
+        f"{_e(status_text(result))}; RMSE = {_e(_num(result.rmse))} {_e(pos)}, "
         f"R² = {_e(_num(result.r2, 8))}.</p>"
     )
     body.append(_section("Summary", _summary_html(result), sid="summary"))
+    input_html = _input_html(result)
+    if input_html:
+        body.append(_section("Input data", input_html, sid="input"))
+    all_notes = _all_notes(result, notes)
+    if all_notes:
+        body.append(_section("Notes on the input data", _list(all_notes), sid="notes"))
     body.append(_section("Convergence", _status_html(result), sid="convergence"))
     body.append(_section("Parameters", _params_html(result), sid="parameters"))
     body.append(_section("Fit quality", _quality_html(result), sid="quality"))
     if result.warnings:
         body.append(_section("Warnings", _list(result.warnings), sid="warnings"))
+    boundary_html = _boundary_html(result)
+    if boundary_html:
+        body.append(_section("Boundary solution", boundary_html, sid="boundary"))
     if "identifiability" in result.extra:
         body.append(_section("Identifiability", _value_html(result.extra["identifiability"]),
                              sid="identifiability"))
@@ -489,16 +584,14 @@ def render_html(
         body.append(_section("Parameter correlation",
                              _correlation_html(result, result.extra["correlation"]),
                              sid="correlation"))
-    if notes:
-        note_list = [notes] if isinstance(notes, str) else list(notes)
-        body.append(_section("Notes on the input data", _list(note_list), sid="notes"))
+    pred_src = _prediction_source(result, prediction)
+    pred_html = _prediction_html(result, pred_src) if pred_src is not None else None
+    if pred_html:
+        body.append(_section("Prediction", pred_html, sid="prediction"))
     if pngs:
         body.append(_section("Figures", _figures_html(pngs), sid="figures"))
-    pred = _prediction(result)
-    if pred is not None:
-        body.append(_section("Prediction", _prediction_html(result, pred), sid="prediction"))
     other = {k: v for k, v in result.extra.items()
-             if k not in _KNOWN_EXTRA or (k == "prediction" and pred is None)}
+             if k not in _KNOWN_EXTRA or (k == "prediction" and pred_html is None)}
     if other:
         body.append(_section("Other results", _value_html(other), sid="other"))
     if extra_sections:
@@ -532,6 +625,7 @@ def write_report(
     figures: Mapping[str, Figure | bytes] | None = None,
     extra_sections: Mapping[str, Any] | Iterable[tuple[str, Any]] | None = None,
     notes: str | Sequence[str] | None = None,
+    prediction: Mapping[str, Any] | None = None,
 ) -> Path:
     """Write :func:`render_html` to ``out_dir/name`` (directory created if missing).
 
@@ -544,7 +638,7 @@ def write_report(
     out.mkdir(parents=True, exist_ok=True)
     path = out / name
     text = render_html(result, title=title, figures=figures, extra_sections=extra_sections,
-                       notes=notes)
+                       notes=notes, prediction=prediction)
     path.write_text(text, encoding="utf-8")
     return path
 
@@ -554,6 +648,7 @@ def write_outputs(
     out_dir: str | Path,
     *,
     notes: str | Sequence[str] | None = None,
+    prediction: Mapping[str, Any] | None = None,
     title: str | None = None,
     dpi: float = DEFAULT_DPI,
 ) -> dict[str, Path]:
@@ -562,15 +657,30 @@ def write_outputs(
     Each figure is rendered once and the same PNG bytes are written to disk and embedded in
     the report.
 
+    Parameters
+    ----------
+    result : FitResult
+    out_dir : str or Path
+        Created if missing; existing files of the same names are replaced.
+    notes : str or sequence of str, optional
+        Notes on the input data, shown in the report.
+    prediction : mapping, optional
+        See :func:`render_html`; with arrays it also gives ``prediction.png``.
+    title : str, optional
+        Report title.
+    dpi : float
+        PNG resolution.
+
     Returns
     -------
     dict
         Paths by name: the figure names (``displacement``, ``card``, ``residuals``,
-        ``history``, and ``prediction`` when the result holds one), ``json`` and ``report``.
+        ``history``, and ``prediction`` when there is one with arrays), ``json`` and
+        ``report``.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    pngs = _to_pngs(_default_figures(result), dpi)
+    pngs = _to_pngs(_default_figures(result, prediction), dpi)
     paths: dict[str, Path] = {}
     for name, png in pngs.items():
         path = out / f"{name}.png"
@@ -579,6 +689,6 @@ def write_outputs(
     json_path = out / "result.json"
     json_path.write_text(result.to_json(indent=2) + "\n", encoding="utf-8")
     paths["json"] = json_path
-    paths["report"] = write_report(result, out, title=title, figures=pngs, notes=notes)
+    paths["report"] = write_report(result, out, title=title, figures=pngs, notes=notes,
+                                   prediction=prediction)
     return paths
-

@@ -1,0 +1,28 @@
+"""Shared fixtures: realistic loads and the location of the third-party cards."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SHARED_RAW = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "raw"
+
+
+def well_load(t: np.ndarray, period: float = 7.5, seed: int = 0) -> np.ndarray:
+    """A varying, card-like load: rod weight, fluid load picked up and released, ripple."""
+    rng = np.random.default_rng(seed)
+    phase = (t / period) % 1.0
+    pickup = 0.5 * (1 + np.tanh((phase - 0.08) / 0.04))
+    release = 0.5 * (1 + np.tanh((phase - 0.55) / 0.05))
+    ripple = (300 + 100 * rng.random()) * np.sin(2 * np.pi * 3 * phase + rng.random())
+    return 6000.0 + 5000.0 * pickup * (1 - release) + ripple + 300 * np.sin(2 * np.pi * phase)
+
+
+@pytest.fixture
+def shared_raw() -> Path:
+    """The third-party card folder; the test is skipped when it is absent."""
+    if not SHARED_RAW.is_dir():
+        pytest.skip("third-party cards (../shared/data/raw) are not available")
+    return SHARED_RAW

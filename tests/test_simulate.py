@@ -1,0 +1,149 @@
+"""Simulation: exact FOH vs an adaptive ODE solve, sensitivities, Euler, initial states."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from pumpid import FirstOrder, Kelvin, MassSpringDamper, Maxwell, simulate, simulate_sensitivities
+from pumpid.simulate import make_grid
+
+from .conftest import well_load
+
+MODELS = [FirstOrder(tau=1.3), MassSpringDamper(m=2.0, c=1.1, k=30.0),
+          Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0), Maxwell(k0=90.0, m=2.0, c1=40.0, k1=70.0)]
+T = np.linspace(0.0, 15.0, 1501)
+LOAD = well_load(T, period=40.0) / 100.0  # smooth: no stroke wrap inside the record
+
+
+def _reference(model, t, load, x0):
+    """Tight adaptive solve of x' = A x + B F with F linear between samples."""
+    a, b = model.matrices()
+    sol = solve_ivp(lambda s, x: a @ x + b * np.interp(s, t, load), (t[0], t[-1]), x0,
+                    t_eval=t, method="DOP853", rtol=1e-12, atol=1e-12,
+                    max_step=0.01)
+    return sol.y.T
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda m: type(m).__name__)
+def test_exact_matches_tight_adaptive_solve(model) -> None:
+    ref = _reference(model, T, LOAD, np.zeros(model.n_states()))
+    for name in model.outputs:
+        y = simulate(model, T, LOAD, observe=name)
+        k = model.states.index(name)
+        assert np.max(np.abs(y - ref[:, k])) <= 1e-8 * np.max(np.abs(ref[:, k]))
+
+
+def test_non_uniform_time_is_handled_exactly() -> None:
+    rng = np.random.default_rng(3)
+    t = np.sort(np.concatenate([[0.0, 15.0], rng.uniform(0, 15, 900)]))
+    load = np.interp(t, T, LOAD)
+    model = MODELS[2]
+    assert not make_grid(t).uniform
+    ref = _reference(model, t, load, np.zeros(3))
+    y = simulate(model, t, load, observe="u")
+    assert np.max(np.abs(y - ref[:, 0])) <= 1e-8 * np.max(np.abs(ref[:, 0]))
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda m: type(m).__name__)
+@pytest.mark.parametrize("state", ["rest", "equilibrium", "periodic"])
+def test_sensitivities_match_central_differences(model, state) -> None:
+    y, dy = simulate_sensitivities(model, T, LOAD, initial_state=state)
+    np.testing.assert_allclose(y, simulate(model, T, LOAD, initial_state=state), rtol=1e-12,
+                               atol=1e-14)
+    for i, name in enumerate(model.param_names()):
+        v = getattr(model, name)
+        h = 1e-5 * v
+        yp = simulate(model.replace(**{name: v + h}), T, LOAD, initial_state=state)
+        ym = simulate(model.replace(**{name: v - h}), T, LOAD, initial_state=state)
+        fd = (yp - ym) / (2 * h)
+        assert np.max(np.abs(dy[:, i] - fd)) <= 1e-6 * np.max(np.abs(fd)) + 1e-12
+
+
+def test_euler_sensitivities_are_exact_for_the_euler_recursion() -> None:
+    model = MODELS[3]
+    _y, dy = simulate_sensitivities(model, T, LOAD, integrator="euler")
+    h = 1e-6 * model.k1
+    yp = simulate(model.replace(k1=model.k1 + h), T, LOAD, integrator="euler")
+    ym = simulate(model.replace(k1=model.k1 - h), T, LOAD, integrator="euler")
+    np.testing.assert_allclose(dy[:, 3], (yp - ym) / (2 * h), rtol=1e-5, atol=1e-12)
+
+
+def test_euler_is_the_paper_recursion() -> None:
+    model = Kelvin(k0=4.0, m=1.0, c1=0.2, k1=4.0)
+    t = np.arange(300) * 0.01
+    load = 10 + np.sin(t)
+    a, b = model.matrices()
+    x = np.zeros(3)
+    expected = [x[2]]
+    for n in range(t.size - 1):
+        x = x + 0.01 * (a @ x + b * load[n])
+        expected.append(x[2])
+    np.testing.assert_allclose(simulate(model, t, load, integrator="euler"), expected,
+                               rtol=1e-12, atol=1e-15)
+
+
+def test_dead_weight_responses_settle_as_in_model_notes() -> None:
+    # Paper Figs. 4-5: k0 = 4, m = 1, c1 = 0.2, k1 = 4, dead weight W0 = 10 from rest.
+    t = np.linspace(0.0, 2000.0, 20001)
+    w0 = np.full_like(t, 10.0)
+    kel = Kelvin(k0=4.0, m=1.0, c1=0.2, k1=4.0)
+    mx = Maxwell(k0=4.0, m=1.0, c1=0.2, k1=4.0)
+    assert simulate(kel, t, w0, observe="u2")[-1] == pytest.approx(2.5, rel=1e-6)
+    assert simulate(kel, t, w0, observe="u")[-1] == pytest.approx(5.0, rel=1e-6)
+    assert simulate(mx, t, w0)[-1] == pytest.approx(2.5, rel=1e-6)
+
+
+def test_equilibrium_start_stays_put_under_constant_load() -> None:
+    model = MODELS[2]
+    y = simulate(model, T, np.full_like(T, 7.0), initial_state="equilibrium", observe="u")
+    np.testing.assert_allclose(y, 7.0 * model.static_gain("u"), rtol=1e-10)
+
+
+@pytest.mark.parametrize("integrator", ["exact", "euler"])
+def test_periodic_state_matches_a_long_run(integrator) -> None:
+    model = Kelvin(k0=4.0, m=1.0, c1=2.0, k1=4.0)
+    dt, n = 0.02, 400
+    t = np.arange(n) * dt
+    long_t = np.arange(100 * n) * dt
+    force = lambda s: 10 + 3 * np.sin(2 * np.pi * s / (n * dt))  # noqa: E731
+    periodic = simulate(model, t, force(t), initial_state="periodic", all_states=True,
+                        integrator=integrator)
+    long = simulate(model, long_t, force(long_t), all_states=True, integrator=integrator)
+    np.testing.assert_allclose(periodic, long[-n:], atol=1e-10)
+
+
+def test_given_initial_state_and_scale() -> None:
+    model = FirstOrder(tau=2.0)
+    t = np.linspace(0, 5, 51)
+    y = simulate(model, t, np.zeros_like(t), initial_state=[3.0], scale=2.0)
+    np.testing.assert_allclose(y, 6.0 * np.exp(-t / 2.0), rtol=1e-12)
+    y2 = simulate(model, t, np.zeros_like(t), initial_state={"u": 3.0})
+    np.testing.assert_allclose(y2, 3.0 * np.exp(-t / 2.0), rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("t", "load", "message"),
+    [
+        ([0, 1, 2], [1, 2], "does not match"),
+        ([0, 1, 1], [1, 2, 3], "strictly increasing"),
+        ([0, np.nan, 2], [1, 2, 3], "NaN"),
+        ([0, 1, 2], [1, np.inf, 3], "inf"),
+        ([0], [1], "at least 2"),
+    ],
+)
+def test_bad_input_names_the_problem(t, load, message) -> None:
+    with pytest.raises(ValueError, match=message):
+        simulate(MODELS[0], t, load)
+
+
+def test_unknown_options_are_rejected() -> None:
+    with pytest.raises(ValueError, match="integrator"):
+        simulate(MODELS[0], T, LOAD, integrator="rk4")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="unknown mode"):
+        simulate(MODELS[0], T, LOAD, initial_state="steady")
+    with pytest.raises(ValueError, match="has 3 states"):
+        simulate(MODELS[2], T, LOAD, initial_state=[1.0])
+    with pytest.raises(TypeError, match="model instance"):
+        simulate(Kelvin, T, LOAD)  # type: ignore[arg-type]
