@@ -154,18 +154,22 @@ def find_boundaries(
     return found
 
 
-#: A parameter this far from its natural scale (toward a known limit) triggers the nested test.
-SUSPICION = 30.0
+#: Relative log-sensitivity below which a parameter is suspected to be heading to a limit.
+SUSPICION = 1e-2
 
 
 def nested_candidates(
-    problem: Problem, theta: Array, edges: list[tuple[int, str]] | None, stopped_early: bool
+    problem: Problem, theta: Array, log_sensitivity: Array,
+    edges: list[tuple[int, str]] | None, stopped_early: bool,
 ) -> list[tuple[str, str, Limit]]:
     """Known limits with a reduced model that the fitted point may be heading to.
 
     The push test of :func:`find_boundaries` moves one parameter with the others fixed; when
     the others compensate (a curved valley toward the limit) it cannot see the boundary, so
-    these candidates are decided by fitting the reduced model and comparing costs.
+    these candidates are decided by fitting the reduced model and comparing costs. A
+    parameter is a candidate when the fit hardly depends on it any more (its relative
+    log-sensitivity ``||theta_i dy/dtheta_i|| / ||y - mean y||`` is below 1 %), when the
+    solver stopped on the edge of its window, or when it ran out of evaluations.
     """
     names = problem.model_cls.param_names()
     ref = problem.reference_scales()
@@ -175,8 +179,8 @@ def nested_candidates(
         if cls is not problem.model_cls or limit.reduced is None:
             continue
         i = names.index(name)
-        ratio = theta[i] / ref[i]
-        far = ratio > SUSPICION if direction == "infinity" else ratio < 1 / SUSPICION
-        if far or edge_dir.get(i) == direction or stopped_early:
+        heading = "infinity" if theta[i] > ref[i] else "zero"
+        weak = log_sensitivity[i] < SUSPICION and heading == direction
+        if weak or edge_dir.get(i) == direction or stopped_early:
             out.append((name, direction, limit))
     return out

@@ -114,14 +114,15 @@ def _solve_lm(
     problem: Problem, theta0: NDArray[np.float64], scale0: float, offset0: float, tol: float,
     max_nfev: int | None,
 ) -> dict[str, Any]:
-    p = problem.n_params
+    p = problem.n_free
+    idx = problem.free_idx
     log_res = problem.residual == "log"
     # Wide window around the data's natural scales (widened to contain the start): a
     # parameter leaving it is at a boundary (0 or infinity), recognised afterwards.
-    ref = np.log(problem.reference_scales())
-    z_lo = np.minimum(ref - _WINDOW, np.log(theta0) - 1.0)
-    z_hi = np.maximum(ref + _WINDOW, np.log(theta0) + 1.0)
-    z0 = list(np.log(theta0))
+    ref = np.log(problem.reference_scales()[idx])
+    z_lo = np.minimum(ref - _WINDOW, np.log(theta0[idx]) - 1.0)
+    z_hi = np.maximum(ref + _WINDOW, np.log(theta0[idx]) + 1.0)
+    z0 = list(np.log(theta0[idx]))
     if problem.scale_fixed is None:
         z0.append(math.log(scale0))
     if problem.offset_fixed is None:
@@ -134,7 +135,7 @@ def _solve_lm(
 
     def unpack(z: NDArray[np.float64]) -> tuple[NDArray[np.float64], float, float]:
         zc = np.clip(z, -_LOG_MAX, _LOG_MAX)
-        theta = np.exp(np.clip(zc[:p], z_lo, z_hi))
+        theta = problem.full_theta(np.exp(np.clip(zc[:p], z_lo, z_hi)))
         i = p
         scale = problem.scale_fixed if problem.scale_fixed is not None else math.exp(zc[i])
         i += problem.scale_fixed is None
@@ -170,10 +171,11 @@ def _solve_lm(
             y, dy = problem.output_and_sensitivities(theta)
             # Outside the window the residual is flat in that coordinate.
             inside = (z[:p] > z_lo) & (z[:p] < z_hi)
+            th = theta[idx]
             if log_res:
-                cols = [dy * (theta * inside / y[:, None])]
+                cols = [dy * (th * inside / y[:, None])]
             else:
-                cols = [scale * dy * theta * inside]
+                cols = [scale * dy * th * inside]
             if problem.scale_fixed is None:
                 cols.append((np.ones_like(y) if log_res else scale * y)[:, None])
             if problem.offset_fixed is None:
@@ -192,7 +194,7 @@ def _solve_lm(
         return {"ok": False, "reason": f"solver error: {exc}", "history": history,
                 "nfev": counter["nfev"], "iterations": len(history) - 1}
     theta, scale, offset = unpack(sol.x)
-    edges = [(i, "infinity" if sol.x[i] >= z_hi[i] else "zero") for i in range(p)
+    edges = [(int(idx[i]), "infinity" if sol.x[i] >= z_hi[i] else "zero") for i in range(p)
              if not z_lo[i] < sol.x[i] < z_hi[i]]
     reasons = {
         0: "stopped: the maximum number of function evaluations was reached",
@@ -264,11 +266,12 @@ def _solve_newton_fd(
     problem: Problem, theta0: NDArray[np.float64], scale0: float, offset0: float,
     eps0: float, max_iter: int, rel_step: float,
 ) -> dict[str, Any]:
-    p = problem.n_params
+    p = problem.n_free
+    idx = problem.free_idx
     log_res = problem.residual == "log"
     free_scale = problem.scale_fixed is None
     free_offset = problem.offset_fixed is None
-    names = problem.model_cls.param_names()
+    names = [problem.model_cls.param_names()[i] for i in idx]
     x0 = problem.join(theta0, scale0, offset0)
     x = x0.copy()
     norm_x0 = float(np.linalg.norm(x0)) or 1.0
@@ -290,13 +293,13 @@ def _solve_newton_fd(
     for it in range(1, max_iter + 1):
         theta, scale, offset = problem.split(x)
         if np.any(theta <= 0):
-            bad = names[int(np.flatnonzero(theta <= 0)[0])]
+            bad = problem.model_cls.param_names()[int(np.flatnonzero(theta <= 0)[0])]
             return _nfd_fail(history, nfev, it - 1,
                              f"Newton step {it - 1} made {bad} non-positive; the paper's "
                              "method has no safeguard (start closer, or use method='lm')")
-        h = rel_step * np.abs(theta)
+        h = rel_step * np.abs(theta[idx])
         with np.errstate(all="ignore"):
-            y_all = problem.outputs(_fd_points(theta, h))
+            y_all = problem.outputs(problem.full_theta(_fd_points(theta[idx], h)))
             nfev += y_all.shape[0]
             g = np.log(y_all) if log_res else y_all
         if not np.all(np.isfinite(g)):
@@ -381,6 +384,7 @@ def fit(
     initial_state: InitialState = "rest",
     offset: bool | float = False,
     period: float | None = None,
+    fixed: Mapping[str, float] | None = None,
     units: Units | None = None,
     eps0: float = 1e-10,
     max_iter: int = 200,
@@ -419,6 +423,9 @@ def fit(
         Fit an additive position offset (True), or subtract a fixed one (float).
     period : float, optional
         Stroke period (s) for ``initial_state="periodic"``.
+    fixed : mapping, optional
+        Model parameters held at given values (``{"m": 2.0}``); the others are fitted. A fixed
+        parameter also fixes the gauge of the scale symmetry, so C can then be free.
     units : Units, optional
         Units of load and position, recorded in the result (default N and m).
     eps0, max_iter, rel_step : float, int, float
@@ -440,7 +447,7 @@ def fit(
     problem = build_problem(
         cls, t, load, displacement, observe=observe, initial_state=initial_state,
         integrator=integrator, residual=residual, scale=scale, offset=offset, period=period,
-        warnings=warnings,
+        fixed=dict(fixed) if fixed else None, warnings=warnings,
     )
     start_note = None
     if theta0 is None:
@@ -451,19 +458,30 @@ def fit(
         # Keep the user's start on the same curve: move it onto the gauge C = 1.
         c_start = extras.pop("C", None) or math.exp(extras.pop("D", 0.0))
         theta0 = theta0 / c_start
+    theta0 = np.array(theta0, dtype=float)
+    for i, value in problem.fixed:
+        theta0[i] = value
     scale0, offset0 = _initial_linear(problem, theta0, extras)
     if method == "lm":
         raw = _solve_lm(problem, theta0, scale0, offset0, tol, max_nfev)
     else:
         raw = _solve_newton_fd(problem, theta0, scale0, offset0, eps0, max_iter, rel_step)
     result = assemble_result(problem, raw, method, units or Units(), warnings)
+    result.context = {
+        "problem": problem, "model_cls": cls,
+        "options": {"method": method, "integrator": integrator, "scale": scale,
+                    "residual": residual, "observe": observe, "initial_state": initial_state,
+                    "offset": offset, "period": period, "units": units, "eps0": eps0,
+                    "max_iter": max_iter, "rel_step": rel_step, "tol": tol,
+                    "max_nfev": max_nfev},
+    }
     if start_note:
         result.extra["start"] = start_note
     if raw.get("edges"):
         result.extra["edges"] = raw["edges"]
     if not raw["ok"]:
         result.status = "failed"
-    if result.model is not None and np.isfinite(result.cost):
+    if result.model is not None and np.isfinite(result.cost) and not problem.fixed:
         _check_boundaries(result, problem, {
             "method": method, "integrator": integrator, "residual": residual,
             "offset": offset, "period": period, "units": units, "eps0": eps0,
@@ -495,7 +513,14 @@ def _check_boundaries(
     sigma2 = 2.0 * result.cost / max(problem.data.size - n_free, 1)
     sst = float(np.sum((problem.data - problem.data.mean()) ** 2))
     if isinstance(problem.initial_state, str):
-        candidates = nested_candidates(problem, theta, result.extra.get("edges"), stopped_early)
+        jac = result.jacobian
+        spread = float(np.linalg.norm(problem.data - problem.data.mean()))
+        if problem.residual == "log":
+            spread = float(np.linalg.norm(np.log(problem.data) - np.log(problem.data).mean()))
+        log_sens = (np.linalg.norm(jac[:, : problem.n_params], axis=0) * theta / spread
+                    if jac is not None else np.ones_like(theta))
+        candidates = nested_candidates(problem, theta, log_sens, result.extra.get("edges"),
+                                       stopped_early)
         known = {b.name for b in found}
         for name, direction, limit in candidates:
             red = _fit_reduced(result, problem, limit, options, scale_option)

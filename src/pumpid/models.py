@@ -194,6 +194,30 @@ class Model:
             )
         return cls._system(th)
 
+    #: True when the model passes its input through a static map g(theta, F) before the
+    #: linear dynamics (a Hammerstein model); see :meth:`input_map`.
+    transforms_input: ClassVar[bool] = False
+
+    @classmethod
+    def input_map(
+        cls, theta: NDArray[np.float64], load: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """Static input map g(theta, F) and its parameter derivatives.
+
+        Parameters
+        ----------
+        theta : ndarray, shape (..., p)
+        load : ndarray, shape (..., N)
+
+        Returns
+        -------
+        g : ndarray, shape (..., N)
+            The input seen by the linear dynamics (the load itself by default).
+        dg : ndarray, shape (..., p, N) or None
+            dg/dtheta_i; None when g does not depend on the parameters.
+        """
+        return load, None
+
     def matrices(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """State matrix A (n, n) and input vector B (n,) of ``x' = A x + B F``."""
         a, b, _, _ = self._system(self.values)

@@ -53,6 +53,8 @@ class Problem:
     offset_fixed: float | None
     #: True when C was requested free but fixed to 1 because of the scale symmetry.
     gauge_fixed: bool
+    #: Model parameters held at given values: (index, value) pairs.
+    fixed: tuple[tuple[int, float], ...] = ()
 
     # ------------------------------------------------------------------ layout
     @property
@@ -61,9 +63,30 @@ class Problem:
         return len(self.model_cls.param_names())
 
     @property
+    def free_idx(self) -> NDArray[np.intp]:
+        """Indices of the model parameters that are fitted (not fixed)."""
+        held = {i for i, _ in self.fixed}
+        return np.array([i for i in range(self.n_params) if i not in held], dtype=np.intp)
+
+    @property
+    def n_free(self) -> int:
+        """Number of fitted model parameters."""
+        return int(self.free_idx.size)
+
+    def full_theta(self, free: ArrayLike) -> NDArray[np.float64]:
+        """All model parameters from the fitted ones (fixed ones filled in)."""
+        free_arr = np.asarray(free, dtype=float)
+        theta = np.empty((*free_arr.shape[:-1], self.n_params))
+        theta[..., self.free_idx] = free_arr
+        for i, value in self.fixed:
+            theta[..., i] = value
+        return theta
+
+    @property
     def free_names(self) -> tuple[str, ...]:
         """Names of the free values, in solver order."""
-        names = list(self.model_cls.param_names())
+        all_names = self.model_cls.param_names()
+        names = [all_names[i] for i in self.free_idx]
         if self.scale_fixed is None:
             names.append("D" if self.residual == "log" else "C")
         if self.offset_fixed is None:
@@ -85,24 +108,18 @@ class Problem:
         """
         scale = self.scale_fixed if self.scale_fixed is not None else 1.0
         load_span = float(np.ptp(self.load)) or float(np.max(np.abs(self.load))) or 1.0
-        stiffness = scale * load_span / float(np.ptp(self.data))
+        out_span = float(np.ptp(self.data)) / scale
         span = float(self.grid.t[-1] - self.grid.t[0])
         if self.period is not None:
             span = self.period
-        time = span / (2 * math.pi)
-        refs = []
-        for info in self.model_cls.param_info():
-            unit = info.unit
-            s_exp = 2 if "s^2" in unit else (1 if ("*s" in unit or unit == "s") else 0)
-            k_exp = 1 if "{load}" in unit and "/{position}" in unit else 0
-            refs.append(stiffness**k_exp * time**s_exp)
-        return np.array(refs)
+        base = {"{load}": load_span, "{position}": out_span, "s": span / (2 * math.pi)}
+        return np.array([_unit_size(info.unit, base) for info in self.model_cls.param_info()])
 
     def split(self, x: ArrayLike) -> tuple[NDArray[np.float64], float, float]:
         """Free vector (physical values) -> (theta, C, offset)."""
         xv = np.asarray(x, dtype=float)
-        p = self.n_params
-        theta = xv[:p]
+        p = self.n_free
+        theta = self.full_theta(xv[:p])
         i = p
         if self.scale_fixed is None:
             s = float(xv[i])
@@ -115,7 +132,7 @@ class Problem:
 
     def join(self, theta: ArrayLike, scale: float, offset: float) -> NDArray[np.float64]:
         """(theta, C, offset) -> free vector (physical values; D = ln C for log residual)."""
-        parts = list(np.asarray(theta, dtype=float))
+        parts = list(np.asarray(theta, dtype=float)[self.free_idx])
         if self.scale_fixed is None:
             parts.append(math.log(scale) if self.residual == "log" else scale)
         if self.offset_fixed is None:
@@ -133,13 +150,13 @@ class Problem:
     def output_and_sensitivities(
         self, theta: ArrayLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Unscaled output y (N,) and exact dy/dtheta (N, p)."""
+        """Unscaled output y (N,) and exact dy/dtheta (N, p_free) for the fitted parameters."""
         x = propagate(self.model_cls, theta, self.grid, self.load,
                       initial_state=self.initial_state, integrator=self.integrator,
                       sensitivities=True, period=self.period)
         n = self.model_cls.n_states()
         k = self.out_index
-        cols = [n * (i + 1) + k for i in range(self.n_params)]
+        cols = [n * (i + 1) + k for i in self.free_idx]
         return x[:, k], x[:, cols]
 
     def predict(self, theta: ArrayLike, scale: float, offset: float) -> NDArray[np.float64]:
@@ -154,6 +171,25 @@ class Problem:
             with np.errstate(divide="ignore", invalid="ignore"):
                 return math.log(scale) + np.log(y) - np.log(self.data)
         return scale * y + offset - self.data
+
+
+def _unit_size(unit: str, base: dict[str, float]) -> float:
+    """Size of a unit template such as ``{load}*s^2/{position}`` from base sizes.
+
+    Unknown factors (dimensionless numbers, other units) count as 1.
+    """
+    size = 1.0
+    for k, side in enumerate(unit.split("/", 1)):
+        sign = 1 if k == 0 else -1
+        for token in side.replace("(", "").replace(")", "").split("*"):
+            name, _, power = token.strip().partition("^")
+            if name in base:
+                try:
+                    exp = float(power) if power else 1.0
+                except ValueError:
+                    exp = 1.0
+                size *= base[name] ** (sign * exp)
+    return size
 
 
 def _is_zero_state(initial_state: InitialState, model_cls: type[Model]) -> bool:
@@ -175,6 +211,7 @@ def build_problem(
     scale: float | str = 1.0,
     offset: bool | float = False,
     period: float | None = None,
+    fixed: dict[str, float] | None = None,
     warnings: list[str] | None = None,
 ) -> Problem:
     """Validate the data and options and build a :class:`Problem`.
@@ -227,8 +264,21 @@ def build_problem(
         if not math.isfinite(scale_fixed) or scale_fixed <= 0:
             raise ValueError(f"scale: must be positive and finite, got {scale!r}")
 
+    names = model_cls.param_names()
+    fixed_pairs: list[tuple[int, float]] = []
+    for name, value in (fixed or {}).items():
+        if name not in names:
+            raise ValueError(f"fixed: {name!r} is not a parameter of {model_cls.__name__} {names}")
+        v = float(value)
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"fixed: {name} = {value!r} must be positive and finite")
+        fixed_pairs.append((names.index(name), v))
+    if len(fixed_pairs) == len(names):
+        raise ValueError("fixed: every model parameter is fixed; nothing left to fit")
+
     gauge_fixed = False
-    if scale_fixed is None and model_cls.scale_symmetric and _is_zero_state(
+    # A fixed model parameter already breaks the scale symmetry (it is a gauge itself).
+    if not fixed_pairs and scale_fixed is None and model_cls.scale_symmetric and _is_zero_state(
         initial_state, model_cls
     ):
         # MODEL-NOTES section 2: (lambda * theta, lambda * C) gives the same C y(t) from a
@@ -270,6 +320,7 @@ def build_problem(
         scale_fixed=scale_fixed,
         offset_fixed=offset_fixed,
         gauge_fixed=gauge_fixed,
+        fixed=tuple(sorted(fixed_pairs)),
     )
 
 

@@ -108,6 +108,8 @@ class FitResult:
     extra: dict[str, Any] = field(default_factory=dict, repr=False)
     #: "converged", "boundary" (a parameter ran to 0 or infinity) or "failed".
     status: str = "converged"
+    #: What a refit needs (the problem and the fit options), for profiles; not serialised.
+    context: dict[str, Any] = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ derived
     @property
@@ -119,6 +121,26 @@ class FitResult:
     def residuals(self) -> NDArray[np.float64]:
         """Fitted minus measured displacement (position units)."""
         return self.fitted - self.data
+
+    @property
+    def stderr(self) -> dict[str, float]:
+        """Standard error of every fitted value (empty when not computed)."""
+        return dict(self.extra.get("stderr", {}))
+
+    @property
+    def ci95(self) -> dict[str, list[float]]:
+        """95 % confidence interval [low, high] of every fitted value."""
+        return dict(self.extra.get("ci95", {}))
+
+    @property
+    def correlation(self) -> dict[str, Any]:
+        """Correlation matrix of the fitted values: ``{"names": [...], "matrix": [[...]]}``."""
+        return dict(self.extra.get("correlation", {}))
+
+    @property
+    def identifiability(self) -> list[str]:
+        """Plain-language identifiability findings (empty when all parameters are determined)."""
+        return list(self.extra.get("identifiability", []))
 
     @property
     def scale_name(self) -> str:

@@ -229,6 +229,7 @@ def propagate(
     integrator: Integrator = "exact",
     sensitivities: bool = True,
     period: float | None = None,
+    _mapped: bool = False,
 ) -> NDArray[np.float64]:
     """Run the model (and optionally its sensitivity system) over a grid.
 
@@ -245,7 +246,27 @@ def propagate(
         raise ValueError(f"integrator must be 'exact' or 'euler', got {integrator!r}")
     th = np.asarray(theta, dtype=float)
     f = np.asarray(load, dtype=float)
+    dg = None
+    if model_cls.transforms_input and not _mapped:
+        f, dg = model_cls.input_map(th, f)
     a, b, da, db = model_cls.system_batch(th)
+    if sensitivities and dg is not None:
+        # Hammerstein model: dx/dtheta_i also responds to B dg/dtheta_i. By linearity that
+        # part is the plain model's response to the input dg_i, with the same initial-state
+        # rule (rest, equilibrium or periodic; zero for a given state).
+        base = propagate(model_cls, th, grid, f, initial_state=initial_state,
+                         integrator=integrator, sensitivities=True, period=period,
+                         _mapped=True)
+        n = model_cls.n_states()
+        state0 = initial_state if isinstance(initial_state, str) else "rest"
+        for i in range(da.shape[-3]):
+            dgi = dg[..., i, :]
+            if np.any(dgi):
+                extra = propagate(model_cls, th, grid, dgi, initial_state=state0,
+                                  integrator=integrator, sensitivities=False, period=period,
+                                  _mapped=True)
+                base[..., n * (i + 1):n * (i + 2)] += extra
+        return base
     if sensitivities:
         a, b = _augment(a, b, da, db)
     size = a.shape[-1]

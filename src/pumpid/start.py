@@ -192,6 +192,8 @@ def _heuristic(problem: Problem, y: Array) -> Array:
     omega = 2 * math.pi * 3 / span
     k = 1.0 / gain
     cls = problem.model_cls
+    if cls not in (FirstOrder, MassSpringDamper, Kelvin, Maxwell):
+        return problem.reference_scales()
     if cls is FirstOrder:
         return np.array([span / 5])
     if cls is MassSpringDamper:
@@ -221,6 +223,14 @@ def _shape_grid(problem: Problem) -> Array:
                 wn = r * w0
                 rows.append([1.0 / wn**2, 2 * zeta / wn, 1.0])
         return np.array(rows)
+    if cls not in (Kelvin, Maxwell):
+        # A model this module has no shapes for: natural scales times 0.1, 1, 10 per parameter.
+        import itertools
+
+        ref = problem.reference_scales()
+        factors = (0.1, 1.0, 10.0) if ref.size <= 4 else (0.3, 3.0)
+        return np.array([ref * np.array(c) for c in itertools.product(factors,
+                                                                       repeat=ref.size)])
     for r in ratios:
         for k0_over_k1 in (0.3, 1.0, 3.0, 30.0):
             for tau_w0 in (0.1, 1.0, 10.0):  # dashpot time constant c1/k1 times w0
