@@ -146,7 +146,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
             out_dir = Path(args.out)
             if len(cards) > 1:
                 out_dir = out_dir / _safe(card.card_id or "card")
-            write_outputs(res, out_dir, notes=list(card.notes))
+            write_outputs(res, out_dir, notes=list(card.notes), prediction=pred)
     if args.json:
         dicts = [r.to_dict() for _c, r, _p in results]
         _print_json(dicts[0] if len(dicts) == 1 else {"cards": dicts})
@@ -205,7 +205,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     res = fit_card(first, "kelvin", observe="u")
     pred = predict_card(res, second)
     out = Path(args.out)
-    paths = write_outputs(res, out, notes=list(first.notes))
+    paths = write_outputs(res, out, notes=list(first.notes), prediction=pred)
     print(f"pumpid demo: the bundled example well (synthetic, made by "
           f"scripts/make_example_cards.py), card {first.card_id}")
     print(res.report())

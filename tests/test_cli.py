@@ -1,0 +1,87 @@
+"""The pumpid command: a thin shell over the API."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pumpid
+from pumpid.cli import main
+
+
+def _write_record(path: Path, **cols: np.ndarray) -> Path:
+    names = list(cols)
+    rows = np.column_stack([cols[n] for n in names])
+    path.write_text(",".join(names) + "\n" + "\n".join(",".join(repr(float(v)) for v in r)
+                                                       for r in rows) + "\n")
+    return path
+
+
+def test_reproduce_json(capsys) -> None:
+    assert main(["reproduce", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["table1"]["paper_mode"]["tau"] == pytest.approx(5.005001666667, rel=1e-11)
+    assert out["table1"]["exact"]["tau"] == pytest.approx(5.0, rel=1e-9)
+    assert out["table2"]["paper_mode"]["D"] == pytest.approx(0.0, abs=1e-9)
+    assert set(out["table3"]["paper_mode"]) >= {"m", "c", "k", "C", "iterations"}
+    assert out["table3"]["exact"]["m"] == pytest.approx(9.88, rel=1e-3)
+
+
+def test_reproduce_text(capsys) -> None:
+    assert main(["reproduce"]) == 0
+    text = capsys.readouterr().out
+    assert "Table 1" in text and "5.005001666667" in text and "tau [s]" in text
+
+
+def test_simulate_then_fit_round_trip(tmp_path, capsys) -> None:
+    t = np.linspace(0, 20, 801)
+    load = 10 + 3 * np.sin(0.9 * t) + np.sin(2.3 * t)
+    _write_record(tmp_path / "load.csv", t=t, load=load)
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", str(tmp_path / "load.csv"), "--model", "kelvin",
+                 "-p", "k0=4,m=1,c1=2", "-p", "k1=4", "-o", str(out)]) == 0
+    sim = np.genfromtxt(out, delimiter=",", names=True)
+    expected = pumpid.simulate(pumpid.Kelvin(k0=4, m=1, c1=2, k1=4), t, load)
+    np.testing.assert_allclose(sim["displacement"], expected, rtol=1e-12)
+    assert main(["fit", str(out), "--model", "kelvin", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    for key in ("model", "method", "params", "scale", "converged", "iterations", "rmse", "r2",
+                "warnings"):
+        assert key in res
+    assert res["converged"] and res["model"] == "Kelvin" and res["method"] == "lm"
+    assert res["params"]["m"] == pytest.approx(1.0, rel=1e-6)
+    assert main(["fit", str(out), "--method", "newton-fd", "--x0", "k0=4.1,m=1.02,c1=1.95,k1=4",
+                 "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["method"] == "newton-fd" and res["converged"]
+
+
+def test_fit_text_output_has_units(tmp_path, capsys) -> None:
+    t = np.linspace(0, 20, 801)
+    load = 10 + 3 * np.sin(0.9 * t)
+    disp = pumpid.simulate(pumpid.MassSpringDamper(m=1, c=0.8, k=3), t, load)
+    path = _write_record(tmp_path / "rec.csv", t=t, load_lbf=load, displacement_in=disp)
+    assert main(["fit", str(path), "--model", "msd"]) == 0
+    text = capsys.readouterr().out
+    assert "lbf*s^2/in" in text and "R^2" in text
+
+
+def test_fit_writes_report(tmp_path, capsys) -> None:
+    assert main(["demo", "--out", str(tmp_path / "demo")]) == 0
+    assert (tmp_path / "demo" / "report.html").stat().st_size > 10_000
+    data = json.loads((tmp_path / "demo" / "result.json").read_text())
+    assert data["converged"]
+
+
+def test_errors_exit_2_with_a_message(tmp_path, capsys) -> None:
+    assert main(["fit", str(tmp_path / "missing.csv")]) == 2
+    assert "missing.csv" in capsys.readouterr().err
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,load,displacement\n0,1,2\n")
+    assert main(["fit", str(bad)]) == 2
+    assert "error" in capsys.readouterr().err
+    assert main(["simulate", str(bad), "-p", "k0=1"]) == 2
+    assert "missing" in capsys.readouterr().err
