@@ -85,3 +85,19 @@ def test_errors_exit_2_with_a_message(tmp_path, capsys) -> None:
     assert "error" in capsys.readouterr().err
     assert main(["simulate", str(bad), "-p", "k0=1"]) == 2
     assert "missing" in capsys.readouterr().err
+
+
+def test_split_strokes_fits_each_stroke(tmp_path, capsys) -> None:
+    period, n_strokes = 6.0, 3
+    t1 = np.arange(0, period, 0.05)
+    load1 = 8000 + 2500 * np.sin(2 * np.pi * t1 / period) + 400 * np.sin(6 * np.pi * t1 / period)
+    model = pumpid.Kelvin(k0=200, m=3, c1=40, k1=120)
+    pos1 = pumpid.simulate(model, t1, load1, observe="u", initial_state="periodic") + 40
+    t = np.arange(n_strokes * t1.size) * 0.05
+    load, pos = np.tile(load1, n_strokes), np.tile(pos1, n_strokes)
+    path = _write_record(tmp_path / "multi.csv", t=t, load_lbf=load, position_in=pos)
+    assert main(["fit", str(path), "--split-strokes", "--observe", "u", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["cards"]) >= 2
+    for res in out["cards"]:
+        assert res["initial_state"] == "periodic" and res["r2"] > 0.999

@@ -38,6 +38,9 @@ class Limit:
     to_reduced: Callable[[dict[str, float]], tuple[dict[str, float], float]] | None = None
     #: Observed state of the reduced model.
     observe: str | None = None
+    #: Maps the reduced model's parameters back to a full-model point near the limit (used to
+    #: restart a full fit that the reduced model beats).
+    from_reduced: Callable[[dict[str, float]], dict[str, float]] | None = None
 
 
 @dataclass(frozen=True)
@@ -73,7 +76,8 @@ def _msd(m: str, c: str, k: str) -> Callable[[dict[str, float]], tuple[dict[str,
 LIMITS: dict[tuple[type[Model], str, str], Limit] = {
     (Kelvin, "k0", "infinity"): Limit(
         "k0 -> inf: rigid series spring, the mass-spring-dashpot m u'' + c1 u' + k1 u = F "
-        "(u = u2)", MassSpringDamper, _msd("m", "c1", "k1"), "u"),
+        "(u = u2)", MassSpringDamper, _msd("m", "c1", "k1"), "u",
+        lambda r: {"k0": 1e3 * r["k"], "m": r["m"], "c1": r["c"], "k1": r["k"]}),
     (Kelvin, "m", "zero"): Limit(
         "m -> 0: no inertia, a first-order creep c1 u2' + k1 u2 = F "
         "(u = u2 + F/k0)", FirstOrder,
@@ -89,7 +93,8 @@ LIMITS: dict[tuple[type[Model], str, str], Limit] = {
     (Kelvin, "k0", "zero"): Limit("k0 -> 0: the load no longer reaches the Kelvin element"),
     (Maxwell, "k1", "infinity"): Limit(
         "k1 -> inf: the Maxwell arm is a bare dashpot, the mass-spring-dashpot "
-        "m u'' + c1 u' + k0 u = F", MassSpringDamper, _msd("m", "c1", "k0"), "u"),
+        "m u'' + c1 u' + k0 u = F", MassSpringDamper, _msd("m", "c1", "k0"), "u",
+        lambda r: {"k0": r["k"], "m": r["m"], "c1": r["c"], "k1": 1e3 * (r["k"] + r["c"])}),
     (Maxwell, "c1", "infinity"): Limit(
         "c1 -> inf: the Maxwell arm is a spring, an undamped mass on k0 + k1"),
     (Maxwell, "c1", "zero"): Limit(

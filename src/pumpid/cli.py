@@ -85,6 +85,10 @@ def _read(args: argparse.Namespace) -> list[Any]:
         args.file, format=args.format, position_unit=args.position_unit,
         load_unit=args.load_unit, spm=args.spm, period=args.period, columns=_columns(args),
     )
+    if args.split_strokes:
+        from .cards import split_strokes
+
+        cards = [stroke for card in cards for stroke in split_strokes(card)]
     if args.card:
         chosen = [c for c in cards if c.card_id == args.card]
         if not chosen:
@@ -352,6 +356,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--period", type=float, help="stroke period in s (cards without time)")
     p.add_argument("--format", help="force a format: csv, scada, json, whitespace, ts")
     p.add_argument("--card", help="fit only this card id")
+    p.add_argument("--split-strokes", action="store_true",
+                   help="split multi-stroke time records at position minima; fit each stroke "
+                        "as one period (ids CARD#0, CARD#1, ...)")
     p.add_argument("--t-col", help="time column (name, or index for tables without header)")
     p.add_argument("--load-col", help="load column")
     p.add_argument("--position-col", "--displacement-col", dest="position_col",

@@ -391,6 +391,7 @@ def fit(
     rel_step: float = 1e-3,
     tol: float = 1e-12,
     max_nfev: int | None = None,
+    _restart: bool = True,
 ) -> FitResult:
     """Identify a model's parameters from a load record and the measured displacement.
 
@@ -487,6 +488,20 @@ def fit(
             "offset": offset, "period": period, "units": units, "eps0": eps0,
             "max_iter": max_iter, "rel_step": rel_step, "tol": tol, "max_nfev": max_nfev,
         }, scale, stopped_early=bool(raw.get("stopped_early")))
+        restart = result.extra.pop("restart_from", None)
+        result.extra.pop("_best_red", None)
+        if restart is not None and _restart:
+            again = fit(cls(**restart), t, load, displacement, method=method,
+                        integrator=integrator, scale=scale, residual=residual, observe=observe,
+                        initial_state=initial_state, offset=offset, period=period, fixed=fixed,
+                        units=units, eps0=eps0, max_iter=max_iter, rel_step=rel_step, tol=tol,
+                        max_nfev=max_nfev, _restart=False)
+            if np.isfinite(again.cost) and again.cost < result.cost:
+                again.warnings.append(
+                    "restarted next to a limiting model that fitted better than the first "
+                    f"solution (cost {result.cost:.6g} -> {again.cost:.6g})"
+                )
+                return again
     return result
 
 
@@ -527,13 +542,20 @@ def _check_boundaries(
             if red is None or not np.isfinite(red.cost):
                 continue
             excess = 2.0 * (red.cost - result.cost)
+            if excess < -3.84 * sigma2 - 1e-12 * sst and limit.from_reduced is not None:
+                # The reduced model fits clearly better: the full fit is stuck, not at a
+                # boundary. Hand back a full-model start next to the reduced solution.
+                if "restart_from" not in result.extra or red.cost < result.extra["_best_red"]:
+                    result.extra["restart_from"] = limit.from_reduced(red.params)
+                    result.extra["_best_red"] = red.cost
+                continue
             if excess <= 3.84 * sigma2 + 1e-12 * sst:
                 if name not in known:
                     i = problem.model_cls.param_names().index(name)
                     found.append(Boundary(name, direction, float(theta[i]), limit, "nested"))
                 if reduced_fit is None or red.cost < reduced_fit.cost:
                     reduced_fit, reduced_limit = red, limit
-    if not found:
+    if not found or "restart_from" in result.extra:
         return
     result.status = "boundary"
     result.converged = False
