@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from . import __version__
+from .flow_cli import add_flow_parser
 from .models import MODELS, model_class
 from .result import FitResult, _jsonable
 
@@ -395,6 +396,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", help="output CSV (default: standard output)")
     p.set_defaults(func=cmd_simulate)
 
+    add_flow_parser(sub)
     return parser
 
 
