@@ -259,7 +259,10 @@ def plot_history(result: FitResult) -> Figure:
     status = status_text(result)
     fig.suptitle(f"{result.model_name}: convergence ({result.method}, {status}), "
                  f"{len(hist)} recorded iterations, {_r2_text(result.r2)}")
-    cost_unit = f"{u.position}²" if result.residual == "linear" else "-"
+    # A compound unit such as m^3/s must be bracketed before squaring.
+    plain = u.position.replace("_", "").isalnum()
+    cost_unit = (f"{u.position}²" if plain else f"({u.position})²") \
+        if result.residual == "linear" else "-"
     ax_cost.set_ylabel(_label("cost ½Σr²", cost_unit))
     ax_step.set_ylabel(_label("relative change per iteration", "-"))
     ax_step.set_xlabel(_label("iteration", "-"))

@@ -202,6 +202,8 @@ def _model_cls(result: FitResult) -> type[Model] | None:
     """The model class, also for a failed fit whose ``model`` is None."""
     if result.model is not None:
         return type(result.model)
+    if result.context.get("model_cls") is not None:
+        return result.context["model_cls"]
     try:
         return model_class(result.model_name)
     except ValueError:
