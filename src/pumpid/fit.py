@@ -142,11 +142,16 @@ def _solve_lm(
         offset = problem.offset_fixed if problem.offset_fixed is not None else float(z[i])
         return theta, float(scale), float(offset)
 
+    # One sensitivity run per trial point gives both the residual and the Jacobian: MINPACK
+    # asks for the Jacobian at the point it just accepted, so jac() reuses it.
+    cache: dict[str, Any] = {}
+
     def fun(z: NDArray[np.float64]) -> NDArray[np.float64]:
         counter["nfev"] += 1
         theta, scale, offset = unpack(z)
         with np.errstate(all="ignore"):
-            y = problem.outputs(theta)
+            y, dy = problem.output_and_sensitivities(theta)
+            cache.update(z=z.copy(), y=y, dy=dy)
             r = problem.residual_vector(y, scale, offset)
         if not np.all(np.isfinite(r)):
             # A non-physical trial point (overflow, or y <= 0 with the log residual): a large
@@ -168,7 +173,10 @@ def _solve_lm(
     def jac(z: NDArray[np.float64]) -> NDArray[np.float64]:
         theta, scale, _ = unpack(z)
         with np.errstate(all="ignore"):
-            y, dy = problem.output_and_sensitivities(theta)
+            if "z" in cache and np.array_equal(cache["z"], z):
+                y, dy = cache["y"], cache["dy"]
+            else:
+                y, dy = problem.output_and_sensitivities(theta)
             # Outside the window the residual is flat in that coordinate.
             inside = (z[:p] > z_lo) & (z[:p] < z_hi)
             th = theta[idx]

@@ -17,6 +17,7 @@ of truth.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -107,19 +108,12 @@ class Model:
     @classmethod
     def param_info(cls) -> tuple[ParamInfo, ...]:
         """Describe the parameters (name, unit template, description, bounds)."""
-        return tuple(
-            ParamInfo(
-                f.name, f.metadata["unit"], f.metadata["doc"], f.metadata["lower"],
-                f.metadata["upper"],
-            )
-            for f in dataclasses.fields(cls)
-            if "unit" in f.metadata
-        )
+        return _param_info(cls)
 
     @classmethod
     def param_names(cls) -> tuple[str, ...]:
         """Parameter names in the model's canonical order."""
-        return tuple(p.name for p in cls.param_info())
+        return tuple(p.name for p in _param_info(cls))
 
     @property
     def values(self) -> NDArray[np.float64]:
@@ -248,6 +242,18 @@ class Model:
             f"{p.name} = {getattr(self, p.name):.6g} {p.unit_for(load_unit, position_unit)}"
             for p in self.param_info()
         )
+
+
+@functools.cache
+def _param_info(cls: type[Model]) -> tuple[ParamInfo, ...]:
+    # Dataclass introspection is slow and runs inside every solver iteration; a model
+    # class's parameters never change, so compute them once per class.
+    return tuple(
+        ParamInfo(f.name, f.metadata["unit"], f.metadata["doc"], f.metadata["lower"],
+                  f.metadata["upper"])
+        for f in dataclasses.fields(cls)
+        if "unit" in f.metadata
+    )
 
 
 def _zeros(theta: NDArray[np.float64], n: int) -> tuple[NDArray[np.float64], ...]:

@@ -160,15 +160,15 @@ def _discretize(
 
 
 def _scan(
-    phi: NDArray[np.float64], z: NDArray[np.float64], varying: bool
+    phi: NDArray[np.float64], z: NDArray[np.float64], varying: bool, inplace: bool = False
 ) -> NDArray[np.float64]:
     """Solve X[0] = z[0], X[k] = Phi X[k-1] + z[k] by a log-depth parallel prefix.
 
     phi: (..., n, n) for a constant transition, or (..., K, n, n) with the transition into
     sample k at index k (index 0 unused) when ``varying``. z: (..., K, n). Works in place on a
-    copy of z.
+    copy of z (or on z itself when ``inplace``).
     """
-    x = np.array(z, dtype=float, copy=True)
+    x = z if inplace else np.array(z, dtype=float, copy=True)
     k_len = x.shape[-2]
     p = np.array(phi, dtype=float, copy=True)
     shift = 1
@@ -275,27 +275,28 @@ def propagate(
     mode = initial_state if x0_given is None else "given"
 
     n_steps = grid.n - 1
+    z = np.zeros((*batch, n_steps + 1, size))
     if grid.uniform:
         phi, g0, g1 = _discretize(a, b, grid.dt, integrator)
-        z_forcing = (g0[..., None, :] * f[..., :-1, None]) + (g1[..., None, :] * f[..., 1:, None])
+        # z[k] = G0 F[k-1] + G1 F[k] as one (N, 2) @ (2, n) product per batch member.
+        pair = np.stack([f[..., :-1], f[..., 1:]], axis=-1)
+        z[..., 1:, :] = pair @ np.stack([g0, g1], axis=-2)
         varying = False
     else:
         phi, g0, g1 = _discretize(a[..., None, :, :], b[..., None, :], grid.steps, integrator)
-        z_forcing = g0 * f[..., :-1, None] + g1 * f[..., 1:, None]
+        z[..., 1:, :] = g0 * f[..., :-1, None] + g1 * f[..., 1:, None]
         varying = True
         # Prepend an unused transition for sample 0 so index k is the transition into k.
         phi = np.concatenate([np.broadcast_to(np.eye(size), (*phi.shape[:-3], 1, size, size)),
                               phi], axis=-3)
 
-    z = np.zeros((*batch, n_steps + 1, size))
-    z[..., 1:, :] = z_forcing
     if mode == "given":
         z[..., 0, : model_cls.n_states()] = x0_given
     elif mode == "equilibrium":
         # Static equilibrium of the (augmented) system under the first load sample: its
         # sensitivity block is exactly the derivative of the equilibrium.
         z[..., 0, :] = -np.linalg.solve(a, (b * f[..., 0:1])[..., None])[..., 0]
-    x = _scan(phi, z, varying)
+    x = _scan(phi, z, varying, inplace=True)
 
     if mode == "periodic":
         x = _periodic_correction(x, a, b, f, grid, phi, integrator, varying, period)
