@@ -21,6 +21,7 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
+from .diagnostics import diagnose
 from .models import Model
 from .problem import Problem, build_problem, initial_state_label
 from .result import FitResult, Units
@@ -399,6 +400,7 @@ def fit(
     rel_step: float = 1e-3,
     tol: float = 1e-12,
     max_nfev: int | None = None,
+    multistart: bool | Literal["auto"] = "auto",
     _restart: bool = True,
 ) -> FitResult:
     """Identify a model's parameters from a load record and the measured displacement.
@@ -442,6 +444,14 @@ def fit(
         finite-difference step as a fraction of each parameter (0.1 %).
     tol, max_nfev : float, int
         The lm method's tolerances (xtol = ftol = gtol) and evaluation budget.
+    multistart : {"auto", True, False}
+        Guard a user's guess against local minima with the automatic start's small
+        multistart (the guess joins the candidates). ``"auto"`` (default) first runs lm from
+        the guess alone -- the fast path -- and falls back to the multistart only when that
+        fit failed, stopped on a boundary, explains less than 99 % of the data's variance, or
+        does not come down to the data's noise level (estimated from second differences);
+        ``True`` always, ``False`` never. Only for ``method="lm"``: the paper's method runs
+        from the given guess, as the paper does.
 
     Returns
     -------
@@ -470,19 +480,45 @@ def fit(
     theta0 = np.array(theta0, dtype=float)
     for i, value in problem.fixed:
         theta0[i] = value
+    if multistart not in ("auto", True, False):
+        raise ValueError(f"multistart must be 'auto', True or False, got {multistart!r}")
+    guarded = method == "lm" and start_note is None and multistart is True
+    if guarded:
+        from .start import initial_estimate
+
+        theta0, start_note = initial_estimate(problem, guess=theta0)
     scale0, offset0 = _initial_linear(problem, theta0, extras)
     if method == "lm":
         raw = _solve_lm(problem, theta0, scale0, offset0, tol, max_nfev)
     else:
         raw = _solve_newton_fd(problem, theta0, scale0, offset0, eps0, max_iter, rel_step)
     result = assemble_result(problem, raw, method, units or Units(), warnings)
+    if (method == "lm" and multistart == "auto" and start_note is None and _restart
+            and _doubtful(result, problem)):
+        # The fast path from the user's guess looks wrong: run the guarded fit and keep the
+        # better of the two (the guarded one also reports its boundaries itself).
+        guarded_res = fit(
+            cls.from_values(theta0), t, load, displacement, method=method,
+            integrator=integrator, scale=scale, residual=residual, x0=x0 if isinstance(
+                x0, Mapping) else None, observe=observe, initial_state=initial_state,
+            offset=offset, period=period, fixed=fixed, units=units, eps0=eps0,
+            max_iter=max_iter, rel_step=rel_step, tol=tol, max_nfev=max_nfev,
+            multistart=True, _restart=True,
+        )
+        if np.isfinite(guarded_res.cost) and not (guarded_res.cost >= result.cost):
+            guarded_res.warnings.append(
+                "the fit from the given guess looked wrong (status "
+                f"{result.status}, R^2 = {result.r2:.4g}); the automatic multistart found "
+                f"a better solution (cost {result.cost:.6g} -> {guarded_res.cost:.6g})"
+            )
+            return guarded_res
     result.context = {
         "problem": problem, "model_cls": cls,
         "options": {"method": method, "integrator": integrator, "scale": scale,
                     "residual": residual, "observe": observe, "initial_state": initial_state,
                     "offset": offset, "period": period, "units": units, "eps0": eps0,
                     "max_iter": max_iter, "rel_step": rel_step, "tol": tol,
-                    "max_nfev": max_nfev},
+                    "max_nfev": max_nfev, "multistart": False},
     }
     if start_note:
         result.extra["start"] = start_note
@@ -503,14 +539,32 @@ def fit(
                         integrator=integrator, scale=scale, residual=residual, observe=observe,
                         initial_state=initial_state, offset=offset, period=period, fixed=fixed,
                         units=units, eps0=eps0, max_iter=max_iter, rel_step=rel_step, tol=tol,
-                        max_nfev=max_nfev, _restart=False)
+                        max_nfev=max_nfev, multistart=False, _restart=False)
             if np.isfinite(again.cost) and again.cost < result.cost:
                 again.warnings.append(
                     "restarted next to a limiting model that fitted better than the first "
                     f"solution (cost {result.cost:.6g} -> {again.cost:.6g})"
                 )
                 return again
+    diagnose(result)
     return result
+
+
+def _doubtful(result: FitResult, problem: Problem) -> bool:
+    """A fit from a user's guess that deserves the multistart guard.
+
+    Failed, boundary or poor (R^2 < 0.99) fits, and fits whose RMSE stays above twice the
+    data's noise level (a wrong local minimum, or a model that does not match the data).
+    """
+    if (result.model is None or result.status != "converged" or not np.isfinite(result.r2)
+            or result.r2 < 0.99):
+        return True
+    # A fit that does not come down to the noise floor may sit in a wrong local minimum.
+    # Robust noise estimate from second differences (white noise: var(diff2) = 6 sigma^2);
+    # smooth signal content only raises it, so a good fit is never called doubtful.
+    diff2 = np.diff(problem.data, 2)
+    sigma = 1.4826 * float(np.median(np.abs(diff2 - np.median(diff2)))) / math.sqrt(6.0)
+    return result.rmse > 2.0 * sigma + 1e-9 * float(np.ptp(problem.data))
 
 
 def _check_boundaries(
@@ -524,24 +578,29 @@ def _check_boundaries(
     model fits as well as the full one by a likelihood-ratio test at the 95 % level
     (SSR_reduced - SSR_full <= 3.84 sigma^2, sigma^2 = SSR_full / (N - p)).
     """
-    from .boundaries import Boundary, find_boundaries, nested_candidates
+    from .boundaries import SUSPICION, Boundary, find_boundaries, nested_candidates
 
     assert result.model is not None
     theta = result.model.values
-    found = find_boundaries(problem, theta, result.scale, result.offset, result.cost,
-                            result.extra.get("edges", []))
+    jac = result.jacobian
+    spread = float(np.linalg.norm(problem.data - problem.data.mean()))
+    if problem.residual == "log":
+        spread = float(np.linalg.norm(np.log(problem.data) - np.log(problem.data).mean()))
+    log_sens = (np.linalg.norm(jac[:, : problem.n_params], axis=0) * theta / spread
+                if jac is not None else np.zeros_like(theta))
+    interior = (not result.extra.get("edges") and not stopped_early
+                and bool(np.all(log_sens >= SUSPICION)))
+    # A parameter whose push could leave the fit unchanged has a small log-sensitivity;
+    # when every one is clearly influential the push test cannot fire and is skipped.
+    found = [] if interior else find_boundaries(
+        problem, theta, result.scale, result.offset, result.cost,
+        result.extra.get("edges", []))
     reduced_fit: FitResult | None = None
     reduced_limit = None
     n_free = len(problem.free_names)
     sigma2 = 2.0 * result.cost / max(problem.data.size - n_free, 1)
     sst = float(np.sum((problem.data - problem.data.mean()) ** 2))
     if isinstance(problem.initial_state, str):
-        jac = result.jacobian
-        spread = float(np.linalg.norm(problem.data - problem.data.mean()))
-        if problem.residual == "log":
-            spread = float(np.linalg.norm(np.log(problem.data) - np.log(problem.data).mean()))
-        log_sens = (np.linalg.norm(jac[:, : problem.n_params], axis=0) * theta / spread
-                    if jac is not None else np.ones_like(theta))
         candidates = nested_candidates(problem, theta, log_sens, result.extra.get("edges"),
                                        stopped_early)
         known = {b.name for b in found}

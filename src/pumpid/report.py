@@ -50,7 +50,8 @@ CAPTIONS: dict[str, str] = {
 # leaves them out. "edges" (solver indices that hit the log-parameter clip) is internal: its
 # meaning is reported by "boundaries".
 _KNOWN_EXTRA = ("model_name", "gauge", "start", "card", "stderr", "ci95", "correlation",
-                "identifiability", "boundaries", "reduced", "prediction", "edges")
+                "identifiability", "boundaries", "reduced", "prediction", "edges",
+                "covariance", "sigma2", "uncertainty", "determined")
 _PREDICTION_KEYS = ("t", "load", "measured", "predicted")
 
 _CSS = """
@@ -354,6 +355,11 @@ def _quality_html(result: FitResult) -> str:
 
 def _correlation_html(result: FitResult, value: Any) -> str:
     """A correlation matrix as a table, when its labels can be known; else generic."""
+    if isinstance(value, Mapping) and "names" in value and "matrix" in value:
+        names = [str(n) for n in value["names"]]
+        rows = [[a, *(_num(x, 3) for x in row)]
+                for a, row in zip(names, value["matrix"], strict=True)]
+        return _table(["", *names], rows, num_cols=range(1, len(names) + 1))
     if isinstance(value, Mapping) and all(isinstance(v, Mapping) for v in value.values()):
         names = list(value)
         rows = [[str(a), *(_num(value[a].get(b), 3) for b in names)] for a in names]

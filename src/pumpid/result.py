@@ -156,6 +156,17 @@ class FitResult:
             for p in self.model.param_info()
         }
 
+    def profile(self, name: str, *, n_points: int = 21, span: float | None = None,
+                level: float = 0.95) -> Any:
+        """Profile likelihood of one fitted value (refits with it fixed on a grid).
+
+        Returns a :class:`pumpid.profile.Profile` with the interval (one-sided when the
+        parameter is at a boundary) and ``plot()``.
+        """
+        from .profile import profile
+
+        return profile(self, name, n_points=n_points, span=span, level=level)
+
     # ------------------------------------------------------------------ output
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dictionary (no arrays of samples)."""
@@ -241,6 +252,11 @@ class FitResult:
             f"  fit quality: RMSE = {_fmt(self.rmse, 6)} {self.units.position}, "
             f"R^2 = {_fmt(self.r2, 8)}",
         ]
+        from .diagnostics import diagnostics_text
+
+        diag = diagnostics_text(self)
+        if diag:
+            lines += ["", diag]
         reduced = self.extra.get("reduced")
         if reduced:
             lines.append("")

@@ -269,15 +269,21 @@ def _grid_candidates(problem: Problem, keep: int = 6) -> list[Array]:
     return [theta for _cost, theta in scored[:keep]]
 
 
-def candidate_starts(problem: Problem) -> list[Array]:
-    """Physical parameter candidates from equation error at several filter bandwidths."""
+def candidate_starts(problem: Problem, grid: bool = True) -> list[Array]:
+    """Physical parameter candidates from equation error at several filter bandwidths.
+
+    With ``grid`` (default) the physics-shaped grid and a heuristic guess are added; without
+    it only the (cheap: linear least squares) equation-error candidates are returned.
+    """
     key = (problem.model_cls, problem.observe)
     form = _FORMS.get(key)
     scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
     y = problem.data / scale
     if problem.residual == "log" or form is None:
-        grid = _grid_candidates(problem) if problem.residual != "log" else []
-        return [*grid, _heuristic(problem, y)]
+        if not grid:
+            return []
+        shapes = _grid_candidates(problem) if problem.residual != "log" else []
+        return [*shapes, _heuristic(problem, y)]
     span = problem.grid.t[-1] - problem.grid.t[0]
     dt_min = float(np.min(problem.grid.steps))
     base = 2 * math.pi / span
@@ -298,14 +304,172 @@ def candidate_starts(problem: Problem) -> list[Array]:
         theta = form.to_theta(coef[:n_model])
         if theta is not None and np.all(np.isfinite(theta)):
             found.append(theta)
+    if not grid:
+        return found
     if problem.residual != "log":
         found.extend(_grid_candidates(problem))
     found.append(_heuristic(problem, y))
     return found
 
 
-def initial_estimate(problem: Problem, polish: int = 3) -> tuple[Array, str]:
-    """Best automatic start for a problem: candidates, ranked by cost, the best few polished.
+
+@dataclass
+class _Point:
+    """A polished start: parameters, scale, offset, cost and whether the polish ran out."""
+
+    theta: Array
+    scale: float
+    offset: float
+    cost: float
+    stopped_early: bool = False
+
+
+def _cost_at(problem: Problem, theta: Array, scale: float, offset: float) -> float:
+    with np.errstate(all="ignore"):
+        r = problem.residual_vector(problem.outputs(theta), scale, offset)
+    cost = 0.5 * float(r @ r)
+    return cost if math.isfinite(cost) else math.inf
+
+
+def _polish(
+    problem: Problem, theta: Array, max_nfev: int, scale: float | None = None,
+    offset: float | None = None,
+) -> _Point | None:
+    """A short run of the default solver from ``theta`` (best linear C and offset if not given)."""
+    from .fit import _initial_linear, _solve_lm  # the polish reuses the default solver
+
+    try:
+        if scale is None or offset is None:
+            scale, offset = _initial_linear(problem, theta, {})
+        raw = _solve_lm(problem, theta, scale, offset, tol=1e-10, max_nfev=max_nfev)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if "theta" not in raw:
+        return None
+    cost = _cost_at(problem, raw["theta"], raw["scale"], raw["offset"])
+    if not math.isfinite(cost):
+        return None
+    return _Point(raw["theta"], raw["scale"], raw["offset"], cost,
+                  bool(raw.get("stopped_early")))
+
+
+def _weakest_direction(problem: Problem, pt: _Point) -> tuple[Array, float] | None:
+    """Weakest direction of the residual in solver coordinates and its relative size.
+
+    Coordinates: ln of the free parameters, ln C when C is free, offset / data range.
+    """
+    with np.errstate(all="ignore"):
+        y, dy = problem.output_and_sensitivities(pt.theta)
+    th = pt.theta[problem.free_idx]
+    if problem.residual == "log":
+        cols = [dy * th / y[:, None]]
+    else:
+        cols = [pt.scale * dy * th]
+    if problem.scale_fixed is None:
+        cols.append((np.ones_like(y) if problem.residual == "log" else pt.scale * y)[:, None])
+    if problem.offset_fixed is None:
+        cols.append(np.full((y.size, 1), float(np.ptp(problem.data)) or 1.0))
+    jm = np.hstack(cols)
+    if not np.all(np.isfinite(jm)):
+        return None
+    _u, s, vt = np.linalg.svd(jm, full_matrices=False)
+    if s[0] <= 0:
+        return None
+    return vt[-1], float(s[-1] / s[0])
+
+
+def _move(problem: Problem, pt: _Point, step: Array) -> tuple[Array, float, float]:
+    p = problem.n_free
+    theta = pt.theta.copy()
+    ref = np.log(problem.reference_scales()[problem.free_idx])
+    z = np.log(theta[problem.free_idx]) + step[:p]
+    theta[problem.free_idx] = np.exp(np.clip(z, ref - _WINDOW, ref + _WINDOW))
+    scale, offset, i = pt.scale, pt.offset, p
+    if problem.scale_fixed is None:
+        scale = pt.scale * math.exp(step[i])
+        i += 1
+    if problem.offset_fixed is None:
+        offset = pt.offset + float(step[i]) * (float(np.ptp(problem.data)) or 1.0)
+    return theta, scale, offset
+
+
+#: First step (log units) along a valley, and the growth factor of the following ones.
+_VALLEY_STEP = 0.25
+_VALLEY_GROWTH = 2.5
+#: A jump must lower the cost by this fraction to count. On noisy data the valley floor is
+#: flat at the noise level, so the walk stops at once (the data cannot choose a point along
+#: it, and the diagnostics report it as practically not identifiable); on noiseless data the
+#: floor falls by orders of magnitude toward the truth.
+_VALLEY_GAIN = 0.05
+#: The walk stays inside the solver's window: natural scale times/divided by 1e6.
+_WINDOW = math.log(1e6)
+
+
+def _valley_walk(problem: Problem, pt: _Point, rounds: int = 8) -> _Point:
+    """Follow a long, flat, curved valley where Levenberg-Marquardt only crawls.
+
+    When the data hardly constrain one combination of parameters (relative singular value
+    of the scaled Jacobian well below 1e-4), a trust-region step along the valley is cut
+    short by the valley's curvature and the solver advances by tiny steps. Jumping along the
+    weakest direction and letting a short polish drop back to the valley floor moves along
+    it in a few long strides; the floor's cost tells which way is down. Each round probes
+    both ways with a small jump, then keeps growing the jump while the floor keeps falling.
+    """
+
+    def jump(base: _Point, direction: Array, step: float) -> _Point | None:
+        theta, scale, offset = _move(problem, base, step * direction)
+        if not (np.all(np.isfinite(theta)) and np.all(theta > 0) and scale > 0):
+            return None
+        return _polish(problem, theta, 40, scale, offset)
+
+    for _ in range(rounds):
+        weak = _weakest_direction(problem, pt)
+        if weak is None or weak[1] > 1e-4:
+            return pt
+        direction = weak[0]
+        step = _VALLEY_STEP * _VALLEY_GROWTH
+        probes: list[tuple[float, _Point]] = []
+        for _shrink in range(3):  # near the bottom of the valley a shorter jump is needed
+            step /= _VALLEY_GROWTH
+            found = [(sign, jump(pt, direction, sign * step)) for sign in (1.0, -1.0)]
+            probes = [(sign, q) for sign, q in found
+                      if q is not None and q.cost < (1.0 - _VALLEY_GAIN) * pt.cost]
+            if probes:
+                break
+        if not probes:
+            return pt
+        sign, best = min(probes, key=lambda item: item[1].cost)
+        for _grow in range(4):
+            step *= _VALLEY_GROWTH
+            trial = jump(pt, direction, sign * step)
+            if trial is None or trial.cost >= best.cost:
+                break
+            best = trial
+        pt = best
+    return pt
+
+
+def initial_estimate(
+    problem: Problem, polish: int = 3, guess: Array | None = None
+) -> tuple[Array, str]:
+    """Best automatic start for a problem: candidates, ranked by cost, a small multistart.
+
+    The candidates (equation error at several filter bandwidths, the physics grid, a
+    heuristic) are ranked by their cost with the best linear C and offset; the best
+    ``polish`` of them, plus the best of each kind not among them, are polished by a short
+    Levenberg-Marquardt run (a multistart against local minima), and the best polished point
+    is walked along a flat valley when the polish ran out of evaluations there.
+
+    Parameters
+    ----------
+    problem : Problem
+        The identification problem.
+    polish : int
+        How many of the best-ranked candidates are polished.
+    guess : ndarray, optional
+        A user's starting parameters (canonical order). It joins the multistart: it is
+        polished too and wins when it leads to the lowest cost, so a good guess is kept and a
+        poor one (a different basin) cannot trap the fit.
 
     Returns
     -------
@@ -314,36 +478,49 @@ def initial_estimate(problem: Problem, polish: int = 3) -> tuple[Array, str]:
     note : str
         A sentence for the result saying how the start was found.
     """
-    from .fit import _initial_linear, _solve_lm  # the polish reuses the default solver
+    from .fit import _initial_linear
 
     cands = candidate_starts(problem)
+    if problem.fixed:
+        # Candidates ignore held parameters; put the held values in before ranking.
+        cands = [problem.full_theta(np.asarray(c, dtype=float)[problem.free_idx])
+                 for c in cands]
     scored: list[tuple[float, Array]] = []
     for theta in cands:
         try:
             scale, offset = _initial_linear(problem, theta, {})
-            with np.errstate(all="ignore"):
-                r = problem.residual_vector(problem.outputs(theta), scale, offset)
-            cost = float(r @ r)
         except (ValueError, np.linalg.LinAlgError):
             continue
+        cost = _cost_at(problem, theta, scale, offset)
         if math.isfinite(cost):
             scored.append((cost, theta))
     if not scored:
         return _heuristic(problem, problem.data), "automatic start: heuristic (no candidate)"
     scored.sort(key=lambda item: item[0])
-    best_cost, best = scored[0]
-    for _cost, theta in scored[:polish]:
-        scale, offset = _initial_linear(problem, theta, {})
-        raw = _solve_lm(problem, theta, scale, offset, tol=1e-8, max_nfev=60)
-        if "theta" not in raw:
-            continue
-        with np.errstate(all="ignore"):
-            r = problem.residual_vector(problem.outputs(raw["theta"]), raw["scale"],
-                                        raw["offset"])
-        cost = float(r @ r)
-        if math.isfinite(cost) and cost < best_cost:
-            best_cost, best = cost, raw["theta"]
-    return best, (
-        f"automatic start: equation-error estimate over {len(cands)} candidate(s), "
-        f"best {min(polish, len(scored))} polished"
+    points = [pt for _c, theta in scored[:polish]
+              if (pt := _polish(problem, theta, 60)) is not None]
+    from_guess = None
+    if guess is not None:
+        from_guess = _polish(problem, np.asarray(guess, dtype=float), 60)
+        if from_guess is not None:
+            points.append(from_guess)
+    if not points:
+        if guess is not None:
+            return np.asarray(guess, dtype=float), "start: the given guess (nothing better found)"
+        return scored[0][1], "automatic start: best unpolished candidate"
+    best = min(points, key=lambda pt: pt.cost)
+    walked = ""
+    if best.stopped_early:
+        before = best.cost
+        best = _valley_walk(problem, best)
+        if best.cost < before:
+            walked = ", then walked along a flat valley"
+    kind = "automatic start"
+    if guess is not None:
+        kind = ("start: the given guess, checked against the automatic start"
+                if best is from_guess or (from_guess is not None and from_guess.cost <= best.cost)
+                else "start: automatic (it reached a lower cost than the given guess)")
+    return best.theta, (
+        f"{kind}: equation-error and grid estimates ({len(cands)} candidates), "
+        f"best {len(points)} polished{walked}"
     )

@@ -1,0 +1,189 @@
+"""Identifiability findings and uncertainties (pumpid.diagnostics)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from pumpid import Kelvin, MassSpringDamper, Maxwell, fit, simulate
+from pumpid.cards import read_cards
+from pumpid.diagnostics import analyse_jacobian, describe_direction, diagnose, diagnostics_text
+from pumpid.identify import fit_card
+from pumpid.problem import build_problem
+
+from .conftest import well_load
+
+T = np.linspace(0.0, 20.0, 2001)
+LOAD = well_load(T)
+KELVIN = Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0)
+MAXWELL = Maxwell(k0=90.0, m=2.0, c1=40.0, k1=70.0)
+SYMMETRY = "C and the overall scale of k0, m, c1, k1 are not separately identifiable from rest"
+
+
+def _noisy(model, level=0.01, seed=0, **kw):
+    data = simulate(model, T, LOAD, **kw)
+    rng = np.random.default_rng(seed)
+    return data + level * np.ptp(data) * rng.standard_normal(data.size)
+
+
+def _diagnosed(*args, **kw):
+    res = fit(*args, **kw)
+    diagnose(res)  # idempotent: harmless once fit() calls it itself
+    return res
+
+
+def test_uncertainty_fields_for_an_ordinary_fit() -> None:
+    data = _noisy(KELVIN)
+    res = _diagnosed(KELVIN, T, LOAD, data, offset=True)
+    assert res.converged
+    names = list(res.free)
+    assert names == ["k0", "m", "c1", "k1", "offset"]
+    assert set(res.stderr) == set(names) == set(res.ci95)
+    for name in names:
+        se = res.stderr[name]
+        low, high = res.ci95[name]
+        value = res.offset if name == "offset" else res.params[name]
+        assert 0 < se < math.inf
+        assert low < value < high
+        # A 95 % interval is about +-1.96 standard errors wide.
+        assert (high - low) / (2 * se) == pytest.approx(1.961, rel=0.02)
+    corr = res.correlation
+    assert corr["names"] == names
+    mat = np.array(corr["matrix"])
+    assert np.allclose(mat, mat.T) and np.allclose(np.diag(mat), 1.0)
+    assert np.all(np.abs(mat) <= 1 + 1e-12)
+    # Residual variance: 1 % of the range squared, within sampling error.
+    assert res.extra["sigma2"] == pytest.approx((0.01 * np.ptp(data)) ** 2, rel=0.1)
+    assert res.extra["uncertainty"]["sigma2_unit"] == "m^2"
+    assert "white" in res.extra["uncertainty"]["assumptions"]
+    assert res.identifiability == []
+    assert res.extra["determined"]["parameters"] == names
+    # JSON: plain names and numbers, valid (no NaN tokens).
+    d = json.loads(res.to_json(allow_nan=False))
+    assert set(d["stderr"]) == set(names) and d["ci95"]["k0"][0] < res.params["k0"]
+    assert d["correlation"]["names"] == names and d["identifiability"] == []
+    text = diagnostics_text(res)
+    assert "95 % interval" in text and "every fitted value is determined" in text
+
+
+@pytest.mark.parametrize("model", [KELVIN, MAXWELL], ids=lambda m: type(m).__name__)
+@pytest.mark.parametrize("method", ["lm", "newton-fd"])
+def test_scale_symmetry_is_named_with_c_free_from_rest(model, method) -> None:
+    data = _noisy(model, seed=1)
+    start = type(model).from_values(model.values * 1.01)
+    res = _diagnosed(start, T, LOAD, data, scale="free", method=method)
+    assert res.converged, res.reason
+    assert any(SYMMETRY in f and "only their ratios are" in f for f in res.identifiability)
+    assert res.extra["determined"]["gauge"] == "C = 1"
+    assert any("k0/C" in c for c in res.extra["determined"]["combinations"])
+    # On the gauge the four ratios are determined with finite errors.
+    assert all(0 < res.stderr[n] < math.inf for n in res.free)
+
+
+def test_scale_symmetry_not_reported_when_c_fixed_or_state_breaks_it() -> None:
+    data = _noisy(KELVIN, seed=2)
+    res = _diagnosed(KELVIN, T, LOAD, data)
+    assert not any("overall scale" in f for f in res.identifiability)
+    x0 = [0.5, 0.0, 0.1]
+    data = 2.0 * simulate(KELVIN, T, LOAD, initial_state=x0)
+    res = _diagnosed(KELVIN.replace(k0=125.0), T, LOAD, data, scale="free", initial_state=x0)
+    assert res.converged and "C" in res.free
+    assert res.identifiability == []
+    assert res.extra["determined"]["gauge"] is None
+    assert 0 < res.stderr["C"] < 1e-6  # noiseless: determined to rounding
+
+
+@pytest.mark.parametrize("model", [KELVIN, MAXWELL, MassSpringDamper(m=2.0, c=3.0, k=40.0)],
+                         ids=lambda m: type(m).__name__)
+def test_svd_finds_and_words_the_scale_direction(model) -> None:
+    # The five-column Jacobian (parameters and C) the gauge avoids: its null direction is
+    # the overall scale, (1, 1, 1, 1, 1) in log coordinates.
+    problem = build_problem(type(model), T, LOAD, simulate(model, T, LOAD))
+    y, dy = problem.output_and_sensitivities(model.values)
+    jac = np.column_stack([dy, y])
+    names = [*model.param_names(), "C"]
+    info = analyse_jacobian(jac, names, np.r_[model.values, 1.0], y, sigma2=1e-6)
+    assert len(info["structural"]) == 1
+    direction, rel, _se = info["structural"][0]
+    assert rel < 1e-12
+    assert np.allclose(np.abs(direction), 1 / math.sqrt(len(names)), rtol=1e-6)
+    what, plural, det = describe_direction(direction, names)
+    assert what == f"C and the overall scale of {', '.join(model.param_names())}"
+    assert plural and det == "only their ratios are"
+    assert info["undetermined"] == list(range(len(names)))
+    assert np.all(np.isinf(np.diag(info["cov"])))
+
+
+def test_direction_wording() -> None:
+    assert describe_direction(np.array([1.0, 1.0, 0.0]), ["a", "b", "c"])[2] == (
+        "only the ratio a/b is")
+    assert describe_direction(np.array([0.0, 1.0, -1.0]), ["a", "b", "c"])[2] == (
+        "only the product b*c is")
+    what, plural, _ = describe_direction(np.array([0.0, 0.0, 1.0]), ["a", "b", "c"])
+    assert what == "c" and not plural
+    what, _, _ = describe_direction(np.array([0.5, -1.0, 0.01]), ["a", "b", "offset"])
+    assert what.startswith("the trade-off between a and b")
+
+
+def test_boundary_parameter_is_named_with_its_limit_and_gets_no_interval() -> None:
+    # Data from a mass-spring-dashpot: the Kelvin model's series spring k0 runs to infinity.
+    msd = MassSpringDamper(m=2.0, c=60.0, k=90.0)
+    data = simulate(msd, T, LOAD)
+    res = _diagnosed(Kelvin(k0=500.0, m=2.0, c1=60.0, k1=90.0), T, LOAD, data)
+    assert res.status == "boundary", res.reason
+    assert any(f.startswith("k0 is at a boundary") and "mass-spring-dashpot" in f
+               and "lower bound" in f for f in res.identifiability)
+    assert math.isnan(res.stderr["k0"]) and res.ci95["k0"] is None
+    assert res.extra["determined"]["boundary"] == ["k0"]
+    assert json.loads(res.to_json())["ci95"]["k0"] is None
+
+
+def test_practical_non_identifiability_is_reported() -> None:
+    # Heavy noise on a short record: the weakest combination is not pinned down.
+    data = _noisy(KELVIN, level=0.5, seed=3)
+    res = _diagnosed(KELVIN, T[:300], LOAD[:300], data[:300])
+    assert any("practically not" in f and "identifiable" in f for f in res.identifiability), (
+        res.identifiability)
+
+
+def test_failed_fit_gets_empty_uncertainty() -> None:
+    data = simulate(KELVIN, T, LOAD)
+    res = _diagnosed(type(KELVIN).from_values(KELVIN.values * [30, 1 / 30, 30, 1 / 30]), T,
+                     LOAD, data, method="newton-fd", max_iter=3)
+    assert not res.converged
+    if res.model is None:
+        assert res.stderr == {} and res.ci95 == {}
+        assert "not computed" in res.extra["uncertainty"]["note"]
+    json.loads(res.to_json())
+
+
+def test_paper_method_gets_the_same_uncertainties() -> None:
+    data = _noisy(KELVIN, seed=4)
+    lm = _diagnosed(KELVIN, T, LOAD, data)
+    nfd = _diagnosed(KELVIN.replace(k0=121.0), T, LOAD, data, method="newton-fd")
+    assert nfd.converged, nfd.reason
+    for name in lm.free:
+        assert nfd.stderr[name] == pytest.approx(lm.stderr[name], rel=1e-3)
+
+
+@pytest.mark.realdata
+def test_sandia_cards_state_what_is_identifiable(shared_raw) -> None:
+    cards = read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")
+    for card in cards[:2]:
+        res = fit_card(card, "kelvin")
+        diagnose(res)
+        assert res.extra["determined"]["parameters"], res.identifiability
+        if res.extra.get("boundaries"):
+            for b in res.extra["boundaries"]:
+                assert any(f.startswith(f"{b['name']} is at a boundary") for f in
+                           res.identifiability)
+                assert res.ci95[b["name"]] is None
+        if any(b["name"] == "k0" for b in res.extra.get("boundaries", [])):
+            assert any("k0 is at a boundary (it runs to infinity)" in f
+                       for f in res.identifiability)
+        text = diagnostics_text(res)
+        assert "identifiability" in text and "lbf" not in text.split("identifiability")[0][:0]
+        json.loads(res.to_json(allow_nan=False))
