@@ -7,6 +7,11 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 TSTAMP := $(VENV)/.installed-test
 
+# pumpid's matrices are small: a multi-threaded BLAS only oversubscribes the cores.
+export OMP_NUM_THREADS ?= 1
+export OPENBLAS_NUM_THREADS ?= 1
+export MKL_NUM_THREADS ?= 1
+
 .PHONY: demo test lint bench install clean
 
 $(PY):
@@ -27,10 +32,10 @@ demo: $(STAMP)
 	$(VENV)/bin/pumpid demo --out demo-output
 
 lint: $(TSTAMP)
-	$(PY) -m ruff check src tests scripts
+	$(PY) -m ruff check src tests scripts benchmarks
 
 test: $(TSTAMP)
-	$(PY) -m ruff check src tests scripts
+	$(PY) -m ruff check src tests scripts benchmarks
 	MPLBACKEND=Agg $(PY) -m pytest -q
 
 bench: $(STAMP)
