@@ -7,6 +7,7 @@ The main path is data -> model -> simulation -> objective -> solver -> result ->
     print(result.report())
 """
 
+from .batch import BatchResult, fit_many
 from .fit import fit
 from .models import MODELS, FirstOrder, Kelvin, MassSpringDamper, Maxwell, Model, model_class
 from .result import FitResult, Units
@@ -14,6 +15,7 @@ from .simulate import simulate, simulate_sensitivities
 
 __all__ = [
     "MODELS",
+    "BatchResult",
     "FirstOrder",
     "FitResult",
     "Kelvin",
@@ -22,6 +24,7 @@ __all__ = [
     "Model",
     "Units",
     "fit",
+    "fit_many",
     "model_class",
     "simulate",
     "simulate_sensitivities",

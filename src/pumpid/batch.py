@@ -1,0 +1,886 @@
+"""Fit one model to many cards at once: :func:`fit_many`.
+
+A field sends thousands of dynamometer cards; fitting them one by one with
+:func:`pumpid.fit` pays Python and solver overhead per card. :func:`fit_many` fits a whole
+array of cards (cards x samples, on a shared time grid) with one Levenberg-Marquardt
+iteration *vectorized across cards*:
+
+* every iteration makes one batched simulation with exact sensitivities for all the cards
+  still iterating (log-parameters, like the single fit, so parameters stay positive);
+* each card has its own damping parameter, accept/reject decision and convergence test;
+  converged cards leave the active set, so stragglers do not make the others pay;
+* the output scale C (when free) and the position offset (when fitted) are extra columns
+  of the same least-squares problem, exactly as in the single fit (``C y + offset - data``);
+* cards are processed in chunks, so the working memory is bounded by the chunk size and does
+  not grow with the number of cards (only the inputs and the per-card outputs do).
+
+Why vectorized numpy rather than compiled code: pumpid's runtime dependencies are numpy and
+scipy only. No library offers a *batched* Levenberg-Marquardt (scipy's ``least_squares``
+solves one problem per call), so the loop below is hand-written; its per-iteration work is a
+handful of array operations over the chunk, so the Python overhead is paid once per chunk and
+iteration, not per card.
+
+Simulation. On a uniform grid the sensitivity system is not run as one dense augmented
+recursion (as :func:`pumpid.simulate.propagate` does) but in its block structure: the
+augmented transition matrix is block lower-triangular with ``Phi`` on the diagonal and the
+parameter derivatives ``dPhi_i`` in the first block column only, so the states are run first
+(an n-state recursion) and the p sensitivity blocks afterwards as one n-state recursion with p
+right-hand sides driven by ``dPhi_i x + dG_i F``. Same discretization (same matrix
+exponential), same recursion, about half the arithmetic. Other grids fall back to
+:func:`~pumpid.simulate.propagate`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from .models import Model
+from .problem import MIN_SAMPLES, Problem, _is_zero_state, _unit_size, build_problem
+from .simulate import (
+    Grid,
+    InitialState,
+    Integrator,
+    _augment,
+    _discretize,
+    _initial_state_vector,
+    make_grid,
+    propagate,
+)
+
+__all__ = ["BatchResult", "fit_many"]
+
+Array = NDArray[np.float64]
+
+#: Search window around the data's natural parameter scales (times/divided by 1e6), as in
+#: the single fit: a parameter that runs to the window's edge is reported as a boundary.
+_WINDOW = math.log(1e6)
+_LOG_MAX = 700.0
+_MAX_LOG_STEP = 1.0
+#: Working-memory budget of one chunk (bytes). The arrays of one LM iteration (states,
+#: sensitivities, Jacobian, scan temporaries) are sized per card; the chunk is chosen so that
+#: they stay around this size whatever the number of cards.
+_CHUNK_BYTES = 64 * 2**20
+#: Cards per chunk when the working set is small: beyond ~256 cards the per-iteration Python
+#: overhead is already negligible, and smaller chunks stay closer to the CPU caches.
+_CHUNK_MAX = 256
+#: Number of samples the automatic start's shape grid is evaluated on (decimated record).
+_START_SAMPLES = 128
+STATUSES = ("converged", "boundary", "max_iter", "failed")
+
+
+# =========================================================================== result
+@dataclass
+class BatchResult:
+    """Per-card outcome of :func:`fit_many`; every array has one entry per card.
+
+    Attributes
+    ----------
+    model_name : str
+        The fitted model class.
+    param_names : tuple of str
+        Parameter names in canonical order.
+    params : dict of str -> ndarray
+        Fitted parameters by name (on the gauge C = 1 when ``gauge_fixed``).
+    scale, offset : ndarray
+        Output scale C and position offset (fixed or fitted).
+    converged : ndarray of bool
+        True when the card's iteration met a convergence test at an interior point.
+    status : ndarray of str
+        ``converged``; ``boundary`` (a parameter ran to the edge of the search window: the
+        data want a limiting model); ``max_iter`` (iteration budget exhausted); ``failed``
+        (non-finite simulation at the start, or no usable start).
+    iterations : ndarray of int
+        Simulations with sensitivities made for the card after the start (accepted and
+        rejected LM trial points).
+    rmse, r2, cost : ndarray
+        Root-mean-square error (position units), coefficient of determination and
+        0.5 * sum of squared residuals of the fitted displacement.
+    start : ndarray, shape (cards, p)
+        The starting parameters used.
+    gauge_fixed : bool
+        True when a free scale was fixed to C = 1 because of the scale symmetry.
+    """
+
+    model_name: str
+    param_names: tuple[str, ...]
+    params: dict[str, Array]
+    scale: Array
+    offset: Array
+    converged: NDArray[np.bool_]
+    status: NDArray[np.str_]
+    iterations: NDArray[np.int64]
+    rmse: Array
+    r2: Array
+    cost: Array
+    start: Array
+    gauge_fixed: bool = False
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.scale.size)
+
+    @property
+    def theta(self) -> Array:
+        """Fitted parameters as an array (cards, p) in canonical order."""
+        return np.column_stack([self.params[n] for n in self.param_names])
+
+    def result(self, i: int) -> dict[str, Any]:
+        """Card ``i`` as a plain dictionary (parameters, scale, offset, status, statistics)."""
+        return {
+            "card": int(i),
+            "model": self.model_name,
+            "params": {n: float(self.params[n][i]) for n in self.param_names},
+            "scale": float(self.scale[i]),
+            "offset": float(self.offset[i]),
+            "converged": bool(self.converged[i]),
+            "status": str(self.status[i]),
+            "iterations": int(self.iterations[i]),
+            "rmse": float(self.rmse[i]),
+            "r2": float(self.r2[i]),
+            "cost": float(self.cost[i]),
+        }
+
+    def to_records(self) -> list[dict[str, Any]]:
+        """One flat dictionary per card (parameters as top-level keys), e.g. for a table."""
+        out = []
+        for i in range(len(self)):
+            row = self.result(i)
+            params = row.pop("params")
+            out.append({**params, **row})
+        return out
+
+    def summary(self) -> str:
+        """One line: cards per status and the median R^2."""
+        counts = ", ".join(f"{s} {int(np.sum(self.status == s))}" for s in STATUSES
+                           if np.any(self.status == s))
+        r2 = float(np.nanmedian(self.r2)) if len(self) else math.nan
+        return f"{self.model_name}: {len(self)} cards ({counts}); median R^2 = {r2:.6g}"
+
+
+# =========================================================================== simulation
+@dataclass(frozen=True)
+class _Engine:
+    """Everything a chunk needs to simulate its cards: model, grid and options."""
+
+    model_cls: type[Model]
+    grid: Grid
+    integrator: Integrator
+    initial_state: InitialState
+    period: float | None
+    k_obs: int
+
+    @property
+    def n(self) -> int:
+        return self.model_cls.n_states()
+
+    @property
+    def p(self) -> int:
+        return len(self.model_cls.param_names())
+
+    @property
+    def fast(self) -> bool:
+        """The block-structured recursion applies (uniform grid, linear input)."""
+        return self.grid.uniform and not self.model_cls.transforms_input
+
+    def evaluate(self, theta: Array, f: Array) -> tuple[Array, Array]:
+        """Observed output y (b, N) and dy/dtheta (b, N, p) for cards theta (b, p), f (b, N)."""
+        if not self.fast:
+            x = propagate(self.model_cls, theta, self.grid, f, initial_state=self.initial_state,
+                          integrator=self.integrator, sensitivities=True, period=self.period)
+            n, k = self.n, self.k_obs
+            return x[..., k], x[..., [n * (i + 1) + k for i in range(self.p)]]
+        return self._structured(theta, f)
+
+    def outputs(self, theta: Array, f: Array, grid: Grid | None = None) -> Array:
+        """Observed output only; ``theta`` (..., p) broadcasts against ``f`` (..., N)."""
+        x = propagate(self.model_cls, theta, grid or self.grid, f,
+                      initial_state=self.initial_state, integrator=self.integrator,
+                      sensitivities=False, period=self.period)
+        return x[..., self.k_obs]
+
+    # ------------------------------------------------------------------ structured recursion
+    def _structured(self, theta: Array, f: Array) -> tuple[Array, Array]:
+        n, p = self.n, self.p
+        b = f.shape[0]
+        a, bv, da, db = self.model_cls.system_batch(theta)
+        big_a, big_b = _augment(a, bv, da, db)
+        # The same discretization as propagate (one expm of the augmented FOH matrix), read in
+        # blocks: Phi (n, n), the derivative blocks dPhi_i, and the forcing vectors.
+        phi_aug, g0, g1 = _discretize(big_a, big_b, self.grid.dt, self.integrator)
+        mode = self.initial_state
+        x0_aug = np.zeros((b, n * (p + 1)))
+        if not isinstance(mode, str):
+            x0_aug[:, :n] = _initial_state_vector(self.model_cls, mode)
+        elif mode == "equilibrium":
+            x0_aug = -np.linalg.solve(big_a, (big_b * f[:, :1])[..., None])[..., 0]
+        x, s = _run(phi_aug, g0, g1, f, x0_aug, n, p)
+        if mode == "periodic":
+            x0_aug = self._periodic_start(big_a, big_b, phi_aug, f, x[:, -1], s[:, -1])
+            xh, sh = _run(phi_aug, None, None, f, x0_aug, n, p)
+            x += xh
+            s += sh
+        k = self.k_obs
+        return x[:, :, k], s[:, :, :, k]
+
+    def _periodic_start(
+        self, big_a: Array, big_b: Array, phi_aug: Array, f: Array, x_end: Array, s_end: Array
+    ) -> Array:
+        """Augmented periodic initial state (I - Phi_T)^-1 X_T, as propagate computes it."""
+        grid = self.grid
+        span = grid.t[-1] - grid.t[0]
+        period = self.period if self.period is not None else span + grid.dt
+        if not period > span:
+            raise ValueError(
+                f"period = {period:g} s must exceed the record's span {span:g} s (the samples "
+                "cover one period, without a repeated closing point)"
+            )
+        phi_c, g0_c, g1_c = _discretize(big_a, big_b, period - span, self.integrator)
+        last = np.concatenate([x_end, s_end.reshape(s_end.shape[0], -1)], axis=1)
+        x_t = (phi_c @ last[..., None])[..., 0] + g0_c * f[:, -1:] + g1_c * f[:, :1]
+        if self.integrator == "exact":
+            phi_t = scipy.linalg.expm(big_a * period)
+        else:
+            phi_t = phi_c @ np.linalg.matrix_power(phi_aug, grid.n - 1)
+        size = big_a.shape[-1]
+        return np.linalg.solve(np.eye(size) - phi_t, x_t[..., None])[..., 0]
+
+
+def _scan_rows(phi_t: Array, x: Array, m: int) -> None:
+    """In place: x_k += Phi x_{k-1} along time, log-depth, for m right-hand sides.
+
+    ``x`` is (b, K*m, n) with the m rows of time k at k*m .. k*m+m-1 (row vectors, so the
+    transition is applied as ``x @ Phi^T``); ``phi_t`` is Phi^T (b, n, n).
+    """
+    rows = x.shape[1]
+    power = phi_t
+    shift = m
+    while shift < rows:
+        x[:, shift:] += x[:, :-shift] @ power
+        shift *= 2
+        if shift < rows:
+            power = power @ power
+
+
+def _run(
+    phi_aug: Array, g0: Array | None, g1: Array | None, f: Array, x0_aug: Array, n: int, p: int
+) -> tuple[Array, Array]:
+    """States (b, N, n) and sensitivities (b, N, p, n) of the block-structured recursion.
+
+    ``x[k] = Phi x[k-1] + G0x F[k-1] + G1x F[k]`` and
+    ``s_i[k] = Phi s_i[k-1] + dPhi_i x[k-1] + G0s_i F[k-1] + G1s_i F[k]`` from the augmented
+    initial state ``x0_aug`` = (x0, s0_1 .. s0_p). ``g0 is None`` runs the free response.
+    """
+    b, n_samples = f.shape
+    phi_t = np.ascontiguousarray(np.swapaxes(phi_aug[:, :n, :n], -1, -2))
+    x = np.empty((b, n_samples, n))
+    x[:, 0] = x0_aug[:, :n]
+    if g0 is None or g1 is None:
+        x[:, 1:] = 0.0
+    else:
+        # Forcing of the state rows as one small matmul: [F[k-1], F[k]] @ [G0x; G1x].
+        ff = np.stack([f[:, :-1], f[:, 1:]], axis=2)
+        np.matmul(ff, np.stack([g0[:, :n], g1[:, :n]], axis=1), out=x[:, 1:])
+    _scan_rows(phi_t, x, 1)
+    # Sensitivity forcing [x[k-1], F[k-1], F[k]] @ [dPhi^T; G0s; G1s]: one matmul per card.
+    dphi_t = phi_aug[:, n:, :n].reshape(b, p, n, n).transpose(0, 3, 1, 2).reshape(b, n, p * n)
+    s = np.empty((b, n_samples, p * n))
+    s[:, 0] = x0_aug[:, n:]
+    if g0 is None or g1 is None:
+        np.matmul(x[:, :-1], dphi_t, out=s[:, 1:])
+    else:
+        coef = np.concatenate([dphi_t, g0[:, None, n:], g1[:, None, n:]], axis=1)
+        rhs = np.concatenate([x[:, :-1], ff], axis=2)
+        np.matmul(rhs, coef, out=s[:, 1:])
+    s_rows = s.reshape(b, n_samples * p, n)
+    _scan_rows(phi_t, s_rows, p)
+    return x, s.reshape(b, n_samples, p, n)
+
+
+# =========================================================================== validation
+def _as_cards(name: str, values: ArrayLike, n_samples: int) -> Array:
+    try:
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: not an array of numbers ({exc})") from None
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2:
+        raise ValueError(f"{name}: expected an array (cards, samples), got shape {arr.shape}")
+    if arr.shape[1] != n_samples:
+        raise ValueError(
+            f"{name}: {arr.shape[1]} samples per card do not match the time vector's "
+            f"length {n_samples}"
+        )
+    if arr.shape[0] == 0:
+        raise ValueError(f"{name}: no cards")
+    return arr
+
+
+def _chunks(total: int, size: int) -> Iterator[slice]:
+    for start in range(0, total, size):
+        yield slice(start, min(start + size, total))
+
+
+def _first_cards(mask: NDArray[np.bool_], offset: int = 0, limit: int = 5) -> str:
+    idx = np.flatnonzero(mask)[:limit] + offset
+    more = " ..." if mask.sum() > limit else ""
+    return ", ".join(str(int(i)) for i in idx) + more
+
+
+def _check_cards(loads: Array, data: Array, zero_state: bool, block: int) -> None:
+    """Finite values, non-constant displacement and (for load-driven states) varying load.
+
+    Checked block by block so that no temporary of the full size is made.
+    """
+    for sl in _chunks(loads.shape[0], block):
+        for name, arr in (("loads", loads[sl]), ("displacements", data[sl])):
+            bad = ~np.isfinite(arr).all(axis=1)
+            if bad.any():
+                raise ValueError(
+                    f"{name}: non-finite values (NaN or inf) in card(s) "
+                    f"{_first_cards(bad, sl.start)}"
+                )
+        const = np.ptp(data[sl], axis=1) == 0
+        if const.any():
+            raise ValueError(
+                f"displacements: constant in card(s) {_first_cards(const, sl.start)}; "
+                "nothing to fit"
+            )
+        if zero_state:
+            f = loads[sl]
+            flat = np.ptp(f, axis=1) <= 1e-12 * np.maximum(1.0, np.max(np.abs(f), axis=1))
+            if flat.any():
+                raise ValueError(
+                    f"loads: constant in card(s) {_first_cards(flat, sl.start)}; a load-driven "
+                    "initial state then carries no information on the dynamics"
+                )
+
+
+def _default_chunk(engine: _Engine, n_samples: int) -> int:
+    """Cards per chunk from the memory budget (bytes per card of one LM iteration)."""
+    n, p = engine.n, engine.p
+    per_card = 8 * n_samples * (
+        # states + sensitivities (twice in periodic mode), scan temporaries, residual, Jacobian
+        n * (p + 1) * (4 if engine.initial_state == "periodic" else 3) + 3 * (p + 3)
+    )
+    if not engine.fast:
+        # propagate's dense augmented recursion: (N, n(p+1)) states plus forcing and
+        # temporaries, and per-step transitions on a non-uniform grid.
+        size = n * (p + 1)
+        per_card = 8 * n_samples * (5 * size + (3 * size * size if not engine.grid.uniform
+                                                else 0))
+    return int(max(1, min(_CHUNK_MAX, _CHUNK_BYTES // per_card)))
+
+
+# =========================================================================== starts
+def _reference_logs(problem: Problem, loads: Array, data: Array, scale: float) -> Array:
+    """Log of each card's natural parameter scales (cards, p), as the single fit uses."""
+    load_span = np.ptp(loads, axis=1)
+    load_span = np.where(load_span > 0, load_span, np.max(np.abs(loads), axis=1))
+    load_span = np.where(load_span > 0, load_span, 1.0)
+    out_span = np.ptp(data, axis=1) / scale
+    span = float(problem.grid.t[-1] - problem.grid.t[0])
+    if problem.period is not None:
+        span = problem.period
+    base = {"{load}": load_span, "{position}": out_span, "s": span / (2 * math.pi)}
+    cols = [np.broadcast_to(np.asarray(_unit_size(info.unit, base), dtype=float),
+                            load_span.shape) for info in problem.model_cls.param_info()]
+    return np.log(np.column_stack(cols))
+
+
+def _shapes(problem: Problem) -> Array:
+    """Dimensionless candidate shapes: the automatic start's grid (see pumpid.start)."""
+    from .start import _shape_grid
+
+    return _shape_grid(problem)
+
+
+def _grid_starts(
+    engine: _Engine, problem: Problem, loads: Array, data: Array, keep: int
+) -> Array:
+    """The ``keep`` best grid shapes per card, amplitude-matched: (keep, cards, p).
+
+    Every shape is simulated against every card's load and scored by its least-squares
+    amplitude (and offset); the scale symmetry turns the amplitude into an overall parameter
+    level. A start need not be exact, so the shapes are evaluated cheaply: for a periodic
+    stroke on a uniform grid, per harmonic (Y = H(i k w) F, shared H for all cards, scores by
+    Parseval as two matrix products); otherwise by one batched simulation on a decimated copy
+    of the record, a few cards at a time so memory stays bounded.
+    """
+    shapes = _shapes(problem)
+    symmetric = engine.model_cls.scale_symmetric and _is_zero_state(
+        problem.initial_state, engine.model_cls)
+    scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
+    free_amp = symmetric or problem.scale_fixed is None
+    if problem.initial_state == "periodic" and problem.grid.uniform:
+        num, den, sst = _harmonic_scores(engine, problem, shapes, loads, data)
+    else:
+        num, den, sst = _time_scores(engine, problem, shapes, loads, data)
+    with np.errstate(all="ignore"):
+        amp = num / den
+        if free_amp:
+            cost = sst[:, None] - amp * num
+        else:
+            amp = np.full_like(amp, scale)
+            cost = sst[:, None] - 2 * scale * num + scale**2 * den
+    usable = np.isfinite(cost) & np.isfinite(amp) & (amp > 0) & (den > 0)
+    cost = np.where(usable, cost, np.inf)
+    order = np.argsort(cost, axis=1)[:, :keep]
+    picked = shapes[order]  # (b, keep, p)
+    if symmetric:
+        # y(lambda theta) = y(theta) / lambda: the fitted amplitude fixes the level.
+        level = scale / np.take_along_axis(amp, order, axis=1)
+        level = np.where(np.isfinite(level) & (level > 0), level, 1.0)
+        picked = picked * level[..., None]
+    return np.moveaxis(picked, 1, 0)
+
+
+def _harmonic_scores(
+    engine: _Engine, problem: Problem, shapes: Array, loads: Array, data: Array
+) -> tuple[Array, Array, Array]:
+    """<y_s, d>, <y_s, y_s> and <d, d> per card and shape from the harmonics (periodic)."""
+    grid = problem.grid
+    n_samples = grid.n
+    period = problem.period if problem.period is not None else n_samples * grid.dt
+    n_harm = n_samples // 2 + 1
+    omega = 2 * math.pi * np.arange(n_harm) / period
+    a, b, _, _ = engine.model_cls.system_batch(shapes)
+    size = a.shape[-1]
+    with np.errstate(all="ignore"):
+        resolvent = 1j * omega[None, :, None, None] * np.eye(size) - a[:, None]
+        h = np.linalg.solve(resolvent, np.broadcast_to(b[:, None, :, None],
+                                                       (*resolvent.shape[:-1], 1)))
+    h = h[..., engine.k_obs, 0]  # (S, K)
+    weight = np.full(n_harm, 2.0)  # one-sided spectrum: count +-k
+    weight[0] = 1.0
+    if n_samples % 2 == 0:
+        weight[-1] = 1.0
+    rhs = data - (problem.offset_fixed or 0.0)
+    f_hat = np.fft.rfft(loads, axis=1)
+    d_hat = np.fft.rfft(rhs, axis=1)
+    if problem.offset_fixed is None:
+        weight[0] = 0.0  # the mean is absorbed by the fitted offset
+    num = np.real((f_hat * np.conj(d_hat) * weight) @ h.T) / n_samples
+    den = ((np.abs(f_hat) ** 2 * weight) @ (np.abs(h) ** 2).T) / n_samples
+    sst = np.sum(np.abs(d_hat) ** 2 * weight, axis=1) / n_samples
+    bad = ~np.isfinite(h).all(axis=1)
+    num[:, bad], den[:, bad] = np.nan, np.nan
+    return num, den, sst
+
+
+def _time_scores(
+    engine: _Engine, problem: Problem, shapes: Array, loads: Array, data: Array
+) -> tuple[Array, Array, Array]:
+    """The same scores from batched simulations of a decimated record."""
+    n_samples = loads.shape[1]
+    stride = max(1, n_samples // _START_SAMPLES)
+    sub_grid = make_grid(problem.grid.t[::stride])
+    if not sub_grid.uniform or not problem.grid.uniform:
+        stride, sub_grid = 1, problem.grid
+    period = problem.period
+    if problem.initial_state == "periodic" and period is None:
+        period = float(problem.grid.t[-1] - problem.grid.t[0] + problem.grid.dt)
+    sub = _Engine(engine.model_cls, sub_grid, engine.integrator, engine.initial_state,
+                  period, engine.k_obs)
+    f = loads[:, ::stride]
+    rhs = data[:, ::stride] - (problem.offset_fixed or 0.0)
+    if problem.offset_fixed is None:
+        rhs = rhs - rhs.mean(axis=1, keepdims=True)
+    n_cards, n_shapes = f.shape[0], shapes.shape[0]
+    num = np.empty((n_cards, n_shapes))
+    den = np.empty((n_cards, n_shapes))
+    per_card = 8 * n_shapes * sub_grid.n * engine.n * 6
+    for sl in _chunks(n_cards, max(1, _CHUNK_BYTES // per_card)):
+        with np.errstate(all="ignore"):
+            ys = sub.outputs(shapes[None, :, :], f[sl, None, :], sub_grid)  # (b, S, N')
+        if problem.offset_fixed is None:
+            ys -= ys.mean(axis=2, keepdims=True)
+        num[sl] = np.einsum("bsn,bn->bs", ys, rhs[sl])
+        den[sl] = np.einsum("bsn,bsn->bs", ys, ys)
+    return num, den, np.sum(rhs**2, axis=1)
+
+
+# =========================================================================== LM core
+@dataclass
+class _Spec:
+    """Static layout of the free vector z = (log theta, [log C], [offset])."""
+
+    p: int
+    scale_fixed: float | None
+    offset_fixed: float | None
+    tol: float
+    max_iter: int
+
+    @property
+    def q(self) -> int:
+        return self.p + (self.scale_fixed is None) + (self.offset_fixed is None)
+
+
+def _linear_start(spec: _Spec, y: Array, d: Array) -> tuple[Array, Array]:
+    """Starting C and offset per card: the best ones for the start (like the single fit)."""
+    b = y.shape[0]
+    scale = np.full(b, spec.scale_fixed if spec.scale_fixed is not None else 1.0)
+    offset = np.full(b, spec.offset_fixed if spec.offset_fixed is not None else 0.0)
+    with np.errstate(all="ignore"):
+        if spec.scale_fixed is None:
+            if spec.offset_fixed is None:
+                yc = y - y.mean(axis=1, keepdims=True)
+                dc = d - d.mean(axis=1, keepdims=True)
+                c = np.sum(yc * dc, axis=1) / np.sum(yc * yc, axis=1)
+            else:
+                dd = d - spec.offset_fixed
+                c = np.sum(y * dd, axis=1) / np.sum(y * y, axis=1)
+            scale = np.where(np.isfinite(c) & (c > 0), c, 1.0)
+        if spec.offset_fixed is None:
+            off = np.mean(d - scale[:, None] * y, axis=1)
+            offset = np.where(np.isfinite(off), off, 0.0)
+    return scale, offset
+
+
+def _residual_jacobian(
+    spec: _Spec, z: Array, y: Array, dy: Array, d: Array
+) -> tuple[Array, Array]:
+    """Residual C y + offset - d (b, N) and its Jacobian in z (b, N, q)."""
+    p = spec.p
+    scale = np.exp(z[:, p]) if spec.scale_fixed is None else np.full(z.shape[0],
+                                                                       spec.scale_fixed)
+    offset = z[:, -1] if spec.offset_fixed is None else spec.offset_fixed
+    r = scale[:, None] * y + (offset[:, None] if np.ndim(offset) else offset) - d
+    jac = np.empty((*y.shape, spec.q))
+    jac[..., :p] = dy * (scale[:, None] * np.exp(z[:, :p]))[:, None, :]
+    col = p
+    if spec.scale_fixed is None:
+        jac[..., col] = scale[:, None] * y
+        col += 1
+    if spec.offset_fixed is None:
+        jac[..., col] = 1.0
+    return r, jac
+
+
+def _lm_chunk(
+    engine: _Engine, spec: _Spec, theta0: Array, f: Array, d: Array, lo: Array, hi: Array
+) -> dict[str, Array]:
+    """Vectorized Levenberg-Marquardt over the cards of one chunk.
+
+    Per card: scaled Levenberg-Marquardt steps (columns of J scaled to unit norm, damping
+    lambda * I in those coordinates, Nielsen's lambda update from the gain ratio), each trial
+    point simulated with sensitivities so an accepted step already has its Jacobian. Stop
+    tests follow MINPACK: relative step <= tol (xtol), relative actual and predicted cost
+    reductions <= tol (ftol), and cosine between residual and Jacobian columns <= tol (gtol).
+    """
+    b = theta0.shape[0]
+    p, q, tol = spec.p, spec.q, spec.tol
+    out = {
+        "z": np.full((b, q), np.nan), "r_ss": np.full(b, np.nan),
+        "iterations": np.zeros(b, dtype=np.int64), "code": np.full(b, 3, dtype=np.int8),
+    }
+    with np.errstate(all="ignore"):
+        y, dy = engine.evaluate(theta0, f)
+    scale0, offset0 = _linear_start(spec, y, d)
+    z = np.empty((b, q))
+    z[:, :p] = np.log(theta0)
+    col = p
+    if spec.scale_fixed is None:
+        z[:, col] = np.log(scale0)
+        col += 1
+    if spec.offset_fixed is None:
+        z[:, col] = offset0
+    with np.errstate(all="ignore"):
+        r, jac = _residual_jacobian(spec, z, y, dy, d)
+    cost = 0.5 * np.einsum("bn,bn->b", r, r)
+    ok = np.isfinite(cost) & np.isfinite(jac).all(axis=(1, 2))
+    # code: 0 converged, 2 max_iter, 3 failed
+    out["z"][~ok] = z[~ok]
+    active = np.flatnonzero(ok)
+    z, r, jac, cost = z[ok], r[ok], jac[ok], cost[ok]
+    lam = np.full(active.size, 1e-3)
+    nu = np.full(active.size, 2.0)
+    iters = np.zeros(active.size, dtype=np.int64)
+    eye = np.eye(q)
+    while active.size:
+        lo_a, hi_a = lo[active], hi[active]
+        with np.errstate(all="ignore"):
+            norms = np.sqrt(np.einsum("bnq,bnq->bq", jac, jac))
+            norms = np.where(norms > 0, norms, 1.0)
+            js = jac / norms[:, None, :]
+            grad = (np.swapaxes(js, 1, 2) @ r[..., None])[..., 0]
+            # A parameter held at an edge of the search window whose gradient points outward
+            # is frozen for this step (bound-constrained LM); pointing inward, it may return.
+            held = np.zeros_like(grad, dtype=bool)
+            held[:, :p] = ((z[:, :p] <= lo_a) & (grad[:, :p] > 0)) | (
+                (z[:, :p] >= hi_a) & (grad[:, :p] < 0))
+            if held.any():
+                js = js * ~held[:, None, :]
+                grad = np.where(held, 0.0, grad)
+            hess = np.swapaxes(js, 1, 2) @ js
+            r_norm = np.sqrt(2.0 * cost)
+            g_cos = np.max(np.abs(grad), axis=1) / np.where(r_norm > 0, r_norm, 1.0)
+            step = np.linalg.solve(hess + lam[:, None, None] * eye, -grad[..., None])[..., 0]
+        dz = step / norms
+        # Trust cap in log-parameter space: at most a factor e^_MAX_LOG_STEP per iteration,
+        # so a Gauss-Newton step along a flat direction cannot fling a parameter into a region
+        # where the model degenerates (the role MINPACK's trust radius plays in the single fit).
+        big = np.max(np.abs(dz[:, :p]), axis=1)
+        dz *= np.minimum(1.0, _MAX_LOG_STEP / np.where(big > 0, big, 1.0))[:, None]
+        z_try = z + dz
+        z_try[:, :p] = np.clip(z_try[:, :p], lo_a, hi_a)
+        if spec.scale_fixed is None:
+            z_try[:, p] = np.clip(z_try[:, p], -_LOG_MAX, _LOG_MAX)
+        dz = z_try - z
+        step = dz * norms
+        with np.errstate(all="ignore"):
+            y, dy = engine.evaluate(np.exp(z_try[:, :p]), f[active])
+            r_try, jac_try = _residual_jacobian(spec, z_try, y, dy, d[active])
+            cost_try = 0.5 * np.einsum("bn,bn->b", r_try, r_try)
+            finite = np.isfinite(cost_try) & np.isfinite(jac_try).all(axis=(1, 2))
+            cost_try = np.where(finite, cost_try, np.inf)
+            pred = -(np.einsum("bq,bq->b", grad, step)
+                     + 0.5 * np.einsum("bq,bqk,bk->b", step, hess, step))
+            actual = cost - cost_try
+            rho = np.where(pred > 0, actual / pred, np.where(actual > 0, 1.0, -1.0))
+        iters += 1
+        accept = finite & (rho > 1e-4)
+        # Nielsen's update: shrink lambda smoothly on good steps, grow geometrically on bad.
+        lam = np.where(accept, lam * np.maximum(1 / 3, 1 - (2 * np.minimum(rho, 1.0) - 1) ** 3),
+                       lam * nu)
+        lam = np.clip(lam, 1e-12, 1e16)
+        nu = np.where(accept, 2.0, nu * 2.0)
+        z_norm = np.linalg.norm(np.where(accept[:, None], z_try, z), axis=1)
+        x_conv = np.linalg.norm(dz, axis=1) <= tol * (z_norm + tol)
+        f_conv = (np.abs(actual) <= tol * cost) & (pred <= tol * cost) & (rho <= 2.0)
+        g_conv = g_cos <= tol
+        z = np.where(accept[:, None], z_try, z)
+        r = np.where(accept[:, None], r_try, r)
+        jac = np.where(accept[:, None, None], jac_try, jac)
+        cost = np.where(accept, cost_try, cost)
+        converged = x_conv | f_conv | g_conv | (cost == 0)
+        exhausted = ~converged & (iters >= spec.max_iter)
+        done = converged | exhausted
+        if done.any():
+            idx = active[done]
+            out["z"][idx] = z[done]
+            out["r_ss"][idx] = 2.0 * cost[done]
+            out["iterations"][idx] = iters[done]
+            out["code"][idx] = np.where(converged[done], 0, 2)
+            keep = ~done
+            active, z, r, jac, cost = active[keep], z[keep], r[keep], jac[keep], cost[keep]
+            lam, nu, iters = lam[keep], nu[keep], iters[keep]
+    return out
+
+
+# =========================================================================== entry point
+def fit_many(
+    model: Model | type[Model],
+    t: ArrayLike,
+    loads: ArrayLike,
+    displacements: ArrayLike,
+    *,
+    observe: str | None = None,
+    initial_state: InitialState = "rest",
+    integrator: Integrator = "exact",
+    scale: float | str = 1.0,
+    offset: bool | float = False,
+    period: float | None = None,
+    x0: ArrayLike | None = None,
+    tol: float = 1e-10,
+    max_iter: int = 100,
+    chunk: int | None = None,
+    workers: int = 1,
+) -> BatchResult:
+    """Fit one model structure to many cards sharing a time grid.
+
+    Parameters
+    ----------
+    model : Model instance or Model class
+        An instance is the shared starting guess for every card; a class asks for an
+        automatic start per card (the best of a grid of dimensionless model shapes, each
+        amplitude-matched to the card; the two best are tried when the first does not
+        converge).
+    t : array_like, shape (N,)
+        Shared sample times (s), strictly increasing, N >= 10.
+    loads, displacements : array_like, shape (cards, N)
+        One card per row (a single 1-D record counts as one card).
+    observe, initial_state, integrator, scale, offset, period
+        As for :func:`pumpid.fit` (``scale`` a positive number or ``"free"``; with the scale
+        symmetry and a load-driven state, a free scale is fixed to the gauge C = 1).
+    x0 : array_like, shape (cards, p) or (p,), optional
+        Starting parameters per card (or shared), canonical order; overrides the model's.
+    tol : float
+        Relative tolerance of the stop tests (step, cost reduction, gradient cosine).
+    max_iter : int
+        Maximum LM trial points per card.
+    chunk : int, optional
+        Cards per vectorized chunk; by default chosen so that one chunk's working arrays
+        stay around 64 MB (memory does not grow with the number of cards).
+    workers : int
+        Threads working on different chunks (numpy releases the GIL in its array
+        operations, so two workers use two cores). Results do not depend on it.
+
+    Returns
+    -------
+    BatchResult
+        Per-card parameters, scale, offset, status and fit quality. A card whose fit fails
+        does not raise; bad input (shapes, non-finite values, constant records, options)
+        raises ``ValueError`` naming the offending cards.
+    """
+    if isinstance(model, Model):
+        cls: type[Model] = type(model)
+        shared: Array | None = model.values
+    elif isinstance(model, type) and issubclass(model, Model):
+        cls, shared = model, None
+    else:
+        raise TypeError(
+            "model must be a model instance (a shared starting guess, e.g. Kelvin(k0=4, m=1, "
+            f"c1=0.2, k1=4)) or a model class (automatic start per card), got {model!r}"
+        )
+    grid = make_grid(t, min_samples=1)
+    if grid.n < MIN_SAMPLES:
+        raise ValueError(f"t: {grid.n} samples; a fit needs at least {MIN_SAMPLES}")
+    f_all = _as_cards("loads", loads, grid.n)
+    d_all = _as_cards("displacements", displacements, grid.n)
+    if f_all.shape != d_all.shape:
+        raise ValueError(
+            f"loads has {f_all.shape[0]} cards but displacements has {d_all.shape[0]}"
+        )
+    if not (isinstance(max_iter, int | np.integer) and max_iter >= 1):
+        raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
+    if not (math.isfinite(tol) and tol > 0):
+        raise ValueError(f"tol must be positive, got {tol!r}")
+    n_cards = f_all.shape[0]
+    x0_state = _initial_state_vector(cls, initial_state)
+    _check_cards(f_all, d_all, x0_state is None, 1024)
+    # The options are validated (and the gauge decided) exactly as for a single fit.
+    problem = build_problem(cls, grid.t, f_all[0], d_all[0], observe=observe,
+                            initial_state=initial_state, integrator=integrator, scale=scale,
+                            offset=offset, period=period)
+    p = len(cls.param_names())
+    theta_start: Array | None = None
+    if x0 is not None:
+        arr = np.asarray(x0, dtype=float)
+        if arr.ndim == 1:
+            arr = np.broadcast_to(arr, (n_cards, arr.size))
+        if arr.shape != (n_cards, p):
+            raise ValueError(f"x0: expected shape ({n_cards}, {p}) or ({p},), got {arr.shape}")
+        if not (np.isfinite(arr).all() and (arr > 0).all()):
+            raise ValueError("x0: starting parameters must be positive and finite")
+        theta_start = arr
+    elif shared is not None:
+        theta_start = np.broadcast_to(shared, (n_cards, p))
+
+    engine = _Engine(cls, grid, integrator, problem.initial_state, period,
+                     cls.output_index(problem.observe))
+    spec = _Spec(p, problem.scale_fixed, problem.offset_fixed, float(tol), int(max_iter))
+    size = int(chunk) if chunk is not None else _default_chunk(engine, grid.n)
+    if size < 1:
+        raise ValueError(f"chunk must be a positive integer, got {chunk!r}")
+
+    out_z = np.full((n_cards, spec.q), np.nan)
+    out_ss = np.full(n_cards, np.nan)
+    out_it = np.zeros(n_cards, dtype=np.int64)
+    out_code = np.full(n_cards, 3, dtype=np.int8)
+    out_edge = np.zeros(n_cards, dtype=bool)
+    out_start = np.full((n_cards, p), np.nan)
+    ref_scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
+
+    def work(sl: slice) -> None:
+        f, d = f_all[sl], d_all[sl]
+        ref = _reference_logs(problem, f, d, ref_scale)
+        if theta_start is not None:
+            starts = [np.array(theta_start[sl], dtype=float)]
+        else:
+            starts = list(_grid_starts(engine, problem, f, d, keep=2))
+        best: dict[str, Array] | None = None
+        best_edge = np.zeros(f.shape[0], dtype=bool)
+        for theta0 in starts:
+            todo = np.arange(f.shape[0]) if best is None else np.flatnonzero(
+                (best["code"] != 0) | best_edge)
+            if todo.size == 0:
+                break
+            z0 = np.log(theta0[todo])
+            lo = np.minimum(ref[todo] - _WINDOW, z0 - 1.0)
+            hi = np.maximum(ref[todo] + _WINDOW, z0 + 1.0)
+            res = _lm_chunk(engine, spec, theta0[todo], f[todo], d[todo], lo, hi)
+            zt = res["z"][:, :p]
+            edge = ((zt <= lo) | (zt >= hi)).any(axis=1)
+            if best is None:
+                best, best_edge = res, edge
+                best["start"] = theta0
+                continue
+            # A later start replaces the earlier result only where it is better.
+            old_cost = np.where(np.isfinite(best["r_ss"][todo]), best["r_ss"][todo], np.inf)
+            better = (res["code"] != 3) & (np.nan_to_num(res["r_ss"], nan=np.inf) < old_cost
+                                           * (1 - 1e-9)) | ((best["code"][todo] == 3)
+                                                            & (res["code"] != 3))
+            tgt = todo[better]
+            for key in ("z", "r_ss", "iterations", "code"):
+                best[key][tgt] = res[key][better]
+            best["iterations"][todo[~better]] += res["iterations"][~better]
+            best_edge[tgt] = edge[better]
+            best["start"][tgt] = theta0[tgt]
+        assert best is not None
+        out_z[sl] = best["z"]
+        out_ss[sl] = best["r_ss"]
+        out_it[sl] = best["iterations"]
+        out_code[sl] = best["code"]
+        out_edge[sl] = best_edge
+        out_start[sl] = best["start"]
+
+    slices = list(_chunks(n_cards, size))
+    n_workers = max(1, min(int(workers), len(slices), os.cpu_count() or 1))
+    if n_workers == 1:
+        for sl in slices:
+            work(sl)
+    else:
+        with ThreadPoolExecutor(n_workers) as pool:
+            list(pool.map(work, slices))
+
+    theta = np.exp(out_z[:, :p])
+    col = p
+    if spec.scale_fixed is None:
+        scale_arr = np.exp(out_z[:, col])
+        col += 1
+    else:
+        scale_arr = np.full(n_cards, spec.scale_fixed)
+    offset_arr = out_z[:, col] if spec.offset_fixed is None else np.full(n_cards,
+                                                                          spec.offset_fixed)
+    status = np.array(STATUSES, dtype=object)[
+        np.where(out_code == 0, np.where(out_edge, 1, 0), np.where(out_code == 2, 2, 3))
+    ].astype(str)
+    failed = status == "failed"
+    theta[failed] = np.nan
+    scale_arr = np.where(failed, np.nan, scale_arr)
+    offset_arr = np.where(failed, np.nan, offset_arr)
+    out_ss = np.where(failed, np.nan, out_ss)
+    sst = np.empty(n_cards)
+    for sl in _chunks(n_cards, 1024):
+        dd = d_all[sl]
+        sst[sl] = np.sum((dd - dd.mean(axis=1, keepdims=True)) ** 2, axis=1)
+    with np.errstate(all="ignore"):
+        r2 = 1.0 - out_ss / sst
+    return BatchResult(
+        model_name=cls.__name__,
+        param_names=cls.param_names(),
+        params={name: theta[:, i].copy() for i, name in enumerate(cls.param_names())},
+        scale=scale_arr,
+        offset=offset_arr,
+        converged=status == "converged",
+        status=status,
+        iterations=out_it,
+        rmse=np.sqrt(out_ss / grid.n),
+        r2=r2,
+        cost=0.5 * out_ss,
+        start=out_start,
+        gauge_fixed=problem.gauge_fixed,
+        options={"observe": problem.observe, "initial_state": initial_state,
+                 "integrator": integrator, "scale": scale, "offset": offset, "period": period,
+                 "tol": tol, "max_iter": max_iter, "chunk": size, "workers": n_workers},
+    )
