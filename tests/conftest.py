@@ -9,6 +9,17 @@ import pytest
 
 SHARED_RAW = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "raw"
 
+#: Figures that tests on real data report (printed in the terminal summary, even with -q).
+REPORTED: list[str] = []
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:
+    """Print what the real-data tests measured, so the figures are in every CI log."""
+    if REPORTED:
+        terminalreporter.section("figures measured on real cards")
+        for line in REPORTED:
+            terminalreporter.write_line(line)
+
 
 def well_load(t: np.ndarray, period: float = 7.5, seed: int = 0) -> np.ndarray:
     """A varying, card-like load: rod weight, fluid load picked up and released, ripple."""

@@ -11,6 +11,8 @@ import pumpid
 from pumpid.cards import Card, read_cards
 from pumpid.identify import evaluate_prediction, fit_card, predict, predict_card
 
+from .conftest import REPORTED
+
 
 def _example_cards() -> list[Card]:
     ref = resources.files("pumpid") / "data" / "example_cards.csv"
@@ -85,7 +87,8 @@ def sandia_cards():
 @pytest.mark.parametrize("card_id", ["SX6E03A", "SX6E03B", "SX6I03A", "SX6I03B"])
 def test_every_sandia_card_fits_kelvin_with_r2_above_099(sandia_cards, card_id) -> None:
     res = fit_card(sandia_cards[card_id], "kelvin")
-    print(f"{card_id}: Kelvin periodic+offset R^2 = {res.r2:.5f}, status {res.status}")
+    REPORTED.append(f"{card_id}: Kelvin (periodic, offset) R^2 = {res.r2:.5f}, status "
+                    f"{res.status}")
     assert res.r2 >= 0.99
     assert res.status in ("converged", "boundary")
     if res.status == "boundary":
@@ -96,6 +99,6 @@ def test_every_sandia_card_fits_kelvin_with_r2_above_099(sandia_cards, card_id) 
 def test_sandia_fit_one_stroke_predict_the_next(sandia_cards) -> None:
     res = fit_card(sandia_cards["SX6E03A"], "kelvin")
     pred = predict_card(res, sandia_cards["SX6E03B"])
-    print(f"SX6E03A fitted (R^2 = {res.r2:.5f}); SX6E03B predicted: R^2 = {pred['r2']:.5f}, "
-          f"RMSE = {pred['rmse']:.3f} {res.units.position}")
+    REPORTED.append(f"SX6E03A fitted (R^2 = {res.r2:.5f}); SX6E03B predicted with it: "
+                    f"R^2 = {pred['r2']:.5f}, RMSE = {pred['rmse']:.3f} {res.units.position}")
     assert pred["r2"] > 0.98
