@@ -25,7 +25,7 @@ from .simulate import (
     _initial_state_vector,
     check_signal,
     make_grid,
-    propagate,
+    observed,
 )
 
 __all__ = ["MIN_SAMPLES", "Problem", "build_problem"]
@@ -142,22 +142,22 @@ class Problem:
     # ------------------------------------------------------------------ evaluation
     def outputs(self, theta: ArrayLike) -> NDArray[np.float64]:
         """Unscaled model output for one (p,) or a batch (K, p) of parameter vectors."""
-        x = propagate(self.model_cls, theta, self.grid, self.load,
-                      initial_state=self.initial_state, integrator=self.integrator,
-                      sensitivities=False, period=self.period)
-        return x[..., self.out_index]
+        y = observed(self.model_cls, theta, self.grid, self.load, [self.out_index],
+                     initial_state=self.initial_state, integrator=self.integrator,
+                     sensitivities=False, period=self.period)
+        return y[..., 0]
 
     def output_and_sensitivities(
         self, theta: ArrayLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Unscaled output y (N,) and exact dy/dtheta (N, p_free) for the fitted parameters."""
-        x = propagate(self.model_cls, theta, self.grid, self.load,
-                      initial_state=self.initial_state, integrator=self.integrator,
-                      sensitivities=True, period=self.period)
         n = self.model_cls.n_states()
         k = self.out_index
-        cols = [n * (i + 1) + k for i in self.free_idx]
-        return x[:, k], x[:, cols]
+        rows = [k] + [n * (i + 1) + k for i in self.free_idx]
+        y = observed(self.model_cls, theta, self.grid, self.load, rows,
+                     initial_state=self.initial_state, integrator=self.integrator,
+                     sensitivities=True, period=self.period)
+        return y[:, 0], y[:, 1:]
 
     def predict(self, theta: ArrayLike, scale: float, offset: float) -> NDArray[np.float64]:
         """Fitted displacement C y + offset (position units)."""
