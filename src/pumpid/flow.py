@@ -1288,25 +1288,11 @@ def write_flow_outputs(
     pressure drop and flow rate (``flow.png``, ``characteristic.png``, ``residuals.png``,
     ``history.png``) instead of the card figures.
     """
-    from .plots import figure_to_png
-    from .report import write_report
+    from .report import write_outputs
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     figs = {**flow_figures(result), **dict(extra_figures or {})}
-    pngs = {name: figure_to_png(fig) for name, fig in figs.items()}
-    paths: dict[str, Path] = {}
-    for name, png in pngs.items():
-        path = out / f"{name}.png"
-        path.write_bytes(png)
-        paths[name] = path
-    json_path = out / "result.json"
-    json_path.write_text(result.to_json(indent=2) + "\n", encoding="utf-8")
-    paths["json"] = json_path
-    paths["report"] = write_report(result, out, title=title or _title(result), figures=pngs,
-                                   notes=_flow_notes(result, notes),
-                                   extra_sections=extra_sections)
-    return paths
+    return write_outputs(result, out_dir, title=title or _title(result), figures=figs,
+                         notes=_flow_notes(result, notes), extra_sections=extra_sections)
 
 
 def write_study_outputs(study: StepStudy, out_dir: str | os.PathLike[str]) -> dict[str, Path]:

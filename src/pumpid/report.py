@@ -659,8 +659,13 @@ def write_outputs(
     prediction: Mapping[str, Any] | None = None,
     title: str | None = None,
     dpi: float = DEFAULT_DPI,
+    figures: Mapping[str, Figure | bytes] | None = None,
+    extra_sections: Any = None,
 ) -> dict[str, Path]:
     """Write the figures as PNG files, ``result.json`` and ``report.html`` into ``out_dir``.
+
+    ``figures`` replaces the standard card figures (for other applications, e.g. flow);
+    ``extra_sections`` is passed to :func:`render_html`.
 
     Each figure is rendered once and the same PNG bytes are written to disk and embedded in
     the report.
@@ -688,7 +693,8 @@ def write_outputs(
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    pngs = _to_pngs(_default_figures(result, prediction), dpi)
+    chosen = _default_figures(result, prediction) if figures is None else figures
+    pngs = _to_pngs(chosen, dpi)
     paths: dict[str, Path] = {}
     for name, png in pngs.items():
         path = out / f"{name}.png"
@@ -698,5 +704,5 @@ def write_outputs(
     json_path.write_text(result.to_json(indent=2) + "\n", encoding="utf-8")
     paths["json"] = json_path
     paths["report"] = write_report(result, out, title=title, figures=pngs, notes=notes,
-                                   prediction=prediction)
+                                   prediction=prediction, extra_sections=extra_sections)
     return paths
