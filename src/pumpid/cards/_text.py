@@ -89,7 +89,7 @@ def decode(data: bytes | str, *, path: str, encoding: str | None) -> tuple[str, 
 def parse_number(token: str) -> float:
     """Parse one number as written by common tools, Fortran included.
 
-    Accepts ``8.543831E-03``, ``.0263998``, ``-5.``, ``1.0D-03`` (Fortran double exponent),
+    Accepts ``1.25E-03``, ``.0375``, ``-5.``, ``1.0D-03`` (Fortran double exponent),
     ``nan`` and ``inf`` (these are rejected later with a clear message). Rejects Python-only
     spellings such as ``1_000``.
 
