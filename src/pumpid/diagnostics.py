@@ -422,16 +422,21 @@ def diagnostics_text(result: FitResult) -> str:
             f"{unc.get('sigma2_unit', '')}, {unc.get('dof')} degrees of freedom"
         )
         lines.append(f"  ({unc.get('assumptions', '')})")
-        lines.append(f"  {'value':<15}  {'std. error':<12}  {'rel.':<8}  95 % interval")
+        lines.append(f"  {'value':<15}  {'std. error':<12}  {'rel.':<8}  "
+                     f"{'95 % interval':<30}  unit")
         values = dict(zip(result.free, _free_values(result).tolist(), strict=True))
+        units = {**result.param_units(), "C": "-", "D": "-", "offset": result.units.position}
         for name in result.free:
-            se = stderr.get(name, math.nan)
+            se = stderr.get(name)
+            se = math.nan if se is None else float(se)
             v = values[name]
             rel = abs(se / v) if v and math.isfinite(se) else math.nan
             ci = extra.get("ci95", {}).get(name)
             ci_txt = f"[{ci[0]:.6g}, {ci[1]:.6g}]" if ci else "none"
             rel_txt = f"{100 * rel:.3g} %" if math.isfinite(rel) else "n/a"
-            lines.append(f"  {name:<15}  {se:<12.4g}  {rel_txt:<8}  {ci_txt}")
+            se_txt = f"{se:.4g}" if math.isfinite(se) else "n/a"
+            lines.append(f"  {name:<15}  {se_txt:<12}  {rel_txt:<8}  {ci_txt:<30}  "
+                         f"{units.get(name, '')}")
         for note in unc.get("notes", []):
             lines.append(f"  note: {note}")
         corr = extra.get("correlation", {})

@@ -44,6 +44,10 @@ CAPTIONS: dict[str, str] = {
     "history": "Convergence: cost per iteration on a log scale, and the relative change of "
                "each fitted value per iteration.",
     "prediction": "Prediction of a record the model was not fitted on.",
+    "flow": "Measured and fitted flow rate over time, with the pressure drop that drives it.",
+    "characteristic": "Flow rate against pressure drop: record and surrogate.",
+    "tau_vs_step": "Time constant against the size of the pressure-drop step: a linear "
+                   "first-order fit per step, and the surrogates with one parameter set.",
 }
 
 # Keys of result.extra that have their own section, so the catch-all "other results" section

@@ -109,8 +109,8 @@ def make_grid(t: ArrayLike, min_samples: int = 2) -> Grid:
     if (steps <= 0).any():
         i = int(np.flatnonzero(steps <= 0)[0])
         raise ValueError(
-            f"t: time must be strictly increasing; t[{i + 1}] = {tt[i + 1]!r} "
-            f"follows t[{i}] = {tt[i]!r}"
+            f"t: time must be strictly increasing; t[{i + 1}] = {float(tt[i + 1])!r} s "
+            f"follows t[{i}] = {float(tt[i])!r} s"
         )
     mean = (tt[-1] - tt[0]) / (tt.size - 1)
     uniform = bool(np.all(np.abs(steps - mean) <= _UNIFORM_RTOL * mean))
