@@ -20,14 +20,11 @@ solves one problem per call), so the loop below is hand-written; its per-iterati
 handful of array operations over the chunk, so the Python overhead is paid once per chunk and
 iteration, not per card.
 
-Simulation. On a uniform grid the sensitivity system is not run as one dense augmented
-recursion (as :func:`pumpid.simulate.propagate` does) but in its block structure: the
-augmented transition matrix is block lower-triangular with ``Phi`` on the diagonal and the
-parameter derivatives ``dPhi_i`` in the first block column only, so the states are run first
-(an n-state recursion) and the p sensitivity blocks afterwards as one n-state recursion with p
-right-hand sides driven by ``dPhi_i x + dG_i F``. Same discretization (same matrix
-exponential), same recursion, about half the arithmetic. Other grids fall back to
-:func:`~pumpid.simulate.propagate`.
+Simulation. On a uniform grid the outputs and their exact sensitivities come from the
+frequency domain (:func:`pumpid.simulate.observed_blocks`, :mod:`pumpid.spectral`): per
+card, transfer-function polynomials of the discretized sensitivity system, evaluated on a
+DFT grid shared by all cards, and one inverse FFT. Other grids (and a periodic state with an
+unusual period) fall back to :func:`~pumpid.simulate.propagate`'s scan.
 """
 
 from __future__ import annotations
@@ -40,7 +37,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from .models import Model
@@ -49,10 +45,10 @@ from .simulate import (
     Grid,
     InitialState,
     Integrator,
-    _augment,
-    _discretize,
     _initial_state_vector,
+    _spectral_applies,
     make_grid,
+    observed_blocks,
     propagate,
 )
 
@@ -187,18 +183,22 @@ class _Engine:
         return len(self.model_cls.param_names())
 
     @property
-    def fast(self) -> bool:
-        """The block-structured recursion applies (uniform grid, linear input)."""
-        return self.grid.uniform and not self.model_cls.transforms_input
+    def spectral(self) -> bool:
+        """The frequency-domain evaluation applies (see :mod:`pumpid.spectral`)."""
+        return _spectral_applies(self.grid, self.model_cls, self.initial_state, self.period)
 
     def evaluate(self, theta: Array, f: Array) -> tuple[Array, Array]:
-        """Observed output y (b, N) and dy/dtheta (b, N, p) for cards theta (b, p), f (b, N)."""
-        if not self.fast:
-            x = propagate(self.model_cls, theta, self.grid, f, initial_state=self.initial_state,
-                          integrator=self.integrator, sensitivities=True, period=self.period)
-            n, k = self.n, self.k_obs
-            return x[..., k], x[..., [n * (i + 1) + k for i in range(self.p)]]
-        return self._structured(theta, f)
+        """Observed output y (b, N) and dy/dtheta (b, p, N) for cards theta (b, p), f (b, N)."""
+        if self.spectral:
+            out = observed_blocks(self.model_cls, theta, self.grid, f,
+                                  np.array([self.k_obs]), np.arange(self.p),
+                                  initial_state=self.initial_state, integrator=self.integrator)
+            return out[:, 0, 0], out[:, 1:, 0]
+        x = propagate(self.model_cls, theta, self.grid, f, initial_state=self.initial_state,
+                      integrator=self.integrator, sensitivities=True, period=self.period)
+        n, k = self.n, self.k_obs
+        dy = x[..., [n * (i + 1) + k for i in range(self.p)]]
+        return x[..., k], np.swapaxes(dy, 1, 2)
 
     def outputs(self, theta: Array, f: Array, grid: Grid | None = None) -> Array:
         """Observed output only; ``theta`` (..., p) broadcasts against ``f`` (..., N)."""
@@ -206,103 +206,6 @@ class _Engine:
                       initial_state=self.initial_state, integrator=self.integrator,
                       sensitivities=False, period=self.period)
         return x[..., self.k_obs]
-
-    # ------------------------------------------------------------------ structured recursion
-    def _structured(self, theta: Array, f: Array) -> tuple[Array, Array]:
-        n, p = self.n, self.p
-        b = f.shape[0]
-        a, bv, da, db = self.model_cls.system_batch(theta)
-        big_a, big_b = _augment(a, bv, da, db)
-        # The same discretization as propagate (one expm of the augmented FOH matrix), read in
-        # blocks: Phi (n, n), the derivative blocks dPhi_i, and the forcing vectors.
-        phi_aug, g0, g1 = _discretize(big_a, big_b, self.grid.dt, self.integrator)
-        mode = self.initial_state
-        x0_aug = np.zeros((b, n * (p + 1)))
-        if not isinstance(mode, str):
-            x0_aug[:, :n] = _initial_state_vector(self.model_cls, mode)
-        elif mode == "equilibrium":
-            x0_aug = -np.linalg.solve(big_a, (big_b * f[:, :1])[..., None])[..., 0]
-        x, s = _run(phi_aug, g0, g1, f, x0_aug, n, p)
-        if mode == "periodic":
-            x0_aug = self._periodic_start(big_a, big_b, phi_aug, f, x[:, -1], s[:, -1])
-            xh, sh = _run(phi_aug, None, None, f, x0_aug, n, p)
-            x += xh
-            s += sh
-        k = self.k_obs
-        return x[:, :, k], s[:, :, :, k]
-
-    def _periodic_start(
-        self, big_a: Array, big_b: Array, phi_aug: Array, f: Array, x_end: Array, s_end: Array
-    ) -> Array:
-        """Augmented periodic initial state (I - Phi_T)^-1 X_T, as propagate computes it."""
-        grid = self.grid
-        span = grid.t[-1] - grid.t[0]
-        period = self.period if self.period is not None else span + grid.dt
-        if not period > span:
-            raise ValueError(
-                f"period = {period:g} s must exceed the record's span {span:g} s (the samples "
-                "cover one period, without a repeated closing point)"
-            )
-        phi_c, g0_c, g1_c = _discretize(big_a, big_b, period - span, self.integrator)
-        last = np.concatenate([x_end, s_end.reshape(s_end.shape[0], -1)], axis=1)
-        x_t = (phi_c @ last[..., None])[..., 0] + g0_c * f[:, -1:] + g1_c * f[:, :1]
-        if self.integrator == "exact":
-            phi_t = scipy.linalg.expm(big_a * period)
-        else:
-            phi_t = phi_c @ np.linalg.matrix_power(phi_aug, grid.n - 1)
-        size = big_a.shape[-1]
-        return np.linalg.solve(np.eye(size) - phi_t, x_t[..., None])[..., 0]
-
-
-def _scan_rows(phi_t: Array, x: Array, m: int) -> None:
-    """In place: x_k += Phi x_{k-1} along time, log-depth, for m right-hand sides.
-
-    ``x`` is (b, K*m, n) with the m rows of time k at k*m .. k*m+m-1 (row vectors, so the
-    transition is applied as ``x @ Phi^T``); ``phi_t`` is Phi^T (b, n, n).
-    """
-    rows = x.shape[1]
-    power = phi_t
-    shift = m
-    while shift < rows:
-        x[:, shift:] += x[:, :-shift] @ power
-        shift *= 2
-        if shift < rows:
-            power = power @ power
-
-
-def _run(
-    phi_aug: Array, g0: Array | None, g1: Array | None, f: Array, x0_aug: Array, n: int, p: int
-) -> tuple[Array, Array]:
-    """States (b, N, n) and sensitivities (b, N, p, n) of the block-structured recursion.
-
-    ``x[k] = Phi x[k-1] + G0x F[k-1] + G1x F[k]`` and
-    ``s_i[k] = Phi s_i[k-1] + dPhi_i x[k-1] + G0s_i F[k-1] + G1s_i F[k]`` from the augmented
-    initial state ``x0_aug`` = (x0, s0_1 .. s0_p). ``g0 is None`` runs the free response.
-    """
-    b, n_samples = f.shape
-    phi_t = np.ascontiguousarray(np.swapaxes(phi_aug[:, :n, :n], -1, -2))
-    x = np.empty((b, n_samples, n))
-    x[:, 0] = x0_aug[:, :n]
-    if g0 is None or g1 is None:
-        x[:, 1:] = 0.0
-    else:
-        # Forcing of the state rows as one small matmul: [F[k-1], F[k]] @ [G0x; G1x].
-        ff = np.stack([f[:, :-1], f[:, 1:]], axis=2)
-        np.matmul(ff, np.stack([g0[:, :n], g1[:, :n]], axis=1), out=x[:, 1:])
-    _scan_rows(phi_t, x, 1)
-    # Sensitivity forcing [x[k-1], F[k-1], F[k]] @ [dPhi^T; G0s; G1s]: one matmul per card.
-    dphi_t = phi_aug[:, n:, :n].reshape(b, p, n, n).transpose(0, 3, 1, 2).reshape(b, n, p * n)
-    s = np.empty((b, n_samples, p * n))
-    s[:, 0] = x0_aug[:, n:]
-    if g0 is None or g1 is None:
-        np.matmul(x[:, :-1], dphi_t, out=s[:, 1:])
-    else:
-        coef = np.concatenate([dphi_t, g0[:, None, n:], g1[:, None, n:]], axis=1)
-        rhs = np.concatenate([x[:, :-1], ff], axis=2)
-        np.matmul(rhs, coef, out=s[:, 1:])
-    s_rows = s.reshape(b, n_samples * p, n)
-    _scan_rows(phi_t, s_rows, p)
-    return x, s.reshape(b, n_samples, p, n)
 
 
 # =========================================================================== validation
@@ -368,11 +271,12 @@ def _check_cards(loads: Array, data: Array, zero_state: bool, block: int) -> Non
 def _default_chunk(engine: _Engine, n_samples: int) -> int:
     """Cards per chunk from the memory budget (bytes per card of one LM iteration)."""
     n, p = engine.n, engine.p
-    per_card = 8 * n_samples * (
-        # states + sensitivities (twice in periodic mode), scan temporaries, residual, Jacobian
-        n * (p + 1) * (4 if engine.initial_state == "periodic" else 3) + 3 * (p + 3)
-    )
-    if not engine.fast:
+    if engine.spectral:
+        # Complex spectra of (p + 1) outputs for up to four forcing groups (twice as many
+        # frequencies without a periodic state), the time signals, residual and Jacobian.
+        bins = 1 if engine.initial_state == "periodic" else 2
+        per_card = 8 * n_samples * (16 * bins * (p + 1) + 3 * (p + 3))
+    else:
         # propagate's dense augmented recursion: (N, n(p+1)) states plus forcing and
         # temporaries, and per-step transitions on a non-uniform grid.
         size = n * (p + 1)
@@ -546,24 +450,32 @@ def _linear_start(spec: _Spec, y: Array, d: Array) -> tuple[Array, Array]:
     return scale, offset
 
 
-def _residual_jacobian(
+def _normal_equations(
     spec: _Spec, z: Array, y: Array, dy: Array, d: Array
-) -> tuple[Array, Array]:
-    """Residual C y + offset - d (b, N) and its Jacobian in z (b, N, q)."""
+) -> tuple[Array, Array, Array]:
+    """Cost 0.5 |r|^2, J^T J (b, q, q) and J^T r (b, q) of the residual ``C y + offset - d``.
+
+    The LM iteration needs nothing else, so the (b, N, q) Jacobian lives only here.
+    """
     p = spec.p
     scale = np.exp(z[:, p]) if spec.scale_fixed is None else np.full(z.shape[0],
                                                                        spec.scale_fixed)
     offset = z[:, -1] if spec.offset_fixed is None else spec.offset_fixed
     r = scale[:, None] * y + (offset[:, None] if np.ndim(offset) else offset) - d
-    jac = np.empty((*y.shape, spec.q))
-    jac[..., :p] = dy * (scale[:, None] * np.exp(z[:, :p]))[:, None, :]
+    # Jacobian rows per free variable (b, q, N): the batched products below are then
+    # plain matrix products over contiguous rows.
+    jac = np.empty((y.shape[0], spec.q, y.shape[1]))
+    np.multiply(dy, (scale[:, None] * np.exp(z[:, :p]))[:, :, None], out=jac[:, :p])
     col = p
     if spec.scale_fixed is None:
-        jac[..., col] = scale[:, None] * y
+        np.multiply(y, scale[:, None], out=jac[:, col])
         col += 1
     if spec.offset_fixed is None:
-        jac[..., col] = 1.0
-    return r, jac
+        jac[:, col] = 1.0
+    jtj = jac @ np.swapaxes(jac, 1, 2)
+    jtr = (jac @ r[..., None])[..., 0]
+    cost = 0.5 * np.einsum("bn,bn->b", r, r)
+    return cost, jtj, jtr
 
 
 def _lm_chunk(
@@ -595,13 +507,12 @@ def _lm_chunk(
     if spec.offset_fixed is None:
         z[:, col] = offset0
     with np.errstate(all="ignore"):
-        r, jac = _residual_jacobian(spec, z, y, dy, d)
-    cost = 0.5 * np.einsum("bn,bn->b", r, r)
-    ok = np.isfinite(cost) & np.isfinite(jac).all(axis=(1, 2))
+        cost, jtj, jtr = _normal_equations(spec, z, y, dy, d)
+    ok = np.isfinite(cost) & np.isfinite(jtj).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
     # code: 0 converged, 2 max_iter, 3 failed
     out["z"][~ok] = z[~ok]
     active = np.flatnonzero(ok)
-    z, r, jac, cost = z[ok], r[ok], jac[ok], cost[ok]
+    z, jtj, jtr, cost = z[ok], jtj[ok], jtr[ok], cost[ok]
     lam = np.full(active.size, 1e-3)
     nu = np.full(active.size, 2.0)
     iters = np.zeros(active.size, dtype=np.int64)
@@ -609,19 +520,21 @@ def _lm_chunk(
     while active.size:
         lo_a, hi_a = lo[active], hi[active]
         with np.errstate(all="ignore"):
-            norms = np.sqrt(np.einsum("bnq,bnq->bq", jac, jac))
+            # Columns of J scaled to unit norm: J_s = J / norms, so J_s^T J_s and J_s^T r
+            # follow from the normal equations without the Jacobian itself.
+            norms = np.sqrt(np.einsum("bqq->bq", jtj))
             norms = np.where(norms > 0, norms, 1.0)
-            js = jac / norms[:, None, :]
-            grad = (np.swapaxes(js, 1, 2) @ r[..., None])[..., 0]
+            grad = jtr / norms
+            hess = jtj / (norms[:, :, None] * norms[:, None, :])
             # A parameter held at an edge of the search window whose gradient points outward
             # is frozen for this step (bound-constrained LM); pointing inward, it may return.
             held = np.zeros_like(grad, dtype=bool)
             held[:, :p] = ((z[:, :p] <= lo_a) & (grad[:, :p] > 0)) | (
                 (z[:, :p] >= hi_a) & (grad[:, :p] < 0))
             if held.any():
-                js = js * ~held[:, None, :]
+                free = ~held
+                hess = hess * (free[:, :, None] & free[:, None, :])
                 grad = np.where(held, 0.0, grad)
-            hess = np.swapaxes(js, 1, 2) @ js
             r_norm = np.sqrt(2.0 * cost)
             g_cos = np.max(np.abs(grad), axis=1) / np.where(r_norm > 0, r_norm, 1.0)
             step = np.linalg.solve(hess + lam[:, None, None] * eye, -grad[..., None])[..., 0]
@@ -639,9 +552,9 @@ def _lm_chunk(
         step = dz * norms
         with np.errstate(all="ignore"):
             y, dy = engine.evaluate(np.exp(z_try[:, :p]), f[active])
-            r_try, jac_try = _residual_jacobian(spec, z_try, y, dy, d[active])
-            cost_try = 0.5 * np.einsum("bn,bn->b", r_try, r_try)
-            finite = np.isfinite(cost_try) & np.isfinite(jac_try).all(axis=(1, 2))
+            cost_try, jtj_try, jtr_try = _normal_equations(spec, z_try, y, dy, d[active])
+            finite = (np.isfinite(cost_try) & np.isfinite(jtj_try).all(axis=(1, 2))
+                      & np.isfinite(jtr_try).all(axis=1))
             cost_try = np.where(finite, cost_try, np.inf)
             pred = -(np.einsum("bq,bq->b", grad, step)
                      + 0.5 * np.einsum("bq,bqk,bk->b", step, hess, step))
@@ -659,8 +572,8 @@ def _lm_chunk(
         f_conv = (np.abs(actual) <= tol * cost) & (pred <= tol * cost) & (rho <= 2.0)
         g_conv = g_cos <= tol
         z = np.where(accept[:, None], z_try, z)
-        r = np.where(accept[:, None], r_try, r)
-        jac = np.where(accept[:, None, None], jac_try, jac)
+        jtj = np.where(accept[:, None, None], jtj_try, jtj)
+        jtr = np.where(accept[:, None], jtr_try, jtr)
         cost = np.where(accept, cost_try, cost)
         converged = x_conv | f_conv | g_conv | (cost == 0)
         exhausted = ~converged & (iters >= spec.max_iter)
@@ -672,7 +585,8 @@ def _lm_chunk(
             out["iterations"][idx] = iters[done]
             out["code"][idx] = np.where(converged[done], 0, 2)
             keep = ~done
-            active, z, r, jac, cost = active[keep], z[keep], r[keep], jac[keep], cost[keep]
+            active, z, jtj, jtr, cost = (active[keep], z[keep], jtj[keep], jtr[keep],
+                                         cost[keep])
             lam, nu, iters = lam[keep], nu[keep], iters[keep]
     return out
 

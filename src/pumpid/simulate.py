@@ -28,10 +28,10 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-import scipy.fft
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from . import spectral
 from .models import Model
 
 __all__ = [
@@ -356,25 +356,17 @@ def _periodic_correction(
     return x_rest + homogeneous
 
 
-def _powers_times(phi: NDArray[np.float64], cols: NDArray[np.float64], n: int
-                  ) -> NDArray[np.float64]:
-    """Phi^m @ cols for m = 0..n-1, as an array (size, n, c), by doubling.
-
-    Each doubling step is one BLAS product (Phi^L times the block already computed), so the
-    work is O(n) matrix-vector products instead of the scan's O(n log n).
-    """
-    size, c = cols.shape
-    out = np.empty((size, n * c))
-    out[:, :c] = cols
-    power = np.array(phi, dtype=float, copy=True)
-    have = 1
-    while have < n:
-        take = min(have, n - have)
-        np.matmul(power, out[:, : take * c], out=out[:, have * c:(have + take) * c])
-        have += take
-        if have < n:
-            power = power @ power
-    return out.reshape(size, n, c)
+def _spectral_applies(
+    grid: Grid, model_cls: type[Model], initial_state: InitialState, period: float | None
+) -> bool:
+    """The frequency-domain route covers uniform grids, linear inputs and a periodic state
+    whose period is the samples' span plus one step (the usual stroke)."""
+    if not grid.uniform or model_cls.transforms_input:
+        return False
+    if isinstance(initial_state, str) and initial_state == "periodic" and period is not None:
+        expected = grid.t[-1] - grid.t[0] + grid.dt
+        return bool(abs(period - expected) <= 1e-12 * expected)
+    return True
 
 
 def observed(
@@ -389,82 +381,87 @@ def observed(
     sensitivities: bool = True,
     period: float | None = None,
 ) -> NDArray[np.float64]:
-    """Selected columns (``rows`` of the state or augmented state) over the grid, (N, r).
+    """Selected columns (``rows`` of the state or augmented state) over the grid, (..., N, r).
 
-    For one parameter vector on a uniform grid the recursion is evaluated as a convolution:
-    with the load piecewise linear, row c of the state is
-    ``c Phi^k X0 + (u * F)[k] - c Phi^k G1 F[0]`` with the kernel
-    ``u[m] = c Phi^m G1 + c Phi^(m-1) G0``; the kernels come from doubling
-    (:func:`_powers_times`) and the convolution from one real FFT. The periodic state needs the
-    state after one period, a dot product over the same kernels. Everything else (batches,
-    non-uniform grids, input maps) goes through :func:`propagate`'s scan; both agree to
-    rounding (tested).
+    On a uniform grid the recursion is evaluated in the frequency domain
+    (:mod:`pumpid.spectral`): the transfer functions of the discretized system and its
+    sensitivity system on a DFT grid, one inverse FFT back to time, no pass over the samples.
+    Non-uniform grids, input maps and a periodic state with an unusual period go through
+    :func:`propagate`'s scan. The two routes agree to rounding (tested).
     """
     th = np.asarray(theta, dtype=float)
     f = np.asarray(load, dtype=float)
     rows = np.asarray(rows, dtype=np.intp)
-    if th.ndim != 1 or f.ndim != 1 or not grid.uniform or model_cls.transforms_input:
+    if integrator not in ("exact", "euler"):
+        raise ValueError(f"integrator must be 'exact' or 'euler', got {integrator!r}")
+    if not _spectral_applies(grid, model_cls, initial_state, period):
         x = propagate(model_cls, th, grid, f, initial_state=initial_state,
                       integrator=integrator, sensitivities=sensitivities, period=period)
         return x[..., rows]
-    if integrator not in ("exact", "euler"):
-        raise ValueError(f"integrator must be 'exact' or 'euler', got {integrator!r}")
-    a, b, da, db = model_cls.system_batch(th)
-    if sensitivities:
-        a, b = _augment(a, b, da, db)
-    size = a.shape[-1]
-    n = grid.n
+    n = model_cls.n_states()
+    block, state = np.divmod(rows, n)
+    if not sensitivities and np.any(block > 0):
+        raise ValueError("rows beyond the states need sensitivities=True")
+    params = np.unique(block[block > 0]) - 1
+    states = np.unique(state)
+    out = observed_blocks(model_cls, th, grid, f, states, params, initial_state=initial_state,
+                          integrator=integrator)
+    # out: (..., blocks, states, N); map each requested row to its block and state.
+    block_pos = np.zeros(block.max() + 1, dtype=np.intp)
+    block_pos[params + 1] = np.arange(1, params.size + 1)
+    return np.moveaxis(out[..., block_pos[block], np.searchsorted(states, state), :], -2, -1)
+
+
+def observed_blocks(
+    model_cls: type[Model],
+    theta: NDArray[np.float64],
+    grid: Grid,
+    load: NDArray[np.float64],
+    states: NDArray[np.intp],
+    params: NDArray[np.intp],
+    *,
+    initial_state: InitialState = "rest",
+    integrator: Integrator = "exact",
+) -> NDArray[np.float64]:
+    """Observed states and their sensitivities by frequency domain, time last.
+
+    The engine behind :func:`observed` where :func:`_spectral_applies` holds (the caller
+    checks). ``states`` are state indices, ``params`` parameter indices (may be empty).
+
+    Returns
+    -------
+    ndarray, shape (..., 1 + len(params), len(states), N)
+        Block 0 holds the states, block 1 + i their derivatives in ``params[i]``.
+    """
+    n = model_cls.n_states()
+    a, b, da, db = model_cls.system_batch(theta)
+    a, b = _augment(a, b, da[..., params, :, :], db[..., params, :])
     x0_given = _initial_state_vector(model_cls, initial_state)
     mode = initial_state if x0_given is None else "given"
     phi, g0, g1 = _discretize(a, b, grid.dt, integrator)
-    cols = [g0, g1]
-    if mode == "given":
-        x0 = np.zeros(size)
-        x0[: model_cls.n_states()] = x0_given
-        cols.append(x0)
-    elif mode == "equilibrium":
-        cols.append(-np.linalg.solve(a, b * f[0]))
-    powers = _powers_times(phi, np.column_stack(cols), n)
-    sel = powers[rows]  # (r, N, c): contiguous rows, so the FFTs run along the last axis
-    h0, h1 = sel[:, :, 0], sel[:, :, 1]
-    kernel = h1.copy()
-    kernel[:, 1:] += h0[:, :-1]
-    length = scipy.fft.next_fast_len(2 * n - 1, real=True)
-    spectrum = scipy.fft.rfft(f, length)
-    y = scipy.fft.irfft(scipy.fft.rfft(kernel, length) * spectrum, length)[:, :n]
-    y -= h1 * f[0]
-    if len(cols) == 3:
-        y += sel[:, :, 2]
-    if mode == "periodic":
-        y += _periodic_homogeneous(a, b, f, grid, phi, powers, rows, integrator, period).T
-    return y.T
-
-
-def _periodic_homogeneous(
-    a: NDArray[np.float64], b: NDArray[np.float64], f: NDArray[np.float64], grid: Grid,
-    phi: NDArray[np.float64], powers: NDArray[np.float64], rows: NDArray[np.intp],
-    integrator: Integrator, period: float | None,
-) -> NDArray[np.float64]:
-    """c Phi^k X0 for the periodic initial state X0 (see :func:`_periodic_correction`)."""
-    n = grid.n
-    span = grid.t[-1] - grid.t[0]
-    if period is None:
-        period = span + grid.dt
-    if not period > span:
-        raise ValueError(
-            f"period = {period:g} s must exceed the record's span {span:g} s (the samples "
-            "cover one period, without a repeated closing point)"
-        )
-    # State at the last sample from rest: sum_m Phi^m (G0 F[N-2-m] + G1 F[N-1-m]).
-    last = powers[:, : n - 1, 0] @ f[n - 2::-1] + powers[:, : n - 1, 1] @ f[n - 1:0:-1]
-    phi_c, g0_c, g1_c = _discretize(a, b, period - span, integrator)
-    x_t = phi_c @ last + g0_c * f[-1] + g1_c * f[0]
-    if integrator == "exact":
-        phi_t = scipy.linalg.expm(a * period)
-    else:
-        phi_t = phi_c @ np.linalg.matrix_power(phi, n - 1)
-    x0 = np.linalg.solve(np.eye(a.shape[-1]) - phi_t, x_t)
-    return _powers_times(phi, x0[:, None], n)[rows, :, 0].T
+    f = load
+    v = phi_n = x_eq = None
+    if mode == "equilibrium":
+        # The equilibrium under F[0] is a fixed point of the recursion (exact and Euler), so
+        # the response is that constant plus the response from rest to F - F[0]: the
+        # oscillating part is then computed from a small input, at full relative precision.
+        x_eq = -np.linalg.solve(a, (b * f[..., 0:1])[..., None])[..., 0]
+        f = f - f[..., 0:1]
+    if mode != "periodic":
+        v = np.zeros(b.shape)
+        if mode == "given":
+            v[..., :n] = x0_given
+        v = v - g1 * f[..., 0:1]
+        if integrator == "exact":
+            phi_n = scipy.linalg.expm(a * (grid.n * grid.dt))
+        else:
+            phi_n = np.linalg.matrix_power(phi, grid.n)
+    out = spectral.response(phi, g0, g1, f, n, states, periodic=mode == "periodic", v=v,
+                            phi_n=phi_n)
+    if x_eq is not None:
+        blocks = x_eq.reshape(*x_eq.shape[:-1], -1, n)[..., states]
+        out += blocks[..., None]
+    return out
 
 
 def _prepare(

@@ -1,0 +1,229 @@
+"""Sampled responses of a discretized linear system, evaluated in the frequency domain.
+
+On a uniform grid the one-step recursion ``x[k] = Phi x[k-1] + G0 F[k-1] + G1 F[k]`` is a
+linear time-invariant filter, so its response is a convolution and its discrete Fourier
+transform is a rational function of ``z = exp(2 pi i l / L)``:
+
+* periodic steady state over the N samples (the samples cover one period):
+  ``X(z) = (zI - Phi)^-1 (G0 + z G1) F(z)`` on the N-point grid, exactly;
+* any other initial state ``X0``: the first N samples of a circular convolution of length
+  ``L >= 2N`` with the *truncated* kernels ``Phi^m G`` (m < N), whose transforms are
+  ``z (zI - Phi)^-1 (I - z^-N Phi^N) G``; the free response is the kernel of
+  ``v = X0 - G1 F[0]``. Only ``Phi^N`` is needed, not the N powers.
+
+The sensitivity system (states and their parameter derivatives) is block lower-triangular:
+``Phi`` on the diagonal and the derivatives ``dPhi_i`` in the first block column. With
+``R = (zI - Phi)^-1`` its transfer functions are ``c R q0`` for the states and
+``c R dPhi_i R q0 + c R q_i`` for the sensitivities. Writing ``R = adj(wI - Psi) / det(wI - Psi)``
+with ``w = z - 1`` and ``Psi = Phi - I`` turns every one of them into a ratio of polynomials
+in ``w`` of degree at most ``2n`` (n = the model's handful of states), whose coefficients cost
+O(n^3 p) per parameter set; the L/2 + 1 frequencies then cost one small matrix product and a
+few elementwise operations, and one inverse real FFT returns to time.
+
+Why by hand: no library evaluates the transfer functions of a *batch* of small state-space
+systems and their parameter derivatives on a DFT grid (``scipy.signal`` works one system at a
+time and without derivatives). Why ``w = z - 1``: ``Phi`` has its eigenvalues near 1 when the
+step is short, and the polynomials in ``z`` would then cancel catastrophically at low
+frequencies; in ``w`` the roots are ``exp(s dt) - 1`` (about ``s dt``) and the low frequencies
+are evaluated at full precision.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import scipy.fft
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+Complex = NDArray[np.complex128]
+
+
+def charpoly_adjugate(psi: Array) -> tuple[Array, Array]:
+    """Characteristic polynomial and adjugate of ``wI - psi`` as polynomials in ``w``.
+
+    Faddeev-LeVerrier recursion, batched over the leading dimensions; it is exact algebra
+    and well conditioned for the n <= 4 states of pumpid's models.
+
+    Parameters
+    ----------
+    psi : ndarray, shape (..., n, n)
+
+    Returns
+    -------
+    den : ndarray, shape (..., n + 1)
+        ``det(wI - psi) = sum_j den[..., j] w^j`` (ascending powers; ``den[..., n] = 1``).
+    adj : ndarray, shape (..., n, n, n)
+        ``adj(wI - psi) = sum_j adj[..., j, :, :] w^j``.
+    """
+    n = psi.shape[-1]
+    batch = psi.shape[:-2]
+    den = np.zeros((*batch, n + 1))
+    den[..., n] = 1.0
+    adj = np.empty((*batch, n, n, n))
+    eye = np.eye(n)
+    bk = np.broadcast_to(eye, psi.shape).copy()
+    for k in range(1, n + 1):
+        if k > 1:
+            bk = psi @ bk + den[..., n - k + 1, None, None] * eye
+        adj[..., n - k, :, :] = bk
+        den[..., n - k] = -np.trace(psi @ bk, axis1=-2, axis2=-1) / k
+    return den, adj
+
+
+def _poly_mul(a: Array, b: Array) -> Array:
+    """Product of polynomials (ascending coefficients on the last axis), broadcast."""
+    na, nb = a.shape[-1], b.shape[-1]
+    shape = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
+    out = np.zeros((*shape, na + nb - 1))
+    for j in range(na):
+        out[..., j:j + nb] += a[..., j, None] * b
+    return out
+
+
+def numerators(
+    den: Array, adj: Array, dphi: Array, q: Array, states: NDArray[np.intp]
+) -> Array:
+    """Numerators over ``den^2`` of the observed states and sensitivities for forcing q.
+
+    Parameters
+    ----------
+    den, adj : from :func:`charpoly_adjugate` (shapes (..., n + 1) and (..., n, n, n))
+    dphi : ndarray, shape (..., P, n, n)
+        The derivative blocks of the transition matrix (P may be 0).
+    q : ndarray, shape (..., T, (P + 1) n)
+        Augmented forcing vectors (state block, then one block per derivative).
+    states : array of int, shape (r,)
+        Observed state indices.
+
+    Returns
+    -------
+    ndarray, shape (..., T, P + 1, r, 2n)
+        Block 0: ``den e_x adj(w) q0`` (the state's transfer function times ``den^2``);
+        block i: ``e_x adj dPhi_i adj q0 + den e_x adj q_i`` (the sensitivity's).
+    """
+    n = den.shape[-1] - 1
+    n_par = dphi.shape[-3]
+    rows = adj[..., :, states, :]  # (..., j, r, n): e_x adj, coefficient of w^j
+    q0 = q[..., :n]
+    # Everything over den^2: the direct terms e_x adj q (block 0 and the q_i) times den.
+    qs = q.reshape(*q.shape[:-1], n_par + 1, n)
+    direct = np.einsum("...jrx,...tix->...tirj", rows, qs)  # degree n - 1
+    out = _poly_mul(den[..., None, None, None, :], direct)  # degree 2n - 1
+    if n_par:
+        adj_q0 = np.einsum("...lxy,...ty->...tlx", adj, q0)  # (..., T, l, n)
+        moved = np.einsum("...ixy,...tly->...tilx", dphi, adj_q0)  # dPhi_i adj q0
+        both = np.einsum("...jrx,...tilx->...tirjl", rows, moved)  # powers j + l
+        for j in range(n):
+            out[..., 1:, :, j:j + n] += both[..., j, :]
+    return out
+
+
+@functools.lru_cache(maxsize=32)
+def _grid(length: int, n_samples: int, degree: int) -> tuple[Complex, Complex, Complex]:
+    """Powers ``w^j`` (j <= degree) of ``w = z - 1`` on the rfft bins of a length-``length``
+    DFT, ``z`` itself and ``z^-N``; cached because a fit evaluates the same grid many times.
+
+    ``w`` is formed as ``(cos - 1) + i sin = -2 sin^2(a/2) + i sin(a)``, without the
+    cancellation of ``z - 1`` at low frequencies.
+    """
+    angle = 2.0 * np.pi * np.arange(length // 2 + 1) / length
+    w = -2.0 * np.sin(angle / 2) ** 2 + 1j * np.sin(angle)
+    powers = np.empty((degree + 1, angle.size), dtype=complex)
+    powers[0] = 1.0
+    for j in range(1, degree + 1):
+        powers[j] = powers[j - 1] * w
+    z = np.exp(1j * angle)
+    shift = np.exp(-1j * angle * n_samples)
+    for arr in (powers, z, shift):
+        arr.flags.writeable = False
+    return powers, z, shift
+
+
+def _times_z(coef: Array) -> Array:
+    """The polynomial (in w) times z = 1 + w: one degree more."""
+    out = np.zeros((*coef.shape[:-1], coef.shape[-1] + 1))
+    out[..., :-1] = coef
+    out[..., 1:] += coef
+    return out
+
+
+def _evaluate(coef: Array, powers: Complex) -> Complex:
+    """Polynomials (..., d) at the points whose powers are ``powers`` (d', K), d <= d'."""
+    d = coef.shape[-1]
+    flat = coef.reshape(-1, d)
+    return (flat @ powers[:d]).reshape(*coef.shape[:-1], powers.shape[1])
+
+
+def response(
+    phi: Array,
+    g0: Array,
+    g1: Array,
+    load: Array,
+    n: int,
+    states: NDArray[np.intp],
+    *,
+    periodic: bool,
+    v: Array | None = None,
+    phi_n: Array | None = None,
+) -> Array:
+    """Observed rows of the (augmented) recursion over N samples, by frequency domain.
+
+    Parameters
+    ----------
+    phi, g0, g1 : ndarray, shapes (..., S, S), (..., S), (..., S)
+        One step of the augmented system, S = (P + 1) n: ``Phi`` and the ``dPhi_i`` in the
+        first block column (the structure :func:`pumpid.simulate._augment` builds).
+    load : ndarray, shape (..., N)
+        Samples of the input (broadcast against the system's batch).
+    n : int
+        Number of model states.
+    states : array of int
+        Observed state indices (the same in every block).
+    periodic : bool
+        Periodic steady state over the N samples (period N steps). Otherwise ``v`` (the
+        augmented initial state minus ``G1 F[0]``) and ``phi_n`` (``Phi^N``) are required.
+
+    Returns
+    -------
+    ndarray, shape (..., P + 1, r, N)
+        Block b, state ``states[j]`` at every sample (time last, contiguous).
+    """
+    n_samples = load.shape[-1]
+    size = phi.shape[-1]
+    n_par = size // n - 1
+    dphi = phi[..., n:, :n].reshape(*phi.shape[:-2], n_par, n, n)
+    psi = phi[..., :n, :n] - np.eye(n)
+    den, adj = charpoly_adjugate(psi)
+    length = n_samples if periodic else scipy.fft.next_fast_len(2 * n_samples, real=True)
+    powers, _, shift = _grid(length, n_samples, 2 * n + 1)
+    spectrum = scipy.fft.rfft(load, length)  # (..., K)
+    # Forcing vectors and their spectra: G0 F + z G1 F (+ z v), and for a non-periodic start
+    # the same through Phi^N times -z^-N. The factor z is folded into the numerators (z = 1 + w).
+    if periodic:
+        vectors = np.stack([g0, g1], axis=-2)
+    else:
+        if v is None or phi_n is None:
+            raise ValueError("a non-periodic response needs v and phi_n")
+        vectors = np.stack([g0, g1, v], axis=-2)
+        vectors = np.concatenate([vectors, vectors @ np.swapaxes(phi_n, -1, -2)], axis=-2)
+    num = np.moveaxis(numerators(den, adj, dphi, vectors, states), -4, 0)  # (T, ..., P+1, r, d)
+    # Group the vectors by spectrum in coefficient space (z = 1 + w raises the degree by one):
+    # G0 + z G1 goes with F, z v is free, and the same through Phi^N goes with -z^-N.
+    groups = [_times_z(num[1])]
+    groups[0][..., :-1] += num[0]
+    if not periodic:
+        groups.append(_times_z(num[2]))
+        groups.append(_times_z(num[4]))
+        groups[2][..., :-1] += num[3]
+        groups.append(_times_z(num[5]))
+    values = _evaluate(np.stack(groups), powers)  # (G, ..., P+1, r, K)
+    spec = spectrum[..., None, None, :]
+    out = values[0] * spec
+    if not periodic:
+        out += values[1]
+        out -= shift * (values[2] * spec + values[3])
+    d_w = _evaluate(den, powers)  # (..., K)
+    out /= (d_w * d_w)[..., None, None, :]
+    return scipy.fft.irfft(out, length, axis=-1)[..., :n_samples]

@@ -1,0 +1,81 @@
+"""The frequency-domain building blocks against plain linear algebra and the state scan."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pumpid.models import Kelvin, MassSpringDamper
+from pumpid.simulate import make_grid, observed, propagate
+from pumpid.spectral import charpoly_adjugate, numerators, response
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4])
+def test_charpoly_and_adjugate_are_exact_algebra(n) -> None:
+    rng = np.random.default_rng(n)
+    psi = rng.standard_normal((5, n, n))
+    den, adj = charpoly_adjugate(psi)
+    for w in (0.0, 0.3 + 0.7j, -2.0 + 0.1j):
+        m = w * np.eye(n) - psi
+        powers = w ** np.arange(n + 1)
+        det = den @ powers
+        np.testing.assert_allclose(det, np.linalg.det(m), rtol=1e-12, atol=1e-12)
+        adj_w = np.einsum("bjxy,j->bxy", adj, powers[:n])
+        # adj(M) M = det(M) I
+        np.testing.assert_allclose(adj_w @ m, det[:, None, None] * np.eye(n), atol=1e-11)
+
+
+def test_numerators_give_the_resolvent_and_its_derivative() -> None:
+    rng = np.random.default_rng(3)
+    n, p = 3, 2
+    psi = rng.standard_normal((n, n)) * 0.2
+    dphi = rng.standard_normal((p, n, n))
+    q = rng.standard_normal((1, n * (p + 1)))
+    den, adj = charpoly_adjugate(psi)
+    num = numerators(den, adj, dphi, q, np.array([0, 2]))  # (T, P+1, r, 2n)
+    w = 0.4 - 0.3j
+    resolvent = np.linalg.inv(w * np.eye(n) - psi)
+    d2 = (den @ w ** np.arange(n + 1)) ** 2
+    value = num[0] @ w ** np.arange(2 * n) / d2  # (P+1, r)
+    q0 = q[0, :n]
+    np.testing.assert_allclose(value[0], (resolvent @ q0)[[0, 2]], rtol=1e-12)
+    for i in range(p):
+        qi = q[0, n * (i + 1):n * (i + 2)]
+        expected = resolvent @ dphi[i] @ resolvent @ q0 + resolvent @ qi
+        np.testing.assert_allclose(value[1 + i], expected[[0, 2]], rtol=1e-12)
+
+
+def test_non_periodic_response_needs_its_start() -> None:
+    phi = np.eye(2) * 0.9
+    with pytest.raises(ValueError, match="v and phi_n"):
+        response(phi, np.ones(2), np.ones(2), np.ones(16), 2, np.array([0]), periodic=False)
+
+
+@pytest.mark.parametrize("state", ["rest", "periodic", "equilibrium"])
+def test_lightly_damped_system_keeps_its_precision(state) -> None:
+    # Damping ratio 0.003: the resonance sits within a few bins of the DFT grid.
+    model = MassSpringDamper(m=1.0, c=0.06, k=100.0)
+    t = np.linspace(0.0, 30.0, 3001)[:-1]
+    load = 1.0 + np.sin(2 * np.pi * t / 30.0) + 0.3 * np.sin(2 * np.pi * 50 * t / 30.0)
+    grid = make_grid(t)
+    rows = list(range(2 * 4))
+    fast = observed(MassSpringDamper, model.values, grid, load, rows, initial_state=state)
+    scan = propagate(MassSpringDamper, model.values, grid, load, initial_state=state)
+    scale = np.max(np.abs(scan), axis=0)
+    assert np.max(np.abs(fast - scan) / scale) < 1e-10
+
+
+def test_batched_parameters_and_loads_broadcast() -> None:
+    t = np.linspace(0.0, 10.0, 401)
+    grid = make_grid(t)
+    theta = np.array([[4.0, 1.0, 0.2, 4.0], [8.0, 1.5, 0.5, 3.0]])
+    loads = np.stack([np.sin(t), np.cos(0.5 * t)])
+    rows = [2, 5, 8]
+    both = observed(Kelvin, theta, grid, loads, rows)
+    assert both.shape == (2, 401, 3)
+    for i in range(2):
+        one = observed(Kelvin, theta[i], grid, loads[i], rows)
+        np.testing.assert_allclose(both[i], one, rtol=0, atol=1e-13 * np.abs(one).max())
+    shared = observed(Kelvin, theta, grid, loads[0], rows)  # one load, two parameter sets
+    np.testing.assert_allclose(shared[1], observed(Kelvin, theta[1], grid, loads[0], rows),
+                               rtol=0, atol=1e-13 * np.abs(shared).max())
