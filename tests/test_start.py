@@ -51,8 +51,9 @@ def test_candidates_are_physical() -> None:
 def test_a_poor_guess_joins_the_multistart_and_loses() -> None:
     data = simulate(KELVIN, T, LOAD)
     problem = build_problem(Kelvin, T, LOAD, data)
-    # A guess in another basin: plain lm from it ends at a boundary, not at the truth.
-    guess = KELVIN.values * np.array([1.78, 6.23, 3.56, 0.28])
+    # A guess far away (factors 0.018 to 38): plain lm from it ends at a boundary, not at
+    # the truth.
+    guess = KELVIN.values * np.array([0.018, 38.33, 8.09, 26.45])
     plain = fit(Kelvin.from_values(guess), T, LOAD, data, multistart=False)
     assert _err(plain.params, KELVIN) > 1e-3
     theta, note = initial_estimate(problem, guess=guess)

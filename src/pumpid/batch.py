@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import lm
 from .models import Model
 from .problem import MIN_SAMPLES, Problem, _is_zero_state, _unit_size, build_problem
 from .simulate import (
@@ -56,11 +57,6 @@ __all__ = ["BatchResult", "fit_many"]
 
 Array = NDArray[np.float64]
 
-#: Search window around the data's natural parameter scales (times/divided by 1e6), as in
-#: the single fit: a parameter that runs to the window's edge is reported as a boundary.
-_WINDOW = math.log(1e6)
-_LOG_MAX = 700.0
-_MAX_LOG_STEP = 1.0
 #: Working-memory budget of one chunk (bytes). The arrays of one LM iteration (states,
 #: sensitivities, Jacobian, scan temporaries) are sized per card; the chunk is chosen so that
 #: they stay around this size whatever the number of cards.
@@ -481,114 +477,40 @@ def _normal_equations(
 def _lm_chunk(
     engine: _Engine, spec: _Spec, theta0: Array, f: Array, d: Array, lo: Array, hi: Array
 ) -> dict[str, Array]:
-    """Vectorized Levenberg-Marquardt over the cards of one chunk.
+    """Levenberg-Marquardt (:func:`pumpid.lm.solve`) over the cards of one chunk.
 
-    Per card: scaled Levenberg-Marquardt steps (columns of J scaled to unit norm, damping
-    lambda * I in those coordinates, Nielsen's lambda update from the gain ratio), each trial
-    point simulated with sensitivities so an accepted step already has its Jacobian. Stop
-    tests follow MINPACK: relative step <= tol (xtol), relative actual and predicted cost
-    reductions <= tol (ftol), and cosine between residual and Jacobian columns <= tol (gtol).
+    ``lo``/``hi`` bound the log-parameters (the search window); each trial point is one
+    batched simulation with sensitivities, reduced at once to the normal equations.
     """
     b = theta0.shape[0]
-    p, q, tol = spec.p, spec.q, spec.tol
-    out = {
-        "z": np.full((b, q), np.nan), "r_ss": np.full(b, np.nan),
-        "iterations": np.zeros(b, dtype=np.int64), "code": np.full(b, 3, dtype=np.int8),
-    }
+    p, q = spec.p, spec.q
     with np.errstate(all="ignore"):
         y, dy = engine.evaluate(theta0, f)
     scale0, offset0 = _linear_start(spec, y, d)
     z = np.empty((b, q))
     z[:, :p] = np.log(theta0)
+    z_lo = np.full((b, q), -np.inf)
+    z_hi = np.full((b, q), np.inf)
+    z_lo[:, :p], z_hi[:, :p] = lo, hi
     col = p
     if spec.scale_fixed is None:
         z[:, col] = np.log(scale0)
+        z_lo[:, col], z_hi[:, col] = -lm.LOG_MAX, lm.LOG_MAX
         col += 1
     if spec.offset_fixed is None:
         z[:, col] = offset0
     with np.errstate(all="ignore"):
-        cost, jtj, jtr = _normal_equations(spec, z, y, dy, d)
-    ok = np.isfinite(cost) & np.isfinite(jtj).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
+        first = _normal_equations(spec, z, y, dy, d)
+
+    def evaluate(z_try: Array, idx: NDArray[np.intp]) -> tuple[Array, Array, Array]:
+        y, dy = engine.evaluate(np.exp(z_try[:, :p]), f[idx])
+        return _normal_equations(spec, z_try, y, dy, d[idx])
+
+    res = lm.solve(evaluate, z, first, z_lo, z_hi, n_capped=p, tol=spec.tol,
+                   max_evaluations=spec.max_iter)
     # code: 0 converged, 2 max_iter, 3 failed
-    out["z"][~ok] = z[~ok]
-    active = np.flatnonzero(ok)
-    z, jtj, jtr, cost = z[ok], jtj[ok], jtr[ok], cost[ok]
-    lam = np.full(active.size, 1e-3)
-    nu = np.full(active.size, 2.0)
-    iters = np.zeros(active.size, dtype=np.int64)
-    eye = np.eye(q)
-    while active.size:
-        lo_a, hi_a = lo[active], hi[active]
-        with np.errstate(all="ignore"):
-            # Columns of J scaled to unit norm: J_s = J / norms, so J_s^T J_s and J_s^T r
-            # follow from the normal equations without the Jacobian itself.
-            norms = np.sqrt(np.einsum("bqq->bq", jtj))
-            norms = np.where(norms > 0, norms, 1.0)
-            grad = jtr / norms
-            hess = jtj / (norms[:, :, None] * norms[:, None, :])
-            # A parameter held at an edge of the search window whose gradient points outward
-            # is frozen for this step (bound-constrained LM); pointing inward, it may return.
-            held = np.zeros_like(grad, dtype=bool)
-            held[:, :p] = ((z[:, :p] <= lo_a) & (grad[:, :p] > 0)) | (
-                (z[:, :p] >= hi_a) & (grad[:, :p] < 0))
-            if held.any():
-                free = ~held
-                hess = hess * (free[:, :, None] & free[:, None, :])
-                grad = np.where(held, 0.0, grad)
-            r_norm = np.sqrt(2.0 * cost)
-            g_cos = np.max(np.abs(grad), axis=1) / np.where(r_norm > 0, r_norm, 1.0)
-            step = np.linalg.solve(hess + lam[:, None, None] * eye, -grad[..., None])[..., 0]
-        dz = step / norms
-        # Trust cap in log-parameter space: at most a factor e^_MAX_LOG_STEP per iteration,
-        # so a Gauss-Newton step along a flat direction cannot fling a parameter into a region
-        # where the model degenerates (the role MINPACK's trust radius plays in the single fit).
-        big = np.max(np.abs(dz[:, :p]), axis=1)
-        dz *= np.minimum(1.0, _MAX_LOG_STEP / np.where(big > 0, big, 1.0))[:, None]
-        z_try = z + dz
-        z_try[:, :p] = np.clip(z_try[:, :p], lo_a, hi_a)
-        if spec.scale_fixed is None:
-            z_try[:, p] = np.clip(z_try[:, p], -_LOG_MAX, _LOG_MAX)
-        dz = z_try - z
-        step = dz * norms
-        with np.errstate(all="ignore"):
-            y, dy = engine.evaluate(np.exp(z_try[:, :p]), f[active])
-            cost_try, jtj_try, jtr_try = _normal_equations(spec, z_try, y, dy, d[active])
-            finite = (np.isfinite(cost_try) & np.isfinite(jtj_try).all(axis=(1, 2))
-                      & np.isfinite(jtr_try).all(axis=1))
-            cost_try = np.where(finite, cost_try, np.inf)
-            pred = -(np.einsum("bq,bq->b", grad, step)
-                     + 0.5 * np.einsum("bq,bqk,bk->b", step, hess, step))
-            actual = cost - cost_try
-            rho = np.where(pred > 0, actual / pred, np.where(actual > 0, 1.0, -1.0))
-        iters += 1
-        accept = finite & (rho > 1e-4)
-        # Nielsen's update: shrink lambda smoothly on good steps, grow geometrically on bad.
-        lam = np.where(accept, lam * np.maximum(1 / 3, 1 - (2 * np.minimum(rho, 1.0) - 1) ** 3),
-                       lam * nu)
-        lam = np.clip(lam, 1e-12, 1e16)
-        nu = np.where(accept, 2.0, nu * 2.0)
-        z_norm = np.linalg.norm(np.where(accept[:, None], z_try, z), axis=1)
-        x_conv = np.linalg.norm(dz, axis=1) <= tol * (z_norm + tol)
-        f_conv = (np.abs(actual) <= tol * cost) & (pred <= tol * cost) & (rho <= 2.0)
-        g_conv = g_cos <= tol
-        z = np.where(accept[:, None], z_try, z)
-        jtj = np.where(accept[:, None, None], jtj_try, jtj)
-        jtr = np.where(accept[:, None], jtr_try, jtr)
-        cost = np.where(accept, cost_try, cost)
-        converged = x_conv | f_conv | g_conv | (cost == 0)
-        exhausted = ~converged & (iters >= spec.max_iter)
-        done = converged | exhausted
-        if done.any():
-            idx = active[done]
-            out["z"][idx] = z[done]
-            out["r_ss"][idx] = 2.0 * cost[done]
-            out["iterations"][idx] = iters[done]
-            out["code"][idx] = np.where(converged[done], 0, 2)
-            keep = ~done
-            active, z, jtj, jtr, cost = (active[keep], z[keep], jtj[keep], jtr[keep],
-                                         cost[keep])
-            lam, nu, iters = lam[keep], nu[keep], iters[keep]
-    return out
+    return {"z": res.z, "r_ss": 2.0 * res.cost, "iterations": res.evaluations,
+            "code": res.code}
 
 
 # =========================================================================== entry point
@@ -605,7 +527,7 @@ def fit_many(
     offset: bool | float = False,
     period: float | None = None,
     x0: ArrayLike | None = None,
-    tol: float = 1e-10,
+    tol: float = 1e-12,
     max_iter: int = 100,
     chunk: int | None = None,
     workers: int = 1,
@@ -720,8 +642,8 @@ def fit_many(
             if todo.size == 0:
                 break
             z0 = np.log(theta0[todo])
-            lo = np.minimum(ref[todo] - _WINDOW, z0 - 1.0)
-            hi = np.maximum(ref[todo] + _WINDOW, z0 + 1.0)
+            lo = np.minimum(ref[todo] - lm.WINDOW, z0 - 1.0)
+            hi = np.maximum(ref[todo] + lm.WINDOW, z0 + 1.0)
             res = _lm_chunk(engine, spec, theta0[todo], f[todo], d[todo], lo, hi)
             zt = res["z"][:, :p]
             edge = ((zt <= lo) | (zt >= hi)).any(axis=1)

@@ -1,8 +1,8 @@
 """Identification: one entry point, two methods, one result type.
 
 ``method="lm"`` (default)
-    Levenberg-Marquardt (scipy.optimize.least_squares, MINPACK) on log-parameters, so every
-    physical parameter stays positive, with the exact Jacobian from the sensitivity system.
+    Levenberg-Marquardt (:mod:`pumpid.lm`) on log-parameters, so every physical parameter
+    stays positive, with the exact Jacobian from the sensitivity system.
 ``method="newton-fd"``
     The paper's inverse-optimization method exactly as eqs. (16)-(22) and (25)-(27) describe
     it: Newton-Raphson on the gradient of E, with the model output's first and second
@@ -18,9 +18,9 @@ from collections.abc import Mapping
 from typing import Any, Literal
 
 import numpy as np
-import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
+from . import lm
 from .diagnostics import diagnose
 from .models import Model
 from .problem import Problem, build_problem, initial_state_label
@@ -30,8 +30,6 @@ from .simulate import InitialState, Integrator
 __all__ = ["fit"]
 
 Method = Literal["lm", "newton-fd"]
-_LOG_MAX = 700.0  # keeps exp() of a log-parameter finite during wild trial steps
-_WINDOW = math.log(1e6)  # the lm search window: natural scale times/divided by 1e6
 
 
 def _start_theta(
@@ -81,7 +79,6 @@ def _initial_linear(
     problem: Problem, theta: NDArray[np.float64], extras: Mapping[str, float]
 ) -> tuple[float, float]:
     """Starting C and offset: given ones, else the best ones for the starting parameters."""
-    y = problem.outputs(theta)
     scale = problem.scale_fixed if problem.scale_fixed is not None else None
     offset = problem.offset_fixed
     if scale is None:
@@ -90,6 +87,7 @@ def _initial_linear(
         elif "D" in extras:
             scale = math.exp(extras["D"])
     if scale is None or (offset is None and "offset" not in extras):
+        y = problem.outputs(theta)
         if problem.residual == "log":
             with np.errstate(divide="ignore", invalid="ignore"):
                 d = float(np.mean(np.log(problem.data) - np.log(y)))
@@ -111,56 +109,77 @@ def _initial_linear(
 
 
 # --------------------------------------------------------------------------- lm
+_REASONS = {
+    "gtol": "converged: the gradient fell below gtol = {tol:g}",
+    "ftol": ("converged: the relative cost reduction (actual or predicted) fell below "
+             "ftol = {tol:g}"),
+    "xtol": "converged: the relative step fell below xtol = {tol:g}",
+    "zero": "converged: the residual is exactly zero",
+}
+
+
 def _solve_lm(
     problem: Problem, theta0: NDArray[np.float64], scale0: float, offset0: float, tol: float,
     max_nfev: int | None,
 ) -> dict[str, Any]:
+    """Levenberg-Marquardt (:func:`pumpid.lm.solve`) on z = (ln theta_free, [ln C], [offset]).
+
+    Every trial point is one simulation with exact sensitivities, reduced to the normal
+    equations; the log-parameters live in a wide window around the data's natural scales
+    (widened to contain the start), and one at the window's edge is a boundary (0 or
+    infinity), recognised afterwards.
+    """
     p = problem.n_free
     idx = problem.free_idx
     log_res = problem.residual == "log"
-    # Wide window around the data's natural scales (widened to contain the start): a
-    # parameter leaving it is at a boundary (0 or infinity), recognised afterwards.
     ref = np.log(problem.reference_scales()[idx])
-    z_lo = np.minimum(ref - _WINDOW, np.log(theta0[idx]) - 1.0)
-    z_hi = np.maximum(ref + _WINDOW, np.log(theta0[idx]) + 1.0)
     z0 = list(np.log(theta0[idx]))
+    lo = list(np.minimum(ref - lm.WINDOW, np.log(theta0[idx]) - 1.0))
+    hi = list(np.maximum(ref + lm.WINDOW, np.log(theta0[idx]) + 1.0))
     if problem.scale_fixed is None:
         z0.append(math.log(scale0))
+        lo.append(-lm.LOG_MAX)
+        hi.append(lm.LOG_MAX)
     if problem.offset_fixed is None:
         z0.append(offset0)
-    z0_arr = np.array(z0)
-    penalty = 1e3 * (float(np.ptp(problem.data)) + 1.0)
+        lo.append(-math.inf)
+        hi.append(math.inf)
+    q = len(z0)
     history: list[dict[str, float]] = []
-    best = [math.inf]
+    best = {"cost": math.inf}
     counter = {"nfev": 0}
 
     def unpack(z: NDArray[np.float64]) -> tuple[NDArray[np.float64], float, float]:
-        zc = np.clip(z, -_LOG_MAX, _LOG_MAX)
-        theta = problem.full_theta(np.exp(np.clip(zc[:p], z_lo, z_hi)))
-        i = p
-        scale = problem.scale_fixed if problem.scale_fixed is not None else math.exp(zc[i])
-        i += problem.scale_fixed is None
-        offset = problem.offset_fixed if problem.offset_fixed is not None else float(z[i])
+        theta = problem.full_theta(np.exp(z[:p]))
+        scale = problem.scale_fixed if problem.scale_fixed is not None else math.exp(z[p])
+        offset = problem.offset_fixed if problem.offset_fixed is not None else float(z[-1])
         return theta, float(scale), float(offset)
 
-    # One sensitivity run per trial point gives both the residual and the Jacobian: MINPACK
-    # asks for the Jacobian at the point it just accepted, so jac() reuses it.
-    cache: dict[str, Any] = {}
-
-    def fun(z: NDArray[np.float64]) -> NDArray[np.float64]:
+    def evaluate(z_try: NDArray[np.float64], _idx: NDArray[np.intp]
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         counter["nfev"] += 1
+        z = z_try[0]
         theta, scale, offset = unpack(z)
+        nan = (np.array([math.nan]), np.full((1, q, q), math.nan), np.full((1, q), math.nan))
         with np.errstate(all="ignore"):
             y, dy = problem.output_and_sensitivities(theta)
-            cache.update(z=z.copy(), y=y, dy=dy)
             r = problem.residual_vector(y, scale, offset)
-        if not np.all(np.isfinite(r)):
-            # A non-physical trial point (overflow, or y <= 0 with the log residual): a large
-            # finite residual makes the trust region shrink instead of crashing MINPACK.
-            return np.full(problem.data.size, penalty)
-        cost = 0.5 * float(r @ r)
-        if cost < best[0]:
-            best[0] = cost
+            if not np.all(np.isfinite(r)):
+                return nan  # a non-physical trial point: rejected, the damping grows
+            jac = np.empty((q, y.size))
+            th = theta[idx]
+            if log_res:
+                np.multiply(dy.T, th[:, None] / y, out=jac[:p])
+            else:
+                np.multiply(dy.T, scale * th[:, None], out=jac[:p])
+            if problem.scale_fixed is None:
+                jac[p] = 1.0 if log_res else scale * y
+            if problem.offset_fixed is None:
+                jac[-1] = 1.0
+            cost = 0.5 * float(r @ r)
+            jtj, jtr = jac @ jac.T, jac @ r
+        if cost < best["cost"]:
+            best.update(cost=cost, z=z.copy(), y=y, dy=dy)
             row: dict[str, float] = {"iteration": float(len(history))}
             row.update(zip(problem.model_cls.param_names(), theta.tolist(), strict=True))
             if problem.scale_fixed is None:
@@ -169,60 +188,38 @@ def _solve_lm(
                 row["offset"] = offset
             row["cost"] = cost
             history.append(row)
-        return r
+        return np.array([cost]), jtj[None], jtr[None]
 
-    def jac(z: NDArray[np.float64]) -> NDArray[np.float64]:
-        theta, scale, _ = unpack(z)
-        with np.errstate(all="ignore"):
-            if "z" in cache and np.array_equal(cache["z"], z):
-                y, dy = cache["y"], cache["dy"]
-            else:
-                y, dy = problem.output_and_sensitivities(theta)
-            # Outside the window the residual is flat in that coordinate.
-            inside = (z[:p] > z_lo) & (z[:p] < z_hi)
-            th = theta[idx]
-            if log_res:
-                cols = [dy * (th * inside / y[:, None])]
-            else:
-                cols = [scale * dy * th * inside]
-            if problem.scale_fixed is None:
-                cols.append((np.ones_like(y) if log_res else scale * y)[:, None])
-            if problem.offset_fixed is None:
-                cols.append(np.ones((y.size, 1)))
-            jm = np.hstack(cols)
-        if not np.all(np.isfinite(jm)):
-            return np.zeros_like(jm)
-        return jm
-
-    try:
-        sol = scipy.optimize.least_squares(
-            fun, z0_arr, jac=jac, method="lm", xtol=tol, ftol=tol, gtol=tol,
-            max_nfev=max_nfev,
-        )
-    except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
-        return {"ok": False, "reason": f"solver error: {exc}", "history": history,
-                "nfev": counter["nfev"], "iterations": len(history) - 1}
-    theta, scale, offset = unpack(sol.x)
-    edges = [(int(idx[i]), "infinity" if sol.x[i] >= z_hi[i] else "zero") for i in range(p)
-             if not z_lo[i] < sol.x[i] < z_hi[i]]
-    reasons = {
-        0: "stopped: the maximum number of function evaluations was reached",
-        1: f"converged: the gradient fell below gtol = {tol:g}",
-        2: f"converged: the relative cost reduction fell below ftol = {tol:g}",
-        3: f"converged: the relative step fell below xtol = {tol:g}",
-        4: f"converged: cost reduction and step both below tolerance {tol:g}",
-    }
-    ok = bool(sol.status > 0) and bool(np.all(np.isfinite(sol.fun))) and not np.all(
-        sol.fun == penalty
-    )
+    z_start = np.array([z0])
+    z_lo, z_hi = np.array([lo]), np.array([hi])
+    first = evaluate(z_start, np.array([0]))
+    budget = max_nfev if max_nfev is not None else 100 * q
+    res = lm.solve(evaluate, z_start, first, z_lo, z_hi, n_capped=p, tol=tol,
+                   max_evaluations=max(1, budget - 1))
+    code = int(res.code[0])
+    if code == lm.FAILED:
+        return {"ok": False, "history": history, "nfev": counter["nfev"], "iterations": 0,
+                "reason": "the model's response is not finite at the starting point"}
+    z = res.z[0]
+    theta, scale, offset = unpack(z)
+    edges = [(int(idx[i]), "infinity" if z[i] >= z_hi[0, i] else "zero") for i in range(p)
+             if not z_lo[0, i] < z[i] < z_hi[0, i]]
+    if code == lm.CONVERGED:
+        reason = _REASONS[lm.TESTS[int(res.test[0])]].format(tol=tol)
+    else:
+        reason = "stopped: the maximum number of function evaluations was reached"
+    simulated = None
+    if "z" in best and np.array_equal(best["z"], z):
+        simulated = (best["y"], best["dy"])  # the solver's own run at this point
     return {
-        "ok": ok,
-        "stopped_early": sol.status == 0,
-        "reason": reasons.get(sol.status, sol.message),
+        "ok": code == lm.CONVERGED,
+        "simulated": simulated,
+        "stopped_early": code == lm.EXHAUSTED,
+        "reason": reason,
         "theta": theta, "scale": scale, "offset": offset, "edges": edges,
         "history": history,
         "nfev": counter["nfev"],
-        "iterations": int(sol.njev) if sol.njev is not None else len(history) - 1,
+        "iterations": int(res.accepted[0]),
     }
 
 
@@ -413,7 +410,7 @@ def fit(
         Time (s, strictly increasing, N >= 10), the input (load) and the measured output
         (displacement) in the user's units.
     method : {"lm", "newton-fd"}
-        ``lm``: exact sensitivities, log-parameters, scipy.optimize.least_squares (MINPACK).
+        ``lm``: exact sensitivities, log-parameters, Levenberg-Marquardt (:mod:`pumpid.lm`).
         ``newton-fd``: the paper's Newton-Raphson with central differences.
     integrator : {"exact", "euler"}
         Forward model: exact first-order-hold discretization, or the paper's explicit Euler.
@@ -695,8 +692,11 @@ def assemble_result(
             converged = False
             reason = f"{reason}; final parameters invalid: {exc}"
     if model is not None:
-        with np.errstate(all="ignore"):
-            y, dy = problem.output_and_sensitivities(model.values)
+        if raw.get("simulated") is not None:
+            y, dy = raw["simulated"]  # the solver's own run at this point
+        else:
+            with np.errstate(all="ignore"):
+                y, dy = problem.output_and_sensitivities(model.values)
         fitted = scale * y + offset
         jac = _physical_jacobian(problem, y, dy, scale)
     else:

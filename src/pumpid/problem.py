@@ -9,6 +9,7 @@ batches of model outputs (for the paper's finite-difference method).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -23,9 +24,11 @@ from .simulate import (
     InitialState,
     Integrator,
     _initial_state_vector,
+    _spectral_applies,
     check_signal,
     make_grid,
     observed,
+    observed_blocks,
 )
 
 __all__ = ["MIN_SAMPLES", "Problem", "build_problem"]
@@ -62,7 +65,7 @@ class Problem:
         """Number of model parameters."""
         return len(self.model_cls.param_names())
 
-    @property
+    @functools.cached_property
     def free_idx(self) -> NDArray[np.intp]:
         """Indices of the model parameters that are fitted (not fixed)."""
         held = {i for i, _ in self.fixed}
@@ -151,6 +154,14 @@ class Problem:
         self, theta: ArrayLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Unscaled output y (N,) and exact dy/dtheta (N, p_free) for the fitted parameters."""
+        if self._spectral:
+            # The fitters' hot path: straight to the frequency-domain engine (dy is a
+            # transposed view of its contiguous (p_free, N) rows).
+            out = observed_blocks(self.model_cls, np.asarray(theta, dtype=float), self.grid,
+                                  self.load, np.array([self.out_index]), self.free_idx,
+                                  initial_state=self.initial_state,
+                                  integrator=self.integrator)
+            return out[0, 0], out[1:, 0].T
         n = self.model_cls.n_states()
         k = self.out_index
         rows = [k] + [n * (i + 1) + k for i in self.free_idx]
@@ -158,6 +169,10 @@ class Problem:
                      initial_state=self.initial_state, integrator=self.integrator,
                      sensitivities=True, period=self.period)
         return y[:, 0], y[:, 1:]
+
+    @functools.cached_property
+    def _spectral(self) -> bool:
+        return _spectral_applies(self.grid, self.model_cls, self.initial_state, self.period)
 
     def predict(self, theta: ArrayLike, scale: float, offset: float) -> NDArray[np.float64]:
         """Fitted displacement C y + offset (position units)."""

@@ -409,7 +409,10 @@ def observed(
     # out: (..., blocks, states, N); map each requested row to its block and state.
     block_pos = np.zeros(block.max() + 1, dtype=np.intp)
     block_pos[params + 1] = np.arange(1, params.size + 1)
-    return np.moveaxis(out[..., block_pos[block], np.searchsorted(states, state), :], -2, -1)
+    pos = block_pos[block]
+    if states.size == 1 and np.array_equal(pos, np.arange(pos.size)):
+        return np.moveaxis(out[..., 0, :], -2, -1)  # the usual rows: a view, no copy
+    return np.moveaxis(out[..., pos, np.searchsorted(states, state), :], -2, -1)
 
 
 def observed_blocks(

@@ -31,6 +31,7 @@ are evaluated at full precision.
 from __future__ import annotations
 
 import functools
+import threading
 
 import numpy as np
 import scipy.fft
@@ -121,7 +122,7 @@ def numerators(
 
 
 @functools.lru_cache(maxsize=32)
-def _grid(length: int, n_samples: int, degree: int) -> tuple[Complex, Complex, Complex]:
+def _grid(length: int, n_samples: int, degree: int) -> tuple[Array, Complex, Complex]:
     """Powers ``w^j`` (j <= degree) of ``w = z - 1`` on the rfft bins of a length-``length``
     DFT, ``z`` itself and ``z^-N``; cached because a fit evaluates the same grid many times.
 
@@ -136,9 +137,34 @@ def _grid(length: int, n_samples: int, degree: int) -> tuple[Complex, Complex, C
         powers[j] = powers[j - 1] * w
     z = np.exp(1j * angle)
     shift = np.exp(-1j * angle * n_samples)
+    # Real view with re/im interleaved along the frequencies: real coefficients times these
+    # powers is then one real matrix product whose result is viewed back as complex
+    # (numpy does not dispatch real @ complex to BLAS).
+    powers = np.ascontiguousarray(powers).view(float)
     for arr in (powers, z, shift):
         arr.flags.writeable = False
     return powers, z, shift
+
+
+_SPECTRUM_CACHE: dict[tuple[int, bytes], Complex] = {}
+
+
+def _spectrum(load: Array, length: int) -> Complex:
+    """rfft of the load, remembered for the last load: a fit simulates one record many times.
+
+    Keyed on the samples themselves (not the array's identity), so a changed load is never
+    served a stale spectrum; only single records are cached.
+    """
+    if load.ndim != 1:
+        return scipy.fft.rfft(load, length)
+    key = (length, load.tobytes())
+    hit = _SPECTRUM_CACHE.get(key)
+    if hit is None:
+        hit = scipy.fft.rfft(load, length)
+        hit.flags.writeable = False
+        _SPECTRUM_CACHE.clear()
+        _SPECTRUM_CACHE[key] = hit
+    return hit
 
 
 def _times_z(coef: Array) -> Array:
@@ -149,11 +175,35 @@ def _times_z(coef: Array) -> Array:
     return out
 
 
-def _evaluate(coef: Array, powers: Complex) -> Complex:
-    """Polynomials (..., d) at the points whose powers are ``powers`` (d', K), d <= d'."""
+def _evaluate(coef: Array, powers: Array, out: Array | None = None) -> Complex:
+    """Polynomials (..., d) at the points whose powers are ``powers`` (d' >= d rows, as the
+    interleaved real view of :func:`_grid`): complex values (..., K), optionally written
+    into ``out`` (a real (M, 2K) buffer)."""
     d = coef.shape[-1]
     flat = coef.reshape(-1, d)
-    return (flat @ powers[:d]).reshape(*coef.shape[:-1], powers.shape[1])
+    values = np.matmul(flat, powers[:d], out=out).view(complex)
+    return values.reshape(*coef.shape[:-1], powers.shape[1] // 2)
+
+
+_WORK = threading.local()
+#: Largest workspace kept between calls (bytes): single records reuse theirs, big batches
+#: allocate per call (their cost is shared by many cards).
+_WORK_MAX = 8 * 2**20
+
+
+def _workspace(rows: int, cols: int) -> Array | None:
+    """A per-thread scratch array (rows, cols), reused across calls of the same shape."""
+    if rows * cols * 8 > _WORK_MAX:
+        return None
+    arrays = getattr(_WORK, "arrays", None)
+    if arrays is None:
+        arrays = _WORK.arrays = {}
+    buf = arrays.get((rows, cols))
+    if buf is None:
+        if len(arrays) >= 8:
+            arrays.clear()
+        buf = arrays[(rows, cols)] = np.empty((rows, cols))
+    return buf
 
 
 def response(
@@ -198,7 +248,7 @@ def response(
     den, adj = charpoly_adjugate(psi)
     length = n_samples if periodic else scipy.fft.next_fast_len(2 * n_samples, real=True)
     powers, _, shift = _grid(length, n_samples, 2 * n + 1)
-    spectrum = scipy.fft.rfft(load, length)  # (..., K)
+    spectrum = _spectrum(load, length)  # (..., K)
     # Forcing vectors and their spectra: G0 F + z G1 F (+ z v), and for a non-periodic start
     # the same through Phi^N times -z^-N. The factor z is folded into the numerators (z = 1 + w).
     if periodic:
@@ -218,12 +268,25 @@ def response(
         groups.append(_times_z(num[4]))
         groups[2][..., :-1] += num[3]
         groups.append(_times_z(num[5]))
-    values = _evaluate(np.stack(groups), powers)  # (G, ..., P+1, r, K)
-    spec = spectrum[..., None, None, :]
-    out = values[0] * spec
-    if not periodic:
-        out += values[1]
-        out -= shift * (values[2] * spec + values[3])
+    coef = np.stack(groups)
+    values = _evaluate(coef, powers, _workspace(coef.size // coef.shape[-1], powers.shape[1]))
+    spec = spectrum[..., None, None, :]  # (G, ..., P+1, r, K) times this
+    if np.broadcast_shapes(values.shape[1:], spec.shape) == values.shape[1:]:
+        # In place, in the workspace: a fit's evaluations then allocate little besides the
+        # returned signals (fresh large temporaries cost page faults on every call).
+        out = values[0]
+        out *= spec
+        if not periodic:
+            out += values[1]
+            tail = values[2]
+            tail *= spec
+            tail += values[3]
+            tail *= shift
+            out -= tail
+    else:
+        out = values[0] * spec
+        if not periodic:
+            out = out + values[1] - shift * (values[2] * spec + values[3])
     d_w = _evaluate(den, powers)  # (..., K)
     out /= (d_w * d_w)[..., None, None, :]
     return scipy.fft.irfft(out, length, axis=-1)[..., :n_samples]
