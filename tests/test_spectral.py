@@ -79,3 +79,21 @@ def test_batched_parameters_and_loads_broadcast() -> None:
     shared = observed(Kelvin, theta, grid, loads[0], rows)  # one load, two parameter sets
     np.testing.assert_allclose(shared[1], observed(Kelvin, theta[1], grid, loads[0], rows),
                                rtol=0, atol=1e-13 * np.abs(shared).max())
+
+
+@pytest.mark.parametrize("state", ["rest", "equilibrium", "periodic"])
+def test_every_parameter_set_against_every_load(state) -> None:
+    # (1, S, p) parameter sets against (b, 1, N) loads: the start grid's shape scoring.
+    t = np.linspace(0.0, 10.0, 201)
+    grid = make_grid(t)
+    theta = np.array([[4.0, 1.0, 0.2, 4.0], [8.0, 1.5, 0.5, 3.0]])
+    loads = np.stack([1.0 + np.sin(t), 2.0 + np.cos(0.5 * t), 0.5 * t])
+    grid_out = observed(Kelvin, theta[None], grid, loads[:, None, :], [2],
+                        initial_state=state, sensitivities=False)
+    assert grid_out.shape == (3, 2, 201, 1)
+    for i in range(3):
+        for j in range(2):
+            one = observed(Kelvin, theta[j], grid, loads[i], [2], initial_state=state,
+                           sensitivities=False)
+            np.testing.assert_allclose(grid_out[i, j], one, rtol=0,
+                                       atol=1e-13 * np.abs(one).max())

@@ -49,6 +49,7 @@ from .simulate import (
     _initial_state_vector,
     _spectral_applies,
     make_grid,
+    observed,
     observed_blocks,
     propagate,
 )
@@ -198,10 +199,10 @@ class _Engine:
 
     def outputs(self, theta: Array, f: Array, grid: Grid | None = None) -> Array:
         """Observed output only; ``theta`` (..., p) broadcasts against ``f`` (..., N)."""
-        x = propagate(self.model_cls, theta, grid or self.grid, f,
-                      initial_state=self.initial_state, integrator=self.integrator,
-                      sensitivities=False, period=self.period)
-        return x[..., self.k_obs]
+        y = observed(self.model_cls, theta, grid or self.grid, f, [self.k_obs],
+                     initial_state=self.initial_state, integrator=self.integrator,
+                     sensitivities=False, period=self.period)
+        return y[..., 0]
 
 
 # =========================================================================== validation

@@ -208,7 +208,11 @@ def analyse_jacobian(
     q = len(names)
     scales = _column_scales(names, values, data)
     js = jacobian * scales
-    _u, s, vt = np.linalg.svd(js, full_matrices=False)
+    # Singular values and right vectors of J are those of R in J = QR: a tall N x q SVD
+    # then costs one QR plus a q x q SVD, without squaring the condition number as J^T J
+    # would (the small singular values are the point of this analysis).
+    r_factor = np.linalg.qr(js, mode="r") if js.shape[0] > js.shape[1] else js
+    _u, s, vt = np.linalg.svd(r_factor, full_matrices=False)
     if s.size == 0 or s[0] == 0 or not np.all(np.isfinite(s)):
         return {"scales": scales, "singular": s, "structural": [], "practical": [],
                 "cov": np.full((q, q), math.nan), "undetermined": list(range(q))}

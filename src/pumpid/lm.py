@@ -100,120 +100,103 @@ def solve(
         code=np.full(b, FAILED, dtype=np.int8), test=np.full(b, -1, dtype=np.int8),
     )
     ok = np.isfinite(cost) & np.isfinite(jtj).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
-    active = np.flatnonzero(ok)
-    z, cost, jtj, jtr = out.z[ok], cost[ok], jtj[ok], jtr[ok]
-    lam = np.full(active.size, 1e-3)
-    nu = np.full(active.size, 2.0)
-    evals = np.zeros(active.size, dtype=np.int64)
-    accepted = np.zeros(active.size, dtype=np.int64)
-    trusted = np.zeros(active.size, dtype=bool)
+    m = int(ok.sum())
+    # Per-problem state of the problems still iterating (filtered together when some stop).
+    st = {
+        "idx": np.flatnonzero(ok), "z": out.z[ok], "cost": cost[ok], "jtj": jtj[ok],
+        "jtr": jtr[ok], "lo": lo[ok], "hi": hi[ok], "lam": np.full(m, 1e-3),
+        "nu": np.full(m, 2.0), "evals": np.zeros(m, dtype=np.int64),
+        "accepted": np.zeros(m, dtype=np.int64), "trusted": np.zeros(m, dtype=bool),
+    }
+
+    def retire(mask: NDArray[np.bool_], code: NDArray[np.int8], test: NDArray[np.int8]) -> None:
+        i = st["idx"][mask]
+        out.z[i], out.cost[i] = st["z"][mask], st["cost"][mask]
+        out.evaluations[i], out.accepted[i] = st["evals"][mask], st["accepted"][mask]
+        out.code[i], out.test[i] = code[mask], test[mask]
+        keep = ~mask
+        for key in st:
+            st[key] = st[key][keep]
+
     eye = np.eye(q)
-    while active.size:
-        lo_a, hi_a = lo[active], hi[active]
-        with np.errstate(all="ignore"):
+    with np.errstate(all="ignore"):
+        while st["idx"].size:
+            z, cost, lam = st["z"], st["cost"], st["lam"]
             # Columns of J scaled to unit norm: J_s = J / norms, so J_s^T J_s and J_s^T r
             # follow from the normal equations without the Jacobian itself.
-            norms = np.sqrt(np.einsum("bqq->bq", jtj))
+            norms = np.sqrt(np.diagonal(st["jtj"], axis1=1, axis2=2))
             norms = np.where(norms > 0, norms, 1.0)
-            grad = jtr / norms
-            hess = jtj / (norms[:, :, None] * norms[:, None, :])
-            # Coordinates at a bound that the step would push outward are held there for this
-            # step (an active set): first those whose gradient points outward, then those
-            # the step itself pushes out through the correlations, until none is left.
-            at_lo, at_hi = z <= lo_a, z >= hi_a
-            held = (at_lo & (grad > 0)) | (at_hi & (grad < 0))
+            grad0 = st["jtr"] / norms
+            hess0 = st["jtj"] / (norms[:, :, None] * norms[:, None, :])
+            # Coordinates at a bound that the step would push outward are held there for
+            # this step (an active set): first those whose gradient points outward, then
+            # those the step itself pushes out through the correlations, until none is left.
+            at_lo, at_hi = z <= st["lo"], z >= st["hi"]
+            held = (at_lo & (grad0 > 0)) | (at_hi & (grad0 < 0))
             for _ in range(q):
                 free = ~held
-                hess_f = hess * (free[:, :, None] & free[:, None, :])
-                grad_f = np.where(held, 0.0, grad)
-                step = np.linalg.solve(hess_f + lam[:, None, None] * eye,
-                                       -grad_f[..., None])[..., 0]
+                hess = hess0 * (free[:, :, None] & free[:, None, :])
+                grad = np.where(held, 0.0, grad0)
+                step = np.linalg.solve(hess + lam[:, None, None] * eye,
+                                       -grad[..., None])[..., 0]
                 pushed = ((at_lo & (step < 0)) | (at_hi & (step > 0))) & free
                 if not pushed.any():
                     break
                 held |= pushed
-            hess, grad = hess_f, grad_f
             r_norm = np.sqrt(2.0 * cost)
             g_cos = np.max(np.abs(grad), axis=1) / np.where(r_norm > 0, r_norm, 1.0)
-        dz = step / norms
-        if n_capped:
-            big = np.max(np.abs(dz[:, :n_capped]), axis=1)
-            dz *= np.minimum(1.0, MAX_LOG_STEP / np.where(big > 0, big, 1.0))[:, None]
-        z_try = np.clip(z + dz, lo_a, hi_a)
-        dz = z_try - z
-        step = dz * norms
-        # Tests that need no new simulation (MINPACK checks the gradient before stepping):
-        # a problem whose gradient is already negligible, whose next step is below xtol, or
-        # whose next step is predicted to gain less than ftol while the quadratic model has
-        # just proved reliable (last step accepted with a gain ratio >= 1/4, damping small),
-        # is done here instead of paying one more simulation to confirm it.
-        with np.errstate(all="ignore"):
+            dz = step / norms
+            if n_capped:
+                big = np.max(np.abs(dz[:, :n_capped]), axis=1)
+                dz *= np.minimum(1.0, MAX_LOG_STEP / np.where(big > 0, big, 1.0))[:, None]
+            z_try = np.clip(z + dz, st["lo"], st["hi"])
+            dz = z_try - z
+            step = dz * norms
             pred = -(np.einsum("bq,bq->b", grad, step)
                      + 0.5 * np.einsum("bq,bqk,bk->b", step, hess, step))
-        z_norm = np.linalg.norm(z, axis=1)
-        early = np.stack([g_cos <= tol, (pred <= tol * cost) & trusted & (lam <= 1e-2),
-                          np.linalg.norm(dz, axis=1) <= tol * (z_norm + tol)], axis=1)
-        if early.any():
+            # Tests that need no new simulation (MINPACK checks the gradient before
+            # stepping): a negligible gradient, a next step below xtol, or a next step
+            # predicted to gain less than ftol while the quadratic model has just proved
+            # reliable (last step accepted with a gain ratio >= 1/4, damping small). Such
+            # problems stop here instead of paying one more simulation to confirm it.
+            step_small = np.linalg.norm(dz, axis=1) <= tol * (np.linalg.norm(z, axis=1) + tol)
+            early = np.stack([g_cos <= tol, (pred <= tol * cost) & st["trusted"] & (lam <= 1e-2),
+                              step_small], axis=1)
             stop = early.any(axis=1)
-            idx = active[stop]
-            out.z[idx] = z[stop]
-            out.cost[idx] = cost[stop]
-            out.evaluations[idx] = evals[stop]
-            out.accepted[idx] = accepted[stop]
-            out.code[idx] = CONVERGED
-            out.test[idx] = np.argmax(early[stop], axis=1)
-            keep = ~stop
-            active, z, jtj, jtr, cost = (active[keep], z[keep], jtj[keep], jtr[keep],
-                                         cost[keep])
-            lam, nu, evals, accepted = lam[keep], nu[keep], evals[keep], accepted[keep]
-            z_try, dz, step, grad, hess, g_cos = (z_try[keep], dz[keep], step[keep],
-                                                  grad[keep], hess[keep], g_cos[keep])
-            pred, trusted = pred[keep], trusted[keep]
-            lo_a, hi_a = lo_a[keep], hi_a[keep]
-            if not active.size:
-                break
-        with np.errstate(all="ignore"):
-            cost_try, jtj_try, jtr_try = evaluate(z_try, active)
+            if stop.any():
+                retire(stop, np.full(stop.size, CONVERGED, dtype=np.int8),
+                       np.argmax(early, axis=1).astype(np.int8))
+                continue  # the others redo this (cheap) step computation
+            cost_try, jtj_try, jtr_try = evaluate(z_try, st["idx"])
             finite = (np.isfinite(cost_try) & np.isfinite(jtj_try).all(axis=(1, 2))
                       & np.isfinite(jtr_try).all(axis=1))
             cost_try = np.where(finite, cost_try, np.inf)
             actual = cost - cost_try
             rho = np.where(pred > 0, actual / pred, np.where(actual > 0, 1.0, -1.0))
-        evals += 1
-        accept = finite & (rho > 1e-4)
-        accepted += accept
-        trusted = accept & (rho >= 0.25)
-        # Nielsen's update: shrink lambda smoothly on good steps, grow geometrically on bad.
-        lam = np.where(accept, lam * np.maximum(1 / 3, 1 - (2 * np.minimum(rho, 1.0) - 1) ** 3),
-                       lam * nu)
-        lam = np.clip(lam, 1e-12, 1e16)
-        nu = np.where(accept, 2.0, nu * 2.0)
-        z_norm = np.linalg.norm(np.where(accept[:, None], z_try, z), axis=1)
-        tests = np.stack([
-            g_cos <= tol,
-            (np.abs(actual) <= tol * cost) & (pred <= tol * cost) & (rho <= 2.0),
-            np.linalg.norm(dz, axis=1) <= tol * (z_norm + tol),
-        ], axis=1)
-        z = np.where(accept[:, None], z_try, z)
-        jtj = np.where(accept[:, None, None], jtj_try, jtj)
-        jtr = np.where(accept[:, None], jtr_try, jtr)
-        cost = np.where(accept, cost_try, cost)
-        zero = cost == 0
-        converged = tests.any(axis=1) | zero
-        exhausted = ~converged & (evals >= max_evaluations)
-        done = converged | exhausted
-        if done.any():
-            idx = active[done]
-            out.z[idx] = z[done]
-            out.cost[idx] = cost[done]
-            out.evaluations[idx] = evals[done]
-            out.accepted[idx] = accepted[done]
-            out.code[idx] = np.where(converged[done], CONVERGED, EXHAUSTED)
-            out.test[idx] = np.where(zero[done], 3, np.where(
-                converged[done], np.argmax(tests[done], axis=1), -1))
-            keep = ~done
-            active, z, jtj, jtr, cost = (active[keep], z[keep], jtj[keep], jtr[keep],
-                                         cost[keep])
-            lam, nu, evals, accepted = lam[keep], nu[keep], evals[keep], accepted[keep]
-            trusted = trusted[keep]
+            accept = finite & (rho > 1e-4)
+            st["evals"] += 1
+            st["accepted"] += accept
+            st["trusted"] = accept & (rho >= 0.25)
+            # Nielsen's update: shrink lambda smoothly on good steps, grow geometrically on
+            # bad ones.
+            shrink = np.maximum(1 / 3, 1 - (2 * np.minimum(rho, 1.0) - 1) ** 3)
+            st["lam"] = np.clip(np.where(accept, lam * shrink, lam * st["nu"]), 1e-12, 1e16)
+            st["nu"] = np.where(accept, 2.0, st["nu"] * 2.0)
+            z_new = np.where(accept[:, None], z_try, z)
+            tests = np.stack([
+                g_cos <= tol,
+                (np.abs(actual) <= tol * cost) & (pred <= tol * cost) & (rho <= 2.0),
+                np.linalg.norm(dz, axis=1) <= tol * (np.linalg.norm(z_new, axis=1) + tol),
+            ], axis=1)
+            st["z"] = z_new
+            st["jtj"] = np.where(accept[:, None, None], jtj_try, st["jtj"])
+            st["jtr"] = np.where(accept[:, None], jtr_try, st["jtr"])
+            st["cost"] = np.where(accept, cost_try, cost)
+            zero = st["cost"] == 0
+            converged = tests.any(axis=1) | zero
+            done = converged | (st["evals"] >= max_evaluations)
+            if done.any():
+                test = np.where(zero, 3, np.where(converged, np.argmax(tests, axis=1), -1))
+                retire(done, np.where(converged, CONVERGED, EXHAUSTED).astype(np.int8),
+                       test.astype(np.int8))
     return out

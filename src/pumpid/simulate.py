@@ -15,10 +15,13 @@ sensitivity equations ``d/dt dx = A dx + dA x + dB F`` (a block lower-triangular
 and the same discretization is applied to it, which yields the exact derivative of the
 discrete recursion -- no finite differences.
 
-The recursion over time is evaluated by a log-depth parallel prefix ("scan") in numpy rather
-than a Python loop over samples: scipy.signal.lfilter would run a transfer-function form,
-which loses accuracy when the poles crowd near z = 1 (fine sampling), and no scipy routine
-runs a multi-state linear recurrence. The same code runs a batch of cards at once.
+No Python loop runs over the samples. On a uniform grid (the usual case, and every card)
+:func:`observed` evaluates the recursion in the frequency domain (:mod:`pumpid.spectral`):
+transfer-function polynomials of the discretized system and its sensitivity system in
+``w = z - 1``, which keeps full precision when the poles crowd near ``z = 1`` (fine
+sampling) where scipy.signal's polynomials in ``z`` would not, then one inverse FFT. Other
+grids use :func:`propagate`, a log-depth parallel prefix ("scan") of the state recursion.
+Both run a batch of parameter sets and cards at once, and agree to rounding.
 """
 
 from __future__ import annotations

@@ -256,7 +256,7 @@ def response(
     else:
         if v is None or phi_n is None:
             raise ValueError("a non-periodic response needs v and phi_n")
-        vectors = np.stack([g0, g1, v], axis=-2)
+        vectors = np.stack(np.broadcast_arrays(g0, g1, v), axis=-2)  # v carries the load's batch
         vectors = np.concatenate([vectors, vectors @ np.swapaxes(phi_n, -1, -2)], axis=-2)
     num = np.moveaxis(numerators(den, adj, dphi, vectors, states), -4, 0)  # (T, ..., P+1, r, d)
     # Group the vectors by spectrum in coefficient space (z = 1 + w raises the degree by one):
