@@ -447,32 +447,32 @@ def _linear_start(spec: _Spec, y: Array, d: Array) -> tuple[Array, Array]:
     return scale, offset
 
 
-def _normal_equations(
+def _reduced(
     spec: _Spec, z: Array, y: Array, dy: Array, d: Array
 ) -> tuple[Array, Array, Array]:
-    """Cost 0.5 |r|^2, J^T J (b, q, q) and J^T r (b, q) of the residual ``C y + offset - d``.
+    """Cost 0.5 |r|^2 and the triangular factor (R, Q^T r) of the residual ``C y + offset - d``
+    (see :func:`pumpid.lm.reduce`).
 
-    The LM iteration needs nothing else, so the (b, N, q) Jacobian lives only here.
+    The LM iteration needs nothing else, so the (b, q, N) Jacobian lives only here.
     """
-    p = spec.p
+    p, q = spec.p, spec.q
     scale = np.exp(z[:, p]) if spec.scale_fixed is None else np.full(z.shape[0],
                                                                        spec.scale_fixed)
     offset = z[:, -1] if spec.offset_fixed is None else spec.offset_fixed
-    r = scale[:, None] * y + (offset[:, None] if np.ndim(offset) else offset) - d
-    # Jacobian rows per free variable (b, q, N): the batched products below are then
-    # plain matrix products over contiguous rows.
-    jac = np.empty((y.shape[0], spec.q, y.shape[1]))
-    np.multiply(dy, (scale[:, None] * np.exp(z[:, :p]))[:, :, None], out=jac[:, :p])
+    # Jacobian rows per free variable and the residual as one more row (b, q + 1, N): the
+    # layout lm.reduce factors in one QR per card.
+    rows = np.empty((y.shape[0], q + 1, y.shape[1]))
+    np.multiply(dy, (scale[:, None] * np.exp(z[:, :p]))[:, :, None], out=rows[:, :p])
     col = p
     if spec.scale_fixed is None:
-        np.multiply(y, scale[:, None], out=jac[:, col])
+        np.multiply(y, scale[:, None], out=rows[:, col])
         col += 1
     if spec.offset_fixed is None:
-        jac[:, col] = 1.0
-    jtj = jac @ np.swapaxes(jac, 1, 2)
-    jtr = (jac @ r[..., None])[..., 0]
-    cost = 0.5 * np.einsum("bn,bn->b", r, r)
-    return cost, jtj, jtr
+        rows[:, col] = 1.0
+    r = rows[:, q]
+    np.multiply(y, scale[:, None], out=r)
+    r += (offset[:, None] if np.ndim(offset) else offset) - d
+    return lm.reduce_rows(rows)
 
 
 def _lm_chunk(
@@ -501,11 +501,11 @@ def _lm_chunk(
     if spec.offset_fixed is None:
         z[:, col] = offset0
     with np.errstate(all="ignore"):
-        first = _normal_equations(spec, z, y, dy, d)
+        first = _reduced(spec, z, y, dy, d)
 
     def evaluate(z_try: Array, idx: NDArray[np.intp]) -> tuple[Array, Array, Array]:
         y, dy = engine.evaluate(np.exp(z_try[:, :p]), f[idx])
-        return _normal_equations(spec, z_try, y, dy, d[idx])
+        return _reduced(spec, z_try, y, dy, d[idx])
 
     res = lm.solve(evaluate, z, first, z_lo, z_hi, n_capped=p, tol=spec.tol,
                    max_evaluations=spec.max_iter)

@@ -177,8 +177,8 @@ def _solve_lm(
                 jac[p] = 1.0 if log_res else scale * y
             if problem.offset_fixed is None:
                 jac[-1] = 1.0
-            cost = 0.5 * float(r @ r)
-            jtj, jtr = jac @ jac.T, jac @ r
+            reduced = lm.reduce(jac[None], r[None])
+            cost = float(reduced[0][0])
         if cost < best["cost"]:
             best.update(cost=cost, z=z.copy(), y=y, dy=dy)
             row: dict[str, float] = {"iteration": float(len(history))}
@@ -189,7 +189,7 @@ def _solve_lm(
                 row["offset"] = offset
             row["cost"] = cost
             history.append(row)
-        return np.array([cost]), jtj[None], jtr[None]
+        return reduced
 
     z_start = np.array([z0])
     z_lo, z_hi = np.array([lo]), np.array([hi])

@@ -2,24 +2,29 @@
 
 Both :func:`pumpid.fit` (one problem) and :func:`pumpid.fit_many` (one problem per card) use
 this loop. The caller supplies the problems through one callback that returns, for a batch
-of trial points, the cost ``0.5 |r|^2`` with the normal equations ``J^T J`` and ``J^T r``:
-nothing of size N (samples) crosses the interface, and one simulation with exact
-sensitivities per trial point gives all three.
+of trial points, the cost ``0.5 |r|^2`` and the triangular factor of the Jacobian:
+``[J r] = Q [[R, Q^T r], ...]`` (see :func:`reduce`). Nothing of size N (samples) crosses
+the interface, and one simulation with exact sensitivities per trial point gives both.
 
 Why by hand: scipy's ``least_squares`` solves one problem per call and drives it through
 Python callbacks (residual, then Jacobian) whose overhead is a large part of a
-millisecond fit, and no library offers a batched LM. The algorithm is the textbook one:
+millisecond fit, and no library offers a batched LM. The algorithm follows MINPACK's
+``lmder`` (Moré's trust-region Levenberg-Marquardt):
 
-* steps in coordinates where the Jacobian's columns have unit norm, damping ``lambda * I``
-  there (Marquardt's scaling), Nielsen's update of ``lambda`` from the gain ratio;
+* scaled coordinates ``D dz`` with ``D`` the running maximum of the Jacobian's column norms;
+* a trust radius in those coordinates: the Gauss-Newton step when it fits, otherwise the
+  Levenberg-Marquardt step whose length is the radius (the damping found by Newton's method
+  on the secular equation, from an SVD of the q x q factor -- the small singular values of
+  ill-conditioned problems stay accurate, as they would not in the normal equations);
+* the radius halves on poor steps (gain ratio < 1/4) and grows to twice the step on good ones;
 * box bounds on selected coordinates (the log-parameter search window): a coordinate at a
-  bound that the step would push outward is held there for the step (an active set),
-  one that the step moves inward may leave;
-* a cap on the step of the log-parameters (a factor ``e`` per iteration), the role MINPACK's
-  trust radius plays: a Gauss-Newton step along a flat direction cannot fling a parameter
-  into a region where the model degenerates;
-* MINPACK's stop tests: relative step <= tol (xtol), relative actual and predicted cost
-  reductions <= tol (ftol), cosine between residual and Jacobian columns <= tol (gtol).
+  bound that the step would push outward is held there for the step (an active set);
+* a cap on the step of the log-parameters (a factor ``e`` per iteration), so a step along a
+  flat direction cannot fling a parameter into a region where the model degenerates;
+* MINPACK's stop tests: trust radius <= tol * |D z| (xtol), relative actual and predicted
+  cost reductions <= tol (ftol), cosine between residual and Jacobian columns <= tol (gtol).
+  A full Gauss-Newton step that is already below xtol, or predicted to gain less than ftol
+  right after a reliable step, ends the iteration without one more simulation.
 """
 
 from __future__ import annotations
@@ -40,6 +45,8 @@ WINDOW = math.log(1e6)
 LOG_MAX = 700.0
 #: Largest change of a log-parameter in one step.
 MAX_LOG_STEP = 1.0
+#: Initial trust radius as a multiple of |D z0| (MINPACK's ``factor``).
+FACTOR = 100.0
 
 #: Outcome codes.
 CONVERGED, EXHAUSTED, FAILED = 0, 2, 3
@@ -61,6 +68,104 @@ class Outcome:
     test: NDArray[np.int8]  # index into TESTS when converged, -1 otherwise
 
 
+def reduce(jac: Array, r: Array) -> tuple[Array, Array, Array]:
+    """Cost, R and Q^T r of residuals ``r`` (b, N) with Jacobian rows ``jac`` (b, q, N).
+
+    One QR of ``[J r]`` per problem: ``R`` (b, q, q) is J's triangular factor and the last
+    column gives ``Q^T r`` (b, q), so ``J^T J = R^T R`` and ``J^T r = R^T Q^T r``.
+    """
+    return reduce_rows(np.concatenate([jac, r[:, None, :]], axis=1))
+
+
+#: Smallest pivot ratio of the column-scaled Cholesky factor for which the Gram route is used;
+#: below it (condition number around 1e4 or more) the factor comes from a QR of [J r].
+_CHOLESKY_MIN_PIVOT = 1e-4
+
+
+def reduce_rows(rows: Array) -> tuple[Array, Array, Array]:
+    """:func:`reduce` for ``rows`` (b, q + 1, N): the Jacobian's rows, then the residual.
+
+    In a batch, well-conditioned problems take the cheaper route: Cholesky of the column-scaled
+    Gram matrix ``J^T J`` and ``Q^T r = R^-T J^T r`` (four times cheaper than a QR of a tall
+    matrix, and accurate while ``cond(J)`` is small); the others, and any problem whose Gram
+    matrix is not numerically positive definite, get the QR of ``[J r]``.
+    """
+    q = rows.shape[1] - 1
+    r = rows[:, q]
+    cost = 0.5 * np.einsum("bn,bn->b", r, r)
+    if rows.shape[0] < 8:
+        # A single fit: one QR is fewer operations than the guarded Gram route.
+        factor = np.linalg.qr(np.swapaxes(rows, 1, 2), mode="r")
+        return cost, factor[:, :q, :q], factor[:, :q, q]
+    jac = rows[:, :q]
+    gram = jac @ np.swapaxes(jac, 1, 2)
+    jtr = (jac @ r[:, :, None])[:, :, 0]
+    d = np.sqrt(np.einsum("bii->bi", gram))
+    d = np.where(d > 0, d, 1.0)
+    r_fac = np.empty_like(gram)
+    qtr = np.empty_like(jtr)
+    use_qr = ~np.isfinite(gram).all(axis=(1, 2))
+    good = ~use_qr
+    if good.any():
+        scaled = gram[good] / (d[good][:, :, None] * d[good][:, None, :])
+        try:
+            low = np.linalg.cholesky(scaled)
+        except np.linalg.LinAlgError:
+            use_qr[:] = True
+        else:
+            pivots = np.einsum("bii->bi", low)
+            fine = np.min(pivots, axis=1) >= _CHOLESKY_MIN_PIVOT * np.max(pivots, axis=1)
+            idx = np.flatnonzero(good)[fine]
+            # J^T J = (D L)(D L)^T, so R = L^T D and Q^T r solves R^T c = J^T r.
+            upper = np.swapaxes(low[fine], 1, 2) * d[idx][:, None, :]
+            r_fac[idx] = upper
+            qtr[idx] = np.linalg.solve(np.swapaxes(upper, 1, 2), jtr[idx][:, :, None])[:, :, 0]
+            use_qr[np.flatnonzero(good)[~fine]] = True
+    if use_qr.any():
+        factor = np.linalg.qr(np.swapaxes(rows[use_qr], 1, 2), mode="r")
+        r_fac[use_qr] = factor[:, :q, :q]
+        qtr[use_qr] = factor[:, :q, q]
+    return cost, r_fac, qtr
+
+
+def _steps(r_s: Array, c: Array, delta: Array) -> tuple[Array, Array]:
+    """Trust-region steps ``s`` (b, q) for ``min |R_s s + c|`` with ``|s| <= delta``.
+
+    Returns the steps and a flag for "the Gauss-Newton step fitted" (no damping).
+    """
+    u, sig, vt = np.linalg.svd(r_s)
+    ct = (c[:, None, :] @ u)[:, 0]
+    # Minimum-norm Gauss-Newton step: singular values at rounding level count as zero.
+    keep = sig > sig[:, :1] * 1e-14
+    coef = np.where(keep, ct / np.where(keep, sig, 1.0), 0.0)
+    gn_norm = np.sqrt(np.einsum("bi,bi->b", coef, coef))
+    fits = gn_norm <= 1.1 * delta
+    lam = np.zeros(sig.shape[0])
+    todo = ~fits
+    if todo.any():
+        # Newton on 1/|s(lambda)| - 1/delta = 0 (Moré), from lambda = 0 where |s| > delta.
+        a = (sig * ct)[todo]
+        s2 = (sig * sig)[todo]
+        d = delta[todo]
+        lam_t = np.zeros(a.shape[0])
+        for _ in range(30):
+            den = s2 + lam_t[:, None]
+            norm2 = np.sum((a / den) ** 2, axis=1)
+            norm = np.sqrt(norm2)
+            if np.all(np.abs(norm - d) <= 0.1 * d):
+                break
+            dnorm2 = -2.0 * np.sum(a * a / den**3, axis=1)
+            # g = 1/|s| - 1/d, g' = -0.5 |s|^-3 (|s|^2)'
+            g = 1.0 / norm - 1.0 / d
+            gp = -0.5 * dnorm2 / (norm2 * norm)
+            lam_t = np.maximum(lam_t - g / gp, 0.0)
+        lam[todo] = lam_t
+    shrink = sig / (sig * sig + lam[:, None])
+    coef = np.where(fits[:, None], coef, ct * shrink)
+    step = -(coef[:, None, :] @ vt)[:, 0]
+    return step, fits
+
+
 def solve(
     evaluate: Evaluate,
     z0: Array,
@@ -77,11 +182,11 @@ def solve(
     Parameters
     ----------
     evaluate : callable
-        ``evaluate(z, idx) -> (cost, jtj, jtr)`` for trial points ``z`` (m, q) of the problems
-        ``idx`` (m,); non-finite values mark a trial point as unusable.
+        ``evaluate(z, idx) -> (cost, R, qtr)`` (see :func:`reduce`) for trial points ``z``
+        (m, q) of the problems ``idx`` (m,); non-finite values mark a trial point unusable.
     z0 : ndarray, shape (b, q)
         Starting points.
-    first : (cost, jtj, jtr)
+    first : (cost, R, qtr)
         ``evaluate(z0, all)``, which the caller has usually computed already.
     lo, hi : ndarray, shape (b, q)
         Bounds (``-inf``/``inf`` where a coordinate is free).
@@ -93,20 +198,25 @@ def solve(
         Trial points per problem.
     """
     b, q = z0.shape
-    cost, jtj, jtr = first
+    cost, r_fac, qtr = first
     out = Outcome(
         z=np.array(z0, dtype=float), cost=np.full(b, np.nan),
         evaluations=np.zeros(b, dtype=np.int64), accepted=np.zeros(b, dtype=np.int64),
         code=np.full(b, FAILED, dtype=np.int8), test=np.full(b, -1, dtype=np.int8),
     )
-    ok = np.isfinite(cost) & np.isfinite(jtj).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
+    ok = (np.isfinite(cost) & np.isfinite(r_fac).all(axis=(1, 2))
+          & np.isfinite(qtr).all(axis=1))
     m = int(ok.sum())
+    cols = np.sqrt(np.sum(r_fac[ok] ** 2, axis=1))
+    diag = np.where(cols > 0, cols, 1.0)
+    delta = FACTOR * np.linalg.norm(diag * out.z[ok], axis=1)
     # Per-problem state of the problems still iterating (filtered together when some stop).
     st = {
-        "idx": np.flatnonzero(ok), "z": out.z[ok], "cost": cost[ok], "jtj": jtj[ok],
-        "jtr": jtr[ok], "lo": lo[ok], "hi": hi[ok], "lam": np.full(m, 1e-3),
-        "nu": np.full(m, 2.0), "evals": np.zeros(m, dtype=np.int64),
-        "accepted": np.zeros(m, dtype=np.int64), "trusted": np.zeros(m, dtype=bool),
+        "idx": np.flatnonzero(ok), "z": out.z[ok], "cost": cost[ok], "r": r_fac[ok],
+        "c": qtr[ok], "lo": lo[ok], "hi": hi[ok], "diag": diag,
+        "delta": np.where(delta > 0, delta, FACTOR),
+        "evals": np.zeros(m, dtype=np.int64), "accepted": np.zeros(m, dtype=np.int64),
+        "trusted": np.zeros(m, dtype=bool),
     }
 
     def retire(mask: NDArray[np.bool_], code: NDArray[np.int8], test: NDArray[np.int8]) -> None:
@@ -118,79 +228,78 @@ def solve(
         for key in st:
             st[key] = st[key][keep]
 
-    eye = np.eye(q)
     with np.errstate(all="ignore"):
         while st["idx"].size:
-            z, cost, lam = st["z"], st["cost"], st["lam"]
-            # Columns of J scaled to unit norm: J_s = J / norms, so J_s^T J_s and J_s^T r
-            # follow from the normal equations without the Jacobian itself.
-            norms = np.sqrt(np.diagonal(st["jtj"], axis1=1, axis2=2))
-            norms = np.where(norms > 0, norms, 1.0)
-            grad0 = st["jtr"] / norms
-            hess0 = st["jtj"] / (norms[:, :, None] * norms[:, None, :])
+            z, cost, c, delta = st["z"], st["cost"], st["c"], st["delta"]
+            cols = np.sqrt(np.einsum("bij,bij->bj", st["r"], st["r"]))
+            st["diag"] = diag = np.maximum(st["diag"], cols)
+            r_s = st["r"] / diag[:, None, :]
+            grad0 = (c[:, None, :] @ r_s)[:, 0]  # scaled J^T r
+            r_norm = np.sqrt(2.0 * cost)
+            g_cos = np.max(np.abs(grad0), axis=1) / np.where(r_norm > 0, r_norm, 1.0)
             # Coordinates at a bound that the step would push outward are held there for
             # this step (an active set): first those whose gradient points outward, then
             # those the step itself pushes out through the correlations, until none is left.
             at_lo, at_hi = z <= st["lo"], z >= st["hi"]
             held = (at_lo & (grad0 > 0)) | (at_hi & (grad0 < 0))
             for _ in range(q):
-                free = ~held
-                hess = hess0 * (free[:, :, None] & free[:, None, :])
-                grad = np.where(held, 0.0, grad0)
-                step = np.linalg.solve(hess + lam[:, None, None] * eye,
-                                       -grad[..., None])[..., 0]
-                pushed = ((at_lo & (step < 0)) | (at_hi & (step > 0))) & free
+                step, gauss_newton = _steps(r_s * ~held[:, None, :], c, delta)
+                step = np.where(held, 0.0, step)
+                pushed = ((at_lo & (step < 0)) | (at_hi & (step > 0))) & ~held
                 if not pushed.any():
                     break
                 held |= pushed
-            r_norm = np.sqrt(2.0 * cost)
-            g_cos = np.max(np.abs(grad), axis=1) / np.where(r_norm > 0, r_norm, 1.0)
-            dz = step / norms
+            dz = step / diag
             if n_capped:
                 big = np.max(np.abs(dz[:, :n_capped]), axis=1)
                 dz *= np.minimum(1.0, MAX_LOG_STEP / np.where(big > 0, big, 1.0))[:, None]
             z_try = np.clip(z + dz, st["lo"], st["hi"])
             dz = z_try - z
-            step = dz * norms
-            pred = -(np.einsum("bq,bq->b", grad, step)
-                     + 0.5 * np.einsum("bq,bqk,bk->b", step, hess, step))
-            # Tests that need no new simulation (MINPACK checks the gradient before
-            # stepping): a negligible gradient, a next step below xtol, or a next step
-            # predicted to gain less than ftol while the quadratic model has just proved
-            # reliable (last step accepted with a gain ratio >= 1/4, damping small). Such
-            # problems stop here instead of paying one more simulation to confirm it.
-            step_small = np.linalg.norm(dz, axis=1) <= tol * (np.linalg.norm(z, axis=1) + tol)
-            early = np.stack([g_cos <= tol, (pred <= tol * cost) & st["trusted"] & (lam <= 1e-2),
-                              step_small], axis=1)
+            step = dz * diag
+            p_norm = np.sqrt(np.einsum("bi,bi->b", step, step))
+            lin = (r_s @ step[:, :, None])[:, :, 0] + c
+            pred = 0.5 * (np.einsum("bi,bi->b", c, c) - np.einsum("bi,bi->b", lin, lin))
+            dzz = diag * z
+            z_norm = np.sqrt(np.einsum("bi,bi->b", dzz, dzz))
+            # Tests that need no new simulation: a negligible gradient (MINPACK checks it
+            # before stepping), or a full Gauss-Newton step that is below xtol or predicted
+            # to gain less than ftol right after a reliable step.
+            early = np.stack([
+                g_cos <= tol,
+                gauss_newton & st["trusted"] & (pred <= tol * cost),
+                gauss_newton & (p_norm <= tol * z_norm),
+            ], axis=1)
             stop = early.any(axis=1)
             if stop.any():
                 retire(stop, np.full(stop.size, CONVERGED, dtype=np.int8),
                        np.argmax(early, axis=1).astype(np.int8))
                 continue  # the others redo this (cheap) step computation
-            cost_try, jtj_try, jtr_try = evaluate(z_try, st["idx"])
-            finite = (np.isfinite(cost_try) & np.isfinite(jtj_try).all(axis=(1, 2))
-                      & np.isfinite(jtr_try).all(axis=1))
+            cost_try, r_try, c_try = evaluate(z_try, st["idx"])
+            finite = (np.isfinite(cost_try) & np.isfinite(r_try).all(axis=(1, 2))
+                      & np.isfinite(c_try).all(axis=1))
             cost_try = np.where(finite, cost_try, np.inf)
             actual = cost - cost_try
             rho = np.where(pred > 0, actual / pred, np.where(actual > 0, 1.0, -1.0))
-            accept = finite & (rho > 1e-4)
+            accept = finite & (rho >= 1e-4)
             st["evals"] += 1
             st["accepted"] += accept
             st["trusted"] = accept & (rho >= 0.25)
-            # Nielsen's update: shrink lambda smoothly on good steps, grow geometrically on
-            # bad ones.
-            shrink = np.maximum(1 / 3, 1 - (2 * np.minimum(rho, 1.0) - 1) ** 3)
-            st["lam"] = np.clip(np.where(accept, lam * shrink, lam * st["nu"]), 1e-12, 1e16)
-            st["nu"] = np.where(accept, 2.0, st["nu"] * 2.0)
+            # MINPACK's radius update: halve (at least) on poor steps, twice the step on
+            # good ones or when the Gauss-Newton step was taken.
+            poor = rho < 0.25
+            good = ~poor & (gauss_newton | (rho >= 0.75))
+            delta = np.where(poor, 0.5 * np.minimum(delta, 10.0 * p_norm),
+                             np.where(good, np.maximum(delta, 2.0 * p_norm), delta))
+            st["delta"] = delta
             z_new = np.where(accept[:, None], z_try, z)
             tests = np.stack([
                 g_cos <= tol,
                 (np.abs(actual) <= tol * cost) & (pred <= tol * cost) & (rho <= 2.0),
-                np.linalg.norm(dz, axis=1) <= tol * (np.linalg.norm(z_new, axis=1) + tol),
+                delta <= tol * np.sqrt(np.einsum("bi,bi->b", diag * z_new, diag * z_new)),
             ], axis=1)
             st["z"] = z_new
-            st["jtj"] = np.where(accept[:, None, None], jtj_try, st["jtj"])
-            st["jtr"] = np.where(accept[:, None], jtr_try, st["jtr"])
+            st["r"] = np.where(accept[:, None, None], r_try, st["r"])
+            st["c"] = np.where(accept[:, None], c_try, c)
             st["cost"] = np.where(accept, cost_try, cost)
             zero = st["cost"] == 0
             converged = tests.any(axis=1) | zero
