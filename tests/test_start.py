@@ -9,7 +9,15 @@ import pytest
 
 from pumpid import FirstOrder, Kelvin, MassSpringDamper, Maxwell, fit, simulate
 from pumpid.problem import build_problem
-from pumpid.start import _Point, _valley_walk, candidate_starts, initial_estimate
+from pumpid.start import (
+    _move,
+    _Point,
+    _polish,
+    _valley_walk,
+    _weakest_direction,
+    candidate_starts,
+    initial_estimate,
+)
 
 from .conftest import well_load
 
@@ -51,9 +59,9 @@ def test_candidates_are_physical() -> None:
 def test_a_poor_guess_joins_the_multistart_and_loses() -> None:
     data = simulate(KELVIN, T, LOAD)
     problem = build_problem(Kelvin, T, LOAD, data)
-    # A guess far away (factors 0.018 to 38): plain lm from it ends at a boundary, not at
-    # the truth.
-    guess = KELVIN.values * np.array([0.018, 38.33, 8.09, 26.45])
+    # A guess far away (factors 0.005 to 1.4): plain lm from it ends in another minimum,
+    # not at the truth.
+    guess = KELVIN.values * np.array([0.0052, 1.3856, 0.6288, 0.0068])
     plain = fit(Kelvin.from_values(guess), T, LOAD, data, multistart=False)
     assert _err(plain.params, KELVIN) > 1e-3
     theta, note = initial_estimate(problem, guess=guess)
@@ -83,11 +91,23 @@ def _weak_arm_card(noise: float = 0.0):
                                   "offset": True}
 
 
-def test_valley_walk_reaches_the_truth_on_a_weak_maxwell_arm() -> None:
+@pytest.mark.parametrize("jump", [1.0, 2.0])
+def test_valley_walk_reaches_the_truth_on_a_weak_maxwell_arm(jump) -> None:
     truth, t, load, data, opts = _weak_arm_card()
     problem = build_problem(Maxwell, t, load, data, **opts)
-    _theta, note = initial_estimate(problem)
-    assert "walked along a flat valley" in note
+    # A point on the valley's floor far from the truth: a jump along the weakest direction
+    # from the truth, dropped back to the floor by a short polish that runs out there.
+    at_truth = _Point(truth.values, 1.0, 12.0, 0.0, False)
+    weak, size = _weakest_direction(problem, at_truth)
+    assert size < 1e-4  # a valley the walk is meant for
+    theta, scale, offset = _move(problem, at_truth, jump * weak)
+    floor = _polish(problem, theta, 10, scale, offset)
+    assert floor is not None and floor.stopped_early
+    names = truth.param_names()
+    assert _err(dict(zip(names, floor.theta, strict=True)), truth) > 1.0
+    walked = _valley_walk(problem, floor)
+    assert walked.cost < 1e-15 * floor.cost
+    assert _err(dict(zip(names, walked.theta, strict=True)), truth) < 1e-9
     res = fit(Maxwell, t, load, data, **opts)
     assert _err(res.params, truth) < 1e-6
 
