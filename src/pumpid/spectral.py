@@ -73,14 +73,24 @@ def charpoly_adjugate(psi: Array) -> tuple[Array, Array]:
     return den, adj
 
 
-def _poly_mul(a: Array, b: Array) -> Array:
-    """Product of polynomials (ascending coefficients on the last axis), broadcast."""
-    na, nb = a.shape[-1], b.shape[-1]
-    shape = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
-    out = np.zeros((*shape, na + nb - 1))
-    for j in range(na):
-        out[..., j:j + nb] += a[..., j, None] * b
+@functools.lru_cache(maxsize=8)
+def _power_sums(n: int) -> Array:
+    """0/1 matrix (n*n, 2n - 1) adding coefficient (j, l) of a product to power j + l."""
+    out = np.zeros((n * n, 2 * n - 1))
+    for j in range(n):
+        for k in range(n):
+            out[j * n + k, j + k] = 1.0
+    out.flags.writeable = False
     return out
+
+
+def _times_poly(den: Array, n_out: int) -> Array:
+    """Matrix (..., n, n_out) multiplying a degree n - 1 polynomial (row) by ``den``."""
+    n = den.shape[-1] - 1
+    mat = np.zeros((*den.shape[:-1], n, n_out))
+    for j in range(n):
+        mat[..., j, j:j + n + 1] = den
+    return mat
 
 
 def numerators(
@@ -111,13 +121,14 @@ def numerators(
     # Everything over den^2: the direct terms e_x adj q (block 0 and the q_i) times den.
     qs = q.reshape(*q.shape[:-1], n_par + 1, n)
     direct = np.einsum("...jrx,...tix->...tirj", rows, qs)  # degree n - 1
-    out = _poly_mul(den[..., None, None, None, :], direct)  # degree 2n - 1
+    # Times den (degree n): one product with den's multiplication matrix.
+    out = direct @ _times_poly(den, 2 * n)[..., None, None, :, :]  # degree 2n - 1
     if n_par:
         adj_q0 = np.einsum("...lxy,...ty->...tlx", adj, q0)  # (..., T, l, n)
         moved = np.einsum("...ixy,...tly->...tilx", dphi, adj_q0)  # dPhi_i adj q0
         both = np.einsum("...jrx,...tilx->...tirjl", rows, moved)  # powers j + l
-        for j in range(n):
-            out[..., 1:, :, j:j + n] += both[..., j, :]
+        flat = both.reshape(*both.shape[:-2], n * n)
+        out[..., 1:, :, : 2 * n - 1] += flat @ _power_sums(n)
     return out
 
 
