@@ -133,6 +133,14 @@ def _steps(r_s: Array, c: Array, delta: Array) -> tuple[Array, Array]:
 
     Returns the steps and a flag for "the Gauss-Newton step fitted" (no damping).
     """
+    # Fast path (MINPACK's too): with no tiny pivot the Gauss-Newton step is one triangular
+    # solve; when it fits in every problem's radius, nothing else is needed.
+    piv = np.abs(np.diagonal(r_s, axis1=1, axis2=2))
+    if np.all(piv > 1e-12 * np.max(piv, axis=1, keepdims=True)):
+        gn = np.linalg.solve(r_s, -c[:, :, None])[:, :, 0]
+        fits = np.sqrt(np.einsum("bi,bi->b", gn, gn)) <= 1.1 * delta
+        if fits.all():
+            return gn, fits
     u, sig, vt = np.linalg.svd(r_s)
     ct = (c[:, None, :] @ u)[:, 0]
     # Minimum-norm Gauss-Newton step: singular values at rounding level count as zero.
@@ -241,21 +249,29 @@ def solve(
             # this step (an active set): first those whose gradient points outward, then
             # those the step itself pushes out through the correlations, until none is left.
             at_lo, at_hi = z <= st["lo"], z >= st["hi"]
-            held = (at_lo & (grad0 > 0)) | (at_hi & (grad0 < 0))
-            for _ in range(q):
-                step, gauss_newton = _steps(r_s * ~held[:, None, :], c, delta)
-                step = np.where(held, 0.0, step)
-                pushed = ((at_lo & (step < 0)) | (at_hi & (step > 0))) & ~held
-                if not pushed.any():
-                    break
-                held |= pushed
+            if not (at_lo.any() or at_hi.any()):
+                step, gauss_newton = _steps(r_s, c, delta)
+            else:
+                held = (at_lo & (grad0 > 0)) | (at_hi & (grad0 < 0))
+                for _ in range(q):
+                    step, gauss_newton = _steps(r_s * ~held[:, None, :], c, delta)
+                    step = np.where(held, 0.0, step)
+                    pushed = ((at_lo & (step < 0)) | (at_hi & (step > 0))) & ~held
+                    if not pushed.any():
+                        break
+                    held |= pushed
             dz = step / diag
             if n_capped:
                 big = np.max(np.abs(dz[:, :n_capped]), axis=1)
-                dz *= np.minimum(1.0, MAX_LOG_STEP / np.where(big > 0, big, 1.0))[:, None]
-            z_try = np.clip(z + dz, st["lo"], st["hi"])
-            dz = z_try - z
-            step = dz * diag
+                if np.any(big > MAX_LOG_STEP):
+                    dz *= np.minimum(1.0, MAX_LOG_STEP / big)[:, None]
+                    step = dz * diag
+            z_try = z + dz
+            outside = (z_try < st["lo"]) | (z_try > st["hi"])
+            if outside.any():
+                z_try = np.clip(z_try, st["lo"], st["hi"])
+                dz = z_try - z
+                step = dz * diag
             p_norm = np.sqrt(np.einsum("bi,bi->b", step, step))
             lin = (r_s @ step[:, :, None])[:, :, 0] + c
             pred = 0.5 * (np.einsum("bi,bi->b", c, c) - np.einsum("bi,bi->b", lin, lin))
