@@ -3,11 +3,11 @@
 A field sends thousands of dynamometer cards; fitting them one by one with
 :func:`pumpid.fit` pays Python and solver overhead per card. :func:`fit_many` fits a whole
 array of cards (cards x samples, on a shared time grid) with one Levenberg-Marquardt
-iteration *vectorized across cards*:
+iteration *vectorized across cards* (:mod:`pumpid.lm`, the loop the single fit uses too):
 
 * every iteration makes one batched simulation with exact sensitivities for all the cards
   still iterating (log-parameters, like the single fit, so parameters stay positive);
-* each card has its own damping parameter, accept/reject decision and convergence test;
+* each card has its own trust radius, accept/reject decision and convergence test;
   converged cards leave the active set, so stragglers do not make the others pay;
 * the output scale C (when free) and the position offset (when fitted) are extra columns
   of the same least-squares problem, exactly as in the single fit (``C y + offset - data``);
@@ -16,9 +16,9 @@ iteration *vectorized across cards*:
 
 Why vectorized numpy rather than compiled code: pumpid's runtime dependencies are numpy and
 scipy only. No library offers a *batched* Levenberg-Marquardt (scipy's ``least_squares``
-solves one problem per call), so the loop below is hand-written; its per-iteration work is a
-handful of array operations over the chunk, so the Python overhead is paid once per chunk and
-iteration, not per card.
+solves one problem per call), so the loop (:mod:`pumpid.lm`) is hand-written; its
+per-iteration work is a handful of array operations over the chunk, so the Python overhead is
+paid once per chunk and iteration, not per card.
 
 Simulation. On a uniform grid the outputs and their exact sensitivities come from the
 frequency domain (:func:`pumpid.simulate.observed_blocks`, :mod:`pumpid.spectral`): per
@@ -481,7 +481,8 @@ def _lm_chunk(
     """Levenberg-Marquardt (:func:`pumpid.lm.solve`) over the cards of one chunk.
 
     ``lo``/``hi`` bound the log-parameters (the search window); each trial point is one
-    batched simulation with sensitivities, reduced at once to the normal equations.
+    batched simulation with sensitivities, reduced at once to the triangular factor of
+    ``[J r]`` (:func:`pumpid.lm.reduce_rows`).
     """
     b = theta0.shape[0]
     p, q = spec.p, spec.q
