@@ -89,6 +89,18 @@ def test_chunking_and_threads_do_not_change_answers() -> None:
         np.testing.assert_array_equal(other.iterations, one.iterations)
 
 
+def test_chunks_large_enough_for_the_gram_route_give_the_same_answers() -> None:
+    # Chunks of 8 or more cards factor well-conditioned Jacobians through the Gram matrix,
+    # smaller ones through QR: the answers agree to rounding whatever the chunking.
+    theta, loads, disp = make_cards(Kelvin, 12, noise=0.005, seed=8)
+    x0 = theta * STARTS
+    big = fit_many(Kelvin, T, loads, disp, x0=x0, chunk=12)
+    for chunk in (8, 5, 1):
+        other = fit_many(Kelvin, T, loads, disp, x0=x0, chunk=chunk)
+        assert other.status.tolist() == big.status.tolist()
+        np.testing.assert_allclose(other.theta, big.theta, rtol=1e-9)
+
+
 def test_automatic_start_per_card() -> None:
     theta, loads, disp = make_cards(Kelvin, 6, seed=4)
     res = fit_many(Kelvin, T, loads, disp)

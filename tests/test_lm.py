@@ -10,11 +10,13 @@ from pumpid import lm
 T = np.linspace(0.0, 3.0, 60)
 
 
-def _exp_problem(amp: np.ndarray, rate: np.ndarray, noise: float = 0.0, seed: int = 0):
+def _exp_problem(amp: np.ndarray, rate: np.ndarray, noise: float = 0.0, seed: int = 0,
+                 data: np.ndarray | None = None):
     """Residuals a * exp(-k t) - data in z = (ln a, ln k), one problem per row."""
-    rng = np.random.default_rng(seed)
-    data = amp[:, None] * np.exp(-rate[:, None] * T) + noise * rng.standard_normal(
-        (amp.size, T.size))
+    if data is None:
+        rng = np.random.default_rng(seed)
+        data = amp[:, None] * np.exp(-rate[:, None] * T) + noise * rng.standard_normal(
+            (amp.size, T.size))
 
     def evaluate(z: np.ndarray, idx: np.ndarray):
         a, k = np.exp(z[:, 0]), np.exp(z[:, 1])
@@ -132,3 +134,44 @@ def test_an_exact_fit_stops_on_zero_or_a_tiny_step() -> None:
     _data, evaluate = _exp_problem(np.array([2.0]), np.array([0.3]))
     out = _solve(evaluate, np.log([[2.0, 0.3]]))
     assert out.code[0] == lm.CONVERGED and out.evaluations[0] <= 1
+
+
+def test_one_problem_runs_the_same_iteration_as_the_batch() -> None:
+    # With a bound that becomes active on the way (the rate is capped below its true value),
+    # the single-problem loop and the batched one take the same steps.
+    amp, rate = np.array([3.0, 1.5]), np.array([2.0, 0.4])
+    _data, evaluate = _exp_problem(amp, rate, noise=0.01, seed=5)
+    z0 = np.log(np.column_stack([amp * 4.0, rate * 0.2]))
+    hi = np.array([[np.inf, np.log(1.2)], [np.inf, np.inf]])
+    both = _solve(evaluate, z0, hi=hi)
+    for i in range(2):
+        _d, single = _exp_problem(amp[i:i + 1], rate[i:i + 1], data=_data[i:i + 1])
+        alone = _solve(single, z0[i:i + 1], hi=hi[i:i + 1])
+        assert alone.code[0] == both.code[i] == lm.CONVERGED
+        np.testing.assert_allclose(alone.z[0], both.z[i], rtol=1e-9, atol=1e-12)
+    assert both.z[0, 1] == np.log(1.2)
+
+
+def test_single_problem_failure_and_budget() -> None:
+    _data, evaluate = _exp_problem(np.array([1.0]), np.array([1.0]))
+
+    def broken(z, idx):
+        cost, r_fac, qtr = evaluate(z, idx)
+        return np.full_like(cost, np.nan), r_fac, qtr
+
+    z0 = np.log([[3.0, 0.2]])
+    assert _solve(broken, z0).code[0] == lm.FAILED
+    short = _solve(evaluate, z0, max_evaluations=2)
+    assert short.code[0] == lm.EXHAUSTED and short.evaluations[0] == 2
+
+
+def test_damped_steps_with_a_held_or_empty_column_stay_finite() -> None:
+    # A zero column (a held coordinate, or a parameter the data do not see) and a radius
+    # smaller than the Gauss-Newton step: the damped step is finite, has the radius's
+    # length, and does not move the empty coordinate.
+    r_s = np.array([[[2.0, 0.0, 0.5], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]])
+    c = np.array([[1.0, 0.3, -2.0]])
+    step, fits = lm._steps(r_s, c, np.array([0.1]))
+    assert np.all(np.isfinite(step)) and not fits[0]
+    assert step[0, 1] == 0.0
+    assert np.linalg.norm(step[0]) == pytest.approx(0.1, rel=0.11)

@@ -41,7 +41,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import lm
 from .models import Model
-from .problem import MIN_SAMPLES, Problem, _is_zero_state, _unit_size, build_problem
+from .problem import (
+    MIN_SAMPLES,
+    SPECTRAL_RANGE,
+    Problem,
+    _is_zero_state,
+    _unit_size,
+    build_problem,
+)
 from .simulate import (
     Grid,
     InitialState,
@@ -184,13 +191,30 @@ class _Engine:
         """The frequency-domain evaluation applies (see :mod:`pumpid.spectral`)."""
         return _spectral_applies(self.grid, self.model_cls, self.initial_state, self.period)
 
-    def evaluate(self, theta: Array, f: Array) -> tuple[Array, Array]:
-        """Observed output y (b, N) and dy/dtheta (b, p, N) for cards theta (b, p), f (b, N)."""
-        if self.spectral:
-            out = observed_blocks(self.model_cls, theta, self.grid, f,
-                                  np.array([self.k_obs]), np.arange(self.p),
-                                  initial_state=self.initial_state, integrator=self.integrator)
-            return out[:, 0, 0], out[:, 1:, 0]
+    def evaluate(
+        self, theta: Array, f: Array, far: NDArray[np.bool_] | None = None
+    ) -> tuple[Array, Array]:
+        """Observed output y (b, N) and dy/dtheta (b, p, N) for cards theta (b, p), f (b, N).
+
+        ``far`` marks cards whose parameters are far from their natural scales: they are
+        simulated by the state scan (see :data:`pumpid.problem.SPECTRAL_RANGE`).
+        """
+        if not self.spectral:
+            return self._scan(theta, f)
+        if far is not None and far.any():
+            y = np.empty(f.shape)
+            dy = np.empty((f.shape[0], self.p, f.shape[1]))
+            near = ~far
+            if near.any():
+                y[near], dy[near] = self.evaluate(theta[near], f[near])
+            y[far], dy[far] = self._scan(theta[far], f[far])
+            return y, dy
+        out = observed_blocks(self.model_cls, theta, self.grid, f,
+                              np.array([self.k_obs]), np.arange(self.p),
+                              initial_state=self.initial_state, integrator=self.integrator)
+        return out[:, 0, 0], out[:, 1:, 0]
+
+    def _scan(self, theta: Array, f: Array) -> tuple[Array, Array]:
         x = propagate(self.model_cls, theta, self.grid, f, initial_state=self.initial_state,
                       integrator=self.integrator, sensitivities=True, period=self.period)
         n, k = self.n, self.k_obs
@@ -476,7 +500,8 @@ def _reduced(
 
 
 def _lm_chunk(
-    engine: _Engine, spec: _Spec, theta0: Array, f: Array, d: Array, lo: Array, hi: Array
+    engine: _Engine, spec: _Spec, theta0: Array, f: Array, d: Array, lo: Array, hi: Array,
+    ref: Array,
 ) -> dict[str, Array]:
     """Levenberg-Marquardt (:func:`pumpid.lm.solve`) over the cards of one chunk.
 
@@ -486,8 +511,11 @@ def _lm_chunk(
     """
     b = theta0.shape[0]
     p, q = spec.p, spec.q
+    def far(z_log: Array, idx: NDArray[np.intp]) -> NDArray[np.bool_]:
+        return np.any(np.abs(z_log - ref[idx]) > SPECTRAL_RANGE, axis=1)
+
     with np.errstate(all="ignore"):
-        y, dy = engine.evaluate(theta0, f)
+        y, dy = engine.evaluate(theta0, f, far(np.log(theta0), np.arange(b)))
     scale0, offset0 = _linear_start(spec, y, d)
     z = np.empty((b, q))
     z[:, :p] = np.log(theta0)
@@ -505,7 +533,7 @@ def _lm_chunk(
         first = _reduced(spec, z, y, dy, d)
 
     def evaluate(z_try: Array, idx: NDArray[np.intp]) -> tuple[Array, Array, Array]:
-        y, dy = engine.evaluate(np.exp(z_try[:, :p]), f[idx])
+        y, dy = engine.evaluate(np.exp(z_try[:, :p]), f[idx], far(z_try[:, :p], idx))
         return _reduced(spec, z_try, y, dy, d[idx])
 
     res = lm.solve(evaluate, z, first, z_lo, z_hi, n_capped=p, tol=spec.tol,
@@ -646,7 +674,7 @@ def fit_many(
             z0 = np.log(theta0[todo])
             lo = np.minimum(ref[todo] - lm.WINDOW, z0 - 1.0)
             hi = np.maximum(ref[todo] + lm.WINDOW, z0 + 1.0)
-            res = _lm_chunk(engine, spec, theta0[todo], f[todo], d[todo], lo, hi)
+            res = _lm_chunk(engine, spec, theta0[todo], f[todo], d[todo], lo, hi, ref[todo])
             zt = res["z"][:, :p]
             edge = ((zt <= lo) | (zt >= hi)).any(axis=1)
             if best is None:

@@ -193,10 +193,16 @@ def _solve_lm(
 
     z_start = np.array([z0])
     z_lo, z_hi = np.array([lo]), np.array([hi])
-    first = evaluate(z_start, np.array([0]))
     budget = max_nfev if max_nfev is not None else 100 * q
-    res = lm.solve(evaluate, z_start, first, z_lo, z_hi, n_capped=p, tol=tol,
-                   max_evaluations=max(1, budget - 1))
+    try:
+        first = evaluate(z_start, np.array([0]))
+        res = lm.solve(evaluate, z_start, first, z_lo, z_hi, n_capped=p, tol=tol,
+                       max_evaluations=max(1, budget - 1))
+    except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
+        # A trial point where the model cannot be evaluated at all (a singular equilibrium,
+        # say): the fit fails with the reason instead of raising from deep inside numpy.
+        return {"ok": False, "reason": f"solver error: {exc}", "history": history,
+                "nfev": counter["nfev"], "iterations": max(len(history) - 1, 0)}
     code = int(res.code[0])
     if code == lm.FAILED:
         return {"ok": False, "history": history, "nfev": counter["nfev"], "iterations": 0,

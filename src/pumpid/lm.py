@@ -137,14 +137,27 @@ def _steps(r_s: Array, c: Array, delta: Array) -> tuple[Array, Array]:
 
     Returns the steps and a flag for "the Gauss-Newton step fitted" (no damping).
     """
-    # Fast path (MINPACK's too): with no tiny pivot the Gauss-Newton step is one triangular
-    # solve; when it fits in every problem's radius, nothing else is needed.
+    # Fast path, problem by problem (MINPACK's too): with no tiny pivot the Gauss-Newton step
+    # is one solve with the triangular factor; where it fits in the radius, that is the step.
+    # The others (damping needed, or rank deficient) take the SVD route below.
     piv = np.abs(np.diagonal(r_s, axis1=1, axis2=2))
-    if np.all(piv > 1e-12 * np.max(piv, axis=1, keepdims=True)):
-        gn = np.linalg.solve(r_s, -c[:, :, None])[:, :, 0]
-        fits = np.sqrt(np.einsum("bi,bi->b", gn, gn)) <= 1.1 * delta
-        if fits.all():
-            return gn, fits
+    easy = np.all(piv > 1e-12 * np.max(piv, axis=1, keepdims=True), axis=1)
+    step = np.zeros_like(c)
+    fits = np.zeros(c.shape[0], dtype=bool)
+    if easy.any():
+        gn = np.linalg.solve(r_s[easy], -c[easy][:, :, None])[:, :, 0]
+        ok = np.sqrt(np.einsum("bi,bi->b", gn, gn)) <= 1.1 * delta[easy]
+        step[easy] = gn
+        fits[easy] = ok
+    rest = ~fits
+    if rest.any():
+        step[rest], fits[rest] = _svd_steps(r_s[rest], c[rest], delta[rest])
+    return step, fits
+
+
+def _svd_steps(r_s: Array, c: Array, delta: Array) -> tuple[Array, Array]:
+    """:func:`_steps` by an SVD of the factor: minimum-norm Gauss-Newton steps, and the
+    damped steps of length ``delta`` where those do not fit."""
     u, sig, vt = np.linalg.svd(r_s)
     ct = (c[:, None, :] @ u)[:, 0]
     # Minimum-norm Gauss-Newton step: singular values at rounding level count as zero.
@@ -162,29 +175,36 @@ def _steps(r_s: Array, c: Array, delta: Array) -> tuple[Array, Array]:
         lam_t = np.zeros(a.shape[0])
         for _ in range(30):
             den = s2 + lam_t[:, None]
-            norm2 = np.sum((a / den) ** 2, axis=1)
+            # Zero singular values (held or empty columns) carry no step: a / den = 0 there.
+            ratio = np.divide(a, den, out=np.zeros_like(a), where=den > 0)
+            norm2 = np.sum(ratio**2, axis=1)
             norm = np.sqrt(norm2)
             if np.all(np.abs(norm - d) <= 0.1 * d):
                 break
-            dnorm2 = -2.0 * np.sum(a * a / den**3, axis=1)
+            dnorm2 = -2.0 * np.sum(np.divide(ratio**2, den, out=np.zeros_like(a),
+                                             where=den > 0), axis=1)
             # g = 1/|s| - 1/d, g' = -0.5 |s|^-3 (|s|^2)'
             g = 1.0 / norm - 1.0 / d
             gp = -0.5 * dnorm2 / (norm2 * norm)
             lam_t = np.maximum(lam_t - g / gp, 0.0)
         lam[todo] = lam_t
-    shrink = sig / (sig * sig + lam[:, None])
+    damped = sig * sig + lam[:, None]
+    shrink = np.divide(sig, damped, out=np.zeros_like(sig), where=damped > 0)
     coef = np.where(fits[:, None], coef, ct * shrink)
     step = -(coef[:, None, :] @ vt)[:, 0]
     return step, fits
 
 
 def _next_radius(delta: Array, rho: Array, p_norm: Array, gauss_newton: Array) -> Array:
-    """MINPACK's radius update: halve (at least) on poor steps (gain ratio < 1/4), twice the
-    step on good ones (>= 3/4) or when the Gauss-Newton step was taken."""
-    poor = rho < 0.25
-    good = ~poor & (gauss_newton | (rho >= 0.75))
-    return np.where(poor, 0.5 * np.minimum(delta, 10.0 * p_norm),
-                    np.where(good, np.maximum(delta, 2.0 * p_norm), delta))
+    """MINPACK's radius update: halve (at least) on poor steps (gain ratio < 1/4); on good
+    ones (>= 3/4) or after a Gauss-Newton step, at least twice the step (MINPACK sets it to
+    twice the step; keeping a larger radius only saves damping)."""
+    poor = np.asarray(rho) < 0.25
+    good = ~poor & (np.asarray(gauss_newton) | (np.asarray(rho) >= 0.75))
+    new = np.where(poor, 0.5 * np.minimum(delta, 10.0 * p_norm),
+                   np.where(good, np.maximum(delta, 2.0 * p_norm), delta))
+    # A non-finite step (a failed trial) must not poison the radius.
+    return np.where(np.isfinite(new) & (new > 0), new, 0.5 * np.asarray(delta))
 
 
 def solve(
@@ -260,7 +280,9 @@ def solve(
             r_s = st["r"] / diag[:, None, :]
             grad0 = (c[:, None, :] @ r_s)[:, 0]  # scaled J^T r
             r_norm = np.sqrt(2.0 * cost)
-            g_cos = np.max(np.abs(grad0), axis=1) / np.where(r_norm > 0, r_norm, 1.0)
+            # gtol: cosine between r and the Jacobian's columns at their current norms.
+            cosine = (c[:, None, :] @ st["r"])[:, 0] / np.where(cols > 0, cols, np.inf)
+            g_cos = np.max(np.abs(cosine), axis=1) / np.where(r_norm > 0, r_norm, 1.0)
             # Coordinates at a bound that the step would push outward are held there for
             # this step (an active set): first those whose gradient points outward, then
             # those the step itself pushes out through the correlations, until none is left.
@@ -373,11 +395,13 @@ def _solve_one(
     code, test = EXHAUSTED, -1
     with np.errstate(all="ignore"):
         while True:
-            diag = np.maximum(diag, np.sqrt(np.sum(r_fac * r_fac, axis=0)))
+            cols = np.sqrt(np.sum(r_fac * r_fac, axis=0))
+            diag = np.maximum(diag, cols)
             r_s = r_fac / diag
             grad = c @ r_s
             r_norm = math.sqrt(2.0 * cost)
-            g_cos = float(np.max(np.abs(grad))) / (r_norm if r_norm > 0 else 1.0)
+            cosine = (c @ r_fac) / np.where(cols > 0, cols, np.inf)
+            g_cos = float(np.max(np.abs(cosine))) / (r_norm if r_norm > 0 else 1.0)
             at_lo, at_hi = z <= low, z >= high
             piv = np.abs(np.diagonal(r_s))
             free_gn = not (at_lo.any() or at_hi.any()) and piv.min() > 1e-12 * piv.max()

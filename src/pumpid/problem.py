@@ -31,10 +31,14 @@ from .simulate import (
     observed_blocks,
 )
 
-__all__ = ["MIN_SAMPLES", "Problem", "build_problem"]
+__all__ = ["MIN_SAMPLES", "SPECTRAL_RANGE", "Problem", "build_problem"]
 
 MIN_SAMPLES = 10
 Residual = Literal["linear", "log"]
+#: Parameters within this log-distance (a factor 1000) of their natural scales are simulated
+#: in the frequency domain; beyond it (the far end of the search window, boundary probes),
+#: by the state scan, which keeps full precision there (see pumpid.simulate.observed).
+SPECTRAL_RANGE = math.log(1e3)
 
 
 @dataclass(frozen=True)
@@ -69,7 +73,9 @@ class Problem:
     def free_idx(self) -> NDArray[np.intp]:
         """Indices of the model parameters that are fitted (not fixed)."""
         held = {i for i, _ in self.fixed}
-        return np.array([i for i in range(self.n_params) if i not in held], dtype=np.intp)
+        idx = np.array([i for i in range(self.n_params) if i not in held], dtype=np.intp)
+        idx.flags.writeable = False  # cached: shared by every caller
+        return idx
 
     @property
     def n_free(self) -> int:
@@ -143,18 +149,41 @@ class Problem:
         return np.array(parts, dtype=float)
 
     # ------------------------------------------------------------------ evaluation
+    def far_from_scale(self, theta: ArrayLike) -> NDArray[np.bool_]:
+        """Parameter sets (..., p) with a parameter beyond ``SPECTRAL_RANGE`` of its natural
+        scale: they are simulated by the state scan, whose accuracy does not depend on it."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.abs(np.log(np.asarray(theta, dtype=float) / self._reference))
+        return ~np.all(ratio <= SPECTRAL_RANGE, axis=-1)
+
+    @functools.cached_property
+    def _reference(self) -> NDArray[np.float64]:
+        ref = self.reference_scales()
+        ref.flags.writeable = False
+        return ref
+
     def outputs(self, theta: ArrayLike) -> NDArray[np.float64]:
         """Unscaled model output for one (p,) or a batch (K, p) of parameter vectors."""
-        y = observed(self.model_cls, theta, self.grid, self.load, [self.out_index],
-                     initial_state=self.initial_state, integrator=self.integrator,
-                     sensitivities=False, period=self.period)
-        return y[..., 0]
+        th = np.asarray(theta, dtype=float)
+        far = self.far_from_scale(th)
+
+        def run(part: NDArray[np.float64], scan: bool) -> NDArray[np.float64]:
+            return observed(self.model_cls, part, self.grid, self.load, [self.out_index],
+                            initial_state=self.initial_state, integrator=self.integrator,
+                            sensitivities=False, period=self.period, scan=scan)[..., 0]
+
+        if th.ndim == 1 or not far.any() or far.all():
+            return run(th, bool(np.any(far)))
+        y = np.empty((*th.shape[:-1], self.grid.n))
+        y[~far] = run(th[~far], False)
+        y[far] = run(th[far], True)
+        return y
 
     def output_and_sensitivities(
         self, theta: ArrayLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Unscaled output y (N,) and exact dy/dtheta (N, p_free) for the fitted parameters."""
-        if self._spectral:
+        if self._spectral and not self.far_from_scale(theta):
             # The fitters' hot path: straight to the frequency-domain engine (dy is a
             # transposed view of its contiguous (p_free, N) rows).
             out = observed_blocks(self.model_cls, np.asarray(theta, dtype=float), self.grid,
@@ -167,7 +196,7 @@ class Problem:
         rows = [k] + [n * (i + 1) + k for i in self.free_idx]
         y = observed(self.model_cls, theta, self.grid, self.load, rows,
                      initial_state=self.initial_state, integrator=self.integrator,
-                     sensitivities=True, period=self.period)
+                     sensitivities=True, period=self.period, scan=True)
         return y[:, 0], y[:, 1:]
 
     @functools.cached_property

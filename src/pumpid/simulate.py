@@ -383,6 +383,7 @@ def observed(
     integrator: Integrator = "exact",
     sensitivities: bool = True,
     period: float | None = None,
+    scan: bool = False,
 ) -> NDArray[np.float64]:
     """Selected columns (``rows`` of the state or augmented state) over the grid, (..., N, r).
 
@@ -390,17 +391,23 @@ def observed(
     (:mod:`pumpid.spectral`): the transfer functions of the discretized system and its
     sensitivity system on a DFT grid, one inverse FFT back to time, no pass over the samples.
     Non-uniform grids, input maps and a periodic state with an unusual period go through
-    :func:`propagate`'s scan. The two routes agree to rounding (tested).
+    :func:`propagate`'s scan, and so does every call with ``scan=True``. The two routes agree
+    to rounding for parameters within a factor of about 1000 of their natural scales (tested);
+    far beyond, the polynomial route loses digits (a nearly undamped resonance, or time
+    constants millions of times apart), so callers that know the natural scales send such
+    parameter sets to the scan (:class:`pumpid.problem.Problem` does).
     """
     th = np.asarray(theta, dtype=float)
     f = np.asarray(load, dtype=float)
     rows = np.asarray(rows, dtype=np.intp)
     if integrator not in ("exact", "euler"):
         raise ValueError(f"integrator must be 'exact' or 'euler', got {integrator!r}")
-    if not _spectral_applies(grid, model_cls, initial_state, period):
+    if scan or not _spectral_applies(grid, model_cls, initial_state, period):
         x = propagate(model_cls, th, grid, f, initial_state=initial_state,
                       integrator=integrator, sensitivities=sensitivities, period=period)
         return x[..., rows]
+    if rows.size == 0:
+        raise ValueError("rows: at least one state or sensitivity row is needed")
     n = model_cls.n_states()
     block, state = np.divmod(rows, n)
     if not sensitivities and np.any(block > 0):

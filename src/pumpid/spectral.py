@@ -133,9 +133,9 @@ def numerators(
 
 
 @functools.lru_cache(maxsize=32)
-def _grid(length: int, n_samples: int, degree: int) -> tuple[Array, Complex, Complex]:
+def _grid(length: int, n_samples: int, degree: int) -> tuple[Array, Complex]:
     """Powers ``w^j`` (j <= degree) of ``w = z - 1`` on the rfft bins of a length-``length``
-    DFT, ``z`` itself and ``z^-N``; cached because a fit evaluates the same grid many times.
+    DFT and ``z^-N``; cached because a fit evaluates the same grid many times.
 
     ``w`` is formed as ``(cos - 1) + i sin = -2 sin^2(a/2) + i sin(a)``, without the
     cancellation of ``z - 1`` at low frequencies.
@@ -146,15 +146,14 @@ def _grid(length: int, n_samples: int, degree: int) -> tuple[Array, Complex, Com
     powers[0] = 1.0
     for j in range(1, degree + 1):
         powers[j] = powers[j - 1] * w
-    z = np.exp(1j * angle)
     shift = np.exp(-1j * angle * n_samples)
     # Real view with re/im interleaved along the frequencies: real coefficients times these
     # powers is then one real matrix product whose result is viewed back as complex
     # (numpy does not dispatch real @ complex to BLAS).
     powers = np.ascontiguousarray(powers).view(float)
-    for arr in (powers, z, shift):
+    for arr in (powers, shift):
         arr.flags.writeable = False
-    return powers, z, shift
+    return powers, shift
 
 
 _SPECTRUM_CACHE: dict[tuple[int, bytes], Complex] = {}
@@ -258,7 +257,7 @@ def response(
     psi = phi[..., :n, :n] - np.eye(n)
     den, adj = charpoly_adjugate(psi)
     length = n_samples if periodic else scipy.fft.next_fast_len(2 * n_samples, real=True)
-    powers, _, shift = _grid(length, n_samples, 2 * n + 1)
+    powers, shift = _grid(length, n_samples, 2 * n + 1)
     spectrum = _spectrum(load, length)  # (..., K)
     # Forcing vectors and their spectra: G0 F + z G1 F (+ z v), and for a non-periodic start
     # the same through Phi^N times -z^-N. The factor z is folded into the numerators (z = 1 + w).
