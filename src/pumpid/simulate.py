@@ -144,24 +144,41 @@ def _discretize(
     a: NDArray[np.float64], b: NDArray[np.float64], h: ArrayLike, integrator: Integrator
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Phi, G0, G1 of one step of length h (h broadcasts against a's batch dimensions)."""
+    phi, g0, g1, _ = _discretize_and_power(a, b, h, integrator, None)
+    return phi, g0, g1
+
+
+def _discretize_and_power(
+    a: NDArray[np.float64], b: NDArray[np.float64], h: ArrayLike, integrator: Integrator,
+    steps: int | None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+           NDArray[np.float64] | None]:
+    """:func:`_discretize`, and ``Phi^steps`` when ``steps`` is given (uniform h).
+
+    For the exact integrator both exponentials go to one ``expm`` call on a stack of two
+    matrices: scipy scales each one separately, and the call's overhead is paid once.
+    """
     n = a.shape[-1]
     hh = np.asarray(h, dtype=float)[..., None, None]
     if integrator == "euler":
         phi = np.eye(n) + a * hh
         g0 = b * hh[..., 0]
-        return phi, g0, np.zeros_like(g0)
+        power = None if steps is None else np.linalg.matrix_power(phi, steps)
+        return phi, g0, np.zeros_like(g0), power
     batch = np.broadcast_shapes(a.shape[:-2], hh.shape[:-2])
-    m = np.zeros((*batch, n + 2, n + 2))
-    m[..., :n, :n] = a * hh
-    m[..., :n, n] = b * hh[..., 0]
+    m = np.zeros((1 if steps is None else 2, *batch, n + 2, n + 2))
+    m[0, ..., :n, :n] = a * hh
+    m[0, ..., :n, n] = b * hh[..., 0]
     # The extra state is the load increment over the step (not its rate), so G1 is read off
     # directly instead of dividing by a possibly tiny h.
-    m[..., n, n + 1] = 1.0
+    m[0, ..., n, n + 1] = 1.0
+    if steps is not None:
+        m[1, ..., :n, :n] = a * (hh * steps)
     e = scipy.linalg.expm(m)
-    phi = e[..., :n, :n]
-    g1 = e[..., :n, n + 1]
-    g0 = e[..., :n, n] - g1
-    return phi, g0, g1
+    phi = e[0, ..., :n, :n]
+    g1 = e[0, ..., :n, n + 1]
+    g0 = e[0, ..., :n, n] - g1
+    return phi, g0, g1, None if steps is None else e[1, ..., :n, :n]
 
 
 def _scan(
@@ -451,9 +468,11 @@ def observed_blocks(
     a, b = _augment(a, b, da[..., params, :, :], db[..., params, :])
     x0_given = _initial_state_vector(model_cls, initial_state)
     mode = initial_state if x0_given is None else "given"
-    phi, g0, g1 = _discretize(a, b, grid.dt, integrator)
+    periodic = mode == "periodic"
+    phi, g0, g1, phi_n = _discretize_and_power(a, b, grid.dt, integrator,
+                                               None if periodic else grid.n)
     f = load
-    v = phi_n = x_eq = None
+    v = x_eq = None
     if mode == "equilibrium":
         # The equilibrium under F[0] is a fixed point of the recursion (exact and Euler), so
         # the response is that constant plus the response from rest to F - F[0]: the
@@ -465,12 +484,7 @@ def observed_blocks(
         if mode == "given":
             v[..., :n] = x0_given
         v = v - g1 * f[..., 0:1]
-        if integrator == "exact":
-            phi_n = scipy.linalg.expm(a * (grid.n * grid.dt))
-        else:
-            phi_n = np.linalg.matrix_power(phi, grid.n)
-    out = spectral.response(phi, g0, g1, f, n, states, periodic=mode == "periodic", v=v,
-                            phi_n=phi_n)
+    out = spectral.response(phi, g0, g1, f, n, states, periodic=periodic, v=v, phi_n=phi_n)
     if x_eq is not None:
         blocks = x_eq.reshape(*x_eq.shape[:-1], -1, n)[..., states]
         out += blocks[..., None]

@@ -125,7 +125,8 @@ def numerators(
     out = direct @ _times_poly(den, 2 * n)[..., None, None, :, :]  # degree 2n - 1
     if n_par:
         adj_q0 = np.einsum("...lxy,...ty->...tlx", adj, q0)  # (..., T, l, n)
-        moved = np.einsum("...ixy,...tly->...tilx", dphi, adj_q0)  # dPhi_i adj q0
+        # dPhi_i adj q0 as (..., T, P, l, n): rows of adj_q0 times dPhi_i^T.
+        moved = adj_q0[..., :, None, :, :] @ np.swapaxes(dphi, -1, -2)[..., None, :, :, :]
         both = np.einsum("...jrx,...tilx->...tirjl", rows, moved)  # powers j + l
         flat = both.reshape(*both.shape[:-2], n * n)
         out[..., 1:, :, : 2 * n - 1] += flat @ _power_sums(n)
@@ -298,5 +299,5 @@ def response(
         if not periodic:
             out = out + values[1] - shift * (values[2] * spec + values[3])
     d_w = _evaluate(den, powers)  # (..., K)
-    out /= (d_w * d_w)[..., None, None, :]
+    out *= (1.0 / (d_w * d_w))[..., None, None, :]  # one K-long division, then products
     return scipy.fft.irfft(out, length, axis=-1)[..., :n_samples]
