@@ -167,7 +167,9 @@ def _solve_lm(
             r = problem.residual_vector(y, scale, offset)
             if not np.all(np.isfinite(r)):
                 return nan  # a non-physical trial point: rejected, the damping grows
-            jac = np.empty((q, y.size))
+            # Jacobian rows, then the residual, as lm.reduce_rows factors them.
+            rows = np.empty((1, q + 1, y.size))
+            jac = rows[0, :q]
             th = theta[idx]
             if log_res:
                 np.multiply(dy.T, th[:, None] / y, out=jac[:p])
@@ -177,7 +179,8 @@ def _solve_lm(
                 jac[p] = 1.0 if log_res else scale * y
             if problem.offset_fixed is None:
                 jac[-1] = 1.0
-            reduced = lm.reduce(jac[None], r[None])
+            rows[0, q] = r
+            reduced = lm.reduce_rows(rows)
             cost = float(reduced[0][0])
         if cost < best["cost"]:
             best.update(cost=cost, z=z.copy(), y=y, dy=dy)

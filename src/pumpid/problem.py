@@ -152,15 +152,17 @@ class Problem:
     def far_from_scale(self, theta: ArrayLike) -> NDArray[np.bool_]:
         """Parameter sets (..., p) with a parameter beyond ``SPECTRAL_RANGE`` of its natural
         scale: they are simulated by the state scan, whose accuracy does not depend on it."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.abs(np.log(np.asarray(theta, dtype=float) / self._reference))
-        return ~np.all(ratio <= SPECTRAL_RANGE, axis=-1)
+        th = np.asarray(theta, dtype=float)
+        # log(theta / ref) within +-SPECTRAL_RANGE, without logarithms: theta between
+        # ref / 1000 and ref * 1000 (a non-positive or NaN entry is "far").
+        low, high = self._spectral_band
+        return ~np.all((th >= low) & (th <= high), axis=-1)
 
     @functools.cached_property
-    def _reference(self) -> NDArray[np.float64]:
+    def _spectral_band(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         ref = self.reference_scales()
-        ref.flags.writeable = False
-        return ref
+        factor = math.exp(SPECTRAL_RANGE)
+        return ref / factor, ref * factor
 
     def outputs(self, theta: ArrayLike) -> NDArray[np.float64]:
         """Unscaled model output for one (p,) or a batch (K, p) of parameter vectors."""
