@@ -161,3 +161,35 @@ def test_bad_options_raise() -> None:
         fit(KELVIN, T, LOAD, data, x0={"k2": 1.0})
     with pytest.raises(TypeError, match="model instance"):
         fit("kelvin", T, LOAD, data)  # type: ignore[arg-type]
+
+
+def test_a_trial_point_that_cannot_be_simulated_is_rejected(monkeypatch) -> None:
+    from pumpid.problem import Problem
+
+    truth = Kelvin(k0=4.0, m=1.0, c1=0.2, k1=4.0)
+    t = np.linspace(0.0, 20.0, 801)
+    load = 10.0 + np.sin(t) + 0.5 * np.sin(2.7 * t)
+    data = simulate(truth, t, load)
+    original = Problem.output_and_sensitivities
+    calls = {"n": 0}
+
+    def flaky(self, theta):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise np.linalg.LinAlgError("singular matrix (injected)")
+        return original(self, theta)
+
+    monkeypatch.setattr(Problem, "output_and_sensitivities", flaky)
+    res = fit(truth.replace(k0=5.0, c1=0.25), t, load, data, multistart=False)
+    assert res.converged and calls["n"] > 3
+    np.testing.assert_allclose(res.model.values, truth.values, rtol=1e-9)
+
+    calls["n"] = 0
+
+    def broken_start(self, theta):
+        calls["n"] += 1
+        raise np.linalg.LinAlgError("singular matrix (injected)")
+
+    monkeypatch.setattr(Problem, "output_and_sensitivities", broken_start)
+    res = fit(truth, t, load, data, multistart=False)
+    assert not res.converged and "solver error" in res.reason

@@ -163,7 +163,12 @@ def _solve_lm(
         theta, scale, offset = unpack(z)
         nan = (np.array([math.nan]), np.full((1, q, q), math.nan), np.full((1, q), math.nan))
         with np.errstate(all="ignore"):
-            y, dy = problem.output_and_sensitivities(theta)
+            try:
+                y, dy = problem.output_and_sensitivities(theta)
+            except (ValueError, np.linalg.LinAlgError):
+                if counter["nfev"] == 1:
+                    raise  # the start itself cannot be simulated: the fit fails, with why
+                return nan  # a trial point the model cannot simulate: rejected
             r = problem.residual_vector(y, scale, offset)
             if not np.all(np.isfinite(r)):
                 return nan  # a non-physical trial point: rejected, the damping grows
