@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pumpid.models import Kelvin, MassSpringDamper
+from pumpid.models import Kelvin, MassSpringDamper, Maxwell
 from pumpid.simulate import make_grid, observed, propagate
-from pumpid.spectral import charpoly_adjugate, numerators, response
+from pumpid.spectral import DECAYED, charpoly_adjugate, numerators, response
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4])
@@ -134,3 +134,84 @@ def test_the_whole_search_window_is_simulated_to_full_precision(state) -> None:
                               sensitivities=False)[:, 2]
             np.testing.assert_allclose(both[1], plain, rtol=0,
                                        atol=1e-10 * np.max(np.abs(plain)))
+
+
+def _response_both_routes(model_cls, theta, t, load, x0=None):
+    """The response from ``x0`` (default rest) by both non-periodic routes, and |Phi^N|."""
+    from pumpid.simulate import _augment, _discretize_and_power
+
+    grid = make_grid(t)
+    n = model_cls.n_states()
+    a, b, da, db = model_cls.system_batch(theta)
+    a, b = _augment(a, b, da, db)
+    phi, g0, g1, phi_n = _discretize_and_power(a, b, grid.dt, "exact", grid.n)
+    f = np.asarray(load, dtype=float)
+    v = np.zeros(b.shape)
+    if x0 is not None:
+        v[..., :n] = x0
+    v = v - g1 * f[..., 0:1]
+    states = np.arange(n)
+    kw = {"periodic": False, "v": v, "phi_n": phi_n}
+    decayed = response(phi, g0, g1, f, n, states, decayed=DECAYED, **kw)
+    wide = response(phi, g0, g1, f, n, states, decayed=0.0, **kw)
+    decay = np.max(np.sum(np.abs(phi_n[..., :n, :n]), axis=-1))
+    return decayed, wide, decay
+
+
+@pytest.mark.parametrize("n_samples", [2001, 2048, 401])
+@pytest.mark.parametrize(("model_cls", "theta"), [
+    (Kelvin, [9000.0, 45.0, 900.0, 5200.0]),
+    (Maxwell, [3000.0, 40.0, 300.0, 3000.0]),
+    (MassSpringDamper, [40.0, 300.0, 9000.0]),
+])
+def test_a_decayed_start_is_computed_on_the_short_grid(model_cls, theta, n_samples) -> None:
+    # Both non-periodic routes against the scan, from rest and from a given state; the
+    # parameter sets decay within the record, so the N-sample route is the one taken.
+    t = np.linspace(0.0, 7.5, n_samples)
+    load = 5500.0 + 2000.0 * np.sin(2 * np.pi * t / 7.5) + 300.0 * np.sin(6 * np.pi * t / 7.5)
+    theta = np.array(theta)
+    n = model_cls.n_states()
+    for x0 in (None, np.linspace(0.5, 2.0, n)):
+        decayed, wide, decay = _response_both_routes(model_cls, theta, t, load, x0)
+        assert decay <= DECAYED
+        scan = propagate(model_cls, theta, make_grid(t), load,
+                         initial_state="rest" if x0 is None else x0)  # (N, size)
+        ref = np.moveaxis(scan.reshape(n_samples, -1, n), 0, -1)  # (blocks, n, N)
+        scale = np.max(np.abs(ref), axis=-1, keepdims=True)
+        assert np.max(np.abs(decayed - ref) / scale) < 1e-11
+        assert np.max(np.abs(decayed - wide) / scale) < 1e-11
+
+
+def test_an_undecayed_start_keeps_the_long_grid(monkeypatch) -> None:
+    # A lightly damped record whose free response is still large at its end: the N-sample
+    # route would amplify rounding, so the long grid is used (and is exact).
+    from pumpid import spectral
+
+    calls = []
+    real = spectral._decayed_response
+    monkeypatch.setattr(spectral, "_decayed_response",
+                        lambda *a, **k: calls.append(1) or real(*a, **k))
+    t = np.linspace(0.0, 3.0, 601)
+    load = 1.0 + np.sin(2 * np.pi * t / 3.0)
+    model = MassSpringDamper(m=1.0, c=0.05, k=100.0)
+    y = observed(MassSpringDamper, model.values, make_grid(t), load, [0, 2, 4, 6])
+    assert not calls
+    scan = propagate(MassSpringDamper, model.values, make_grid(t), load)[:, [0, 2, 4, 6]]
+    assert np.max(np.abs(y - scan) / np.max(np.abs(scan), axis=0)) < 1e-11
+    heavy = MassSpringDamper(m=1.0, c=20.0, k=100.0)
+    observed(MassSpringDamper, heavy.values, make_grid(t), load, [0, 2, 4, 6])
+    assert calls
+
+
+def test_decayed_batches_broadcast_like_single_sets() -> None:
+    t = np.linspace(0.0, 7.5, 500)
+    loads = np.stack([5500.0 + 2000.0 * np.sin(2 * np.pi * t / 7.5), 3000.0 + 100.0 * t])
+    theta = np.array([[9000.0, 45.0, 900.0, 5200.0], [7000.0, 30.0, 700.0, 4000.0]])
+    grid = make_grid(t)
+    rows = [2, 5, 8, 11, 14]
+    for state in ("rest", "equilibrium"):
+        both = observed(Kelvin, theta, grid, loads, rows, initial_state=state)
+        for i in range(2):
+            one = propagate(Kelvin, theta[i], grid, loads[i], initial_state=state)[:, rows]
+            scale = np.max(np.abs(one), axis=0)
+            assert np.max(np.abs(both[i] - one) / scale) < 1e-11

@@ -217,6 +217,11 @@ def _workspace(rows: int, cols: int) -> Array | None:
     return buf
 
 
+#: Largest spectral radius of ``Phi^N`` (the free response's decay over the record) for which a
+#: non-periodic response takes the N-sample grid (:func:`_decayed_response`).
+DECAYED = 0.1
+
+
 def response(
     phi: Array,
     g0: Array,
@@ -228,6 +233,7 @@ def response(
     periodic: bool,
     v: Array | None = None,
     phi_n: Array | None = None,
+    decayed: float = DECAYED,
 ) -> Array:
     """Observed rows of the (augmented) recursion over N samples, by frequency domain.
 
@@ -245,6 +251,10 @@ def response(
     periodic : bool
         Periodic steady state over the N samples (period N steps). Otherwise ``v`` (the
         augmented initial state minus ``G1 F[0]``) and ``phi_n`` (``Phi^N``) are required.
+    decayed : float
+        A non-periodic response whose free response has decayed to this fraction over the
+        record (spectral radius of ``Phi^N``) is computed on a grid of about N samples
+        (:func:`_decayed_response`); the others on one of at least 2N. 0 forces the latter.
 
     Returns
     -------
@@ -257,27 +267,30 @@ def response(
     dphi = phi[..., n:, :n].reshape(*phi.shape[:-2], n_par, n, n)
     psi = phi[..., :n, :n] - np.eye(n)
     den, adj = charpoly_adjugate(psi)
-    length = n_samples if periodic else scipy.fft.next_fast_len(2 * n_samples, real=True)
-    powers, shift = _grid(length, n_samples, 2 * n + 1)
-    spectrum = _spectrum(load, length)  # (..., K)
-    # Forcing vectors and their spectra: G0 F + z G1 F (+ z v), and for a non-periodic start
-    # the same through Phi^N times -z^-N. The factor z is folded into the numerators (z = 1 + w).
     if periodic:
+        length = n_samples
         vectors = np.stack([g0, g1], axis=-2)
     else:
         if v is None or phi_n is None:
             raise ValueError("a non-periodic response needs v and phi_n")
+        # |Phi^N| (max row sum) bounds the rounding amplification |(I - Phi^N)^-1| of the
+        # N-sample route by 1 / (1 - |Phi^N|).
+        if np.max(np.sum(np.abs(phi_n[..., :n, :n]), axis=-1), initial=0.0) <= decayed:
+            return _decayed_response(phi, g0, g1, load, n, states, v, phi_n, den, adj, dphi)
+        length = scipy.fft.next_fast_len(2 * n_samples, real=True)
         vectors = np.stack(np.broadcast_arrays(g0, g1, v), axis=-2)  # v carries the load's batch
         vectors = np.concatenate([vectors, vectors @ np.swapaxes(phi_n, -1, -2)], axis=-2)
+    powers, shift = _grid(length, n_samples, 2 * n + 1)
+    spectrum = _spectrum(load, length)  # (..., K)
+    # Forcing vectors and their spectra: G0 F + z G1 F (+ z v), and for a non-periodic start
+    # the same through Phi^N times -z^-N. The factor z is folded into the numerators (z = 1 + w).
     num = np.moveaxis(numerators(den, adj, dphi, vectors, states), -4, 0)  # (T, ..., P+1, r, d)
     # Group the vectors by spectrum in coefficient space (z = 1 + w raises the degree by one):
     # G0 + z G1 goes with F, z v is free, and the same through Phi^N goes with -z^-N.
-    groups = [_times_z(num[1])]
-    groups[0][..., :-1] += num[0]
+    groups = [_forced(num[0], num[1])]
     if not periodic:
         groups.append(_times_z(num[2]))
-        groups.append(_times_z(num[4]))
-        groups[2][..., :-1] += num[3]
+        groups.append(_forced(num[3], num[4]))
         groups.append(_times_z(num[5]))
     coef = np.stack(groups)
     values = _evaluate(coef, powers, _workspace(coef.size // coef.shape[-1], powers.shape[1]))
@@ -298,6 +311,76 @@ def response(
         out = values[0] * spec
         if not periodic:
             out = out + values[1] - shift * (values[2] * spec + values[3])
+    return _to_time(out, den, powers, length, n_samples)
+
+
+def _forced(num_g0: Array, num_g1: Array) -> Array:
+    """Numerator of ``G0 + z G1`` (the forcing that goes with F) from those of G0 and G1."""
+    out = _times_z(num_g1)
+    out[..., :-1] += num_g0
+    return out
+
+
+def _to_time(out: Array, den: Array, powers: Array, length: int, n_samples: int) -> Array:
+    """Divide the numerators' values by ``den^2`` and return to the first N samples in time."""
     d_w = _evaluate(den, powers)  # (..., K)
     out *= (1.0 / (d_w * d_w))[..., None, None, :]  # one K-long division, then products
     return scipy.fft.irfft(out, length, axis=-1)[..., :n_samples]
+
+
+@functools.lru_cache(maxsize=8)
+def _half_weights(length: int) -> Array:
+    """Weights of the rfft bins in a sum over all ``length`` DFT bins of a real signal's
+    spectrum (the bins above the Nyquist one are the conjugates of those below)."""
+    weights = np.full(length // 2 + 1, 2.0)
+    weights[0] = 1.0
+    if length % 2 == 0:
+        weights[-1] = 1.0
+    weights.flags.writeable = False
+    return weights
+
+
+def _decayed_response(
+    phi: Array, g0: Array, g1: Array, load: Array, n: int, states: NDArray[np.intp],
+    v: Array, phi_n: Array, den: Array, adj: Array, dphi: Array,
+) -> Array:
+    """Non-periodic response on a grid of L >= N samples (the next fast FFT length).
+
+    The first N samples of any solution differ from the L-periodic solution ``p`` (for the
+    load padded to L samples) by a free response: ``x[k] = p[k] + Phi^k e`` with
+    ``e = x[0] - p[0]``, since both obey the same recursion over the N - 1 steps inside the
+    record. On the L-point grid ``sum_k Phi^k e z^-k`` (k < L) is ``z (zI - Phi)^-1 w`` with
+    ``w = (I - Phi^L) e``, so the whole response is one periodic-style evaluation with the
+    extra forcing ``z w``. ``p[0]`` is the mean of p's spectrum over the grid, a sum that
+    needs the numerators' moments only. Computing e through p[0] amplifies rounding by
+    ``|(I - Phi^L)^-1|``, hence the caller's condition that ``Phi^N`` has decayed.
+    """
+    n_samples = load.shape[-1]
+    length = scipy.fft.next_fast_len(n_samples, real=True)
+    extra = length - n_samples
+    phi_l = phi_n if extra == 0 else phi_n @ np.linalg.matrix_power(phi, extra)
+    powers, _ = _grid(length, n_samples, 2 * n + 1)
+    spectrum = _spectrum(load, length)  # the load padded with zeros to L samples
+    d_w = _evaluate(den, powers)  # (..., K)
+    # p[0] for every state and sensitivity: (1/L) sum over all bins of num(w) F / den^2; the
+    # polynomial in w is summed through its moments sum_k w_k^j F_k / den_k^2 (real parts).
+    every = numerators(den, adj, dphi, np.stack([g0, g1], axis=-2), np.arange(n))
+    forced = _forced(every[..., 0, :, :, :], every[..., 1, :, :, :])  # (..., P+1, n, d)
+    g = spectrum * _half_weights(length) / (d_w * d_w)
+    interleaved = np.stack([g.real, -g.imag], axis=-1).reshape(*g.shape[:-1], -1)
+    degree = forced.shape[-1]
+    moments = interleaved @ powers[:degree].T  # Re sum_k w_k^j g_k: (..., d)
+    p0 = np.einsum("...ird,...d->...ir", forced, moments).reshape(*forced.shape[:-3], -1)
+    x0 = v + g1 * load[..., :1]
+    e = x0 - p0 / length
+    w = e - (phi_l @ e[..., None])[..., 0]
+    free = _times_z(numerators(den, adj, dphi, w[..., None, :], states)[..., 0, :, :, :])
+    coef = np.stack([forced[..., states, :], free])  # (2, ..., P+1, r, d)
+    values = _evaluate(coef, powers, _workspace(coef.size // coef.shape[-1], powers.shape[1]))
+    out = values[0]
+    out *= spectrum[..., None, None, :]
+    out += values[1]
+    x = _to_time(out, den, powers, length, n_samples)
+    # The start is known exactly; the transform returns it with rounding of the record's size.
+    x[..., 0] = x0.reshape(*x0.shape[:-1], -1, n)[..., states]
+    return x
