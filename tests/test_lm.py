@@ -175,3 +175,16 @@ def test_damped_steps_with_a_held_or_empty_column_stay_finite() -> None:
     assert np.all(np.isfinite(step)) and not fits[0]
     assert step[0, 1] == 0.0
     assert np.linalg.norm(step[0]) == pytest.approx(0.1, rel=0.11)
+
+
+def test_the_float_radius_rule_is_the_batched_one() -> None:
+    cases = [(delta, rho, p_norm, gn)
+             for delta in (1e-3, 1.0, 50.0)
+             for rho in (-np.inf, -1.0, 0.0, 0.1, 0.25, 0.5, 0.75, 1.0, 3.0, np.nan)
+             for p_norm in (0.0, 1e-4, 0.7, 200.0, np.inf)
+             for gn in (False, True)]
+    delta, rho, p_norm, gn = (np.array(col) for col in zip(*cases, strict=True))
+    with np.errstate(all="ignore"):
+        batched = lm._next_radius(delta, rho, p_norm, gn)
+    one = [lm._next_radius_one(*case) for case in cases]
+    np.testing.assert_array_equal(one, batched)

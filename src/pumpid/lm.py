@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.linalg.lapack import dtrtrs
 
 Array = NDArray[np.float64]
 
@@ -205,6 +206,17 @@ def _next_radius(delta: Array, rho: Array, p_norm: Array, gauss_newton: Array) -
                    np.where(good, np.maximum(delta, 2.0 * p_norm), delta))
     # A non-finite step (a failed trial) must not poison the radius.
     return np.where(np.isfinite(new) & (new > 0), new, 0.5 * np.asarray(delta))
+
+
+def _next_radius_one(delta: float, rho: float, p_norm: float, gauss_newton: bool) -> float:
+    """:func:`_next_radius` for one problem, on floats."""
+    if rho < 0.25:
+        new = 0.5 * min(delta, 10.0 * p_norm)
+    elif gauss_newton or rho >= 0.75:
+        new = max(delta, 2.0 * p_norm)
+    else:
+        new = delta
+    return new if math.isfinite(new) and new > 0 else 0.5 * delta
 
 
 def solve(
@@ -386,8 +398,9 @@ def _solve_one(
     if not (math.isfinite(cost) and np.isfinite(r_fac).all() and np.isfinite(c).all()):
         return out
     z, low, high = out.z[0].copy(), lo[0], hi[0]
+    low_l, high_l = low.tolist(), high.tolist()
     everywhere = np.array([0])
-    cols = np.sqrt(np.sum(r_fac * r_fac, axis=0))
+    cols = np.sqrt(np.einsum("ij,ij->j", r_fac, r_fac))
     diag = np.where(cols > 0, cols, 1.0)
     delta = FACTOR * float(np.linalg.norm(diag * z)) or FACTOR
     evals = accepted = 0
@@ -395,27 +408,28 @@ def _solve_one(
     code, test = EXHAUSTED, -1
     with np.errstate(all="ignore"):
         while True:
-            cols = np.sqrt(np.sum(r_fac * r_fac, axis=0))
+            cols = np.sqrt(np.einsum("ij,ij->j", r_fac, r_fac))
             diag = np.maximum(diag, cols)
             r_s = r_fac / diag
-            grad = c @ r_s
             r_norm = math.sqrt(2.0 * cost)
             cosine = (c @ r_fac) / np.where(cols > 0, cols, np.inf)
-            g_cos = float(np.max(np.abs(cosine))) / (r_norm if r_norm > 0 else 1.0)
-            at_lo, at_hi = z <= low, z >= high
-            piv = np.abs(np.diagonal(r_s))
-            free_gn = not (at_lo.any() or at_hi.any()) and piv.min() > 1e-12 * piv.max()
-            if free_gn:
-                # _steps' fast path on 2-D arrays: the Gauss-Newton step, if it fits.
-                step = np.linalg.solve(r_s, -c)
-                fits = np.array([math.sqrt(float(step @ step)) <= 1.1 * delta])
-                free_gn = bool(fits[0])
-            if free_gn:
+            g_cos = max(map(abs, cosine.tolist())) / (r_norm if r_norm > 0 else 1.0)
+            z_l = z.tolist()
+            bounded = any(a <= b or a >= h for a, b, h in zip(z_l, low_l, high_l, strict=True))
+            piv = np.abs(np.diagonal(r_s)).tolist()
+            gauss_newton = False
+            if not bounded and min(piv) > 1e-12 * max(piv):
+                # _steps' fast path: the Gauss-Newton step by one triangular solve, if it fits.
+                step, info = dtrtrs(r_s, -c)
+                gauss_newton = info == 0 and math.sqrt(float(step @ step)) <= 1.1 * delta
+            if gauss_newton:
                 pass
-            elif not (at_lo.any() or at_hi.any()):
+            elif not bounded:
                 steps, fits = _steps(r_s[None], c[None], np.array([delta]))
-                step = steps[0]
+                step, gauss_newton = steps[0], bool(fits[0])
             else:
+                at_lo, at_hi = z <= low, z >= high
+                grad = c @ r_s
                 held = (at_lo & (grad > 0)) | (at_hi & (grad < 0))
                 for _ in range(z.size):
                     steps, fits = _steps((r_s * ~held)[None], c[None], np.array([delta]))
@@ -424,14 +438,15 @@ def _solve_one(
                     if not pushed.any():
                         break
                     held |= pushed
-            gauss_newton = bool(fits[0])
+                gauss_newton = bool(fits[0])
             dz = step / diag
             if n_capped:
-                big = float(np.max(np.abs(dz[:n_capped])))
+                big = max(map(abs, dz[:n_capped].tolist()))
                 if big > MAX_LOG_STEP:
                     dz *= MAX_LOG_STEP / big
             z_try = z + dz
-            if np.any(z_try < low) or np.any(z_try > high):
+            if any(a < b or a > h for a, b, h in zip(z_try.tolist(), low_l, high_l,
+                                                    strict=True)):
                 z_try = np.clip(z_try, low, high)
                 dz = z_try - z
             step = dz * diag
@@ -462,7 +477,7 @@ def _solve_one(
             evals += 1
             accepted += accept
             trusted = accept and rho >= 0.25
-            delta = float(_next_radius(delta, rho, p_norm, gauss_newton))
+            delta = _next_radius_one(delta, rho, p_norm, gauss_newton)
             f_test = abs(actual) <= tol * cost and pred <= tol * cost and rho <= 2.0
             if accept:
                 z, r_fac, c, cost = z_try, r_try[0], c_try[0], cost_new
