@@ -156,22 +156,24 @@ def _solve_lm(
         offset = problem.offset_fixed if problem.offset_fixed is not None else float(z[-1])
         return theta, float(scale), float(offset)
 
+    def rejected() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        return np.array([math.nan]), np.full((1, q, q), math.nan), np.full((1, q), math.nan)
+
     def evaluate(z_try: NDArray[np.float64], _idx: NDArray[np.intp]
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         counter["nfev"] += 1
         z = z_try[0]
         theta, scale, offset = unpack(z)
-        nan = (np.array([math.nan]), np.full((1, q, q), math.nan), np.full((1, q), math.nan))
         with np.errstate(all="ignore"):
             try:
                 y, dy = problem.output_and_sensitivities(theta)
             except (ValueError, np.linalg.LinAlgError):
                 if counter["nfev"] == 1:
                     raise  # the start itself cannot be simulated: the fit fails, with why
-                return nan  # a trial point the model cannot simulate: rejected
+                return rejected()  # a trial point the model cannot simulate
             r = problem.residual_vector(y, scale, offset)
-            if not np.all(np.isfinite(r)):
-                return nan  # a non-physical trial point: rejected, the damping grows
+            if not np.isfinite(r).all():
+                return rejected()  # a non-physical trial point: the damping grows
             # Jacobian rows, then the residual, as lm.reduce_rows factors them.
             rows = np.empty((1, q + 1, y.size))
             jac = rows[0, :q]

@@ -108,13 +108,17 @@ class Problem:
         return self.model_cls.output_index(self.observe)
 
     def reference_scales(self) -> NDArray[np.float64]:
-        """Natural size of each parameter from the data, by its unit.
+        """Natural size of each parameter from the data, by its unit (read-only array).
 
         Stiffness ~ C * (load range) / (displacement range), time ~ period / (2 pi), masses
         and dampers accordingly. Used to keep the optimizer inside a wide but finite window,
         so that a parameter the data drive to 0 or infinity stops at a recognisable edge
         instead of at values where the matrix exponential loses precision.
         """
+        return self._reference_scales
+
+    @functools.cached_property
+    def _reference_scales(self) -> NDArray[np.float64]:
         scale = self.scale_fixed if self.scale_fixed is not None else 1.0
         load_span = float(np.ptp(self.load)) or float(np.max(np.abs(self.load))) or 1.0
         out_span = float(np.ptp(self.data)) / scale
@@ -122,7 +126,9 @@ class Problem:
         if self.period is not None:
             span = self.period
         base = {"{load}": load_span, "{position}": out_span, "s": span / (2 * math.pi)}
-        return np.array([_unit_size(info.unit, base) for info in self.model_cls.param_info()])
+        ref = np.array([_unit_size(info.unit, base) for info in self.model_cls.param_info()])
+        ref.flags.writeable = False  # cached: shared by every caller
+        return ref
 
     def split(self, x: ArrayLike) -> tuple[NDArray[np.float64], float, float]:
         """Free vector (physical values) -> (theta, C, offset)."""

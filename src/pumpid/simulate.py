@@ -469,8 +469,8 @@ def observed_blocks(
     x0_given = _initial_state_vector(model_cls, initial_state)
     mode = initial_state if x0_given is None else "given"
     periodic = mode == "periodic"
-    phi, g0, g1, phi_n = _discretize_and_power(a, b, grid.dt, integrator,
-                                               None if periodic else grid.n)
+    short = None if periodic else spectral.short_length(grid.n)
+    phi, g0, g1, phi_l = _discretize_and_power(a, b, grid.dt, integrator, short)
     f = load
     v = x_eq = None
     if mode == "equilibrium":
@@ -484,7 +484,15 @@ def observed_blocks(
         if mode == "given":
             v[..., :n] = x0_given
         v = v - g1 * f[..., 0:1]
-    out = spectral.response(phi, g0, g1, f, n, states, periodic=periodic, v=v, phi_n=phi_n)
+    if periodic:
+        out = spectral.response(phi, g0, g1, f, n, states, periodic=True)
+    elif spectral.has_decayed(phi_l, n):
+        out = spectral.decayed_response(phi, g0, g1, f, n, states, v, phi_l)
+    else:
+        # Slowly decaying: the circular convolution on the long grid, which needs Phi^N.
+        phi_n = phi_l if short == grid.n else _discretize_and_power(
+            a, b, grid.dt, integrator, grid.n)[3]
+        out = spectral.response(phi, g0, g1, f, n, states, periodic=False, v=v, phi_n=phi_n)
     if x_eq is not None:
         blocks = x_eq.reshape(*x_eq.shape[:-1], -1, n)[..., states]
         out += blocks[..., None]

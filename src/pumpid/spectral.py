@@ -6,10 +6,13 @@ transform is a rational function of ``z = exp(2 pi i l / L)``:
 
 * periodic steady state over the N samples (the samples cover one period):
   ``X(z) = (zI - Phi)^-1 (G0 + z G1) F(z)`` on the N-point grid, exactly;
-* any other initial state ``X0``: the first N samples of a circular convolution of length
-  ``L >= 2N`` with the *truncated* kernels ``Phi^m G`` (m < N), whose transforms are
+* any other initial state ``X0`` whose free response has decayed over the record
+  (:func:`has_decayed`): the periodic solution on a grid of ``L >= N`` samples plus the free
+  response from its mismatch with ``X0`` (:func:`decayed_response`), exact on the N samples;
+* the other starts: the first N samples of a circular convolution of length ``L >= 2N``
+  with the *truncated* kernels ``Phi^m G`` (m < N), whose transforms are
   ``z (zI - Phi)^-1 (I - z^-N Phi^N) G``; the free response is the kernel of
-  ``v = X0 - G1 F[0]``. Only ``Phi^N`` is needed, not the N powers.
+  ``v = X0 - G1 F[0]``. Only ``Phi^N`` (or ``Phi^L``) is needed, not the N powers.
 
 The sensitivity system (states and their parameter derivatives) is block lower-triangular:
 ``Phi`` on the diagonal and the derivatives ``dPhi_i`` in the first block column. With
@@ -60,16 +63,20 @@ def charpoly_adjugate(psi: Array) -> tuple[Array, Array]:
     """
     n = psi.shape[-1]
     batch = psi.shape[:-2]
-    den = np.zeros((*batch, n + 1))
+    den = np.empty((*batch, n + 1))
     den[..., n] = 1.0
     adj = np.empty((*batch, n, n, n))
     eye = np.eye(n)
-    bk = np.broadcast_to(eye, psi.shape).copy()
+    adj[..., n - 1, :, :] = eye
+    bk = eye
+    # M_1 = I, c_(n-k) = -tr(psi M_k) / k, M_(k+1) = psi M_k + c_(n-k) I: one product per k.
     for k in range(1, n + 1):
-        if k > 1:
-            bk = psi @ bk + den[..., n - k + 1, None, None] * eye
-        adj[..., n - k, :, :] = bk
-        den[..., n - k] = -np.trace(psi @ bk, axis1=-2, axis2=-1) / k
+        prod = psi @ bk
+        coef = -np.trace(prod, axis1=-2, axis2=-1) / k
+        den[..., n - k] = coef
+        if k < n:
+            bk = prod + coef[..., None, None] * eye
+            adj[..., n - k - 1, :, :] = bk
     return den, adj
 
 
@@ -217,9 +224,22 @@ def _workspace(rows: int, cols: int) -> Array | None:
     return buf
 
 
-#: Largest spectral radius of ``Phi^N`` (the free response's decay over the record) for which a
-#: non-periodic response takes the N-sample grid (:func:`_decayed_response`).
+#: Largest ``|Phi^L|`` (max row sum of the state block; L = :func:`short_length` of the record)
+#: for which a non-periodic response is computed by :func:`decayed_response`.
 DECAYED = 0.1
+
+
+def short_length(n_samples: int) -> int:
+    """Grid length L >= N of :func:`decayed_response`: the next fast FFT length."""
+    return scipy.fft.next_fast_len(n_samples, real=True)
+
+
+def has_decayed(phi_l: Array, n: int, limit: float = DECAYED) -> bool:
+    """True when the free response has decayed enough over L steps for
+    :func:`decayed_response`: ``|Phi^L|`` (max row sum of the state block, every system of
+    the batch) at most ``limit``, which bounds its rounding amplification
+    ``|(I - Phi^L)^-1|`` by ``1 / (1 - limit)``."""
+    return bool(np.max(np.sum(np.abs(phi_l[..., :n, :n]), axis=-1), initial=0.0) <= limit)
 
 
 def response(
@@ -233,7 +253,6 @@ def response(
     periodic: bool,
     v: Array | None = None,
     phi_n: Array | None = None,
-    decayed: float = DECAYED,
 ) -> Array:
     """Observed rows of the (augmented) recursion over N samples, by frequency domain.
 
@@ -251,10 +270,6 @@ def response(
     periodic : bool
         Periodic steady state over the N samples (period N steps). Otherwise ``v`` (the
         augmented initial state minus ``G1 F[0]``) and ``phi_n`` (``Phi^N``) are required.
-    decayed : float
-        A non-periodic response whose free response has decayed to this fraction over the
-        record (spectral radius of ``Phi^N``) is computed on a grid of about N samples
-        (:func:`_decayed_response`); the others on one of at least 2N. 0 forces the latter.
 
     Returns
     -------
@@ -273,10 +288,6 @@ def response(
     else:
         if v is None or phi_n is None:
             raise ValueError("a non-periodic response needs v and phi_n")
-        # |Phi^N| (max row sum) bounds the rounding amplification |(I - Phi^N)^-1| of the
-        # N-sample route by 1 / (1 - |Phi^N|).
-        if np.max(np.sum(np.abs(phi_n[..., :n, :n]), axis=-1), initial=0.0) <= decayed:
-            return _decayed_response(phi, g0, g1, load, n, states, v, phi_n, den, adj, dphi)
         length = scipy.fft.next_fast_len(2 * n_samples, real=True)
         vectors = np.stack(np.broadcast_arrays(g0, g1, v), axis=-2)  # v carries the load's batch
         vectors = np.concatenate([vectors, vectors @ np.swapaxes(phi_n, -1, -2)], axis=-2)
@@ -340,25 +351,34 @@ def _half_weights(length: int) -> Array:
     return weights
 
 
-def _decayed_response(
+def decayed_response(
     phi: Array, g0: Array, g1: Array, load: Array, n: int, states: NDArray[np.intp],
-    v: Array, phi_n: Array, den: Array, adj: Array, dphi: Array,
+    v: Array, phi_l: Array,
 ) -> Array:
-    """Non-periodic response on a grid of L >= N samples (the next fast FFT length).
+    """:func:`response` from a given start, on a grid of only L >= N samples.
 
     The first N samples of any solution differ from the L-periodic solution ``p`` (for the
     load padded to L samples) by a free response: ``x[k] = p[k] + Phi^k e`` with
     ``e = x[0] - p[0]``, since both obey the same recursion over the N - 1 steps inside the
     record. On the L-point grid ``sum_k Phi^k e z^-k`` (k < L) is ``z (zI - Phi)^-1 w`` with
     ``w = (I - Phi^L) e``, so the whole response is one periodic-style evaluation with the
-    extra forcing ``z w``. ``p[0]`` is the mean of p's spectrum over the grid, a sum that
-    needs the numerators' moments only. Computing e through p[0] amplifies rounding by
-    ``|(I - Phi^L)^-1|``, hence the caller's condition that ``Phi^N`` has decayed.
+    extra forcing ``z w``: half the grid of :func:`response`'s circular convolution. ``p[0]``
+    is the mean of p's spectrum over the grid, a sum that needs the numerators' moments only.
+    Computing e through p[0] amplifies rounding by ``|(I - Phi^L)^-1|``: use it where
+    :func:`has_decayed` holds.
+
+    Parameters
+    ----------
+    phi, g0, g1, load, n, states, v
+        As for :func:`response`.
+    phi_l : ndarray, shape (..., S, S)
+        ``Phi^L`` with ``L = short_length(N)``.
     """
+    size = phi.shape[-1]
+    dphi = phi[..., n:, :n].reshape(*phi.shape[:-2], size // n - 1, n, n)
+    den, adj = charpoly_adjugate(phi[..., :n, :n] - np.eye(n))
     n_samples = load.shape[-1]
-    length = scipy.fft.next_fast_len(n_samples, real=True)
-    extra = length - n_samples
-    phi_l = phi_n if extra == 0 else phi_n @ np.linalg.matrix_power(phi, extra)
+    length = short_length(n_samples)
     powers, _ = _grid(length, n_samples, 2 * n + 1)
     spectrum = _spectrum(load, length)  # the load padded with zeros to L samples
     d_w = _evaluate(den, powers)  # (..., K)
@@ -366,10 +386,9 @@ def _decayed_response(
     # polynomial in w is summed through its moments sum_k w_k^j F_k / den_k^2 (real parts).
     every = numerators(den, adj, dphi, np.stack([g0, g1], axis=-2), np.arange(n))
     forced = _forced(every[..., 0, :, :, :], every[..., 1, :, :, :])  # (..., P+1, n, d)
-    g = spectrum * _half_weights(length) / (d_w * d_w)
-    interleaved = np.stack([g.real, -g.imag], axis=-1).reshape(*g.shape[:-1], -1)
-    degree = forced.shape[-1]
-    moments = interleaved @ powers[:degree].T  # Re sum_k w_k^j g_k: (..., d)
+    g = np.conj(spectrum * _half_weights(length) / (d_w * d_w))
+    # Re sum_k w_k^j g_k, as the interleaved real views' product (..., d).
+    moments = g.view(float) @ powers[:forced.shape[-1]].T
     p0 = np.einsum("...ird,...d->...ir", forced, moments).reshape(*forced.shape[:-3], -1)
     x0 = v + g1 * load[..., :1]
     e = x0 - p0 / length
