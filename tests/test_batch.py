@@ -162,3 +162,22 @@ def test_bad_input_is_reported_with_the_card() -> None:
         fit_many(Kelvin, T, loads, disp, chunk=0)
     with pytest.raises(TypeError, match="model"):
         fit_many("kelvin", T, loads, disp)  # type: ignore[arg-type]
+
+
+def test_a_card_that_cannot_be_simulated_fails_alone(monkeypatch) -> None:
+    theta, loads, disp = make_cards(Kelvin, 5, seed=8)
+    loads[3, 0] += 0.125  # the marked card
+    marker = loads[3, 0]
+    real = _Engine.evaluate
+
+    def evaluate(self, theta, f, far=None):
+        if np.any(f[:, 0] == marker):
+            raise np.linalg.LinAlgError("Singular matrix")
+        return real(self, theta, f, far)
+
+    monkeypatch.setattr(_Engine, "evaluate", evaluate)
+    res = fit_many(Kelvin, T, loads, disp, x0=theta * STARTS, chunk=5)
+    assert res.status.tolist() == ["converged"] * 3 + ["failed", "converged"]
+    assert np.isnan(res.theta[3]).all() and np.isnan(res.rmse[3])
+    keep = [0, 1, 2, 4]
+    np.testing.assert_allclose(res.theta[keep], theta[keep], rtol=1e-6)

@@ -595,8 +595,10 @@ def fit_many(
     -------
     BatchResult
         Per-card parameters, scale, offset, status and fit quality. A card whose fit fails
-        does not raise; bad input (shapes, non-finite values, constant records, options)
-        raises ``ValueError`` naming the offending cards.
+        (including one the model cannot simulate) does not raise: its status is "failed"
+        and its values are NaN, and the other cards are fitted as usual. Bad input (shapes,
+        non-finite values, constant records, options) raises ``ValueError`` naming the
+        offending cards.
     """
     if isinstance(model, Model):
         cls: type[Model] = type(model)
@@ -700,14 +702,26 @@ def fit_many(
         out_edge[sl] = best_edge
         out_start[sl] = best["start"]
 
+    def guarded(sl: slice) -> None:
+        # One card the model cannot simulate (a singular solve deep in numpy) must not sink
+        # the others: its chunk is redone card by card, and that card alone is "failed".
+        try:
+            work(sl)
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+            if sl.stop - sl.start > 1:
+                for i in range(sl.start, sl.stop):
+                    guarded(slice(i, i + 1))
+            else:
+                out_z[sl], out_ss[sl], out_code[sl] = np.nan, np.nan, 3
+
     slices = list(_chunks(n_cards, size))
     n_workers = max(1, min(int(workers), len(slices), os.cpu_count() or 1))
     if n_workers == 1:
         for sl in slices:
-            work(sl)
+            guarded(sl)
     else:
         with ThreadPoolExecutor(n_workers) as pool:
-            list(pool.map(work, slices))
+            list(pool.map(guarded, slices))
 
     theta = np.exp(out_z[:, :p])
     col = p
