@@ -221,3 +221,18 @@ def test_decayed_batches_broadcast_like_single_sets() -> None:
             one = propagate(Kelvin, theta[i], grid, loads[i], initial_state=state)[:, rows]
             scale = np.max(np.abs(one), axis=0)
             assert np.max(np.abs(both[i] - one) / scale) < 1e-11
+    # One parameter set against many loads, and every set against every load (the start
+    # grid's shapes), on the decayed route.
+    for state in ("rest", (1e-3, 0.0, 2e-3)):
+        kw = {"initial_state": state}
+        many = observed(Kelvin, theta[0], grid, loads, rows, **kw)
+        grid_out = observed(Kelvin, theta[None], grid, loads[:, None, :], rows, **kw)
+        assert many.shape == (2, 500, 5) and grid_out.shape == (2, 2, 500, 5)
+        for i in range(2):
+            for j in range(2):
+                one = propagate(Kelvin, theta[j], grid, loads[i], **kw)[:, rows]
+                scale = np.max(np.abs(one), axis=0)
+                assert np.max(np.abs(grid_out[i, j] - one) / scale) < 1e-11
+                if j == 0:
+                    assert np.max(np.abs(many[i] - one) / scale) < 1e-11
+    assert observed(Kelvin, np.empty((0, 4)), grid, loads[0], rows).shape == (0, 500, 5)

@@ -237,6 +237,8 @@ def solve(
     evaluate : callable
         ``evaluate(z, idx) -> (cost, R, qtr)`` (see :func:`reduce`) for trial points ``z``
         (m, q) of the problems ``idx`` (m,); non-finite values mark a trial point unusable.
+        ``R`` must be upper triangular (only that triangle is read), as :func:`reduce` and
+        :func:`reduce_rows` return it.
     z0 : ndarray, shape (b, q)
         Starting points.
     first : (cost, R, qtr)

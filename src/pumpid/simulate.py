@@ -181,6 +181,15 @@ def _discretize_and_power(
     return phi, g0, g1, None if steps is None else e[1, ..., :n, :n]
 
 
+def _transition_power(
+    a: NDArray[np.float64], h: float, steps: int, integrator: Integrator
+) -> NDArray[np.float64]:
+    """``Phi^steps`` for one uniform step h (as :func:`_discretize_and_power` would give it)."""
+    if integrator == "euler":
+        return np.linalg.matrix_power(np.eye(a.shape[-1]) + a * h, steps)
+    return scipy.linalg.expm(a * (h * steps))
+
+
 def _scan(
     phi: NDArray[np.float64], z: NDArray[np.float64], varying: bool, inplace: bool = False
 ) -> NDArray[np.float64]:
@@ -490,8 +499,7 @@ def observed_blocks(
         out = spectral.decayed_response(phi, g0, g1, f, n, states, v, phi_l)
     else:
         # Slowly decaying: the circular convolution on the long grid, which needs Phi^N.
-        phi_n = phi_l if short == grid.n else _discretize_and_power(
-            a, b, grid.dt, integrator, grid.n)[3]
+        phi_n = phi_l if short == grid.n else _transition_power(a, grid.dt, grid.n, integrator)
         out = spectral.response(phi, g0, g1, f, n, states, periodic=False, v=v, phi_n=phi_n)
     if x_eq is not None:
         blocks = x_eq.reshape(*x_eq.shape[:-1], -1, n)[..., states]

@@ -389,17 +389,18 @@ def decayed_response(
     g = np.conj(spectrum * _half_weights(length) / (d_w * d_w))
     # Re sum_k w_k^j g_k, as the interleaved real views' product (..., d).
     moments = g.view(float) @ powers[:forced.shape[-1]].T
-    p0 = np.einsum("...ird,...d->...ir", forced, moments).reshape(*forced.shape[:-3], -1)
+    p0 = np.einsum("...ird,...d->...ir", forced, moments)  # the load's batch joins here
+    p0 = p0.reshape(*p0.shape[:-2], p0.shape[-2] * n)
     x0 = v + g1 * load[..., :1]
     e = x0 - p0 / length
     w = e - (phi_l @ e[..., None])[..., 0]
     free = _times_z(numerators(den, adj, dphi, w[..., None, :], states)[..., 0, :, :, :])
-    coef = np.stack([forced[..., states, :], free])  # (2, ..., P+1, r, d)
+    coef = np.stack(np.broadcast_arrays(forced[..., states, :], free))  # (2, ..., P+1, r, d)
     values = _evaluate(coef, powers, _workspace(coef.size // coef.shape[-1], powers.shape[1]))
     out = values[0]
     out *= spectrum[..., None, None, :]
     out += values[1]
     x = _to_time(out, den, powers, length, n_samples)
     # The start is known exactly; the transform returns it with rounding of the record's size.
-    x[..., 0] = x0.reshape(*x0.shape[:-1], -1, n)[..., states]
+    x[..., 0] = x0.reshape(*x0.shape[:-1], x0.shape[-1] // n, n)[..., states]
     return x
