@@ -51,6 +51,19 @@ def test_reduce_matches_the_normal_equations(cond) -> None:
     np.testing.assert_allclose((np.swapaxes(r_fac, 1, 2) @ qtr[..., None])[..., 0],
                                (jac @ r[..., None])[..., 0], rtol=1e-9, atol=1e-9)
     assert np.allclose(np.tril(r_fac, -1), 0.0)
+    # One problem takes LAPACK's QR on the rows themselves: the same factor as a stacked QR,
+    # and its rows untouched unless it may overwrite them.
+    rows = np.concatenate([jac, r[:, None, :]], axis=1)
+    stacked = lm.reduce_rows(rows[:2])
+    for i in range(2):
+        one = rows[i:i + 1].copy()
+        out = lm.reduce_rows(one)
+        np.testing.assert_array_equal(one, rows[i:i + 1])
+        for a, c in zip(out, stacked, strict=True):
+            np.testing.assert_allclose(a[0], c[i], rtol=1e-12, atol=1e-12)
+        again = lm.reduce_rows(one, overwrite=True)
+        for a, c in zip(again, out, strict=True):
+            np.testing.assert_array_equal(a, c)
 
 
 def test_many_problems_at_once_reach_their_own_optimum() -> None:

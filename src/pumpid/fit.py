@@ -187,7 +187,7 @@ def _solve_lm(
             if problem.offset_fixed is None:
                 jac[-1] = 1.0
             rows[0, q] = r
-            reduced = lm.reduce_rows(rows)
+            reduced = lm.reduce_rows(rows, overwrite=True)
             cost = float(reduced[0][0])
         if cost < best["cost"]:
             best.update(cost=cost, z=z.copy(), y=y, dy=dy)

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg.lapack import dtrtrs
+from scipy.linalg.lapack import dgeqrf, dtrtrs
 
 Array = NDArray[np.float64]
 
@@ -87,17 +87,25 @@ def reduce(jac: Array, r: Array) -> tuple[Array, Array, Array]:
 _CHOLESKY_MIN_PIVOT = 1e-4
 
 
-def reduce_rows(rows: Array) -> tuple[Array, Array, Array]:
+def reduce_rows(rows: Array, overwrite: bool = False) -> tuple[Array, Array, Array]:
     """:func:`reduce` for ``rows`` (b, q + 1, N): the Jacobian's rows, then the residual.
 
     In a batch, well-conditioned problems take the cheaper route: Cholesky of the column-scaled
     Gram matrix ``J^T J`` and ``Q^T r = R^-T J^T r`` (four times cheaper than a QR of a tall
     matrix, and accurate while ``cond(J)`` is small); the others, and any problem whose Gram
-    matrix is not numerically positive definite, get the QR of ``[J r]``.
+    matrix is not numerically positive definite, get the QR of ``[J r]``. With ``overwrite``
+    a single problem's C-contiguous rows may be used as the factorization's workspace.
     """
     q = rows.shape[1] - 1
     r = rows[:, q]
     cost = 0.5 * np.einsum("bn,bn->b", r, r)
+    if rows.shape[0] == 1:
+        # One problem: LAPACK's geqrf straight on the transposed rows (a Fortran-ordered view,
+        # no copy when it may be overwritten): a third of a stacked numpy QR's cost.
+        factor, _tau, _work, info = dgeqrf(rows[0].T, overwrite_a=overwrite)
+        if info == 0:
+            upper = np.triu(factor[:q + 1, :q + 1])
+            return cost, upper[None, :q, :q], upper[None, :q, q]
     if rows.shape[0] < 8:
         # A single fit: one QR is fewer operations than the guarded Gram route.
         factor = np.linalg.qr(np.swapaxes(rows, 1, 2), mode="r")
