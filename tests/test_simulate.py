@@ -169,3 +169,21 @@ def test_convolution_path_agrees_with_the_scan(model, state, integrator) -> None
                      integrator=integrator)
     scale = np.max(np.abs(scan), axis=0)
     assert np.all(np.abs(fast - scan) <= 1e-11 * scale + 1e-300)
+
+
+def test_marginally_stable_euler_steps_are_simulated_by_the_scan() -> None:
+    # Explicit Euler with tau = h/2 puts the transition's eigenvalue at -1, a DFT frequency
+    # of the spectral route; such parameter sets (alone or in a batch) go to the scan.
+    from pumpid.simulate import observed, propagate
+
+    t = np.linspace(0.0, 7.5, 400)
+    grid = make_grid(t)
+    load = 5500.0 + 2000.0 * np.sin(2 * np.pi * t / 7.5) + 100.0 * t
+    for theta in ([0.5 * grid.dt], [0.5 * grid.dt * (1 + 1e-6)],
+                  [[0.5 * grid.dt], [0.3]]):
+        for state in ("rest", "periodic"):
+            y = observed(FirstOrder, theta, grid, load, [0, 1], integrator="euler",
+                         initial_state=state)
+            ref = propagate(FirstOrder, theta, grid, load, integrator="euler",
+                            initial_state=state)
+            np.testing.assert_allclose(y, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
