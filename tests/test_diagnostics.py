@@ -10,7 +10,13 @@ import pytest
 
 from pumpid import Kelvin, MassSpringDamper, Maxwell, fit, simulate
 from pumpid.cards import read_cards
-from pumpid.diagnostics import analyse_jacobian, describe_direction, diagnose, diagnostics_text
+from pumpid.diagnostics import (
+    analyse_jacobian,
+    describe_direction,
+    diagnose,
+    diagnostics_text,
+    residual_whiteness,
+)
 from pumpid.identify import fit_card
 from pumpid.problem import build_problem
 
@@ -67,6 +73,56 @@ def test_uncertainty_fields_for_an_ordinary_fit() -> None:
     assert d["correlation"]["names"] == names and d["identifiability"] == []
     text = diagnostics_text(res)
     assert "95 % interval" in text and "every fitted value is determined" in text
+    # White noise: the residuals pass the whiteness check and nothing is said about them.
+    check = d["uncertainty"]["whiteness"]
+    assert check["white"] and abs(check["lag1_autocorrelation"]) < check["limit"]
+    assert not any("not white" in w for w in res.warnings)
+
+
+def test_residual_whiteness_of_white_and_ar1_series() -> None:
+    rng = np.random.default_rng(3)
+    e = rng.standard_normal(20000)
+    white = residual_whiteness(e)
+    assert white["white"] and abs(white["lag1_autocorrelation"]) < 0.02
+    assert white["limit"] == pytest.approx(2.576 / math.sqrt(20000))
+    ar = np.empty_like(e)
+    ar[0] = e[0]
+    for k in range(1, e.size):
+        ar[k] = 0.9 * ar[k - 1] + e[k]
+    check = residual_whiteness(ar)
+    assert not check["white"]
+    assert check["lag1_autocorrelation"] == pytest.approx(0.9, abs=0.01)
+    assert check["interval_factor"] == pytest.approx(math.sqrt(1.9 / 0.1), rel=0.05)
+    assert check["effective_samples"] == pytest.approx(20000 * 0.1 / 1.9, rel=0.1)
+    # The factor is what the AR(1) errors really do to the spread of a fitted mean.
+    means = [np.mean(_ar1(rng, 0.9, 400)) for _ in range(400)]
+    naive = math.sqrt(1.0 / (1 - 0.81) / 400)  # white-noise standard error of the mean
+    assert np.std(means) / naive == pytest.approx(math.sqrt(1.9 / 0.1), rel=0.2)
+
+
+def _ar1(rng, rho, n):
+    e = rng.standard_normal(n + 200)
+    out = np.empty_like(e)
+    out[0] = e[0]
+    for k in range(1, e.size):
+        out[k] = rho * out[k - 1] + e[k]
+    return out[200:]
+
+
+def test_structured_residuals_are_flagged_with_the_widening() -> None:
+    # Model error: a slow disturbance the model cannot produce, plus a little white noise.
+    clean = simulate(KELVIN, T, LOAD)
+    data = _noisy(KELVIN, level=0.002) + 0.02 * np.ptp(clean) * np.sin(0.7 * T)
+    res = fit(KELVIN, T, LOAD, data)
+    check = res.extra["uncertainty"]["whiteness"]
+    assert not check["white"] and check["interval_factor"] > 2.0
+    warning = next(w for w in res.warnings if "not white noise" in w)
+    assert f"{check['interval_factor']:.1f} times wider" in warning
+    assert "too narrow" in res.report()
+    # An exact fit has rounding for residuals: no check, no warning.
+    exact = fit(KELVIN, T, LOAD, clean)
+    assert exact.extra["uncertainty"]["whiteness"] is None
+    assert not any("not white" in w for w in exact.warnings)
 
 
 @pytest.mark.parametrize("model", [KELVIN, MAXWELL], ids=lambda m: type(m).__name__)
@@ -187,3 +243,7 @@ def test_sandia_cards_state_what_is_identifiable(shared_raw) -> None:
         text = diagnostics_text(res)
         assert "identifiability" in text and "lbf" not in text.split("identifiability")[0][:0]
         json.loads(res.to_json(allow_nan=False))
+        # A real card's residuals follow one another (model error): the white-noise
+        # intervals are flagged as too narrow.
+        assert not res.extra["uncertainty"]["whiteness"]["white"]
+        assert any("not white noise" in w for w in res.warnings)

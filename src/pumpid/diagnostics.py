@@ -18,6 +18,10 @@
     ``{"names": [...], "matrix": [[...]]}`` over the free values (``result.free``).
 ``stderr``, ``ci95``
     Standard errors and 95 % confidence intervals by name.
+``uncertainty["whiteness"]``
+    The check of the white-noise assumption (:func:`residual_whiteness`): when the residuals'
+    lag-1 autocorrelation exceeds what white noise allows, a warning says that the intervals
+    are too narrow and by about how much (None for an exact fit).
 
 The intervals are the usual linearised (Wald) ones: the noise is assumed white (independent
 samples), homoscedastic and Gaussian, and the model linear in its parameters within the
@@ -49,10 +53,12 @@ if TYPE_CHECKING:
 __all__ = [
     "PRACTICAL_REL_SE",
     "STRUCTURAL_TOL",
+    "WHITENESS_Z",
     "analyse_jacobian",
     "describe_direction",
     "diagnose",
     "diagnostics_text",
+    "residual_whiteness",
 ]
 
 Array = NDArray[np.float64]
@@ -66,6 +72,12 @@ STRUCTURAL_TOL = 1e-10
 PRACTICAL_REL_SE = 1.0
 #: Loading below which a parameter is not counted as part of a direction.
 _LOADING = 0.05
+#: Residuals count as white while their lag-1 autocorrelation stays below this many standard
+#: errors (1/sqrt(N) for white noise): 2.576 is its one-sided 99.5 % point.
+WHITENESS_Z = 2.576
+#: A residual RMS below this fraction of the data's range is rounding: an exact fit, whose
+#: residuals carry no information about the noise.
+_EXACT_FIT = 1e-9
 
 _STATE_WORDS = {
     "rest": "from rest",
@@ -273,6 +285,73 @@ def _sigma2_unit(result: FitResult) -> str:
     return f"{result.units.position}^2"
 
 
+def residual_whiteness(residual: Sequence[float] | Array) -> dict[str, Any]:
+    """Do the residuals look like white noise? Lag-1 autocorrelation and what it implies.
+
+    The intervals of :func:`diagnose` assume independent errors. Residuals that follow one
+    another (model error on a real card, or coloured noise) make them too narrow: for errors
+    that are an AR(1) process with coefficient rho, and slowly varying sensitivities, the
+    variances grow by ``(1 + rho) / (1 - rho)``, as if only ``N (1 - rho) / (1 + rho)``
+    samples had been taken.
+
+    Parameters
+    ----------
+    residual : array_like, shape (N,)
+        The residuals the fit minimized (non-finite entries are ignored).
+
+    Returns
+    -------
+    dict
+        ``lag1_autocorrelation`` (rho), ``limit`` (``WHITENESS_Z / sqrt(N)``: white noise
+        stays below it with probability 99.5 %), ``white`` (rho <= limit),
+        ``interval_factor`` (``sqrt((1 + rho) / (1 - rho))`` for rho > 0, else 1) and
+        ``effective_samples``.
+    """
+    r = np.asarray(residual, dtype=float)
+    r = r[np.isfinite(r)]
+    n = int(r.size)
+    r = r - r.mean() if n else r
+    ss = float(r @ r)
+    rho = float(r[1:] @ r[:-1]) / ss if n > 2 and ss > 0 else 0.0
+    limit = WHITENESS_Z / math.sqrt(max(n, 1))
+    positive = min(max(rho, 0.0), 0.999)
+    return {
+        "lag1_autocorrelation": rho,
+        "limit": limit,
+        "white": bool(rho <= limit),
+        "interval_factor": math.sqrt((1.0 + positive) / (1.0 - positive)),
+        "effective_samples": n * (1.0 - positive) / (1.0 + positive),
+    }
+
+
+def _whiteness_warning(check: dict[str, Any], n_obs: int) -> str:
+    return (
+        f"the residuals are not white noise: their lag-1 autocorrelation is "
+        f"{check['lag1_autocorrelation']:.2f} (white noise stays below {check['limit']:.2f} "
+        f"for {n_obs} samples, 99.5 %). The standard errors and 95 % intervals assume "
+        f"independent errors and are too narrow here; for AR(1) errors they would be about "
+        f"{check['interval_factor']:.1f} times wider (about "
+        f"{check['effective_samples']:.0f} effective samples of {n_obs}). Structured residuals "
+        f"usually mean that the model misses part of the response."
+    )
+
+
+def _residual_check(result: FitResult) -> dict[str, Any] | None:
+    """:func:`residual_whiteness` of the fit's own residuals; None for an exact fit."""
+    data = np.asarray(result.data, dtype=float)
+    if result.residual == "log":
+        with np.errstate(divide="ignore", invalid="ignore"):
+            residual = np.log(result.fitted) - np.log(data)
+            spread = float(np.ptp(np.log(data)))
+    else:
+        residual = result.residuals
+        spread = float(np.ptp(data))
+    rms = math.sqrt(2.0 * result.cost / max(data.size, 1))
+    if not rms > _EXACT_FIT * spread:
+        return None
+    return residual_whiteness(residual)
+
+
 # --------------------------------------------------------------------------- entry point
 @functools.lru_cache(maxsize=256)
 def t_quantile(q: float, dof: int) -> float:
@@ -384,6 +463,11 @@ def diagnose(result: FitResult) -> None:
     corr[~np.isfinite(corr)] = math.nan
     np.fill_diagonal(corr, [1.0 if np.isfinite(s) else math.nan for s in sd])
 
+    whiteness = _residual_check(result)
+    if whiteness is not None and not whiteness["white"]:
+        warning = _whiteness_warning(whiteness, n_obs)
+        if warning not in result.warnings:
+            result.warnings.append(warning)
     notes = []
     if at_bound:
         notes.append(
@@ -409,6 +493,7 @@ def diagnose(result: FitResult) -> None:
                 "freedom; positive parameters (and C) on the log scale, value*exp(+-t se/value)"
             ),
             "notes": notes,
+            "whiteness": whiteness,
         },
         "covariance": {"names": names, "matrix": cov.tolist()},
         "correlation": {"names": names, "matrix": corr.tolist()},
