@@ -324,14 +324,17 @@ def residual_whiteness(residual: Sequence[float] | Array) -> dict[str, Any]:
     }
 
 
-def _whiteness_warning(check: dict[str, Any], n_obs: int) -> str:
+def _whiteness_warning(check: dict[str, Any], n_obs: int, n_fitted: int) -> str:
+    effective = max(1, round(check["effective_samples"]))
+    few = (f"; that is too few against {n_fitted} fitted values for any interval to mean much"
+           if effective < 3 * n_fitted else "")
     return (
         f"the residuals are not white noise: their lag-1 autocorrelation is "
         f"{check['lag1_autocorrelation']:.2f} (white noise stays below {check['limit']:.2f} "
         f"for {n_obs} samples, 99.5 %). The standard errors and 95 % intervals assume "
         f"independent errors and are too narrow here; for AR(1) errors they would be about "
-        f"{check['interval_factor']:.1f} times wider (about "
-        f"{check['effective_samples']:.0f} effective samples of {n_obs}). Structured residuals "
+        f"{check['interval_factor']:.1f} times wider (about {effective} effective "
+        f"sample{'s' if effective != 1 else ''} of {n_obs}{few}). Structured residuals "
         f"usually mean that the model misses part of the response."
     )
 
@@ -465,7 +468,7 @@ def diagnose(result: FitResult) -> None:
 
     whiteness = _residual_check(result)
     if whiteness is not None and not whiteness["white"]:
-        warning = _whiteness_warning(whiteness, n_obs)
+        warning = _whiteness_warning(whiteness, n_obs, q)
         if warning not in result.warnings:
             result.warnings.append(warning)
     notes = []
