@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import lm
+from .blas import single_threaded
 from .models import Model
 from .problem import (
     MIN_SAMPLES,
@@ -544,6 +545,7 @@ def _lm_chunk(
 
 
 # =========================================================================== entry point
+@single_threaded
 def fit_many(
     model: Model | type[Model],
     t: ArrayLike,

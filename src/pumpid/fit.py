@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import lm
+from .blas import single_threaded
 from .boundaries import SUSPICION, Boundary, find_boundaries, nested_candidates
 from .diagnostics import diagnose
 from .models import Model
@@ -392,6 +393,7 @@ def _nfd_fail(history: list[dict[str, float]], nfev: int, iterations: int,
 
 
 # --------------------------------------------------------------------------- entry point
+@single_threaded
 def fit(
     model: Model | type[Model],
     t: ArrayLike,

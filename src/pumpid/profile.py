@@ -29,6 +29,8 @@ import scipy.stats
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from .blas import single_threaded
+
 if TYPE_CHECKING:
     from .result import FitResult
 
@@ -260,6 +262,7 @@ def _crossing(x0: float, d0: float, x1: float, d1: float, level: float) -> float
 
 
 # --------------------------------------------------------------------------- entry point
+@single_threaded
 def profile(
     result: FitResult,
     name: str,
