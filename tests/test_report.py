@@ -320,3 +320,17 @@ def test_write_outputs(result: FitResult, tmp_path) -> None:
     data = json.loads(paths["json"].read_text(encoding="utf-8"))
     assert data["model"] == "Kelvin" and set(data["params"]) == set(result.params)
     assert_well_formed(parse(paths["report"].read_text(encoding="utf-8")))
+
+
+def test_reduced_model_status_is_said_once(result: FitResult, tiny_figures) -> None:
+    extra = dict(result.extra)
+    extra["reduced"] = {
+        "model": "MassSpringDamper", "params": {"m": 2.0, "c": 50.0, "k": 60.0},
+        "units": {"m": "lbf*s^2/in", "c": "lbf*s/in", "k": "lbf/in"}, "scale": 1.0,
+        "offset": 0.5, "rmse": 0.2, "r2": 0.999, "converged": True, "status": "converged",
+        "reason": "converged: the relative step fell below xtol = 1e-12",
+    }
+    doc = parse(render_html(dataclasses.replace(result, extra=extra), figures=tiny_figures))
+    body = " ".join(" ".join(v) for v in doc.text.values())
+    assert "(converged: the relative step fell below xtol = 1e-12)" in body
+    assert "converged: converged" not in body

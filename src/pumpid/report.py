@@ -464,7 +464,10 @@ def _boundary_html(result: FitResult) -> str | None:
         rows.append(("RMSE", _num(reduced.get("rmse")), result.units.position))
         rows.append(("R²", _num(reduced.get("r2"), 8), "-"))
         status = reduced.get("status") or ("converged" if reduced.get("converged") else "failed")
-        why = f": {reduced['reason']}" if reduced.get("reason") else ""
+        reason = str(reduced.get("reason") or "")
+        # Reasons of converged fits already begin with "converged:"; say the status once.
+        reason = reason.split(": ", 1)[1] if reason.startswith(f"{status}: ") else reason
+        why = f": {reason}" if reason else ""
         parts.append(f"<p>Reduced model fitted: <b>{_e(reduced.get('model', '?'))}</b> "
                      f"({_e(status)}{_e(why)})</p>")
         parts.append(_table(("parameter", "value", "unit"), rows, num_cols=(1,)))
