@@ -187,3 +187,12 @@ def test_marginally_stable_euler_steps_are_simulated_by_the_scan() -> None:
             ref = propagate(FirstOrder, theta, grid, load, integrator="euler",
                             initial_state=state)
             np.testing.assert_allclose(y, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+
+
+def test_non_finite_euler_parameters_give_non_finite_output_not_an_error() -> None:
+    t = np.linspace(0.0, 7.5, 200)
+    load = 5500.0 + 2000.0 * np.sin(2 * np.pi * t / 7.5)
+    with np.errstate(all="ignore"):
+        y = simulate(Kelvin(k0=1e200, m=1e-200, c1=900.0, k1=5200.0), t, load,
+                     integrator="euler")
+    assert y.shape == t.shape and not np.all(np.isfinite(y))

@@ -17,12 +17,27 @@ import threading
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+import threadpoolctl
 from threadpoolctl import ThreadpoolController
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 _lock = threading.Lock()
 _state: dict[str, Any] = {"depth": 0, "limiter": None, "controller": None}
+
+
+def _release_control() -> None:
+    """Let any thread set OpenBLAS's pool size again.
+
+    OpenBLAS without OpenMP has one process-wide pool, and threadpoolctl (3.8 and later)
+    then lets only one "controlling" thread change it, the first to do so, until it is
+    released. pumpid sets the limit from whichever thread enters first and restores it from
+    whichever leaves last, so it takes that control only for the moment of each change.
+    """
+    openblas = getattr(threadpoolctl, "OpenBLASController", None)
+    clear = getattr(openblas, "clear_controlling_thread", None)
+    if clear is not None:
+        clear(force=True)
 
 
 def _enter() -> None:
@@ -32,7 +47,9 @@ def _enter() -> None:
                 # Created on first use, once numpy's and scipy's BLAS libraries are loaded
                 # (pumpid imports both); inspecting the loaded libraries costs ~1 ms once.
                 _state["controller"] = ThreadpoolController()
+            _release_control()
             _state["limiter"] = _state["controller"].limit(limits=1, user_api="blas")
+            _release_control()
         _state["depth"] += 1
 
 
@@ -40,7 +57,9 @@ def _leave() -> None:
     with _lock:
         _state["depth"] -= 1
         if _state["depth"] == 0 and _state["limiter"] is not None:
+            _release_control()
             _state["limiter"].restore_original_limits()
+            _release_control()
             _state["limiter"] = None
 
 

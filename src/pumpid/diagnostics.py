@@ -21,7 +21,8 @@
 ``uncertainty["whiteness"]``
     The check of the white-noise assumption (:func:`residual_whiteness`): when the residuals'
     lag-1 autocorrelation exceeds what white noise allows, a warning says that the intervals
-    are too narrow and by about how much (None for an exact fit).
+    are too narrow and by about how much (None for an exact fit; absent, like the other
+    uncertainties, when the fit has no usable solution).
 
 The intervals are the usual linearised (Wald) ones: the noise is assumed white (independent
 samples), homoscedastic and Gaussian, and the model linear in its parameters within the
