@@ -84,6 +84,8 @@ def test_residual_whiteness_of_white_and_ar1_series() -> None:
     e = rng.standard_normal(20000)
     white = residual_whiteness(e)
     assert white["white"] and abs(white["lag1_autocorrelation"]) < 0.02
+    huge = residual_whiteness(1e200 * e)  # scale-free, no overflow
+    assert huge["lag1_autocorrelation"] == pytest.approx(white["lag1_autocorrelation"])
     assert white["limit"] == pytest.approx(2.576 / math.sqrt(20000))
     ar = np.empty_like(e)
     ar[0] = e[0]

@@ -312,6 +312,8 @@ def residual_whiteness(residual: Sequence[float] | Array) -> dict[str, Any]:
     r = r[np.isfinite(r)]
     n = int(r.size)
     r = r - r.mean() if n else r
+    peak = float(np.max(np.abs(r))) if n else 0.0
+    r = r / peak if peak > 0 else r  # scale-free statistic: no overflow of huge residuals
     ss = float(r @ r)
     rho = float(r[1:] @ r[:-1]) / ss if n > 2 and ss > 0 else 0.0
     limit = WHITENESS_Z / math.sqrt(max(n, 1))
