@@ -2,8 +2,8 @@
 
 pumpid's matrices are small (3 x 3 to 17 x 17, and thin N x 6 panels of samples). A
 multi-threaded BLAS only adds synchronisation to each of these calls: with OpenBLAS's
-default of one thread per core, a single 2001-sample Kelvin fit takes about 5.7 ms instead
-of 3.5 ms on two cores, and fits run in parallel (``fit_many(..., workers=2)``, or a user's
+default of one thread per core, a single 2001-sample Kelvin fit took 4.2-4.5 ms instead of
+3.6-3.7 ms on two cores, and fits run in parallel (``fit_many(..., workers=2)``, or a user's
 own processes) oversubscribe the cores. The public entry points (:func:`pumpid.fit`,
 :func:`pumpid.fit_many`, ...) therefore run with BLAS limited to one thread, through
 threadpoolctl; the limits in force before are restored when the last of any concurrent
