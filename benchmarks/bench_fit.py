@@ -102,6 +102,18 @@ def table(title: str, header: list[str], rows: list[list[str]]) -> None:
         print("  " + "  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
 
 
+def machine_reference() -> float:
+    """ms for a fixed small-matrix workload (2,000 x a 17 x 17 product and solve), the kind of
+    work a fit is made of: printed beside the single-fit timings so that a slow phase of a
+    shared machine shows up as a slow reference too (about 13 ms on a quiet run here)."""
+    a = np.random.default_rng(0).standard_normal((17, 17))
+    t0 = time.perf_counter()
+    for _ in range(2000):
+        a @ a
+        np.linalg.solve(a, a[0])
+    return (time.perf_counter() - t0) * 1e3
+
+
 def pumpid_fit(t: Array, load: Array, data: Array) -> pumpid.FitResult:
     return pumpid.fit(Kelvin.from_values(TRUE.values * GUESS_FACTORS), t, load, data)
 
@@ -114,13 +126,16 @@ def section_single(quick: bool) -> dict[float, float]:
     base_rows = []
     for level in (0.0, 0.01):
         t, load, data = single_record(2001, level)
+        ref_before = machine_reference()
         times, res = timed(lambda t=t, load=load, data=data: pumpid_fit(t, load, data),
                            repeats)
+        ref_after = machine_reference()
         assert isinstance(res, pumpid.FitResult)
         med = float(np.median(times))
         medians[level] = med
         rows.append([f"{level:.0%}", f"{med * 1e3:.2f}", f"{np.percentile(times, 90) * 1e3:.2f}",
-                     res.status, str(res.nfev), f"{rel_err(res.model.values, TRUE.values):.1e}"])
+                     res.status, str(res.nfev), f"{rel_err(res.model.values, TRUE.values):.1e}",
+                     f"{ref_before:.0f} / {ref_after:.0f}"])
         guess = TRUE.values * GUESS_FACTORS
         close = TRUE.values * np.array([1.05, 1 / 1.05, 1.05, 1 / 1.05])
         plan = [("least_squares lm + FD over solve_ivp", lm_fd_fit, guess, "30 %"),
@@ -147,7 +162,8 @@ def section_single(quick: bool) -> dict[float, float]:
                 plan.append((name, method, close, "5 %"))
     table("(a) Single Kelvin fit, 2001 stations, pumpid.fit defaults (lm, exact Jacobian), "
           f"start ~30 % off, {repeats} runs",
-          ["noise", "median ms", "p90 ms", "status", "sims", "max rel err vs truth"], rows)
+          ["noise", "median ms", "p90 ms", "status", "sims", "max rel err vs truth",
+           "reference ms before / after"], rows)
     table(f"(b) Baselines on the same data (median of {base_runs} run(s)); ratio = baseline "
           "time / pumpid median",
           ["noise", "method", "start", "time s", "sims", "conv", "its err", "pumpid err",
