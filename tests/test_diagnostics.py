@@ -11,6 +11,7 @@ import pytest
 from pumpid import Kelvin, MassSpringDamper, Maxwell, fit, simulate
 from pumpid.cards import read_cards
 from pumpid.diagnostics import (
+    _hac_covariance,
     analyse_jacobian,
     describe_direction,
     diagnose,
@@ -77,6 +78,13 @@ def test_uncertainty_fields_for_an_ordinary_fit() -> None:
     check = d["uncertainty"]["whiteness"]
     assert check["white"] and abs(check["lag1_autocorrelation"]) < check["limit"]
     assert not any("not white" in w for w in res.warnings)
+    # The serial-correlation-robust errors exist for every fit; for white noise they agree
+    # with the ordinary ones up to their own sampling scatter, and the report leaves them out.
+    assert set(d["stderr_hac"]) == set(names) == set(d["ci95_hac"])
+    for name in names:
+        assert res.stderr_hac[name] == pytest.approx(res.stderr[name], rel=0.25)
+    assert d["uncertainty"]["hac"]["bandwidth"] <= 3
+    assert "serial correlation" not in text
 
 
 def test_residual_whiteness_of_white_and_ar1_series() -> None:
@@ -125,6 +133,43 @@ def test_structured_residuals_are_flagged_with_the_widening() -> None:
     exact = fit(KELVIN, T, LOAD, clean)
     assert exact.extra["uncertainty"]["whiteness"] is None
     assert not any("not white" in w for w in exact.warnings)
+
+
+def test_robust_errors_widen_for_autocorrelated_noise() -> None:
+    # A low-pass filtered sensor: AR(1) noise with rho = 0.8, 1 % of the range. The white
+    # intervals are about sqrt(1.8 / 0.2) = 3 times too narrow; the HAC ones widen by that.
+    rng = np.random.default_rng(12)
+    clean = simulate(KELVIN, T, LOAD)
+    noise = _ar1(rng, 0.8, T.size)
+    res = fit(KELVIN, T, LOAD, clean + 0.01 * np.ptp(clean) * noise / noise.std())
+    check = res.extra["uncertainty"]["whiteness"]
+    assert not check["white"] and check["interval_factor"] == pytest.approx(3.0, rel=0.15)
+    for name in res.free:
+        ratio = res.stderr_hac[name] / res.stderr[name]
+        assert 0.6 * check["interval_factor"] < ratio < 1.6 * check["interval_factor"], name
+        low, high = res.ci95_hac[name]
+        assert low < res.params[name] < high
+    assert res.extra["uncertainty"]["hac"]["bandwidth"] > 1
+    warning = next(w for w in res.warnings if "not white noise" in w)
+    assert "ci95_hac" in warning
+    text = diagnostics_text(res)
+    assert "robust to the residuals' serial correlation" in text
+    assert text.count("95 % interval") == 2
+    json.loads(res.to_json(allow_nan=False))
+
+
+def test_robust_covariance_of_an_undetermined_direction_is_infinite() -> None:
+    # The five-column Jacobian with the scale direction (C and the parameters): nothing is
+    # determined separately, so the robust variances are infinite like the white ones.
+    problem = build_problem(Kelvin, T, LOAD, simulate(KELVIN, T, LOAD))
+    y, dy = problem.output_and_sensitivities(KELVIN.values)
+    jac = np.column_stack([dy, y])
+    names = [*KELVIN.param_names(), "C"]
+    values = np.r_[KELVIN.values, 1.0]
+    info = analyse_jacobian(jac, names, values, y, sigma2=1e-6)
+    residual = 1e-3 * np.random.default_rng(2).standard_normal(T.size)
+    cov, _meta = _hac_covariance(jac * info["scales"], residual, info)
+    assert np.all(np.isinf(np.diag(cov)))
 
 
 @pytest.mark.parametrize("model", [KELVIN, MAXWELL], ids=lambda m: type(m).__name__)
@@ -195,6 +240,8 @@ def test_boundary_parameter_is_named_with_its_limit_and_gets_no_interval() -> No
     assert any(f.startswith("k0 is at a boundary") and "mass-spring-dashpot" in f
                and "lower bound" in f for f in res.identifiability)
     assert math.isnan(res.stderr["k0"]) and res.ci95["k0"] is None
+    assert math.isnan(res.stderr_hac["k0"]) and res.ci95_hac["k0"] is None
+    assert all(0 < res.stderr_hac[n] < math.inf for n in ("m", "c1", "k1"))
     assert res.extra["determined"]["boundary"] == ["k0"]
     assert json.loads(res.to_json())["ci95"]["k0"] is None
 

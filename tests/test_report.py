@@ -219,6 +219,24 @@ def test_no_uncertainty_columns_without_stderr(result: FitResult, tiny_figures) 
     assert "std. error" not in table[0] and "95 % CI" not in table[0]
 
 
+def test_robust_interval_column_only_when_residuals_are_not_white(
+    result: FitResult, tiny_figures
+) -> None:
+    hac = "95 % CI, robust to serial correlation (HAC)"
+    assert result.extra["uncertainty"]["whiteness"]["white"]
+    assert hac not in param_table(parse(render_html(result, figures=tiny_figures)))[0]
+    extra = dict(result.extra)
+    extra["uncertainty"] = {**extra["uncertainty"],
+                            "whiteness": {**extra["uncertainty"]["whiteness"], "white": False}}
+    extra["ci95_hac"] = {n: (3.0, 4.0) for n in result.params}
+    doc = parse(render_html(dataclasses.replace(result, extra=extra), figures=tiny_figures))
+    assert_well_formed(doc)
+    table = param_table(doc)
+    col = table[0].index(hac)
+    rows = {row[0]: row for row in table[1:]}
+    assert rows["c1"][col] == "[3, 4]" and rows["offset"][col] == "n/a"
+
+
 def test_failed_fit_report(result: FitResult, tiny_figures) -> None:
     res = dataclasses.replace(
         result, model=None, params=dict.fromkeys(result.params, math.nan), scale=math.nan,

@@ -53,7 +53,8 @@ CAPTIONS: dict[str, str] = {
 # Keys of result.extra that have their own section, so the catch-all "other results" section
 # leaves them out. "edges" (solver indices that hit the log-parameter clip) is internal: its
 # meaning is reported by "boundaries".
-_KNOWN_EXTRA = ("model_name", "gauge", "start", "card", "stderr", "ci95", "correlation",
+_KNOWN_EXTRA = ("model_name", "gauge", "start", "card", "stderr", "ci95", "stderr_hac",
+                "ci95_hac", "correlation",
                 "identifiability", "boundaries", "reduced", "prediction", "edges",
                 "covariance", "sigma2", "uncertainty", "determined")
 _PREDICTION_KEYS = ("t", "load", "measured", "predicted")
@@ -304,17 +305,30 @@ def _status_html(result: FitResult) -> str:
             + _table(("item", "value"), rows, num_cols=(1,)))
 
 
+def _residuals_white(result: FitResult) -> bool:
+    """False only when the fit's whiteness check ran and failed."""
+    unc = result.extra.get("uncertainty")
+    check = unc.get("whiteness") if isinstance(unc, Mapping) else None
+    return not (isinstance(check, Mapping) and check.get("white") is False)
+
+
 def _params_html(result: FitResult) -> str:
     infos = _param_infos(result)
     stderr = result.extra.get("stderr")
     ci95 = result.extra.get("ci95")
     stderr = stderr if isinstance(stderr, Mapping) else None
     ci95 = ci95 if isinstance(ci95, Mapping) else None
+    # The serial-correlation-robust interval earns a column when the residuals fail the
+    # whiteness check, i.e. when the ordinary one is known to be too narrow.
+    ci95_hac = result.extra.get("ci95_hac") if not _residuals_white(result) else None
+    ci95_hac = ci95_hac if isinstance(ci95_hac, Mapping) and ci95_hac else None
     headers = ["parameter", "value", "unit"]
     if stderr is not None:
         headers.append("std. error")
     if ci95 is not None:
         headers.append("95 % CI")
+    if ci95_hac is not None:
+        headers.append("95 % CI, robust to serial correlation (HAC)")
     headers += ["status", "description"]
     free = set(result.free)
 
@@ -324,6 +338,8 @@ def _params_html(result: FitResult) -> str:
             cells.append(_num(stderr.get(name)))
         if ci95 is not None:
             cells.append(_interval(ci95[name]) if name in ci95 else "n/a")
+        if ci95_hac is not None:
+            cells.append(_interval(ci95_hac[name]) if name in ci95_hac else "n/a")
         return [*cells, status, doc]
 
     rows = []

@@ -133,6 +133,16 @@ class FitResult:
         return dict(self.extra.get("ci95", {}))
 
     @property
+    def stderr_hac(self) -> dict[str, float]:
+        """Standard errors robust to serially correlated residuals (HAC; empty if not computed)."""
+        return dict(self.extra.get("stderr_hac", {}))
+
+    @property
+    def ci95_hac(self) -> dict[str, list[float]]:
+        """95 % intervals from :attr:`stderr_hac` (same form as :attr:`ci95`)."""
+        return dict(self.extra.get("ci95_hac", {}))
+
+    @property
     def correlation(self) -> dict[str, Any]:
         """Correlation matrix of the fitted values: ``{"names": [...], "matrix": [[...]]}``."""
         return dict(self.extra.get("correlation", {}))
