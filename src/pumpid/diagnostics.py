@@ -5,7 +5,8 @@
 ``identifiability``
     Plain-language findings: parameter combinations the data cannot determine (structural:
     the Jacobian is singular along them; practical: the data constrain them so weakly that
-    their relative standard error exceeds 100 %), the scale symmetry of MODEL-NOTES section 2
+    their relative standard error exceeds 100 %, judged on the autocorrelation-robust error
+    when the residuals fail the whiteness check), the scale symmetry of MODEL-NOTES section 2
     when the fit had to fix the gauge C = 1, and parameters that ran to a boundary (named with
     the limiting model). Empty when every fitted value is determined.
 ``determined``
@@ -392,9 +393,8 @@ def _fit_residual(result: FitResult) -> tuple[Array, float]:
     return result.residuals, float(np.ptp(data))
 
 
-def _residual_check(result: FitResult) -> dict[str, Any] | None:
+def _residual_check(result: FitResult, residual: Array, spread: float) -> dict[str, Any] | None:
     """:func:`residual_whiteness` of the fit's own residuals; None for an exact fit."""
-    residual, spread = _fit_residual(result)
     rms = math.sqrt(2.0 * result.cost / max(residual.size, 1))
     if not rms > _EXACT_FIT * spread:
         return None
@@ -403,12 +403,13 @@ def _residual_check(result: FitResult) -> dict[str, Any] | None:
 
 def _hac_covariance(
     js: Array, residual: Array, info: dict[str, Any]
-) -> tuple[Array, dict[str, Any]] | None:
+) -> tuple[Array, dict[str, Any], Array] | None:
     """Sandwich covariance robust to serial correlation (scaled coordinates in, physical out).
 
     ``B Omega B`` with ``B`` the pseudo-inverse of ``J^T J`` on the determined directions and
     ``Omega`` the long-run covariance of the scores ``J_t r_t`` (:mod:`pumpid.hac`), times
-    ``N / (N - q)`` as the white estimate's ``SSR / (N - q)`` has it.
+    ``N / (N - q)`` as the white estimate's ``SSR / (N - q)`` has it. Also returns the robust
+    standard error of each determined direction (``info["basis"]``'s columns, log units).
     """
     basis, kept = info["basis"], info["kept_singular"]
     if basis.shape[1] == 0 or not np.all(np.isfinite(residual)):
@@ -417,13 +418,15 @@ def _hac_covariance(
     # Scores along the determined directions, built as (k, N) rows (see long_run_covariance).
     scores = (basis.T @ js.T) * residual
     omega, meta = long_run_covariance(scores.T)
+    inflate = n / (n - q)
+    direction_se = np.sqrt(np.maximum(np.diag(omega), 0.0) * inflate) / kept**2
     bread = basis / kept**2
-    cov = (bread @ omega @ bread.T) * (n / (n - q)) * np.outer(info["scales"], info["scales"])
+    cov = (bread @ omega @ bread.T) * inflate * np.outer(info["scales"], info["scales"])
     for i in info["undetermined"]:
         cov[i, :] = math.nan
         cov[:, i] = math.nan
         cov[i, i] = math.inf
-    return cov, meta
+    return cov, meta, direction_se
 
 
 # --------------------------------------------------------------------------- entry point
@@ -492,28 +495,10 @@ def diagnose(result: FitResult) -> None:
     info = analyse_jacobian(jac[:, inner], [names[i] for i in inner], values[inner],
                             result.data, sigma2)
     inner_names = [names[i] for i in inner]
-    for direction, rel, _se in info["structural"]:
-        what, plural, det = describe_direction(direction, inner_names)
-        findings.append(
-            f"{_sentence(what, plural, practical=False)} from these data: {det} (structural: "
-            f"the sensitivity matrix is singular along this direction, relative singular "
-            f"value {rel:.1e})."
-        )
-        determined["combinations"].append(f"{what}: {det}")
-    for direction, rel, se in info["practical"]:
-        what, plural, _det = describe_direction(direction, inner_names)
-        unit = ("relative to the values, the offset in units of the data range"
-                if "offset" in what else "relative to the values")
-        findings.append(
-            f"{_sentence(what, plural, practical=True)}: the data constrain this direction "
-            f"only to a standard error of {100 * se:.0f} % ({unit}; relative singular value "
-            f"{rel:.1e}), so the intervals of the parameters involved are wide."
-        )
-
     tq = t_quantile(0.975, dof)
     cov = _embed(info["cov"], q, inner)
     stderr, ci95 = _errors(cov, names, values, tq)
-    residual, _spread = _fit_residual(result)
+    residual, spread = _fit_residual(result)
     robust = _hac_covariance(jac[:, inner] * info["scales"], residual, info)
     if robust is None:
         stderr_hac: dict[str, float] = {}
@@ -522,6 +507,37 @@ def diagnose(result: FitResult) -> None:
     else:
         stderr_hac, ci95_hac = _errors(_embed(robust[0], q, inner), names, values, tq)
         hac_meta = {**robust[1], "method": HAC_METHOD}
+    whiteness = _residual_check(result, residual, spread)
+    serial = whiteness is not None and not whiteness["white"]
+
+    for direction, rel, _se in info["structural"]:
+        what, plural, det = describe_direction(direction, inner_names)
+        findings.append(
+            f"{_sentence(what, plural, practical=False)} from these data: {det} (structural: "
+            f"the sensitivity matrix is singular along this direction, relative singular "
+            f"value {rel:.1e})."
+        )
+        determined["combinations"].append(f"{what}: {det}")
+    practical = info["practical"]
+    if serial and robust is not None:
+        # Serially correlated residuals: the white standard errors understate how loosely
+        # the data hold a direction, so "practically not identifiable" is judged on the
+        # robust ones.
+        kept = info["kept_singular"]
+        practical = [(info["basis"][:, k], float(kept[k] / kept[0]), float(se))
+                     for k, se in enumerate(robust[2]) if se > PRACTICAL_REL_SE]
+    for direction, rel, se in practical:
+        what, plural, _det = describe_direction(direction, inner_names)
+        unit = ("relative to the values, the offset in units of the data range"
+                if "offset" in what else "relative to the values")
+        if serial and robust is not None:
+            unit += ", robust to the residuals' serial correlation"
+        findings.append(
+            f"{_sentence(what, plural, practical=True)}: the data constrain this direction "
+            f"only to a standard error of {100 * se:.0f} % ({unit}; relative singular value "
+            f"{rel:.1e}), so the intervals of the parameters involved are wide."
+        )
+
     undetermined = {inner[i] for i in info["undetermined"]}
     for i, name in enumerate(names):
         if i in at_bound:
@@ -536,8 +552,8 @@ def diagnose(result: FitResult) -> None:
     corr[~np.isfinite(corr)] = math.nan
     np.fill_diagonal(corr, [1.0 if np.isfinite(s) else math.nan for s in sd])
 
-    whiteness = _residual_check(result)
-    if whiteness is not None and not whiteness["white"]:
+    if serial:
+        assert whiteness is not None
         warning = _whiteness_warning(whiteness, n_obs, q)
         if warning not in result.warnings:
             result.warnings.append(warning)
