@@ -83,7 +83,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=200, help="noisy replicates per setting")
     parser.add_argument("--seed", type=int, default=31)
-    parser.add_argument("--rho", type=float, nargs="*", default=[0.5, 0.8, 0.9],
+    parser.add_argument("--rho", type=float, nargs="*", default=[0.5, 0.8, 0.9, 0.95],
                         help="AR(1) coefficients of the autocorrelated-noise part")
     args = parser.parse_args()
     print(f"coverage of 95 % intervals: {args.n} replicates, 1 % white Gaussian noise")

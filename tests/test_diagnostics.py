@@ -158,6 +158,30 @@ def test_robust_errors_widen_for_autocorrelated_noise() -> None:
     json.loads(res.to_json(allow_nan=False))
 
 
+def test_robust_covariance_is_the_sandwich(monkeypatch) -> None:
+    # With a basis-independent meat (no prewhitening, fixed bandwidth) the robust covariance
+    # must equal the textbook sandwich (J^T J)^-1 J^T Omega J (J^T J)^-1 * N / dof, computed
+    # here in physical coordinates from the fit's own Jacobian and residuals.
+    import pumpid.diagnostics as diag
+    from pumpid.hac import long_run_covariance
+
+    def fixed(scores, **_kw):
+        return long_run_covariance(scores, prewhiten=False, bandwidth=5)
+
+    monkeypatch.setattr(diag, "long_run_covariance", fixed)
+    rng = np.random.default_rng(13)
+    clean = simulate(KELVIN, T, LOAD)
+    res = fit(KELVIN, T, LOAD, clean + 0.01 * np.ptp(clean) * _ar1(rng, 0.6, T.size),
+              offset=True)
+    jac, r = res.jacobian, res.residuals
+    n, q = jac.shape
+    bread = np.linalg.inv(jac.T @ jac)
+    meat, _ = long_run_covariance(jac * r[:, None], prewhiten=False, bandwidth=5)
+    cov = bread @ meat @ bread * n / (n - q)
+    for i, name in enumerate(res.free):
+        assert res.stderr_hac[name] == pytest.approx(math.sqrt(cov[i, i]), rel=1e-6), name
+
+
 def test_robust_covariance_of_an_undetermined_direction_is_infinite() -> None:
     # The five-column Jacobian with the scale direction (C and the parameters): nothing is
     # determined separately, so the robust variances are infinite like the white ones.
@@ -168,7 +192,8 @@ def test_robust_covariance_of_an_undetermined_direction_is_infinite() -> None:
     values = np.r_[KELVIN.values, 1.0]
     info = analyse_jacobian(jac, names, values, y, sigma2=1e-6)
     residual = 1e-3 * np.random.default_rng(2).standard_normal(T.size)
-    cov, _meta, _direction_se = _hac_covariance(jac * info["scales"], residual, info)
+    cov, _meta, _direction_se = _hac_covariance(jac * info["scales"], residual, info,
+                                                T.size - len(names))
     assert np.all(np.isinf(np.diag(cov)))
 
 
@@ -270,7 +295,7 @@ def test_practical_identifiability_is_judged_on_robust_errors_when_residuals_fol
     assert max(res.stderr[n] / res.params[n] for n in names) < 0.5
     finding = next(f for f in res.identifiability if "practically not" in f)
     assert "k0" in finding.split("practically")[0] and " m" in finding.split("practically")[0]
-    assert "robust to the residuals' serial correlation" in finding
+    assert "serial-correlation-robust" in finding
 
 
 def test_failed_fit_gets_empty_uncertainty() -> None:
@@ -291,6 +316,7 @@ def test_paper_method_gets_the_same_uncertainties() -> None:
     assert nfd.converged, nfd.reason
     for name in lm.free:
         assert nfd.stderr[name] == pytest.approx(lm.stderr[name], rel=1e-3)
+        assert nfd.stderr_hac[name] == pytest.approx(lm.stderr_hac[name], rel=1e-3)
 
 
 @pytest.mark.realdata

@@ -79,6 +79,35 @@ def test_without_prewhitening_the_bandwidth_grows_with_the_persistence() -> None
     assert 35 <= widths[2] <= 75
 
 
+def test_lopsided_var1_is_recoloured_the_right_way_round() -> None:
+    # u_t = A u_{t-1} + e_t with a far-from-symmetric A: the long-run covariance per sample
+    # is (I - A)^-1 (I - A)^-T for unit shocks; transposing A anywhere gives a different one.
+    a = np.array([[0.5, 0.4], [0.0, 0.2]])
+    rng = np.random.default_rng(10)
+    n = 40000
+    shocks = rng.standard_normal((n + 200, 2))
+    u = np.zeros_like(shocks)
+    for k in range(1, u.shape[0]):
+        u[k] = a @ u[k - 1] + shocks[k]
+    u = u[200:]
+    inv = np.linalg.inv(np.eye(2) - a)
+    truth = inv @ inv.T
+    wrong = np.linalg.inv(np.eye(2) - a.T) @ np.linalg.inv(np.eye(2) - a.T).T
+    assert np.max(np.abs(wrong - truth) / truth) > 0.6  # 64 % apart in the (2, 2) entry
+    omega, info = long_run_covariance(u)
+    np.testing.assert_allclose(omega / n, truth, rtol=0.1)
+    assert info["prewhitening"] > 0.5 and not info["capped"]
+
+
+def test_huge_and_tiny_magnitudes_do_not_overflow() -> None:
+    u = _ar1(np.random.default_rng(11), 0.5, 300, q=2)
+    base, _ = long_run_covariance(u)
+    for scale in (1e-150, 1e150):
+        omega, _ = long_run_covariance(u * scale)
+        assert np.all(np.isfinite(omega)) and np.all(omega != 0)
+        np.testing.assert_allclose(omega / scale**2, base, rtol=1e-9)
+
+
 def test_near_unit_root_is_capped_and_stays_finite() -> None:
     walk = np.cumsum(np.random.default_rng(8).standard_normal((500, 2)), axis=0)
     omega, info = long_run_covariance(walk - walk.mean(axis=0))
@@ -101,7 +130,8 @@ def test_zero_and_collinear_columns() -> None:
         (np.ones(2), {}, "N >= 3"),
         (np.ones((4, 2, 2)), {}, "N >= 3"),
         (np.array([1.0, np.nan, 2.0, 3.0]), {}, "finite"),
-        (np.ones(10), {"bandwidth": 0}, "at least 1"),
+        (np.ones(10), {"bandwidth": 0}, "whole number"),
+        (np.ones(10), {"bandwidth": 2.7}, "whole number"),
     ],
 )
 def test_bad_input_is_refused(scores, kwargs, message) -> None:

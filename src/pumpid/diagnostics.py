@@ -370,8 +370,8 @@ def residual_whiteness(residual: Sequence[float] | Array) -> dict[str, Any]:
 
 def _whiteness_warning(check: dict[str, Any], n_obs: int, n_fitted: int) -> str:
     effective = max(1, round(check["effective_samples"]))
-    few = (f"; that is too few against {n_fitted} fitted values for any interval to mean much"
-           if effective < 3 * n_fitted else "")
+    few = (f"; that is too few against {n_fitted} fitted values for any interval, the robust "
+           f"ones included, to mean much" if effective < 3 * n_fitted else "")
     return (
         f"the residuals are not white noise: their lag-1 autocorrelation is "
         f"{check['lag1_autocorrelation']:.2f} (white noise stays below {check['limit']:.2f} "
@@ -402,26 +402,39 @@ def _residual_check(result: FitResult, residual: Array, spread: float) -> dict[s
 
 
 def _hac_covariance(
-    js: Array, residual: Array, info: dict[str, Any]
+    js: Array, residual: Array, info: dict[str, Any], dof: int
 ) -> tuple[Array, dict[str, Any], Array] | None:
     """Sandwich covariance robust to serial correlation (scaled coordinates in, physical out).
 
     ``B Omega B`` with ``B`` the pseudo-inverse of ``J^T J`` on the determined directions and
     ``Omega`` the long-run covariance of the scores ``J_t r_t`` (:mod:`pumpid.hac`), times
-    ``N / (N - q)`` as the white estimate's ``SSR / (N - q)`` has it. Also returns the robust
+    ``N / dof`` as the white estimate's ``SSR / dof`` has it. Also returns the robust
     standard error of each determined direction (``info["basis"]``'s columns, log units).
+    None when there is no determined direction or the residuals are not finite.
     """
     basis, kept = info["basis"], info["kept_singular"]
     if basis.shape[1] == 0 or not np.all(np.isfinite(residual)):
         return None
-    n, q = js.shape
+    n = js.shape[0]
+    # Scores in units of the largest singular value and the residuals' RMS, so that data of
+    # any magnitude stay far from overflow; the units come back in ``unit`` at the end.
+    rms = float(np.sqrt(np.mean((residual / max(np.max(np.abs(residual)), 1e-300)) ** 2))
+                * max(np.max(np.abs(residual)), 1e-300))
+    if not (rms > 0 and math.isfinite(rms)):
+        return None
+    top = float(kept[0])
+    rel = kept / top
     # Scores along the determined directions, built as (k, N) rows (see long_run_covariance).
-    scores = (basis.T @ js.T) * residual
+    scores = (basis.T @ js.T) * (residual / (rms * top))
+    if not np.all(np.isfinite(scores)):
+        return None
     omega, meta = long_run_covariance(scores.T)
-    inflate = n / (n - q)
-    direction_se = np.sqrt(np.maximum(np.diag(omega), 0.0) * inflate) / kept**2
-    bread = basis / kept**2
-    cov = (bread @ omega @ bread.T) * inflate * np.outer(info["scales"], info["scales"])
+    inflate = n / dof
+    unit = rms / top
+    direction_se = np.sqrt(np.maximum(np.diag(omega), 0.0) * inflate) / rel**2 * unit
+    bread = basis / rel**2
+    cov = (bread @ omega @ bread.T) * (inflate * unit**2) * np.outer(info["scales"],
+                                                                     info["scales"])
     for i in info["undetermined"]:
         cov[i, :] = math.nan
         cov[:, i] = math.nan
@@ -499,10 +512,10 @@ def diagnose(result: FitResult) -> None:
     cov = _embed(info["cov"], q, inner)
     stderr, ci95 = _errors(cov, names, values, tq)
     residual, spread = _fit_residual(result)
-    robust = _hac_covariance(jac[:, inner] * info["scales"], residual, info)
+    robust = _hac_covariance(jac[:, inner] * info["scales"], residual, info, dof)
     if robust is None:
-        stderr_hac: dict[str, float] = {}
-        ci95_hac: dict[str, list[float] | None] = {}
+        stderr_hac: dict[str, float] = dict.fromkeys(names, math.nan)
+        ci95_hac: dict[str, list[float] | None] = dict.fromkeys(names)
         hac_meta: dict[str, Any] | None = None
     else:
         stderr_hac, ci95_hac = _errors(_embed(robust[0], q, inner), names, values, tq)
@@ -521,17 +534,20 @@ def diagnose(result: FitResult) -> None:
     practical = info["practical"]
     if serial and robust is not None:
         # Serially correlated residuals: the white standard errors understate how loosely
-        # the data hold a direction, so "practically not identifiable" is judged on the
-        # robust ones.
+        # the data hold a direction, so "practically not identifiable" also looks at the
+        # robust ones (the larger of the two: on a short record the robust estimate can
+        # itself come out too small).
         kept = info["kept_singular"]
-        practical = [(info["basis"][:, k], float(kept[k] / kept[0]), float(se))
-                     for k, se in enumerate(robust[2]) if se > PRACTICAL_REL_SE]
+        white_se = math.sqrt(max(sigma2, 0.0)) / kept
+        practical = [(info["basis"][:, k], float(kept[k] / kept[0]), float(max(se, white)))
+                     for k, (se, white) in enumerate(zip(robust[2], white_se, strict=True))
+                     if max(se, white) > PRACTICAL_REL_SE]
     for direction, rel, se in practical:
         what, plural, _det = describe_direction(direction, inner_names)
         unit = ("relative to the values, the offset in units of the data range"
                 if "offset" in what else "relative to the values")
         if serial and robust is not None:
-            unit += ", robust to the residuals' serial correlation"
+            unit += ", the larger of the ordinary and the serial-correlation-robust error"
         findings.append(
             f"{_sentence(what, plural, practical=True)}: the data constrain this direction "
             f"only to a standard error of {100 * se:.0f} % ({unit}; relative singular value "
@@ -639,7 +655,8 @@ def diagnostics_text(result: FitResult) -> str:
         if whiteness and not whiteness.get("white") and hac and extra.get("stderr_hac"):
             lines.append(
                 "  robust to the residuals' serial correlation (HAC: prewhitened Bartlett "
-                f"kernel, bandwidth {hac['bandwidth']} samples; see the warning below):"
+                f"kernel, bandwidth {hac['bandwidth']} "
+                f"sample{'s' if hac['bandwidth'] != 1 else ''}; see the warning below):"
             )
             lines += _error_table(result.free, values, units, extra["stderr_hac"],
                                   extra.get("ci95_hac", {}))

@@ -27,7 +27,8 @@ __all__ = ["PREWHITEN_CAP", "long_run_covariance"]
 Array = NDArray[np.float64]
 
 #: The VAR(1) prewhitening matrix's singular values are capped here: near 1 the recolouring
-#: ``(I - A)^-1`` would blow up on an estimation error (Andrews & Monahan's 0.97).
+#: ``(I - A)^-1`` would blow up on an estimation error (Andrews & Monahan's 0.97). Singular
+#: values depend on the basis; they are taken for the series scaled to unit RMS.
 PREWHITEN_CAP = 0.97
 #: Andrews (1991) optimal Bartlett bandwidth: 1.1447 (alpha(1) n)^(1/3).
 _ANDREWS_BARTLETT = 1.1447
@@ -80,9 +81,11 @@ def long_run_covariance(
         recolour it by ``(I - A)^-1`` (default True; it makes the estimate far less biased
         when the autocorrelation is strong).
     bandwidth : int, optional
-        Bartlett bandwidth ``m``: lag ``l`` gets weight ``1 - |l|/m`` for ``|l| < m``
-        (``m = 1`` ignores autocorrelation, leaving White's heteroscedasticity-robust
-        estimate). Default: Andrews' (1991) AR(1) plug-in rule.
+        Bartlett bandwidth ``m`` for the (prewhitened) series: lag ``l`` gets weight
+        ``1 - |l|/m`` for ``|l| < m``; ``m = 1`` keeps lag 0 only (with ``prewhiten=False``,
+        White's heteroscedasticity-robust estimate; with prewhitening, the autocorrelation
+        is then carried by the VAR(1) alone). Default: Andrews' (1991) AR(1) plug-in rule on
+        the prewhitened series.
 
     Returns
     -------
@@ -106,9 +109,14 @@ def long_run_covariance(
     q, n = x.shape
     # Columns of very different sizes make A's singular values (the cap's measure) reflect
     # their ratio rather than any persistence: work on unit-RMS series, rescale at the end.
+    # (Each row is divided by its peak before squaring, so that no magnitude overflows.)
+    peak = np.max(np.abs(x), axis=1)
+    peak[~(peak > 0)] = 1.0
+    x = x / peak[:, None]
     size = np.sqrt(np.einsum("ij,ij->i", x, x) / n)
     size[~(size > 0)] = 1.0
     x = x / size[:, None]
+    size = size * peak
     a = np.zeros((q, q))
     capped = False
     persistence = 0.0
@@ -127,8 +135,8 @@ def long_run_covariance(
         width = _andrews_width(e) if q else 1.0
         m = int(min(max(1, round(width)), n_e)) if math.isfinite(width) else n_e
     else:
-        if bandwidth < 1:
-            raise ValueError("bandwidth must be at least 1")
+        if isinstance(bandwidth, bool) or not float(bandwidth).is_integer() or bandwidth < 1:
+            raise ValueError(f"bandwidth must be a whole number of samples >= 1, got {bandwidth!r}")
         m = min(int(bandwidth), n_e)
     if m == 1:
         omega = e @ e.T
