@@ -13,7 +13,9 @@ The second part repeats the two fits from rest with AR(1) noise of the same size
 (``x_t = rho x_{t-1} + e_t``, as from a low-pass filtered load cell; ``--rho``) and counts
 both the white-noise intervals and the autocorrelation-robust ones (``ci95_hac``, a
 prewhitened Bartlett-kernel sandwich, :mod:`pumpid.hac`). The white-noise part prints the
-robust intervals' coverage too.
+robust intervals' coverage too. The third part samples the card coarsely (``--short``
+samples per stroke, white and rho = 0.5 noise), where the robust estimate has little to go
+on.
 
 Run from the repository root: ``python benchmarks/stat_coverage.py [--n 200]``.
 """
@@ -47,7 +49,7 @@ def ar1_noise(rng: np.random.Generator, rho: float, n: int) -> np.ndarray:
     return scipy.signal.lfilter([1.0], [1.0, -rho], shocks) * np.sqrt(1.0 - rho**2)
 
 
-def count_coverage(truth, t, load, opts, n, seed, rho=0.0):
+def count_coverage(truth, t, load, opts, n, seed, rho=0.0, level=0.01):
     """Replicates inside the white and the robust intervals, by parameter."""
     clean = simulate(truth, t, load, initial_state=opts.get("initial_state", "rest"),
                      period=opts.get("period"))
@@ -56,7 +58,7 @@ def count_coverage(truth, t, load, opts, n, seed, rho=0.0):
               "ci95_hac": dict.fromkeys(truth.param_names(), 0)}
     rel_se = dict.fromkeys(truth.param_names(), 0.0)
     for _ in range(n):
-        data = clean + 0.01 * np.ptp(clean) * ar1_noise(rng, rho, t.size)
+        data = clean + level * np.ptp(clean) * ar1_noise(rng, rho, t.size)
         res = fit(truth, t, load, data, **opts)
         for kind, hits in inside.items():
             intervals = res.extra.get(kind, {})
@@ -85,6 +87,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=31)
     parser.add_argument("--rho", type=float, nargs="*", default=[0.5, 0.8, 0.9, 0.95],
                         help="AR(1) coefficients of the autocorrelated-noise part")
+    parser.add_argument("--short", type=int, nargs="*", default=[30, 60],
+                        help="samples per stroke of the short-card part")
     args = parser.parse_args()
     print(f"coverage of 95 % intervals: {args.n} replicates, 1 % white Gaussian noise")
     t = np.linspace(0.0, 20.0, 801)
@@ -106,8 +110,32 @@ def main() -> None:
         robust = ", ".join(f"{k} {100 * v / args.n:.1f} %" for k, v in inside["ci95_hac"].items())
         print(f"  {'':30s} robust (ci95_hac): {robust}", flush=True)
 
-    if not args.rho:
-        return
+    if args.rho:
+        coloured(args, rest)
+    if args.short:
+        short_cards(args, card)
+
+
+def short_cards(args: argparse.Namespace, card: tuple) -> None:
+    """The periodic card sampled coarsely: few samples against five fitted values."""
+    print(f"\nshort cards ({card[0]}, 1 % noise, a stroke of --short samples): "
+          f"{args.n} replicates; ci95 against ci95_hac")
+    _label, truth, _tt, _ff, opts = card
+    period = opts["period"]
+    for n_samples in args.short:
+        tt = np.arange(n_samples) * period / n_samples
+        ff = well_load(tt, period=period, seed=3)
+        for rho in (0.0, 0.5):
+            inside, _ = count_coverage(truth, tt, ff, opts, args.n, args.seed, rho=rho)
+            parts = [f"{kind}: " + ", ".join(f"{k} {100 * v / args.n:.1f} %"
+                                             for k, v in inside[kind].items())
+                     for kind in ("ci95", "ci95_hac")]
+            print(f"  {n_samples:4d} samples, rho = {rho:.1f}: " + " | ".join(parts),
+                  flush=True)
+
+
+def coloured(args: argparse.Namespace, rest: list) -> None:
+    """The fits from rest under AR(1) noise: white-noise against robust intervals."""
     print(f"\ncoverage under AR(1) noise of the same size: {args.n} replicates; white-noise "
           "intervals (ci95) against the autocorrelation-robust ones (ci95_hac)")
     for rho in args.rho:
