@@ -79,6 +79,18 @@ def test_boundary_parameter_gets_a_one_sided_interval() -> None:
     assert any("no upper bound" in n and "infinity" in n for n in prof.notes)
 
 
+def test_profile_says_when_the_residuals_are_not_white(kelvin_fit) -> None:
+    assert not any("not white" in n for n in profile(kelvin_fit, "c1", n_points=5).notes)
+    # Slow model error on top of the noise: the profile interval inherits the white-noise
+    # assumption, and says so.
+    data = _noisy(KELVIN, 2) + 0.02 * np.ptp(simulate(KELVIN, T, LOAD)) * np.sin(0.7 * T)
+    res = fit(KELVIN, T, LOAD, data)
+    assert not res.extra["uncertainty"]["whiteness"]["white"]
+    prof = profile(res, "c1", n_points=5)
+    note = next(n for n in prof.notes if "not white" in n)
+    assert "too narrow" in note and "ci95_hac" in note
+
+
 def test_profile_rejects_unknown_names(kelvin_fit) -> None:
     with pytest.raises(ValueError, match="not a fitted value"):
         profile(kelvin_fit, "tau")

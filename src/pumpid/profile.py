@@ -11,7 +11,8 @@ For a model linear in its parameters this equals the Wald interval of
 :mod:`pumpid.diagnostics`; for a curved problem it follows the cost's actual shape and, for a
 parameter at a boundary, it is one-sided: the profile never rises above the threshold on the
 boundary's side, so that bound is ``None`` (0 or infinity). Like the Wald interval, it
-assumes white, homoscedastic, Gaussian noise.
+assumes white, homoscedastic, Gaussian noise; when the fit's residuals fail the whiteness
+check, a note says so (the interval is then too narrow).
 
 The refits use the default solver (``method="lm"``) whatever method produced the result: the
 profile is a property of the cost function, not of the solver.
@@ -402,6 +403,15 @@ def profile(
             upper = from_x(_crossing(xs_all[i], dev[i], xs_all[i + 1], dev[i + 1], lim))
             break
     converged = np.array([points[x][1] for x in xs_all], dtype=bool)
+    whiteness = (result.extra.get("uncertainty") or {}).get("whiteness")
+    if whiteness and not whiteness.get("white", True):
+        notes.append(
+            f"the fit's residuals are not white (lag-1 autocorrelation "
+            f"{whiteness['lag1_autocorrelation']:.2f}): like the Wald interval, this one "
+            f"assumes independent errors and is too narrow, by a factor of about "
+            f"{whiteness['interval_factor']:.1f} for AR(1) errors (result.ci95_hac is the "
+            f"interval robust to it)"
+        )
     if not converged.all():
         notes.append(f"{int((~converged).sum())} refit(s) did not converge (marked in the plot)")
     for end, word, limit in ((lower, "lower", "0" if positive else "-infinity"),
