@@ -182,6 +182,28 @@ def test_robust_covariance_is_the_sandwich(monkeypatch) -> None:
         assert res.stderr_hac[name] == pytest.approx(math.sqrt(cov[i, i]), rel=1e-6), name
 
 
+def test_robust_errors_that_cannot_be_computed_are_nan_and_not_shown() -> None:
+    # A usable fit whose Jacobian determines nothing (zeroed here): the ordinary errors are
+    # infinite, the robust ones cannot be computed; the keys stay alike and no report shows
+    # an empty robust table or column.
+    from pumpid.report import render_html
+
+    clean = simulate(KELVIN, T, LOAD)
+    res = fit(KELVIN, T, LOAD, clean + 0.02 * np.ptp(clean) * np.sin(0.7 * T))
+    res.jacobian = np.zeros_like(res.jacobian)
+    res.extra.pop("stderr")
+    res.warnings.clear()
+    diagnose(res)
+    assert not res.extra["uncertainty"]["whiteness"]["white"]
+    assert res.extra["uncertainty"]["hac"] is None
+    assert set(res.stderr_hac) == set(res.stderr)
+    assert all(math.isnan(v) for v in res.stderr_hac.values())
+    assert all(v is None for v in res.ci95_hac.values())
+    assert "serial correlation" not in diagnostics_text(res)
+    assert "robust to serial correlation" not in render_html(res, figures={})
+    json.loads(res.to_json(allow_nan=False))
+
+
 def test_robust_covariance_of_an_undetermined_direction_is_infinite() -> None:
     # The five-column Jacobian with the scale direction (C and the parameters): nothing is
     # determined separately, so the robust variances are infinite like the white ones.

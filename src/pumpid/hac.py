@@ -11,7 +11,7 @@ autocorrelated series (Andrews & Monahan 1992): the scores are prewhitened by a 
 the whitened series gets a Bartlett-kernel (Newey-West) estimate with the bandwidth of
 Andrews (1991) from per-column AR(1) fits, and the result is recoloured by ``(I - A)^-1``.
 numpy and scipy have no HAC estimator (statsmodels has one, without prewhitening, and is a
-heavy dependency for ~30 lines), hence this module.
+heavy dependency for a few dozen lines), hence this module.
 """
 
 from __future__ import annotations
@@ -84,7 +84,8 @@ def long_run_covariance(
         Bartlett bandwidth ``m`` for the (prewhitened) series: lag ``l`` gets weight
         ``1 - |l|/m`` for ``|l| < m``; ``m = 1`` keeps lag 0 only (with ``prewhiten=False``,
         White's heteroscedasticity-robust estimate; with prewhitening, the autocorrelation
-        is then carried by the VAR(1) alone). Default: Andrews' (1991) AR(1) plug-in rule on
+        is then carried by the VAR(1) alone). At most the length of the (prewhitened)
+        series: larger values are cut to it. Default: Andrews' (1991) AR(1) plug-in rule on
         the prewhitened series.
 
     Returns

@@ -321,7 +321,7 @@ def _params_html(result: FitResult) -> str:
     # The serial-correlation-robust interval earns a column when the residuals fail the
     # whiteness check, i.e. when the ordinary one is known to be too narrow.
     ci95_hac = result.extra.get("ci95_hac") if not _residuals_white(result) else None
-    ci95_hac = ci95_hac if isinstance(ci95_hac, Mapping) and ci95_hac else None
+    ci95_hac = ci95_hac if isinstance(ci95_hac, Mapping) and any(ci95_hac.values()) else None
     headers = ["parameter", "value", "unit"]
     if stderr is not None:
         headers.append("std. error")

@@ -134,7 +134,11 @@ class FitResult:
 
     @property
     def stderr_hac(self) -> dict[str, float]:
-        """Standard errors robust to serially correlated residuals (HAC; empty if not computed)."""
+        """Standard errors robust to serially correlated residuals (HAC).
+
+        Empty when the diagnostics have not run; NaN entries when the fit has no finite
+        solution with a Jacobian to compute them from.
+        """
         return dict(self.extra.get("stderr_hac", {}))
 
     @property
