@@ -158,22 +158,31 @@ def test_robust_errors_widen_for_autocorrelated_noise() -> None:
     json.loads(res.to_json(allow_nan=False))
 
 
-def test_robust_covariance_is_the_sandwich(monkeypatch) -> None:
+@pytest.mark.parametrize("options", [{"offset": True}, {"residual": "log"},
+                                     {"scale": "free", "initial_state": "periodic"}],
+                         ids=["offset", "log", "periodic-gauge"])
+def test_robust_covariance_is_the_sandwich(monkeypatch, options) -> None:
     # With a basis-independent meat (no prewhitening, fixed bandwidth) the robust covariance
     # must equal the textbook sandwich (J^T J)^-1 J^T Omega J (J^T J)^-1 * N / dof, computed
     # here in physical coordinates from the fit's own Jacobian and residuals.
     import pumpid.diagnostics as diag
-    from pumpid.hac import long_run_covariance
+    from pumpid.hac import long_run_covariance, long_run_rows
 
-    def fixed(scores, **_kw):
-        return long_run_covariance(scores, prewhiten=False, bandwidth=5)
+    def fixed(rows, **_kw):
+        return long_run_rows(rows, prewhiten=False, bandwidth=5)
 
-    monkeypatch.setattr(diag, "long_run_covariance", fixed)
+    monkeypatch.setattr(diag, "long_run_rows", fixed)
     rng = np.random.default_rng(13)
-    clean = simulate(KELVIN, T, LOAD)
-    res = fit(KELVIN, T, LOAD, clean + 0.01 * np.ptp(clean) * _ar1(rng, 0.6, T.size),
-              offset=True)
-    jac, r = res.jacobian, res.residuals
+    state = options.get("initial_state", "rest")
+    clean = simulate(KELVIN, T, LOAD, initial_state=state, period=T[-1] + T[1]
+                     if state == "periodic" else None)
+    data = clean + 0.01 * np.ptp(clean) * _ar1(rng, 0.6, T.size) + 5.0
+    if state == "periodic":
+        options = {**options, "period": T[-1] + T[1]}
+    res = fit(KELVIN, T, LOAD, data, **options)
+    assert res.converged, res.reason
+    jac = res.jacobian
+    r = np.log(res.fitted / res.data) if res.residual == "log" else res.residuals
     n, q = jac.shape
     bread = np.linalg.inv(jac.T @ jac)
     meat, _ = long_run_covariance(jac * r[:, None], prewhiten=False, bandwidth=5)
@@ -214,7 +223,7 @@ def test_robust_covariance_of_an_undetermined_direction_is_infinite() -> None:
     values = np.r_[KELVIN.values, 1.0]
     info = analyse_jacobian(jac, names, values, y, sigma2=1e-6)
     residual = 1e-3 * np.random.default_rng(2).standard_normal(T.size)
-    cov, _meta, _direction_se = _hac_covariance(jac * info["scales"], residual, info,
+    cov, _meta, _direction_se = _hac_covariance(jac * info["scales"], residual, 1e-3, info,
                                                 T.size - len(names))
     assert np.all(np.isinf(np.diag(cov)))
 

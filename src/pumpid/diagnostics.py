@@ -57,7 +57,7 @@ import numpy as np
 import scipy.stats
 from numpy.typing import NDArray
 
-from .hac import long_run_covariance
+from .hac import long_run_rows
 
 if TYPE_CHECKING:
     from .problem import Problem
@@ -405,40 +405,30 @@ def _residual_check(result: FitResult, residual: Array, spread: float) -> dict[s
 
 
 def _hac_covariance(
-    js: Array, residual: Array, info: dict[str, Any], dof: int
+    js: Array, residual: Array, rms: float, info: dict[str, Any], dof: int
 ) -> tuple[Array, dict[str, Any], Array] | None:
     """Sandwich covariance robust to serial correlation (scaled coordinates in, physical out).
 
     ``B Omega B`` with ``B`` the pseudo-inverse of ``J^T J`` on the determined directions and
     ``Omega`` the long-run covariance of the scores ``J_t r_t`` (:mod:`pumpid.hac`), times
-    ``N / dof`` as the white estimate's ``SSR / dof`` has it. Also returns the robust
-    standard error of each determined direction (``info["basis"]``'s columns, log units).
-    None when there is no determined direction, or the residuals are not finite or all zero.
+    ``N / dof`` as the white estimate's ``SSR / dof`` has it. ``rms`` is the residuals' root
+    mean square. Also returns the robust standard error of each determined direction
+    (``info["basis"]``'s columns, log units). None when there is no determined direction,
+    or the residuals are not finite or all zero.
     """
     basis, kept = info["basis"], info["kept_singular"]
-    if basis.shape[1] == 0 or not np.all(np.isfinite(residual)):
+    if basis.shape[1] == 0 or not (rms > 0 and math.isfinite(rms)) \
+            or not np.all(np.isfinite(residual)):
         return None
-    n = js.shape[0]
-    # Scores in units of the largest singular value and the residuals' RMS, so that data of
-    # large or small magnitude stay clear of overflow; the units come back in ``unit``.
-    rms = float(np.sqrt(np.mean((residual / max(np.max(np.abs(residual)), 1e-300)) ** 2))
-                * max(np.max(np.abs(residual)), 1e-300))
-    if not (rms > 0 and math.isfinite(rms)):
-        return None
-    top = float(kept[0])
-    rel = kept / top
-    # Scores along the determined directions, built as (k, N) rows (see long_run_covariance);
-    # divided in two steps, as rms * top alone could overflow or underflow.
-    scores = (basis.T @ js.T) * (residual / rms / top)
-    if not np.all(np.isfinite(scores)):
-        return None
-    omega, meta = long_run_covariance(scores.T)
-    inflate = n / dof
-    unit = rms / top
-    direction_se = np.sqrt(np.maximum(np.diag(omega), 0.0) * inflate) / rel**2 * unit
-    bread = basis / rel**2
-    cov = (bread @ omega @ bread.T) * (inflate * unit**2) * np.outer(info["scales"],
-                                                                     info["scales"])
+    # The scores along direction k are kept[k] * rms * (q_k * r / rms), q_k a unit vector:
+    # build the last factor, of order one whatever the data's magnitude, and put kept and
+    # rms back into the bread.
+    rows = (basis.T @ js.T) / kept[:, None] * (residual / rms)
+    omega, meta = long_run_rows(rows)
+    inflate = js.shape[0] / dof
+    direction_se = np.sqrt(np.maximum(np.diag(omega), 0.0) * inflate) * (rms / kept)
+    bread = basis * (rms / kept)
+    cov = (bread @ omega @ bread.T) * inflate * np.outer(info["scales"], info["scales"])
     for i in info["undetermined"]:
         cov[i, :] = math.nan
         cov[:, i] = math.nan
@@ -516,7 +506,8 @@ def diagnose(result: FitResult) -> None:
     cov = _embed(info["cov"], q, inner)
     stderr, ci95 = _errors(cov, names, values, tq)
     residual, spread = _fit_residual(result)
-    robust = _hac_covariance(jac[:, inner] * info["scales"], residual, info, dof)
+    robust = _hac_covariance(jac[:, inner] * info["scales"], residual,
+                             math.sqrt(2.0 * result.cost / n_obs), info, dof)
     if robust is None:
         stderr_hac: dict[str, float] = dict.fromkeys(names, math.nan)
         ci95_hac: dict[str, list[float] | None] = dict.fromkeys(names)

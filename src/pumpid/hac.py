@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["PREWHITEN_CAP", "long_run_covariance"]
+__all__ = ["PREWHITEN_CAP", "long_run_covariance", "long_run_rows"]
 
 Array = NDArray[np.float64]
 
@@ -105,19 +105,33 @@ def long_run_covariance(
         raise ValueError("scores must be an (N,) or (N, q) array with N >= 3")
     if not np.all(np.isfinite(u)):
         raise ValueError("scores must be finite")
+    if bandwidth is not None and (isinstance(bandwidth, bool)
+                                  or not float(bandwidth).is_integer() or bandwidth < 1):
+        raise ValueError(f"bandwidth must be a whole number of samples >= 1, got {bandwidth!r}")
     # Series along the last axis: a few long rows are what numpy's reductions do fastest.
+    # Each row is divided by its peak first, so that squaring overflows for no magnitude.
     x = u.T
-    q, n = x.shape
-    # Columns of very different sizes make A's singular values (the cap's measure) reflect
-    # their ratio rather than any persistence: work on unit-RMS series, rescale at the end.
-    # (Each row is divided by its peak before squaring, so that no magnitude overflows.)
-    peak = np.max(np.abs(x), axis=1)
+    peak = np.max(np.abs(x), axis=1) if x.size else np.ones(x.shape[0])
     peak[~(peak > 0)] = 1.0
-    x = x / peak[:, None]
+    omega, info = long_run_rows(x / peak[:, None], prewhiten=prewhiten,
+                                bandwidth=None if bandwidth is None else int(bandwidth))
+    return omega * np.outer(peak, peak), info
+
+
+def long_run_rows(
+    x: Array, *, prewhiten: bool = True, bandwidth: int | None = None
+) -> tuple[Array, dict[str, Any]]:
+    """:func:`long_run_covariance` of finite, moderately scaled series in rows (q, N).
+
+    The unchecked core, for callers that have built such rows themselves (the fit's
+    diagnostics do, once per fit: the checks and the overflow guard would be repeated work).
+    """
+    q, n = x.shape
+    # Rows of very different sizes make A's singular values (the cap's measure) reflect
+    # their ratio rather than any persistence: work on unit-RMS series, rescale at the end.
     size = np.sqrt(np.einsum("ij,ij->i", x, x) / n)
     size[~(size > 0)] = 1.0
     x = x / size[:, None]
-    size = size * peak
     a = np.zeros((q, q))
     capped = False
     persistence = 0.0
@@ -136,9 +150,7 @@ def long_run_covariance(
         width = _andrews_width(e) if q else 1.0
         m = int(min(max(1, round(width)), n_e)) if math.isfinite(width) else n_e
     else:
-        if isinstance(bandwidth, bool) or not float(bandwidth).is_integer() or bandwidth < 1:
-            raise ValueError(f"bandwidth must be a whole number of samples >= 1, got {bandwidth!r}")
-        m = min(int(bandwidth), n_e)
+        m = min(bandwidth, n_e)
     if m == 1:
         omega = e @ e.T
     else:
