@@ -43,7 +43,7 @@ For a parameter at a boundary no symmetric interval is meaningful; its one-sided
 comes from the profile likelihood (:func:`pumpid.profile.profile`).
 
 Nothing here refits: one SVD of the N x p Jacobian and a few passes over the N scores for
-the robust errors, about 0.3 ms in all for 2,001 samples, so it is cheap enough for every fit.
+the robust errors, about 0.27 ms in all for 2,001 samples, cheap enough for every fit.
 """
 
 from __future__ import annotations
