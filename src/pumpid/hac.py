@@ -125,6 +125,20 @@ def long_run_rows(
 
     The unchecked core, for callers that have built such rows themselves (the fit's
     diagnostics do, once per fit: the checks and the overflow guard would be repeated work).
+
+    Parameters
+    ----------
+    x : ndarray, shape (q, N)
+        The series, one per row, finite, N >= 3, of magnitudes whose squares cannot overflow.
+    prewhiten : bool, optional
+        As in :func:`long_run_covariance`.
+    bandwidth : int, optional
+        As in :func:`long_run_covariance`, already validated (a whole number >= 1).
+
+    Returns
+    -------
+    omega, info
+        As :func:`long_run_covariance` returns them.
     """
     q, n = x.shape
     # Rows of very different sizes make A's singular values (the cap's measure) reflect
