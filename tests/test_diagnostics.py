@@ -84,7 +84,7 @@ def test_uncertainty_fields_for_an_ordinary_fit() -> None:
     for name in names:
         assert res.stderr_hac[name] == pytest.approx(res.stderr[name], rel=0.25)
     assert d["uncertainty"]["hac"]["bandwidth"] <= 3
-    assert "serial correlation" not in text
+    assert "serial correlation" not in text and "robust +/-" not in res.report()
 
 
 def test_residual_whiteness_of_white_and_ar1_series() -> None:
@@ -155,6 +155,7 @@ def test_robust_errors_widen_for_autocorrelated_noise() -> None:
     text = diagnostics_text(res)
     assert "robust to the residuals' serial correlation" in text
     assert text.count("95 % interval") == 2
+    assert "; robust +/- " in res.report()
     json.loads(res.to_json(allow_nan=False))
 
 

@@ -247,9 +247,16 @@ class FitResult:
             "  parameter        value            unit",
         ]
         stderr = self.extra.get("stderr", {})
+        # Residuals that fail the whiteness check make the ordinary +/- too small: the
+        # serial-correlation-robust one stands beside it.
+        check = (self.extra.get("uncertainty") or {}).get("whiteness")
+        robust = self.extra.get("stderr_hac", {}) if check and not check.get("white") else {}
         for name, value in self.params.items():
             se = stderr.get(name)
-            se_txt = f"  (+/- {_fmt(se, 3)})" if se is not None else ""
+            se_hac = robust.get(name)
+            hac_txt = (f"; robust +/- {_fmt(se_hac, 3)}"
+                       if se_hac is not None and math.isfinite(se_hac) else "")
+            se_txt = f"  (+/- {_fmt(se, 3)}{hac_txt})" if se is not None else ""
             lines.append(f"  {name:<15}  {_fmt(value, 10):<15}  {units.get(name, '')}{se_txt}")
         scale_state = "fitted" if "C" in self.free or "D" in self.free else "fixed"
         lines.append(f"  {'C (scale)':<15}  {_fmt(self.scale, 10):<15}  - ({scale_state})")
