@@ -5,10 +5,11 @@
 ``identifiability``
     Plain-language findings: parameter combinations the data cannot determine (structural:
     the Jacobian is singular along them; practical: the data constrain them so weakly that
-    their relative standard error exceeds 100 %, judged on the autocorrelation-robust error
-    when the residuals fail the whiteness check), the scale symmetry of MODEL-NOTES section 2
-    when the fit had to fix the gauge C = 1, and parameters that ran to a boundary (named with
-    the limiting model). Empty when every fitted value is determined.
+    their relative standard error exceeds 100 %; when the residuals fail the whiteness check,
+    the larger of the ordinary and the autocorrelation-robust error counts), the scale
+    symmetry of MODEL-NOTES section 2 when the fit had to fix the gauge C = 1, and parameters
+    that ran to a boundary (named with the limiting model). Empty when every fitted value is
+    determined.
 ``determined``
     What the data do determine: the gauge, the identifiable combinations, the parameters
     with a finite two-sided interval and those at a boundary.
