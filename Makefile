@@ -1,29 +1,36 @@
 # Set-up contract: on a machine with only python3 and pip,
 #   make demo  -> creates .venv, installs pumpid, runs the main job on the bundled example card
-#   make test  -> installs the test extras and runs the whole suite (ruff + pytest)
+#   make test  -> installs the test environment from the lock file and runs the whole suite
+#
+# The lock (requirements/test.lock) pins the exact version of every package the suite
+# imports, so a fresh machine tests what the last green CI run tested. pyproject.toml keeps
+# open ranges for users. `make lock` refreshes the lock on purpose; `make test-latest` runs
+# the suite against the newest releases in a separate environment (.venv-latest).
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 TSTAMP := $(VENV)/.installed-test
+LOCK   := requirements/test.lock
+LATEST := .venv-latest
 
 # pumpid's matrices are small: a multi-threaded BLAS only oversubscribes the cores.
 export OMP_NUM_THREADS ?= 1
 export OPENBLAS_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 
-.PHONY: demo test lint bench install clean
+.PHONY: demo test test-latest lock lint bench install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet --upgrade pip -c $(LOCK)
 
-$(STAMP): $(PY) pyproject.toml
-	$(PY) -m pip install --quiet -e .
+$(STAMP): $(PY) pyproject.toml $(LOCK)
+	$(PY) -m pip install --quiet -c $(LOCK) -e .
 	touch $(STAMP)
 
 $(TSTAMP): $(STAMP)
-	$(PY) -m pip install --quiet -e ".[test]"
+	$(PY) -m pip install --quiet -c $(LOCK) -e ".[test]"
 	touch $(TSTAMP)
 
 install: $(STAMP)
@@ -38,8 +45,30 @@ test: $(TSTAMP)
 	$(PY) -m ruff check src tests scripts benchmarks
 	MPLBACKEND=Agg $(PY) -m pytest -q
 
+# The suite against the newest releases of everything (no lock): upstream drift seen on purpose.
+test-latest:
+	rm -rf $(LATEST)
+	$(PYTHON) -m venv $(LATEST)
+	$(LATEST)/bin/python -m pip install --quiet --upgrade pip
+	$(LATEST)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager -e ".[test]"
+	$(LATEST)/bin/python -m pip freeze --exclude-editable
+	$(LATEST)/bin/python -m ruff check src tests scripts benchmarks
+	MPLBACKEND=Agg $(LATEST)/bin/python -m pytest -q -p no:cacheprovider
+
+# Rewrite the lock from the newest releases; run `make test` on it before committing it.
+lock:
+	rm -rf $(LATEST)
+	$(PYTHON) -m venv $(LATEST)
+	$(LATEST)/bin/python -m pip install --quiet --upgrade pip
+	$(LATEST)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager -e ".[test]"
+	{ echo "# Exact versions for 'make test' (pip install -c); refresh with 'make lock'."; \
+	  echo "# Made with $$($(LATEST)/bin/python --version) by 'make lock'."; \
+	  $(LATEST)/bin/python -m pip freeze --all --exclude-editable | grep -v '^setuptools=='; \
+	} > $(LOCK)
+	@echo "wrote $(LOCK); now run: rm -f $(TSTAMP) $(STAMP) && make test"
+
 bench: $(STAMP)
 	$(PY) benchmarks/bench_fit.py
 
 clean:
-	rm -rf $(VENV) demo-output build *.egg-info src/*.egg-info
+	rm -rf $(VENV) $(LATEST) demo-output build *.egg-info src/*.egg-info
