@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from pumpid import FirstOrder, Kelvin, MassSpringDamper, Maxwell, simulate, simulate_sensitivities
 from pumpid.simulate import make_grid
 
