@@ -1,0 +1,91 @@
+"""Answers pinned before the one-engine redesign: the new engine must give the same ones.
+
+``data/pinned/answers.json`` holds what pumpid returned before its engine was rebuilt, on 30
+synthetic problems (every model and observed output, from rest, periodic with an offset and
+from equilibrium, automatic start and a guess 30 % off, 1 % noise) and on 23 real cards
+(read from ``../shared/data``; skipped when absent). A rebuilt engine passes when, on each
+problem, it reaches the same optimum (cost within 1e-7 relative, the same status, the same
+parameters where the data determine them) or a strictly better one.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import pumpid
+from pumpid.cards import read_cards
+from pumpid.identify import fit_card
+
+from .conftest import SHARED_RAW, well_load
+
+PINNED = json.loads((Path(__file__).parent / "data" / "pinned" / "answers.json").read_text())
+#: Relative cost difference within which two fits are the same optimum.
+SAME_COST = 1e-7
+#: Relative agreement of a determined parameter at the same optimum.
+SAME_PARAM = 1e-5
+
+
+def _synthetic(case: dict[str, Any]) -> tuple[Any, ...]:
+    truth = pumpid.model_class(case["model"])(**case["truth"])
+    n, period = case["n"], case["period"]
+    if case["initial_state"] == "periodic":
+        t = np.arange(n) * period / n
+    else:
+        t = np.linspace(0, 2 * period, n)
+    load = well_load(t, period, seed=1)
+    if case["model"] == "first-order":
+        load = load / 1000.0
+    periodic = case["initial_state"] == "periodic"
+    clean = pumpid.simulate(truth, t, load, observe=case["observe"],
+                            initial_state=case["initial_state"],
+                            period=period if periodic else None)
+    rng = np.random.default_rng(case["seed"])
+    data = clean + case["noise"] * np.ptp(clean) * rng.standard_normal(n)
+    if case["offset"]:
+        data = data + 12.0
+    start = type(truth) if case["start"] == "auto" else type(truth).from_values(
+        truth.values * 1.3)
+    return start, t, load, data, period if periodic else None
+
+
+def _compare(res: Any, pinned: dict[str, Any]) -> None:
+    old = pinned["cost"]
+    assert math.isfinite(res.cost)
+    assert res.cost <= old * (1 + SAME_COST) + 1e-300, (res.cost, old)
+    if res.cost < old * (1 - SAME_COST):
+        return  # a strictly better optimum: the old answer was a local one
+    assert res.status == pinned["status"]
+    if pinned["status"] != "converged":
+        return  # along a limit the full model's parameters are arbitrary
+    for name, value in pinned["params"].items():
+        se = pinned["stderr"].get(name)
+        if se is not None and se < value:  # determined: relative error below 100 %
+            assert res.params[name] == pytest.approx(value, rel=SAME_PARAM), name
+
+
+@pytest.mark.parametrize(
+    "case", PINNED["synthetic"],
+    ids=[f"{c['model']}-{c['observe']}-{c['initial_state']}-{c['start']}"
+         for c in PINNED["synthetic"]])
+def test_synthetic_answers_are_kept(case: dict[str, Any]) -> None:
+    start, t, load, data, period = _synthetic(case)
+    res = pumpid.fit(start, t, load, data, observe=case["observe"],
+                     initial_state=case["initial_state"], offset=case["offset"], period=period)
+    _compare(res, case["answer"])
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("case", PINNED["real"], ids=[c["card"] for c in PINNED["real"]])
+def test_real_card_answers_are_kept(case: dict[str, Any]) -> None:
+    path = SHARED_RAW / case["file"]
+    if not path.is_file():
+        pytest.skip("third-party cards (../shared/data/raw) are not available")
+    cards = {c.card_id: c for c in read_cards(path, **case["options"])}
+    res = fit_card(cards[case["card"]], "kelvin")
+    _compare(res, case["answer"])
