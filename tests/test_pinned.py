@@ -57,7 +57,10 @@ def _synthetic(case: dict[str, Any]) -> tuple[Any, ...]:
 def _compare(res: Any, pinned: dict[str, Any]) -> None:
     old = pinned["cost"]
     assert math.isfinite(res.cost)
-    assert res.cost <= old * (1 + SAME_COST) + 1e-300, (res.cost, old)
+    # Along a limit the cost creeps down as the parameter runs on: where it stops is a
+    # matter of the solver's budget, so a boundary answer gets a looser tolerance.
+    tol = SAME_COST if pinned["status"] == "converged" else 1e-6
+    assert res.cost <= old * (1 + tol) + 1e-300, (res.cost, old)
     if res.cost < old * (1 - SAME_COST):
         return  # a strictly better optimum: the old answer was a local one
     assert res.status == pinned["status"]

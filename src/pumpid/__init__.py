@@ -1,27 +1,33 @@
 """pumpid: identify small physical models from measured input/output data.
 
-The main path is data -> model -> simulation -> objective -> solver -> result -> report::
+One way through: data -> problem (with a card axis) -> engine (compiled kernel, one solver
+loop) -> immutable result -> report::
 
     import pumpid
     result = pumpid.fit(pumpid.Kelvin(k0=4, m=1, c1=0.2, k1=4), t, load, displacement)
     print(result.report())
 """
 
-from .batch import BatchResult, fit_many
-from .fit import fit
+from .engine.simulate import simulate, simulate_sensitivities
+from .engine.solvers import LevenbergMarquardt, PaperNewton, Stop
+from .job import fit, fit_many
 from .models import MODELS, FirstOrder, Kelvin, MassSpringDamper, Maxwell, Model, model_class
-from .result import FitResult, Units
-from .simulate import simulate, simulate_sensitivities
+from .result import FitBatch, FitResult, Prediction, Status, Units
 
 __all__ = [
     "MODELS",
-    "BatchResult",
     "FirstOrder",
+    "FitBatch",
     "FitResult",
     "Kelvin",
+    "LevenbergMarquardt",
     "MassSpringDamper",
     "Maxwell",
     "Model",
+    "PaperNewton",
+    "Prediction",
+    "Status",
+    "Stop",
     "Units",
     "fit",
     "fit_many",

@@ -15,10 +15,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .cards import Card
-from .fit import fit
+from .engine.simulate import InitialState, simulate
+from .job import fit
 from .models import Kelvin, Model, model_class
-from .result import FitResult, Units
-from .simulate import InitialState, simulate
+from .result import CardInfo, FitResult, Prediction, Units
 
 __all__ = ["evaluate_prediction", "fit_card", "predict", "predict_card"]
 
@@ -84,12 +84,10 @@ def fit_card(
         period=period if initial_state == "periodic" else None, units=_units(card),
         **fit_options,
     )
-    result.extra["card"] = {
-        "id": card.card_id, "well": card.well_id, "source": card.source,
-        "time_source": card.time_source, "spm": card.spm, "period": card.period,
-        "notes": list(card.notes),
-    }
-    return result
+    return result.with_parts(card=CardInfo(
+        id=card.card_id, well=card.well_id, source=card.source,
+        time_source=card.time_source, spm=card.spm, period=card.period,
+        notes=tuple(card.notes)))
 
 
 def predict(
@@ -125,21 +123,19 @@ def evaluate_prediction(
     }
 
 
-def predict_card(result: FitResult, card: Card) -> dict[str, Any]:
+def predict_card(result: FitResult, card: Card) -> Prediction:
     """Predict another card's position from its load with a fitted model (paper's Fig. 9).
 
     Returns
     -------
-    dict
-        ``card`` id, ``t``, ``load``, ``measured``, ``predicted`` arrays and the prediction's
-        ``r2`` and ``rmse`` (position units). Also stored in ``result.extra["prediction"]``
-        (without the arrays).
+    Prediction
+        The card's id, ``t``, ``load``, ``measured``, ``predicted`` arrays and the
+        prediction's ``r2`` and ``rmse`` (position units). The fit is not changed.
     """
     t, period = _require_time(card)
     state = "periodic" if card.periodic else "rest"
     predicted = predict(result, t, card.load, initial_state=state,
                         period=period if state == "periodic" else None)
     scores = evaluate_prediction(card.position, predicted)
-    result.extra["prediction"] = {"card": card.card_id, **scores}
-    return {"card": card.card_id, "t": t, "load": np.asarray(card.load),
-            "measured": np.asarray(card.position), "predicted": predicted, **scores}
+    return Prediction(card=card.card_id, t=t, load=np.asarray(card.load),
+                      measured=np.asarray(card.position), predicted=predicted, **scores)

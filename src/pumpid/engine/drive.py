@@ -1,0 +1,416 @@
+"""Compiled drivers: residuals and their factor for one card, and the solver loop over cards.
+
+A problem reaches this module as plain arrays (see :class:`pumpid.engine.problem.Problem`'s
+``arrays``): the samples of every card concatenated, with per-card bounds, initial-state
+modes and periods; the model's compiled terms; and the fit's settings (which parameters are
+free, the fixed ones' values, the residual form, the scale and the offset).
+
+The solver coordinates of a card are ``z = (ln theta_free, [ln C], [offset])``. Each
+evaluation simulates the card with exact sensitivities, forms the Jacobian's columns and the
+residual as rows of one array, and reduces them to ``0.5 |r|^2``, ``R`` and ``Q^T r`` (one
+Householder pass): nothing of the card's length reaches the solver's step algebra.
+
+:func:`solve_items` runs the Levenberg-Marquardt state machine of :mod:`pumpid.engine.lm`
+for many (card, start) items; each item iterates to its own end, so no card waits for a
+slower one. The functions release the GIL, so the caller spreads chunks of items over
+threads (:mod:`pumpid.engine.threads`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import lm
+from .kernel import jit, simulate_card
+
+__all__ = ["cost_items", "evaluate", "outputs", "solve_items"]
+
+@jit
+def _card(data, k):
+    t, f, d, bounds, mode, x0, period, uniform = data
+    a, b = bounds[k], bounds[k + 1]
+    return t[a:b], f[a:b], d[a:b], mode[k], x0[k], period[k], uniform[k]
+
+
+@jit
+def _unpack(z, settings, lz):
+    """Fill ``lz`` (p,) from z; return (C, offset)."""
+    free, lz_base, log_res, scale_free, scale_fixed, offset_free, offset_fixed = settings
+    nf = free.size
+    lz[:] = lz_base
+    for i in range(nf):
+        lz[free[i]] = z[i]
+    j = nf
+    if scale_free:
+        scale = math.exp(z[j])
+        j += 1
+    else:
+        scale = scale_fixed
+    offset = z[j] if offset_free else offset_fixed
+    return scale, offset
+
+
+@jit
+def simulate_at(z, k, data, model, settings, y, dy):
+    """Unscaled output (and sensitivities when dy has rows) of card k at z; (ok, C, offset)."""
+    code, n, imap, obs, integrator = model
+    t, f, _d, mode, x0, period, uniform = _card(data, k)
+    lz = np.empty(settings[1].size)
+    scale, offset = _unpack(z, settings, lz)
+    ok = simulate_card(lz, settings[0], code, n, imap, t, f, mode, x0, period, uniform,
+                       integrator, obs, y, dy, np.empty((0, n)))
+    return ok, scale, offset
+
+
+@jit
+def residual_rows(z, k, data, model, settings, rows):
+    """Jacobian columns and residual of card k at z, as rows (q + 1, N); False if not finite."""
+    free = settings[0]
+    log_res = settings[2]
+    scale_free = settings[3]
+    offset_free = settings[5]
+    nf = free.size
+    q = rows.shape[0] - 1
+    n_samples = rows.shape[1]
+    y = np.empty(n_samples)
+    dy = rows[:nf]
+    ok, scale, offset = simulate_at(z, k, data, model, settings, y, dy)
+    if not ok:
+        return False
+    d = _card(data, k)[2]
+    j = nf
+    if log_res:
+        log_c = math.log(scale)
+        for s in range(n_samples):
+            if not (y[s] > 0.0):
+                return False
+            inv = 1.0 / y[s]
+            for i in range(nf):
+                dy[i, s] *= inv
+            rows[q, s] = log_c + math.log(y[s]) - math.log(d[s])
+        if scale_free:
+            rows[j, :] = 1.0
+            j += 1
+    else:
+        for s in range(n_samples):
+            for i in range(nf):
+                dy[i, s] *= scale
+            rows[q, s] = scale * y[s] + offset - d[s]
+        if scale_free:
+            for s in range(n_samples):
+                rows[j, s] = scale * y[s]
+            j += 1
+    if offset_free:
+        rows[j, :] = 1.0
+    for s in range(n_samples):
+        if not math.isfinite(rows[q, s]):
+            return False
+    return True
+
+
+@jit
+def evaluate(z, k, data, model, settings, rows, r_out, c_out):
+    """Cost ``0.5 |r|^2`` of card k at z with R and Q^T r of ``[J r]``; NaN when not finite."""
+    q = rows.shape[0] - 1
+    if not residual_rows(z, k, data, model, settings, rows):
+        return math.nan
+    return lm.householder(rows, q, r_out, c_out)
+
+
+@jit
+def _solve(z0, lo, hi, tol, max_evals, n_capped, k, data, model, settings, history):
+    """Levenberg-Marquardt from z0 for card k. Returns (z, cost, evaluations, accepted,
+    code, test, history rows). ``history`` (H, q + 1) receives the accepted points and their
+    costs (pass an array with no rows to skip)."""
+    q = z0.size
+    bounds = data[3]
+    n_samples = bounds[k + 1] - bounds[k]
+    rows = np.empty((q + 1, n_samples))
+    r = np.zeros((q, q))
+    c = np.zeros(q)
+    cost = evaluate(z0, k, data, model, settings, rows, r, c)
+    state = lm.start(z0, cost, r, c, lo, hi, tol, n_capped, max_evals)
+    n_hist = 0
+    if history.shape[0] > 0 and math.isfinite(cost):
+        history[0, :q] = z0
+        history[0, q] = cost
+        n_hist = 1
+    z_try = state[6]
+    ints = state[8]
+    while lm.propose(state):
+        cost_try = evaluate(z_try, k, data, model, settings, rows, r, c)
+        accepted_before = ints[1]
+        going = lm.update(state, cost_try, r, c)
+        if ints[1] > accepted_before and n_hist < history.shape[0]:
+            history[n_hist, :q] = state[0]
+            history[n_hist, q] = state[7][0]
+            n_hist += 1
+        if not going:
+            break
+    return (state[0], state[7][0], ints[0] + 1, ints[1], ints[4], ints[5], n_hist)
+
+
+@jit
+def solve_items(cards, z0, lo, hi, tol, max_evals, n_capped, data, model, settings):
+    """Solve many (card, start) items, one after the other.
+
+    Returns z (m, q), cost (m,), evaluations, accepted, code, test (m,) arrays.
+    """
+    m, q = z0.shape
+    z = np.empty((m, q))
+    cost = np.empty(m)
+    evals = np.zeros(m, np.int64)
+    accepted = np.zeros(m, np.int64)
+    code = np.zeros(m, np.int64)
+    test = np.zeros(m, np.int64)
+    no_history = np.empty((0, q + 1))
+    for i in range(m):
+        out = _solve(z0[i], lo[i], hi[i], tol, max_evals[i], n_capped, cards[i], data, model,
+                     settings, no_history)
+        z[i] = out[0]
+        cost[i] = out[1]
+        evals[i] = out[2]
+        accepted[i] = out[3]
+        code[i] = out[4]
+        test[i] = out[5]
+    return z, cost, evals, accepted, code, test
+
+
+@jit
+def solve_one(z0, lo, hi, tol, max_evals, n_capped, card, data, model, settings, history):
+    """:func:`solve_items` for one item, with the history of accepted points."""
+    return _solve(z0, lo, hi, tol, max_evals, n_capped, card, data, model, settings, history)
+
+
+@jit
+def cost_items(cards, z, data, model, settings):
+    """Cost ``0.5 |r|^2`` of many (card, point) items (no sensitivities); inf when not finite."""
+    m, q = z.shape
+    nf = settings[0].size
+    out = np.empty(m)
+    for i in range(m):
+        k = cards[i]
+        bounds = data[3]
+        n_samples = bounds[k + 1] - bounds[k]
+        y = np.empty(n_samples)
+        ok, scale, offset = simulate_at(z[i], k, data, model, settings, y,
+                                        np.empty((0, n_samples)))
+        d = _card(data, k)[2]
+        total = 0.0
+        if ok:
+            if settings[2]:
+                log_c = math.log(scale)
+                for s in range(n_samples):
+                    if y[s] > 0.0:
+                        e = log_c + math.log(y[s]) - math.log(d[s])
+                        total += e * e
+                    else:
+                        total = math.inf
+            else:
+                for s in range(n_samples):
+                    e = scale * y[s] + offset - d[s]
+                    total += e * e
+        else:
+            total = math.inf
+        out[i] = 0.5 * total if math.isfinite(total) else math.inf
+    _ = nf
+    return out
+
+
+@jit
+def outputs(cards, z, data, model, settings, total):
+    """Unscaled outputs of many (card, point) items, concatenated (``total`` samples);
+    and per item whether the simulation succeeded."""
+    m = z.shape[0]
+    bounds = data[3]
+    starts = np.zeros(m + 1, np.int64)
+    for i in range(m):
+        k = cards[i]
+        starts[i + 1] = starts[i] + bounds[k + 1] - bounds[k]
+    y_all = np.full(total, math.nan)
+    ok = np.zeros(m, np.bool_)
+    for i in range(m):
+        k = cards[i]
+        n_samples = bounds[k + 1] - bounds[k]
+        y = np.empty(n_samples)
+        good, _scale, _offset = simulate_at(z[i], k, data, model, settings, y,
+                                            np.empty((0, n_samples)))
+        ok[i] = good
+        if good:
+            y_all[starts[i]:starts[i + 1]] = y
+    return y_all, ok
+
+
+@jit
+def linear_items(cards, z, rescale, data, model, settings):
+    """Best linear values (ln C, offset) for parameter points, and their costs.
+
+    For each item: simulate card ``cards[i]`` at ``z[i]``'s parameters and fill the free
+    scale and offset coordinates with their least-squares values. With ``rescale`` (a
+    scale-symmetric model on a fixed scale, from a load-driven state) the parameters are
+    multiplied by ``C / a`` instead, ``a`` the least-squares amplitude: the same curve with
+    the scale held. Returns the completed points (m, q) and their costs (inf when the point
+    cannot be simulated or the amplitude is not positive).
+    """
+    m, q = z.shape
+    free, _lz_base, log_res, scale_free, scale_fixed, offset_free, offset_fixed = settings
+    nf = free.size
+    out = z.copy()
+    cost = np.full(m, math.inf)
+    bounds = data[3]
+    for i in range(m):
+        k = cards[i]
+        n_samples = bounds[k + 1] - bounds[k]
+        y = np.empty(n_samples)
+        ok, _s, _o = simulate_at(z[i], k, data, model, settings, y, np.empty((0, n_samples)))
+        if not ok:
+            continue
+        d = _card(data, k)[2]
+        scale = scale_fixed
+        offset = offset_fixed
+        if log_res:
+            total = 0.0
+            for s in range(n_samples):
+                if not (y[s] > 0.0):
+                    total = math.nan
+                    break
+                total += math.log(d[s]) - math.log(y[s])
+            if not math.isfinite(total):
+                continue
+            if scale_free:
+                scale = math.exp(total / n_samples)
+        else:
+            # Normal equations of d ~ a y + b (2 x 2): tiny and well scaled after centring.
+            ym = 0.0
+            dm = 0.0
+            for s in range(n_samples):
+                ym += y[s]
+                dm += d[s]
+            ym /= n_samples
+            dm /= n_samples
+            syy = 0.0
+            syd = 0.0
+            for s in range(n_samples):
+                syy += (y[s] - ym) * (y[s] - ym)
+                syd += (y[s] - ym) * (d[s] - dm)
+            if scale_free or rescale:
+                if offset_free:
+                    a = syd / syy if syy > 0.0 else math.nan
+                    b = dm - a * ym
+                else:
+                    s_yy = 0.0
+                    s_yd = 0.0
+                    for s in range(n_samples):
+                        s_yy += y[s] * y[s]
+                        s_yd += y[s] * (d[s] - offset_fixed)
+                    a = s_yd / s_yy if s_yy > 0.0 else math.nan
+                    b = offset_fixed
+                if rescale:
+                    if not (a > 0.0 and math.isfinite(a)):
+                        continue
+                    factor = math.log(scale_fixed / a)
+                    for j in range(nf):
+                        out[i, j] = z[i, j] + factor
+                    for s in range(n_samples):
+                        y[s] *= a / scale_fixed
+                    offset = b if offset_free else offset_fixed
+                else:
+                    scale = a if (a > 0.0 and math.isfinite(a)) else 1.0
+                    offset = b if offset_free else offset_fixed
+                    if offset_free and not (a > 0.0 and math.isfinite(a)):
+                        offset = dm - ym
+            elif offset_free:
+                offset = dm - scale * ym
+        total = 0.0
+        for s in range(n_samples):
+            if log_res:
+                e = math.log(scale) + math.log(y[s]) - math.log(d[s])
+            else:
+                e = scale * y[s] + offset - d[s]
+            total += e * e
+        if not math.isfinite(total):
+            continue
+        j = nf
+        if scale_free:
+            out[i, j] = math.log(scale)
+            j += 1
+        if offset_free:
+            out[i, j] = offset
+        cost[i] = 0.5 * total
+    return out, cost
+
+
+@jit
+def column_norms(cards, z, data, model, settings):
+    """Norms of the Jacobian's columns (m, q) at points z (NaN rows where not finite)."""
+    m, q = z.shape
+    out = np.full((m, q), math.nan)
+    bounds = data[3]
+    for i in range(m):
+        k = cards[i]
+        rows = np.empty((q + 1, bounds[k + 1] - bounds[k]))
+        if residual_rows(z[i], k, data, model, settings, rows):
+            for j in range(q):
+                s = 0.0
+                for t in range(rows.shape[1]):
+                    s += rows[j, t] * rows[j, t]
+                out[i, j] = math.sqrt(s)
+    return out
+
+
+@jit
+def summary_items(cards, z, data, model, settings):
+    """At each item's point: cost, RMSE and R^2 of the fitted displacement, the data's noise
+    level (from second differences) and the Jacobian's column norms (m, q).
+
+    Returns (stats (m, 4): cost, rmse, r2, noise; norms (m, q)); NaN where the point cannot
+    be evaluated.
+    """
+    m, q = z.shape
+    stats = np.full((m, 4), math.nan)
+    norms = np.full((m, q), math.nan)
+    bounds = data[3]
+    log_res = settings[2]
+    for i in range(m):
+        k = cards[i]
+        n = bounds[k + 1] - bounds[k]
+        d = _card(data, k)[2]
+        if n >= 3:
+            diff2 = np.empty(n - 2)
+            for s in range(n - 2):
+                diff2[s] = d[s + 2] - 2.0 * d[s + 1] + d[s]
+            med = np.median(diff2)
+            stats[i, 3] = 1.4826 * np.median(np.abs(diff2 - med)) / math.sqrt(6.0)
+        rows = np.empty((q + 1, n))
+        if not residual_rows(z[i], k, data, model, settings, rows):
+            continue
+        for j in range(q):
+            acc = 0.0
+            for s in range(n):
+                acc += rows[j, s] * rows[j, s]
+            norms[i, j] = math.sqrt(acc)
+        scale, offset = _unpack(z[i], settings, np.empty(settings[1].size))
+        ss = 0.0
+        sq = 0.0
+        mean = 0.0
+        for s in range(n):
+            mean += d[s]
+        mean /= n
+        for s in range(n):
+            sq += rows[q, s] * rows[q, s]
+            if log_res:
+                # the fitted displacement: C y = d exp(r)
+                e = d[s] * math.exp(rows[q, s]) - d[s]
+            else:
+                e = rows[q, s]
+            ss += e * e
+        sst = 0.0
+        for s in range(n):
+            sst += (d[s] - mean) * (d[s] - mean)
+        stats[i, 0] = 0.5 * sq
+        stats[i, 1] = math.sqrt(ss / n)
+        stats[i, 2] = 1.0 - ss / sst if sst > 0.0 else math.nan
+        _ = scale + offset
+    return stats, norms

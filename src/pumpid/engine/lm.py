@@ -1,0 +1,400 @@
+"""Levenberg-Marquardt, compiled, as a state machine the drivers step through.
+
+One algorithm for every fit: MINPACK's ``lmder`` scheme (Moré's trust-region
+Levenberg-Marquardt) on the triangular factor of ``[J r]``:
+
+* scaled coordinates ``D dz`` with ``D`` the running maximum of the Jacobian's column norms;
+* a trust radius in those coordinates: the Gauss-Newton step when it fits, otherwise the
+  damped step whose length is the radius (the damping found by Newton's method on the secular
+  equation, from an SVD of the small factor: the small singular values of ill-conditioned
+  problems stay accurate, as they would not in the normal equations);
+* the radius halves on poor steps (gain ratio < 1/4) and grows to twice the step on good ones;
+* box bounds on the coordinates (the log-parameters' search window): a coordinate at a bound
+  that the step would push outward is held there for the step (an active set);
+* a cap on the step of the log-parameters (a factor ``e`` per iteration), so a step along a
+  flat direction cannot fling a parameter into a region where the model degenerates;
+* MINPACK's stop tests: trust radius <= tol |D z| (xtol), relative actual and predicted cost
+  reductions <= tol (ftol), cosine between residual and Jacobian columns <= tol (gtol). A full
+  Gauss-Newton step that is already below xtol, or predicted to gain less than ftol right
+  after a reliable step, ends the iteration without one more evaluation.
+
+The loop is written as *reverse communication*: :func:`propose` computes the next trial point
+(or decides to stop) and :func:`update` takes the evaluation of that point. The compiled
+drivers (:mod:`pumpid.engine.drive`) call the two around the compiled simulation; a Python
+driver (:func:`pumpid.engine.solvers.run_python`) calls the same two around an evaluator that
+only Python can run (a nonlinear model integrated by scipy). So every fit, one card or ten
+thousand, steps through the same compiled algorithm.
+
+Why by hand: scipy's ``least_squares`` drives one problem through Python callbacks whose
+overhead is most of a millisecond fit, cannot run inside compiled code, and no library offers
+a compiled, bounded LM to call per card from a parallel loop.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .kernel import jit
+
+__all__ = ["CONVERGED", "EXHAUSTED", "FAILED", "TESTS", "householder", "propose", "start",
+           "update"]
+
+#: Largest change of a log-parameter in one step.
+MAX_LOG_STEP = 1.0
+#: Initial trust radius as a multiple of |D z0| (MINPACK's ``factor``).
+FACTOR = 100.0
+#: Outcome codes.
+RUNNING, CONVERGED, EXHAUSTED, FAILED = -1, 0, 2, 3
+#: Which stop test fired, for converged problems.
+TESTS = ("gtol", "ftol", "xtol", "zero")
+
+# Slots of the state's float and integer arrays.
+_COST, _DELTA, _PRED, _PNORM, _TOL, _GCOS = 0, 1, 2, 3, 4, 5
+_EVALS, _ACCEPTED, _TRUSTED, _GN, _CODE, _TEST, _NCAP, _MAXEV = 0, 1, 2, 3, 4, 5, 6, 7
+
+
+@jit
+def householder(rows, q, r_out, c_out):
+    """Cost and triangular factor of ``[J r]`` from its columns stored as rows.
+
+    ``rows`` (q + 1, N): the Jacobian's columns, then the residual; overwritten. Fills
+    ``r_out`` (q, q) with R and ``c_out`` (q,) with ``Q^T r``; returns ``0.5 |r|^2``.
+    Householder reflections column by column (each column contiguous); Q is never formed.
+    """
+    n = rows.shape[1]
+    cost = 0.0
+    for k in range(n):
+        cost += rows[q, k] * rows[q, k]
+    cost *= 0.5
+    for j in range(q):
+        norm = 0.0
+        for k in range(j, n):
+            norm += rows[j, k] * rows[j, k]
+        norm = math.sqrt(norm)
+        if norm == 0.0:
+            for i in range(q):
+                r_out[j, i] = 0.0
+            c_out[j] = 0.0
+            continue
+        alpha = -norm if rows[j, j] >= 0.0 else norm
+        v0 = rows[j, j] - alpha
+        # v = (v0, rows[j, j+1:]); beta = 2 / |v|^2
+        vnorm2 = v0 * v0 + (norm * norm - rows[j, j] * rows[j, j])
+        beta = 2.0 / vnorm2 if vnorm2 > 0.0 else 0.0
+        rows[j, j] = alpha
+        for i in range(j + 1, q + 1):
+            s = v0 * rows[i, j]
+            for k in range(j + 1, n):
+                s += rows[j, k] * rows[i, k]
+            s *= beta
+            rows[i, j] -= s * v0
+            for k in range(j + 1, n):
+                rows[i, k] -= s * rows[j, k]
+        for i in range(q):
+            r_out[j, i] = 0.0 if i < j else rows[i, j]
+        c_out[j] = rows[q, j]
+    return cost
+
+
+@jit
+def _solve_upper(r, b, x):
+    """x = R^-1 b for an upper triangular R; False when a pivot is zero."""
+    q = b.size
+    for i in range(q - 1, -1, -1):
+        s = b[i]
+        for k in range(i + 1, q):
+            s -= r[i, k] * x[k]
+        if r[i, i] == 0.0:
+            return False
+        x[i] = s / r[i, i]
+    return True
+
+
+@jit
+def _svd_step(r_s, c, delta, step):
+    """Minimum-norm Gauss-Newton step if it fits the radius, else the damped step of
+    length ``delta`` (Newton on 1/|s| - 1/delta, Moré). Returns True for Gauss-Newton."""
+    q = c.size
+    u, sig, vt = np.linalg.svd(r_s)
+    ct = np.zeros(q)
+    for j in range(q):
+        s = 0.0
+        for i in range(q):
+            s += c[i] * u[i, j]
+        ct[j] = s
+    coef = np.zeros(q)
+    gn2 = 0.0
+    for j in range(q):
+        if sig[j] > sig[0] * 1e-14:
+            coef[j] = ct[j] / sig[j]
+            gn2 += coef[j] * coef[j]
+    fits = math.sqrt(gn2) <= 1.1 * delta
+    if not fits:
+        lam = 0.0
+        for _ in range(30):
+            norm2 = 0.0
+            dnorm2 = 0.0
+            for j in range(q):
+                den = sig[j] * sig[j] + lam
+                if den > 0.0:
+                    ratio = sig[j] * ct[j] / den
+                    norm2 += ratio * ratio
+                    dnorm2 += -2.0 * ratio * ratio / den
+            norm = math.sqrt(norm2)
+            if abs(norm - delta) <= 0.1 * delta or norm == 0.0:
+                break
+            g = 1.0 / norm - 1.0 / delta
+            gp = -0.5 * dnorm2 / (norm2 * norm)
+            lam = max(lam - g / gp, 0.0)
+        for j in range(q):
+            den = sig[j] * sig[j] + lam
+            coef[j] = ct[j] * sig[j] / den if den > 0.0 else 0.0
+    for i in range(q):
+        s = 0.0
+        for j in range(q):
+            s += coef[j] * vt[j, i]
+        step[i] = -s
+    return fits
+
+
+@jit
+def _trust_step(r_s, c, delta, step, held):
+    """The step for the trust region, columns in ``held`` fixed at zero."""
+    q = c.size
+    masked = r_s.copy()
+    any_held = False
+    for j in range(q):
+        if held[j]:
+            any_held = True
+            for i in range(q):
+                masked[i, j] = 0.0
+    if not any_held:
+        big = 0.0
+        small = math.inf
+        for j in range(q):
+            piv = abs(r_s[j, j])
+            big = max(big, piv)
+            small = min(small, piv)
+        if small > 1e-12 * big:
+            neg = -c
+            if _solve_upper(r_s, neg, step):
+                norm = 0.0
+                for j in range(q):
+                    norm += step[j] * step[j]
+                if math.isfinite(norm) and math.sqrt(norm) <= 1.1 * delta:
+                    return True
+    fits = _svd_step(masked, c, delta, step)
+    for j in range(q):
+        if held[j]:
+            step[j] = 0.0
+    return fits
+
+
+@jit
+def start(z0, cost, r, c, lo, hi, tol, n_capped, max_evals):
+    """A new solver state from the first evaluation (cost, R, Q^T r at z0).
+
+    Returns the state tuple ``(z, lo, hi, r, c, diag, z_try, floats, ints)``; its code is
+    FAILED when the first evaluation is not finite.
+    """
+    q = z0.size
+    z = z0.copy()
+    diag = np.ones(q)
+    fs = np.zeros(6)
+    ints = np.zeros(8, np.int64)
+    ints[_CODE] = RUNNING
+    ints[_TEST] = -1
+    ints[_NCAP] = n_capped
+    ints[_MAXEV] = max_evals
+    fs[_TOL] = tol
+    fs[_COST] = cost
+    finite = math.isfinite(cost)
+    for i in range(q):
+        finite = finite and math.isfinite(c[i])
+        for j in range(q):
+            finite = finite and math.isfinite(r[i, j])
+    if not finite:
+        ints[_CODE] = FAILED
+        fs[_COST] = math.nan
+    else:
+        znorm = 0.0
+        for j in range(q):
+            col = 0.0
+            for i in range(q):
+                col += r[i, j] * r[i, j]
+            col = math.sqrt(col)
+            diag[j] = col if col > 0.0 else 1.0
+            znorm += (diag[j] * z[j]) ** 2
+        fs[_DELTA] = FACTOR * math.sqrt(znorm)
+        if not fs[_DELTA] > 0.0:
+            fs[_DELTA] = FACTOR
+    return (z, lo.copy(), hi.copy(), r.copy(), c.copy(), diag, np.zeros(q), fs, ints)
+
+
+@jit
+def propose(state):
+    """The next trial point into the state's ``z_try``; False when the iteration stopped.
+
+    Also applies the stop tests that need no new evaluation (the gradient test, and a full
+    Gauss-Newton step below xtol or predicted to gain less than ftol after a reliable step).
+    """
+    z, lo, hi, r, c, diag, z_try, fs, ints = state
+    if ints[_CODE] != RUNNING:
+        return False
+    q = z.size
+    tol = fs[_TOL]
+    cost = fs[_COST]
+    delta = fs[_DELTA]
+    cols = np.empty(q)
+    for j in range(q):
+        s = 0.0
+        for i in range(q):
+            s += r[i, j] * r[i, j]
+        cols[j] = math.sqrt(s)
+        if cols[j] > diag[j]:
+            diag[j] = cols[j]
+    r_s = np.empty((q, q))
+    for i in range(q):
+        for j in range(q):
+            r_s[i, j] = r[i, j] / diag[j]
+    r_norm = math.sqrt(2.0 * cost)
+    g_cos = 0.0
+    for j in range(q):
+        if cols[j] > 0.0:
+            s = 0.0
+            for i in range(q):
+                s += c[i] * r[i, j]
+            g_cos = max(g_cos, abs(s) / cols[j])
+    g_cos /= r_norm if r_norm > 0.0 else 1.0
+    fs[_GCOS] = g_cos
+    grad = np.empty(q)
+    for j in range(q):
+        s = 0.0
+        for i in range(q):
+            s += c[i] * r_s[i, j]
+        grad[j] = s
+    held = np.zeros(q, np.bool_)
+    bounded = False
+    for j in range(q):
+        if z[j] <= lo[j] or z[j] >= hi[j]:
+            bounded = True
+            if (z[j] <= lo[j] and grad[j] > 0.0) or (z[j] >= hi[j] and grad[j] < 0.0):
+                held[j] = True
+    step = np.zeros(q)
+    gauss_newton = _trust_step(r_s, c, delta, step, held)
+    if bounded:
+        # Coordinates the step itself pushes out through the correlations join the held ones.
+        for _ in range(q):
+            pushed = False
+            for j in range(q):
+                if not held[j] and ((z[j] <= lo[j] and step[j] < 0.0)
+                                    or (z[j] >= hi[j] and step[j] > 0.0)):
+                    held[j] = True
+                    pushed = True
+            if not pushed:
+                break
+            gauss_newton = _trust_step(r_s, c, delta, step, held)
+    dz = np.empty(q)
+    for j in range(q):
+        dz[j] = step[j] / diag[j]
+    n_cap = ints[_NCAP]
+    if n_cap > 0:
+        big = 0.0
+        for j in range(n_cap):
+            big = max(big, abs(dz[j]))
+        if big > MAX_LOG_STEP:
+            for j in range(q):
+                dz[j] *= MAX_LOG_STEP / big
+    for j in range(q):
+        z_try[j] = min(max(z[j] + dz[j], lo[j]), hi[j])
+        dz[j] = z_try[j] - z[j]
+        step[j] = dz[j] * diag[j]
+    p_norm = 0.0
+    z_norm = 0.0
+    pred = 0.0
+    for i in range(q):
+        p_norm += step[i] * step[i]
+        z_norm += (diag[i] * z[i]) ** 2
+        lin = c[i]
+        for j in range(i, q):
+            lin += r_s[i, j] * step[j]
+        pred += c[i] * c[i] - lin * lin
+    p_norm = math.sqrt(p_norm)
+    z_norm = math.sqrt(z_norm)
+    pred *= 0.5
+    fs[_PRED] = pred
+    fs[_PNORM] = p_norm
+    ints[_GN] = 1 if gauss_newton else 0
+    if g_cos <= tol:
+        ints[_CODE] = CONVERGED
+        ints[_TEST] = 0
+        return False
+    if gauss_newton and ints[_TRUSTED] == 1 and pred <= tol * cost:
+        ints[_CODE] = CONVERGED
+        ints[_TEST] = 1
+        return False
+    if gauss_newton and p_norm <= tol * z_norm:
+        ints[_CODE] = CONVERGED
+        ints[_TEST] = 2
+        return False
+    return True
+
+
+@jit
+def update(state, cost_try, r_try, c_try):
+    """Take the evaluation of ``z_try``; False when the iteration stopped."""
+    z, lo, hi, r, c, diag, z_try, fs, ints = state
+    q = z.size
+    tol = fs[_TOL]
+    cost = fs[_COST]
+    delta = fs[_DELTA]
+    pred = fs[_PRED]
+    p_norm = fs[_PNORM]
+    finite = math.isfinite(cost_try)
+    for i in range(q):
+        finite = finite and math.isfinite(c_try[i])
+        for j in range(q):
+            finite = finite and math.isfinite(r_try[i, j])
+    if not finite:
+        cost_try = math.inf
+    actual = cost - cost_try
+    if pred > 0.0:
+        rho = actual / pred
+    else:
+        rho = 1.0 if actual > 0.0 else -1.0
+    accept = finite and rho >= 1e-4
+    ints[_EVALS] += 1
+    if accept:
+        ints[_ACCEPTED] += 1
+    ints[_TRUSTED] = 1 if (accept and rho >= 0.25) else 0
+    if rho < 0.25:
+        new = 0.5 * min(delta, 10.0 * p_norm)
+    elif ints[_GN] == 1 or rho >= 0.75:
+        new = max(delta, 2.0 * p_norm)
+    else:
+        new = delta
+    fs[_DELTA] = new if (math.isfinite(new) and new > 0.0) else 0.5 * delta
+    f_test = abs(actual) <= tol * cost and pred <= tol * cost and rho <= 2.0
+    if accept:
+        z[:] = z_try
+        r[:] = r_try
+        c[:] = c_try
+        fs[_COST] = cost_try
+    z_norm = 0.0
+    for i in range(q):
+        z_norm += (diag[i] * z[i]) ** 2
+    x_test = fs[_DELTA] <= tol * math.sqrt(z_norm)
+    if fs[_COST] == 0.0:
+        ints[_CODE] = CONVERGED
+        ints[_TEST] = 3
+        return False
+    if f_test or x_test:
+        ints[_CODE] = CONVERGED
+        ints[_TEST] = 1 if f_test else 2
+        return False
+    if ints[_EVALS] >= ints[_MAXEV]:
+        ints[_CODE] = EXHAUSTED
+        return False
+    return True

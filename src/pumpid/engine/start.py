@@ -1,0 +1,410 @@
+"""Automatic starting points: no guess needed.
+
+The physical models are linear ODEs, so their transfer-function coefficients follow from a
+*linear* least-squares problem (equation error), as in continuous-time system identification:
+
+* records that start from a state (rest, equilibrium, a given one) are passed through a
+  state-variable filter ``lambda^n / (s + lambda)^n``, which gives smooth derivatives of the
+  displacement and the load without differentiating noisy data; unknown initial conditions
+  and a position offset enter as a few extra regressors (``t^j exp(-lambda t)`` and a filtered
+  constant), so the estimate does not depend on knowing them;
+* periodic strokes are fitted over their harmonics, where ``s = i k omega`` is exact.
+
+Each model maps its coefficients back to physical parameters in closed form (its
+``equation_error`` forms). Several filter bandwidths give several candidates; the model's
+shape grid (amplitude-matched to each card) and a heuristic add more. Every candidate is
+ranked by its cost with the best linear scale and offset; the best few are polished by a
+short Levenberg-Marquardt run (a multistart against local minima) and the best polished
+point is the start. All of it runs for every card of a problem at once.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from . import drive, kernel
+from .kernel import jit
+from .problem import Problem
+from .solvers import LevenbergMarquardt, SolverOutcome
+from .threads import run_chunks
+
+__all__ = ["StartPlan", "Starts", "candidates", "find_starts"]
+
+Array = NDArray[np.float64]
+
+#: Filter bandwidths of the equation-error candidates, in record fundamentals.
+_BANDWIDTHS = (1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0)
+#: Highest harmonic used by the periodic equation error.
+_HARMONICS = 40
+
+
+# --------------------------------------------------------------------------- compiled
+@jit
+def _svf(t, x, lam, order, uniform):
+    """Filtered derivatives ``s^k lam^n / (s + lam)^n x``, k = 0..n, from rest (exact FOH)."""
+    n = order
+    a = np.zeros((1, n, n))
+    b = np.zeros((1, n))
+    for r in range(n - 1):
+        a[0, r, r + 1] = 1.0
+    coeffs = np.empty(n)
+    binom = 1.0
+    for j in range(n):
+        # binom = n choose j, built up as j grows
+        coeffs[j] = binom * lam ** (n - j)
+        binom = binom * (n - j) / (j + 1)
+        a[0, n - 1, j] = -coeffs[j]
+    b[0, n - 1] = 1.0
+    phi = np.empty((1, n, n))
+    g0 = np.empty((1, n))
+    g1 = np.empty((1, n))
+    w = np.zeros((1, n))
+    wn = np.empty((1, n))
+    out = np.empty((t.size, n + 1))
+    scale = lam**n
+    kernel.discretize(a, b, t[1] - t[0], kernel.EXACT, phi, g0, g1)
+    for k in range(t.size):
+        if k > 0:
+            if not uniform:
+                kernel.discretize(a, b, t[k] - t[k - 1], kernel.EXACT, phi, g0, g1)
+            for r in range(n):
+                s = g0[0, r] * x[k - 1] + g1[0, r] * x[k]
+                for c in range(n):
+                    s += phi[0, r, c] * w[0, c]
+                wn[0, r] = s
+            w[:] = wn
+        top = x[k]
+        for j in range(n):
+            out[k, j] = w[0, j] * scale
+            top -= coeffs[j] * w[0, j]
+        out[k, n] = top * scale
+    return out
+
+
+@jit
+def _lstsq(mat, target):
+    """Least squares with unit-norm columns; NaN when there is nothing to solve."""
+    ncol = mat.shape[1]
+    norms = np.empty(ncol)
+    for j in range(ncol):
+        s = 0.0
+        for i in range(mat.shape[0]):
+            s += mat[i, j] * mat[i, j]
+        norms[j] = math.sqrt(s)
+    keep = norms > 0.0
+    coef = np.zeros(ncol)
+    if not np.any(keep) or not np.all(np.isfinite(mat)) or not np.all(np.isfinite(target)):
+        return np.full(ncol, math.nan)
+    cols = np.flatnonzero(keep)
+    sub = np.empty((mat.shape[0], cols.size))
+    for jj in range(cols.size):
+        sub[:, jj] = mat[:, cols[jj]] / norms[cols[jj]]
+    sol = np.linalg.lstsq(sub, target)[0]
+    for jj in range(cols.size):
+        coef[cols[jj]] = sol[jj] / norms[cols[jj]]
+    return coef
+
+
+@jit
+def _time_coefs(t, y, f, lam, form, uniform):
+    target_f, target_order, y_orders, f_orders, order = form
+    n = order
+    tt = t - t[0]
+    yf = _svf(tt, y, lam, n, uniform)
+    ff = _svf(tt, f, lam, n, uniform)
+    onesf = _svf(tt, np.ones(t.size), lam, n, uniform)
+    ncoef = y_orders.size + f_orders.size
+    mat = np.empty((t.size, ncoef + n + 1))
+    for j in range(y_orders.size):
+        mat[:, j] = yf[:, y_orders[j]]
+    for j in range(f_orders.size):
+        mat[:, y_orders.size + j] = ff[:, f_orders[j]]
+    # Unknown initial conditions (and the filter's start-up) appear as t^j exp(-lam t).
+    for j in range(n):
+        for k in range(t.size):
+            mat[k, ncoef + j] = math.exp(-lam * tt[k]) * (lam * tt[k]) ** j
+    mat[:, ncoef + n] = onesf[:, 0]
+    target = ff[:, target_order] if target_f else yf[:, target_order]
+    return _lstsq(mat, target)[:ncoef]
+
+
+@jit
+def _dft(x, kmax):
+    n = x.size
+    out = np.empty(kmax + 1, np.complex128)
+    for k in range(kmax + 1):
+        s = 0.0 + 0.0j
+        w = -2.0 * math.pi * k / n
+        for j in range(n):
+            s += x[j] * complex(math.cos(w * j), math.sin(w * j))
+        out[k] = s / n
+    return out
+
+
+@jit
+def _harmonic_coefs(y, f, period, lam, form, first):
+    target_f, target_order, y_orders, f_orders, order = form
+    kmax = min(y.size // 2, _HARMONICS)
+    yk = _dft(y, kmax)
+    fk = _dft(f, kmax)
+    ncoef = y_orders.size + f_orders.size
+    rows = kmax + 1 - first
+    mat = np.empty((2 * rows, ncoef))
+    target = np.empty(2 * rows)
+    for i in range(rows):
+        k = first + i
+        s = 2j * math.pi * k / period
+        weight = (lam / (s + lam)) ** order
+        for j in range(y_orders.size):
+            v = weight * s ** y_orders[j] * yk[k]
+            mat[i, j] = v.real
+            mat[rows + i, j] = v.imag
+        for j in range(f_orders.size):
+            v = weight * s ** f_orders[j] * fk[k]
+            mat[i, y_orders.size + j] = v.real
+            mat[rows + i, y_orders.size + j] = v.imag
+        tv = (fk[k] if target_f else yk[k]) * s**target_order * weight
+        target[i] = tv.real
+        target[rows + i] = tv.imag
+    return _lstsq(mat, target)
+
+
+@jit
+def equation_error_items(cards, lams, data, form, scale, offset_free):
+    """Equation-error coefficients (m, L, c) for cards (m,) at bandwidths lams (m, L)."""
+    t_all, f_all, d_all, bounds, mode, _x0, period, uniform = data
+    ncoef = form[2].size + form[3].size
+    m, n_lam = lams.shape
+    out = np.full((m, n_lam, ncoef), math.nan)
+    for i in range(m):
+        k = cards[i]
+        a, b = bounds[k], bounds[k + 1]
+        t = t_all[a:b]
+        f = f_all[a:b]
+        y = d_all[a:b] / scale
+        n_samples = b - a
+        periodic = (mode[k] == kernel.PERIODIC and uniform[k]
+                    and abs(period[k] - n_samples * (t[1] - t[0])) <= 1e-6 * period[k])
+        for li in range(n_lam):
+            lam = lams[i, li]
+            if not lam > 0.0:
+                continue
+            if periodic:
+                out[i, li] = _harmonic_coefs(y, f, period[k], lam, form,
+                                             0 if not offset_free else 1)
+            else:
+                out[i, li] = _time_coefs(t, y, f, lam, form, uniform[k])
+    return out
+
+
+# --------------------------------------------------------------------------- candidates
+def _fundamental(problem: Problem, k: int) -> float:
+    t, _f, _d = problem.card(k)
+    span = float(t[-1] - t[0])
+    if np.isfinite(problem.period[k]):
+        span = float(problem.period[k])
+    return 2 * math.pi / span
+
+
+def _heuristic(problem: Problem, k: int) -> Array:
+    """A rough physical guess from the record's amplitude ratio and length."""
+    _t, f, d = problem.card(k)
+    scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
+    gain = float(np.ptp(d / scale)) / max(float(np.ptp(f)), 1e-300)
+    gain = gain if gain > 0 else 1.0
+    omega = 3 * _fundamental(problem, k)
+    stiff = 1.0 / gain
+    shapes = problem.model.shape_grid(omega)
+    # The middle shape of the model's grid, at the record's stiffness level.
+    mid = shapes[shapes.shape[0] // 2]
+    return mid * _stiffness_factor(problem, stiff)
+
+
+def _stiffness_factor(problem: Problem, stiff: float) -> Array:
+    """Multiplier per parameter bringing unit-stiffness shapes to stiffness ``stiff``."""
+    out = np.ones(problem.n_params)
+    for i, info in enumerate(problem.model.param_info()):
+        if info.unit.startswith("{load}"):
+            out[i] = stiff
+    return out
+
+
+def candidates(problem: Problem, cards: NDArray[np.int64]) -> tuple[Array, NDArray[np.int64],
+                                                                     list[str]]:
+    """Candidate parameter sets for the given cards.
+
+    Returns the candidates (m, p), the card of each (m,) and the kinds present.
+    """
+    model = problem.model
+    form = model.equation_error.get(problem.observe)
+    rows: list[Array] = []
+    owners: list[NDArray[np.int64]] = []
+    kinds = []
+    data, _model, _settings = problem.arrays
+    scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
+    if form is not None and problem.residual == "linear":
+        kinds.append("equation error")
+        lams = np.full((cards.size, len(_BANDWIDTHS)), math.nan)
+        for i, k in enumerate(cards):
+            t, _f, _d = problem.card(int(k))
+            base = 2 * math.pi / float(t[-1] - t[0])
+            dt_min = float(np.min(np.diff(t)))
+            ok = [base * b for b in _BANDWIDTHS if base * b * dt_min < 0.5] or [0.5 / dt_min]
+            lams[i, : len(ok)] = ok
+        packed = (form.target[0] == "f", int(form.target[1]),
+                  np.array(form.y_orders, dtype=np.int64),
+                  np.array(form.f_orders, dtype=np.int64), int(form.order))
+        coefs = equation_error_items(cards, lams, data, packed, float(scale),
+                                     problem.offset_fixed is None)
+        theta = form.to_theta(coefs.reshape(-1, form.n_coef))
+        good = np.all(np.isfinite(theta) & (theta > 0), axis=1)
+        rows.append(theta[good])
+        owners.append(np.repeat(cards, len(_BANDWIDTHS))[good])
+    if problem.residual == "linear":
+        kinds.append("shape grid")
+        for k in cards:
+            shapes = model.shape_grid(_fundamental(problem, int(k)))
+            rows.append(shapes)
+            owners.append(np.full(shapes.shape[0], k, dtype=np.int64))
+    kinds.append("heuristic")
+    rows.append(np.array([_heuristic(problem, int(k)) for k in cards]))
+    owners.append(np.asarray(cards, dtype=np.int64))
+    theta = np.concatenate(rows)
+    owner = np.concatenate(owners)
+    if problem.fixed:
+        for i, value in problem.fixed:
+            theta[:, i] = value
+    return theta, owner, kinds
+
+
+# --------------------------------------------------------------------------- ranking
+def to_z(problem: Problem, theta: Array) -> Array:
+    """Solver coordinates (m, q) for parameter rows (m, p); scale and offset left at 0/1."""
+    m = theta.shape[0]
+    z = np.zeros((m, problem.q))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z[:, : problem.n_free] = np.log(theta[:, problem.free_idx])
+    return z
+
+
+def complete(problem: Problem, cards: NDArray[np.int64], theta: Array,
+             rescale: bool = True, workers: int | None = 1) -> tuple[Array, Array]:
+    """Points with their best linear scale and offset, and their costs."""
+    z = to_z(problem, theta)
+    data, model, settings = problem.arrays
+    do_rescale = bool(rescale and problem.gauge_fixed or (
+        rescale and problem.model.scale_symmetric and problem.scale_fixed is not None
+        and not problem.fixed and bool(np.all(problem.mode != kernel.GIVEN))))
+    out = np.empty_like(z)
+    cost = np.empty(z.shape[0])
+    cards = np.ascontiguousarray(cards, dtype=np.int64)
+
+    def work(a: int, b: int) -> None:
+        out[a:b], cost[a:b] = drive.linear_items(cards[a:b], np.ascontiguousarray(z[a:b]),
+                                                 do_rescale, data, model, settings)
+
+    run_chunks(work, z.shape[0], workers=workers, chunk=256)
+    return out, cost
+
+
+@dataclass(frozen=True)
+class StartPlan:
+    """How the automatic start searches: candidates polished and their budget."""
+
+    polish: int = 3
+    polish_evaluations: int = 60
+    polish_tol: float = 1e-10
+
+
+@dataclass(frozen=True)
+class Starts:
+    """The chosen start of every card and how it was found."""
+
+    z: Array
+    cost: Array
+    stopped_early: NDArray[np.bool_]
+    n_candidates: NDArray[np.int64]
+    n_polished: NDArray[np.int64]
+    kinds: tuple[str, ...]
+    from_guess: NDArray[np.bool_]
+
+
+def find_starts(
+    problem: Problem,
+    cards: NDArray[np.int64],
+    *,
+    guess: Array | None = None,
+    plan: StartPlan = StartPlan(),
+    workers: int | None = 1,
+) -> Starts:
+    """The best starting point of every card: rank all candidates, polish the best few.
+
+    ``guess`` (m, p): a user's parameters per card that join the polished points (a good
+    guess is kept, a poor one cannot trap the fit).
+    """
+    cards = np.asarray(cards, dtype=np.int64)
+    m = cards.size
+    theta, owner, kinds = candidates(problem, cards)
+    z_all, cost_all = complete(problem, owner, theta, workers=workers)
+    position = {int(k): i for i, k in enumerate(cards)}
+    picks: list[int] = []
+    pick_card: list[int] = []
+    n_cand = np.zeros(m, dtype=np.int64)
+    order = np.lexsort((cost_all, owner))
+    counts: dict[int, int] = {}
+    for j in order:
+        k = int(owner[j])
+        if not math.isfinite(cost_all[j]):
+            continue
+        n_cand[position[k]] += 1
+        if counts.get(k, 0) < plan.polish:
+            counts[k] = counts.get(k, 0) + 1
+            picks.append(int(j))
+            pick_card.append(k)
+    z_pol = z_all[picks] if picks else np.zeros((0, problem.q))
+    item_card = np.array(pick_card, dtype=np.int64)
+    is_guess = np.zeros(len(picks), dtype=bool)
+    if guess is not None:
+        zg, _cg = complete(problem, cards, np.asarray(guess, dtype=float), rescale=False,
+                           workers=workers)
+        z_pol = np.concatenate([z_pol, zg])
+        item_card = np.concatenate([item_card, cards])
+        is_guess = np.concatenate([is_guess, np.ones(m, dtype=bool)])
+    solver = LevenbergMarquardt(tol=plan.polish_tol)
+    polished: SolverOutcome = solver.solve(problem, item_card, z_pol,
+                                           budget=plan.polish_evaluations, workers=workers)
+    best_z = np.full((m, problem.q), math.nan)
+    best_cost = np.full(m, math.inf)
+    early = np.zeros(m, dtype=bool)
+    from_guess = np.zeros(m, dtype=bool)
+    n_pol = np.zeros(m, dtype=np.int64)
+    for j in range(item_card.size):
+        i = position[int(item_card[j])]
+        c = polished.cost[j]
+        if not math.isfinite(c):
+            continue
+        n_pol[i] += 1
+        # The guess wins ties: a good guess is kept.
+        better = c < best_cost[i] or (is_guess[j] and c <= best_cost[i])
+        if better:
+            best_cost[i] = c
+            best_z[i] = polished.z[j]
+            early[i] = polished.stops[j].key == "budget"
+            from_guess[i] = is_guess[j]
+    # Cards with no finite polished point fall back to their best-ranked candidate.
+    for i, k in enumerate(cards):
+        if math.isfinite(best_cost[i]):
+            continue
+        mine = np.flatnonzero((owner == k) & np.isfinite(cost_all))
+        if mine.size:
+            j = mine[np.argmin(cost_all[mine])]
+            best_z[i], best_cost[i] = z_all[j], cost_all[j]
+        elif guess is not None:
+            best_z[i] = to_z(problem, np.asarray(guess, dtype=float)[i:i + 1])[0]
+            from_guess[i] = True
+    return Starts(z=best_z, cost=best_cost, stopped_early=early, n_candidates=n_cand,
+                  n_polished=n_pol, kinds=tuple(kinds), from_guess=from_guess)

@@ -1,0 +1,183 @@
+"""Boundary solutions: a parameter the data drive to 0 or to infinity.
+
+A least-squares fit on log-parameters has no hard bounds, so when the data prefer a limiting
+model (for example k0 -> infinity: the Kelvin model's series spring becomes rigid and the
+model reduces to a mass-spring-dashpot) the parameter keeps growing while the fitted curve no
+longer changes. Such a solution is not an ordinary converged answer. Two tests recognise it:
+
+* the push test: moving one parameter a factor 1000 further in one direction leaves the cost
+  unchanged (in both directions: not determined at all, which the identifiability analysis
+  reports instead);
+* the nested test, for limits where pumpid has the reduced model: the reduced model fits as
+  well as the full one by a likelihood-ratio test at the 95 % level. It catches a curved
+  valley toward the limit, where the other parameters compensate a single push.
+
+Each model names its limits (:attr:`pumpid.models.base.Model.limits`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..engine import drive
+from ..engine.problem import Problem
+from ..models import Limit
+
+__all__ = [
+    "PUSH",
+    "SUSPICION",
+    "BoundaryInfo",
+    "Limiting",
+    "ReducedFit",
+    "log_sensitivity",
+    "nested_candidates",
+    "push_test",
+]
+
+Array = NDArray[np.float64]
+#: The factor of the push test.
+PUSH = 1e3
+#: Relative log-sensitivity below which a parameter is suspected to be heading to a limit.
+SUSPICION = 1e-2
+
+
+@dataclass(frozen=True)
+class Limiting:
+    """A parameter at a boundary: where it runs and the limit it means."""
+
+    name: str
+    direction: str  # "infinity" or "zero"
+    value: float
+    limit: str
+    #: "push": moving it further leaves the cost unchanged; "nested": the limiting model fits
+    #: as well (likelihood-ratio test).
+    evidence: str = "push"
+
+    def describe(self) -> str:
+        """Plain-language statement."""
+        where = "to infinity" if self.direction == "infinity" else "to zero"
+        why = ("pushing it a further factor 1000 leaves the fit unchanged"
+               if self.evidence == "push"
+               else "the limiting model fits the data as well (likelihood-ratio test, 95 %)")
+        return (f"{self.name} runs {where} (fitted value {self.value:.4g} is arbitrary: {why}); "
+                f"the data want the limit {self.limit}")
+
+
+@dataclass(frozen=True)
+class ReducedFit:
+    """The limiting (reduced) model fitted where the full model ran to a boundary."""
+
+    model: str
+    params: Mapping[str, float]
+    units: Mapping[str, str]
+    scale: float
+    offset: float
+    rmse: float
+    r2: float
+    status: str
+    reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form."""
+        return {"model": self.model, "params": dict(self.params), "scale": self.scale,
+                "offset": self.offset, "units": dict(self.units), "rmse": self.rmse,
+                "r2": self.r2, "converged": self.status == "converged",
+                "status": self.status, "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class BoundaryInfo:
+    """Parameters that ran to a bound, and the reduced model the data want."""
+
+    limits: tuple[Limiting, ...]
+    reduced: ReducedFit | None = None
+
+
+def spread(problem: Problem, k: int) -> float:
+    """The data's spread |d - mean d| on the residual's scale."""
+    d = problem.card(k)[2]
+    if problem.residual == "log":
+        d = np.log(d)
+    return float(np.linalg.norm(d - d.mean())) or 1.0
+
+
+def log_sensitivity(problem: Problem, cards: NDArray[np.int64], z: Array) -> Array:
+    """``||theta_i dr/dtheta_i|| / ||d - mean d||`` of the free parameters (m, n_free)."""
+    data, model, settings = problem.arrays
+    norms = drive.column_norms(np.ascontiguousarray(cards, dtype=np.int64),
+                               np.ascontiguousarray(z), data, model, settings)
+    spreads = np.array([spread(problem, int(k)) for k in cards])
+    return norms[:, : problem.n_free] / spreads[:, None]
+
+
+def push_test(problem: Problem, cards: NDArray[np.int64], z: Array, cost: Array,
+              edges: list[dict[int, str]]) -> list[list[Limiting]]:
+    """Parameters at 0 or infinity by the push test, per item.
+
+    A parameter is at a boundary when the solver stopped on the edge of its search window
+    (``edges``: free index -> direction) and pushing it further leaves the cost unchanged, or
+    when a push by a factor 1000 leaves the cost unchanged in exactly one direction.
+    """
+    m = cards.size
+    p = problem.n_free
+    names = [problem.model.param_names()[i] for i in problem.free_idx]
+    trials = np.repeat(z, 2 * p, axis=0)
+    for i in range(p):
+        trials[2 * i::2 * p, i] += math.log(PUSH)
+        trials[2 * i + 1::2 * p, i] -= math.log(PUSH)
+    data, model, settings = problem.arrays
+    item_cards = np.repeat(np.asarray(cards, dtype=np.int64), 2 * p)
+    costs = drive.cost_items(item_cards, np.ascontiguousarray(trials), data, model,
+                             settings).reshape(m, p, 2)
+    out: list[list[Limiting]] = []
+    for j in range(m):
+        k = int(cards[j])
+        d = problem.card(k)[2]
+        sst = float(np.sum((d - d.mean()) ** 2))
+        tol = max(1e-3 * 2.0 * cost[j], 1e-10 * sst)
+        found: list[Limiting] = []
+        for i, name in enumerate(names):
+            hits = [direction for c, direction in zip(costs[j, i], ("infinity", "zero"),
+                                                       strict=True)
+                    if 2.0 * c - 2.0 * cost[j] <= tol]
+            if i in edges[j] and edges[j][i] in hits:
+                hits = [edges[j][i]]
+            if len(hits) == 1:
+                lim = problem.model.limit(name, hits[0])
+                found.append(Limiting(name, hits[0], float(math.exp(z[j, i])),
+                                      lim.description, "push"))
+        out.append(found)
+    return out
+
+
+def nested_candidates(problem: Problem, k: int, z: Array, log_sens: Array,
+                      edges: dict[int, str], stopped_early: bool) -> list[Limit]:
+    """Known limits with a reduced model that card k's fitted point may be heading to.
+
+    A parameter is a candidate when the fit hardly depends on it any more (relative
+    log-sensitivity below 1 % toward the limit's side of its natural scale), when the solver
+    stopped on the edge of its window, or when it ran out of evaluations.
+    """
+    names = problem.model.param_names()
+    ref = problem.reference[k]
+    out = []
+    for lim in problem.model.limits:
+        if lim.reduced is None:
+            continue
+        i = names.index(lim.param)
+        free = list(problem.free_idx)
+        if i not in free:
+            continue
+        f = free.index(i)
+        theta_i = math.exp(z[f])
+        heading = "infinity" if theta_i > ref[i] else "zero"
+        weak = log_sens[f] < SUSPICION and heading == lim.direction
+        if weak or edges.get(f) == lim.direction or stopped_early:
+            out.append(lim)
+    return out

@@ -1,0 +1,236 @@
+"""What the data determine, in words, from the sensitivity matrix's SVD at the solution.
+
+Findings name the parameter combinations the data cannot determine -- structural (the
+Jacobian is singular along them) or practical (the data constrain them so weakly that their
+relative standard error exceeds 100 %; when the residuals fail the whiteness check, the
+larger of the ordinary and the autocorrelation-robust error counts) -- the scale symmetry
+when the fit had to fix the gauge C = 1, and parameters that ran to a boundary (named with
+the limiting model).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .uncertainty import PRACTICAL_REL_SE, STRUCTURAL_TOL, Numbers, is_positive_quantity
+
+__all__ = ["Findings", "describe_direction", "findings_of", "join_names"]
+
+Array = NDArray[np.float64]
+
+#: Loading below which a parameter is not counted as part of a direction.
+_LOADING = 0.05
+
+_STATE_WORDS = {
+    "rest": "from rest",
+    "equilibrium": "from a static equilibrium",
+    "periodic": "from a periodic steady state",
+}
+
+
+def join_names(names: Sequence[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    names = list(names)
+    if len(names) <= 1:
+        return "".join(names)
+    return ", ".join(names[:-1]) + " and " + names[-1]
+
+
+def describe_direction(direction: Array, names: Sequence[str]) -> tuple[str, bool, str]:
+    """Plain words for a direction in (log-)parameter space the data do not see.
+
+    Parameters
+    ----------
+    direction : ndarray
+        Components in scaled coordinates (d ln theta for positive quantities, offset in units
+        of the data range, D as is).
+    names : sequence of str
+        Names of the components.
+
+    Returns
+    -------
+    what : str
+        The undetermined combination, e.g. ``"C and the overall scale of k0, m, c1, k1"``.
+    plural : bool
+        True when ``what`` names several things that cannot be told apart.
+    determined : str
+        What remains determined along it, e.g. ``"only their ratios are"``.
+    """
+    v = np.asarray(direction, dtype=float)
+    v = v / v[np.argmax(np.abs(v))]
+    sig = [i for i in range(v.size) if abs(v[i]) >= _LOADING]
+    parts = [names[i] for i in sig]
+    if len(sig) == 1:
+        return parts[0], False, "the data do not depend on it"
+    positive = all(is_positive_quantity(names[i]) for i in sig)
+    same = positive and all(abs(v[i] - 1.0) < 0.05 for i in sig)
+    if same:
+        if "C" in parts and len(parts) > 2:
+            others = [p for p in parts if p != "C"]
+            return (f"C and the overall scale of {', '.join(others)}", True,
+                    "only their ratios are")
+        if len(parts) > 2:
+            return (f"the overall scale of {', '.join(parts)}", False,
+                    "only their ratios are determined")
+        a, b = parts
+        return f"{a} and {b}", True, f"only the ratio {a}/{b} is"
+    if positive and len(sig) == 2 and abs(v[sig[0]] + v[sig[1]]) < 0.05 * abs(v[sig[0]]):
+        a, b = parts
+        return f"{a} and {b}", True, f"only the product {a}*{b} is"
+    ratio = " : ".join(f"{v[i]:+.2f}" for i in sig)
+    coords = " : ".join(f"d ln {names[i]}" if is_positive_quantity(names[i]) else f"d {names[i]}"
+                        for i in sig)
+    return (f"the trade-off between {join_names(parts)} ({coords} = {ratio})", False,
+            "only the combinations unchanged along it are determined")
+
+
+def _sentence(what: str, plural: bool, practical: bool) -> str:
+    verb = "are" if plural else "is"
+    how = "practically not" if practical else "not"
+    sep = "separately " if plural else ""
+    # Parameter names keep their case (k0 is not K0); only prose openings are capitalised.
+    opening = what if what.split(" ")[0] not in ("the", "a", "an") else what[0].upper() + what[1:]
+    return f"{opening} {verb} {how} {sep}identifiable"
+
+
+@dataclass(frozen=True)
+class Findings:
+    """Identifiability in words and what is determined."""
+
+    sentences: tuple[str, ...] = ()
+    determined: dict[str, Any] = field(default_factory=dict)
+    #: Indices (into the fitted values) not determined at all.
+    undetermined: tuple[int, ...] = ()
+    #: Notes for the uncertainty table.
+    notes: tuple[str, ...] = ()
+
+
+def gauge_sentence(model_names: Sequence[str], initial_state: Any, residual: str) -> str:
+    """The scale symmetry, when the fit had to fix the gauge C = 1."""
+    names = list(model_names)
+    where = (_STATE_WORDS.get(initial_state, f"initial_state={initial_state!r}")
+             if isinstance(initial_state, str) else "from the given (zero) initial state")
+    scale_name = "D = ln C" if residual == "log" else "C"
+    return (
+        f"C and the overall scale of {', '.join(names)} are not separately identifiable {where}: "
+        f"only their ratios are (multiplying all of them by any lambda > 0 gives the same "
+        f"fitted curve). {scale_name} was asked to be free; the parameters are reported on "
+        "the gauge C = 1, i.e. as the ratios " + ", ".join(f"{n}/C" for n in names) + "."
+    )
+
+
+def findings_of(
+    nums: Numbers | None,
+    *,
+    model_names: Sequence[str],
+    gauge_fixed: bool,
+    initial_state: Any,
+    residual: str,
+    boundaries: Sequence[tuple[str, str, str]] = (),
+    serial: bool = False,
+) -> Findings:
+    """The findings of one card.
+
+    ``boundaries``: (name, direction, limit description) of parameters at a boundary.
+    ``serial``: the residuals failed the whiteness check (practical identifiability then
+    looks at the robust errors too).
+    """
+    sentences: list[str] = []
+    determined: dict[str, Any] = {"gauge": None, "combinations": [], "parameters": [],
+                                  "boundary": [], "not_determined": []}
+    if gauge_fixed:
+        sentences.append(gauge_sentence(model_names, initial_state, residual))
+        determined["gauge"] = "C = 1"
+        determined["combinations"].append(
+            "the ratios " + ", ".join(f"{n}/C" for n in model_names)
+            + " (reported as the parameters on the gauge C = 1)")
+    for name, direction, limit in boundaries:
+        arrow = "infinity" if direction == "infinity" else "zero"
+        side = "a lower" if arrow == "infinity" else "an upper"
+        sentences.append(
+            f"{name} is at a boundary (it runs to {arrow}): the data are described by the "
+            f"limiting model {limit}. {name} has no finite estimate and no two-sided "
+            f"interval; only {side} bound exists (result.profile({name!r}) computes it).")
+        determined["boundary"].append(name)
+    if nums is None or not nums.usable or nums.dof <= 0:
+        return Findings(tuple(sentences), determined)
+    names = nums.names
+    inner = list(nums.inner)
+    inner_names = [names[i] for i in inner]
+    qi = len(inner)
+    s = nums.singular[:qi]
+    vt = nums.vt[:qi, :qi]
+    if qi == 0 or not (s[0] > 0) or not np.all(np.isfinite(s)):
+        return Findings(tuple(sentences), determined, tuple(inner))
+    rel = s / s[0]
+    structural = [k for k in range(qi) if rel[k] <= STRUCTURAL_TOL]
+    kept = [k for k in range(qi) if rel[k] > STRUCTURAL_TOL]
+    sigma = math.sqrt(max(nums.sigma2, 0.0))
+    for k in structural:
+        what, plural, det = describe_direction(vt[k], inner_names)
+        sentences.append(
+            f"{_sentence(what, plural, practical=False)} from these data: {det} (structural: "
+            f"the sensitivity matrix is singular along this direction, relative singular "
+            f"value {rel[k]:.1e}).")
+        determined["combinations"].append(f"{what}: {det}")
+    robust = serial and bool(np.any(np.isfinite(nums.direction_se_hac[:qi])))
+    for k in kept:
+        se = sigma / s[k]
+        if robust and math.isfinite(nums.direction_se_hac[k]):
+            se = max(se, float(nums.direction_se_hac[k]))
+        if se <= PRACTICAL_REL_SE:
+            continue
+        what, plural, _det = describe_direction(vt[k], inner_names)
+        unit = ("relative to the values, the offset in units of the data range"
+                if "offset" in what else "relative to the values")
+        if robust:
+            unit += ", the larger of the ordinary and the serial-correlation-robust error"
+        sentences.append(
+            f"{_sentence(what, plural, practical=True)}: the data constrain this direction "
+            f"only to a standard error of {100 * se:.0f} % ({unit}; relative singular value "
+            f"{rel[k]:.1e}), so the intervals of the parameters involved are wide.")
+    undetermined = sorted({inner[i] for k in structural for i in range(qi)
+                           if abs(vt[k, i]) >= 1e-6})
+    at_bound = {n for n, _d, _l in boundaries}
+    for i, name in enumerate(names):
+        if name in at_bound:
+            continue
+        if i in undetermined:
+            determined["not_determined"].append(name)
+        else:
+            determined["parameters"].append(name)
+    notes = []
+    bound_idx = [i for i, n in enumerate(names) if n in at_bound]
+    if bound_idx:
+        notes.append(
+            f"{join_names([names[i] for i in bound_idx])}: at a boundary, so no symmetric "
+            "interval (None); the other values' uncertainties hold with it at its limit")
+    if undetermined:
+        notes.append(
+            f"{join_names([names[i] for i in undetermined])}: not identifiable, standard "
+            "error infinite and no interval (None)")
+    return Findings(tuple(sentences), determined, tuple(undetermined), tuple(notes))
+
+
+def whiteness_warning(check: dict[str, Any], n_obs: int, n_fitted: int) -> str:
+    """The warning for residuals that fail the whiteness check."""
+    effective = max(1, round(check["effective_samples"]))
+    few = (f"; that is too few against {n_fitted} fitted values for any interval, the robust "
+           f"ones included, to mean much" if effective < 3 * n_fitted else "")
+    return (
+        f"the residuals are not white noise: their lag-1 autocorrelation is "
+        f"{check['lag1_autocorrelation']:.2f} (white noise stays below {check['limit']:.2f} "
+        f"for {n_obs} samples, 99.5 %). The standard errors and 95 % intervals assume "
+        f"independent errors and are too narrow here; for AR(1) errors they would be about "
+        f"{check['interval_factor']:.1f} times wider (about {effective} effective "
+        f"sample{'s' if effective != 1 else ''} of {n_obs}{few}). The autocorrelation-robust "
+        f"(HAC) errors and intervals (stderr_hac, ci95_hac) allow for it, though they too run "
+        f"somewhat narrow when the autocorrelation is strong. Structured "
+        f"residuals usually mean that the model misses part of the response."
+    )

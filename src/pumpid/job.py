@@ -1,0 +1,954 @@
+"""The main job: start, solve, boundaries and diagnostics for every card of a problem.
+
+:func:`fit` (one card) and :func:`fit_many` (thousands) are the same job: a
+:class:`~pumpid.engine.problem.Problem` with a card axis goes through the stages below, each
+one a compiled pass over all the cards that need it (spread over threads), with Python
+deciding between the stages on arrays:
+
+1. the start: the automatic multistart (:mod:`pumpid.engine.start`), a user's guess, or a
+   guess guarded by the multistart;
+2. the solver (:class:`~pumpid.engine.solvers.LevenbergMarquardt`, or the paper's Newton);
+3. for a user's guess, the guard: a fit that failed, explains less than 99 % of the data's
+   variance or stays above the data's noise floor is redone with the multistart, and the
+   better of the two is kept;
+4. boundaries (:mod:`pumpid.inference.boundaries`): the push test and the nested test, whose
+   reduced-model fits are this same job on the reduced model; a reduced model that fits
+   clearly better sends the full fit back to a start next to it;
+5. diagnostics (:mod:`pumpid.inference`): uncertainty, HAC intervals, whiteness and
+   identifiability in words.
+
+A card's answer does not depend on which other cards share its problem: every stage treats
+each card on its own numbers, so ``fit_many`` and card-by-card fits agree exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .engine import drive, lm
+from .engine.problem import WINDOW, CardData, Problem, build_problem
+from .engine.solvers import LevenbergMarquardt, PaperNewton, SolverOutcome, Stop
+from .engine.start import StartPlan, complete, find_starts, to_z
+from .engine.threads import default_workers
+from .inference import boundaries as bnd
+from .inference.boundaries import BoundaryInfo, Limiting, ReducedFit
+from .inference.identifiability import findings_of, whiteness_warning
+from .inference.uncertainty import numbers, uncertainty_of
+from .models import Model, model_class
+from .result import CardInfo, FitBatch, FitResult, StartInfo, Status, Units
+
+__all__ = ["fit", "fit_many", "run"]
+
+Array = NDArray[np.float64]
+Method = Literal["lm", "newton-fd"]
+#: The likelihood-ratio test's 95 % point of chi^2 with one degree of freedom.
+_LR_95 = 3.84
+
+
+@dataclass
+class _Card:
+    """One card's answer while the job works on it (internal, mutable)."""
+
+    z: Array
+    cost: float = math.nan
+    evaluations: int = 0
+    accepted: int = 0
+    stop: Stop = Stop.NOT_FINITE
+    message: str = ""
+    history: Array | None = None
+    status: Status = Status.FAILED
+    reason: str = ""
+    warnings: list[str] = field(default_factory=list)
+    start: StartInfo | None = None
+    limits: tuple[Limiting, ...] = ()
+    reduced: ReducedFit | None = None
+    stopped_early: bool = False
+    edges: dict[int, str] = field(default_factory=dict)
+    findings: tuple[str, ...] = ()
+    determined: dict[str, Any] = field(default_factory=dict)
+    uncertainty: Any = None
+    done: bool = False
+    newton_history: list[dict[str, float]] | None = None
+    rmse: float = math.nan
+    r2: float = math.nan
+    noise: float = math.nan
+    norms: Array | None = None
+
+
+@dataclass(frozen=True)
+class JobOptions:
+    """The options of the main job that are not part of the problem."""
+
+    method: Method = "lm"
+    solver: LevenbergMarquardt = LevenbergMarquardt()
+    newton: PaperNewton = PaperNewton()
+    plan: StartPlan = StartPlan()
+    multistart: bool | Literal["auto"] = "auto"
+    workers: int | None = 1
+    history: bool = False
+    boundaries: bool = True
+
+
+# --------------------------------------------------------------------------- stages
+def _theta(problem: Problem, z: Array) -> Array:
+    with np.errstate(over="ignore"):
+        return problem.full_theta(np.exp(z[..., : problem.n_free]))
+
+
+def _scale_offset(problem: Problem, z: Array) -> tuple[float, float]:
+    p = problem.n_free
+    j = p
+    if problem.scale_fixed is None:
+        scale = math.exp(z[j])
+        j += 1
+    else:
+        scale = float(problem.scale_fixed)
+    offset = float(z[j]) if problem.offset_fixed is None else float(problem.offset_fixed)
+    return scale, offset
+
+
+def _apply(card: _Card, out: SolverOutcome, j: int, problem: Problem) -> None:
+    card.z = out.z[j].copy()
+    card.cost = float(out.cost[j])
+    card.evaluations += int(out.evaluations[j])
+    card.accepted += int(out.accepted[j])
+    card.stop = out.stops[j]
+    card.message = out.messages[j]
+    card.stopped_early = out.stops[j] is Stop.BUDGET
+    card.edges = {}
+    if out.history.size:
+        card.history = out.history
+
+
+def _mark_edges(problem: Problem, cards: NDArray[np.int64], z0: Array, fits: list[_Card],
+                idx: Sequence[int]) -> None:
+    """Record which log-parameters stopped on the edge of the search window."""
+    lo, hi = problem.window(cards, z0)
+    for j, i in enumerate(idx):
+        z = fits[i].z
+        if not np.all(np.isfinite(z)):
+            continue
+        fits[i].edges = {f: ("infinity" if z[f] >= hi[j, f] else "zero")
+                         for f in range(problem.n_free)
+                         if not lo[j, f] < z[f] < hi[j, f]}
+
+
+def _summarize(problem: Problem, cards: NDArray[np.int64], fits: list[_Card]) -> None:
+    """Quality, noise level and Jacobian column norms at each card's point (one pass)."""
+    idx = [i for i in range(len(fits)) if np.all(np.isfinite(fits[i].z))]
+    if not idx:
+        return
+    data, model, settings = problem.arrays
+    stats, norms = drive.summary_items(np.ascontiguousarray(cards[idx], dtype=np.int64),
+                                       np.ascontiguousarray([fits[i].z for i in idx]),
+                                       data, model, settings)
+    for j, i in enumerate(idx):
+        card = fits[i]
+        card.rmse, card.r2, card.noise = (float(v) for v in stats[j, 1:])
+        card.norms = norms[j]
+
+
+def _doubtful(problem: Problem, k: int, card: _Card) -> bool:
+    """A fit from a user's guess that deserves the multistart guard: failed, R^2 < 0.99, or
+    an RMSE above twice the data's noise level (a wrong local minimum).
+
+    The noise level is a robust estimate from second differences (white noise:
+    var(diff2) = 6 sigma^2); smooth signal content only raises it, so a good fit is never
+    called doubtful."""
+    if not (card.stop.converged and math.isfinite(card.cost)):
+        return True
+    if not math.isfinite(card.r2) or card.r2 < 0.99:
+        return True
+    d = problem.card(k)[2]
+    return card.rmse > 2.0 * card.noise + 1e-9 * float(np.ptp(d))
+
+
+def _walk_valley(problem: Problem, k: int, z: Array, cost: float, solver: LevenbergMarquardt,
+                 rounds: int = 8) -> tuple[Array, float]:
+    """Follow a long, flat, curved valley where Levenberg-Marquardt only crawls.
+
+    When the data hardly constrain one combination (relative singular value of the scaled
+    Jacobian below 1e-4), a trust-region step along the valley is cut short by its
+    curvature. Jumping along the weakest direction and letting a short polish drop back to
+    the floor moves along it in a few long strides; the floor's cost tells which way is
+    down. On noisy data the floor is flat at the noise level and the walk stops at once.
+    """
+    data, model, settings = problem.arrays
+    span = float(np.ptp(problem.card(k)[2])) or 1.0
+    p = problem.n_free
+    ref = np.log(problem.reference[k][problem.free_idx])
+    polish = LevenbergMarquardt(tol=1e-10)
+
+    def jump(base: Array, step: Array) -> tuple[Array, float] | None:
+        znew = base.copy()
+        znew[:p] = np.clip(base[:p] + step[:p], ref - WINDOW, ref + WINDOW)
+        j = p
+        if problem.scale_fixed is None:
+            znew[j] = base[j] + step[j]
+            j += 1
+        if problem.offset_fixed is None:
+            znew[j] = base[j] + step[j] * span
+        out = polish.solve(problem, np.array([k]), znew[None], budget=40)
+        c = float(out.cost[0])
+        return (out.z[0], c) if math.isfinite(c) else None
+
+    for _ in range(rounds):
+        q = problem.q
+        rows = np.empty((q + 1, problem.n_samples(k)))
+        if not drive.residual_rows(z, k, data, model, settings, rows):
+            break
+        if problem.offset_fixed is None:
+            rows[q - 1] *= span
+        r_fac = np.zeros((q, q))
+        lm.householder(rows, q, r_fac, np.zeros(q))
+        _u, s, vt = np.linalg.svd(r_fac)
+        if not (s[0] > 0) or s[-1] / s[0] > 1e-4:
+            break
+        direction = vt[-1]
+        step = 0.25 * 2.5
+        probes: list[tuple[float, Array, float]] = []
+        for _shrink in range(3):
+            step /= 2.5
+            probes = []
+            for sign in (1.0, -1.0):
+                got = jump(z, sign * step * direction)
+                if got is not None and got[1] < 0.95 * cost:
+                    probes.append((sign, got[0], got[1]))
+            if probes:
+                break
+        if not probes:
+            break
+        sign, best_z, best_cost = min(probes, key=lambda item: item[2])
+        for _grow in range(4):
+            step *= 2.5
+            got = jump(z, sign * step * direction)
+            if got is None or got[1] >= best_cost:
+                break
+            best_z, best_cost = got
+        z, cost = best_z, best_cost
+    return z, cost
+
+
+def _reduced_problem(problem: Problem, cards: NDArray[np.int64], lim: Any,
+                     gains: Array) -> tuple[Problem, str | float]:
+    """The reduced model's problem over the given cards (same data and options)."""
+    reduced = model_class(lim.reduced)
+    scale: float | str = "free" if problem.scale_fixed is None else float(problem.scale_fixed)
+    if (not np.allclose(gains, 1.0) and not reduced.scale_symmetric):
+        scale = "free"
+    cards_data = [CardData(*problem.card(int(k)), initial_state=problem.initial_states[int(k)],
+                           period=None if not math.isfinite(problem.period[int(k)])
+                           else float(problem.period[int(k)])) for k in cards]
+    sub = build_problem(
+        reduced, cards_data, observe=lim.observe, integrator=problem.integrator,
+        residual=problem.residual, scale=scale,
+        offset=True if problem.offset_fixed is None else problem.offset_fixed, strict=False)
+    return sub, scale
+
+
+def _fit_reduced(problem: Problem, items: list[tuple[int, Any]], fits: list[_Card],
+                 position: Mapping[int, int], options: JobOptions,
+                 depth: int) -> dict[tuple[int, str, str], tuple[FitBatch, int]]:
+    """Fit the limiting models of (card, limit) items; results keyed by (card, param, dir)."""
+    out: dict[tuple[int, str, str], tuple[FitBatch, int]] = {}
+    groups: dict[tuple[str, str], list[tuple[int, Any]]] = {}
+    for k, lim in items:
+        groups.setdefault((lim.param, lim.direction), []).append((k, lim))
+    for members in groups.values():
+        lim = members[0][1]
+        cards = np.array([k for k, _ in members], dtype=np.int64)
+        starts = []
+        gains = []
+        scales = []
+        for k, _ in members:
+            card = fits[position[k]]
+            params = dict(zip(problem.model.param_names(), _theta(problem, card.z), strict=True))
+            start, gain = lim.reduced_start(params)
+            starts.append(start)
+            gains.append(gain)
+            scales.append(_scale_offset(problem, card.z)[0])
+        sub, scale = _reduced_problem(problem, cards, lim, np.array(gains))
+        names = sub.model.param_names()
+        guess = np.array([[s[n] for n in names] for s in starts])
+        bad = ~np.all(np.isfinite(guess) & (guess > 0), axis=1)
+        guess[bad] = 1.0
+        c_start = None
+        if scale == "free" and sub.scale_fixed is None:
+            c_start = np.array(gains) * np.array(scales)
+        batch = _run_batch(sub, guess=guess, c_start=c_start,
+                           options=JobOptions(method=options.method, solver=options.solver,
+                                              newton=options.newton, plan=options.plan,
+                                              multistart="auto", workers=options.workers,
+                                              boundaries=True),
+                           depth=depth + 1)
+        for j, (k, lim_k) in enumerate(members):
+            if not bad[j]:
+                out[(k, lim_k.param, lim_k.direction)] = (batch, j)
+    return out
+
+
+def _summary_of(res: FitResult) -> ReducedFit:
+    return ReducedFit(model=res.model_name, params=dict(res.params), units=res.param_units(),
+                      scale=res.scale, offset=res.offset, rmse=res.rmse, r2=res.r2,
+                      status=res.status.key, reason=res.reason)
+
+
+def _check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
+                      options: JobOptions, depth: int) -> dict[int, Array]:
+    """Mark boundary solutions; return restart points for cards a reduced model beats."""
+    idx = [i for i, k in enumerate(cards)
+           if np.all(np.isfinite(fits[i].z)) and math.isfinite(fits[i].cost)]
+    if not idx or problem.fixed:
+        return {}
+    sub_cards = cards[idx]
+    z = np.array([fits[i].z for i in idx])
+    norms = np.array([fits[i].norms if fits[i].norms is not None
+                      else np.full(problem.q, math.nan) for i in idx])
+    spreads = np.array([bnd.spread(problem, int(k)) for k in sub_cards])
+    log_sens = norms[:, : problem.n_free] / spreads[:, None]
+    interior = np.array([not fits[i].edges and not fits[i].stopped_early
+                         and bool(np.all(log_sens[j] >= bnd.SUSPICION))
+                         for j, i in enumerate(idx)])
+    found: list[list[Limiting]] = [[] for _ in idx]
+    push = [j for j in range(len(idx)) if not interior[j]]
+    if push:
+        res = bnd.push_test(problem, sub_cards[push], z[push],
+                            np.array([fits[idx[j]].cost for j in push]),
+                            [fits[idx[j]].edges for j in push])
+        for j, lims in zip(push, res, strict=True):
+            found[j] = lims
+    # Nested candidates: the reduced model's fit decides.
+    position = {int(k): i for i, k in enumerate(cards)}
+    items: list[tuple[int, Any]] = []
+    cand: list[list[Any]] = []
+    for j, i in enumerate(idx):
+        k = int(cards[i])
+        lims = []
+        if isinstance(problem.initial_states[k], str):
+            lims = bnd.nested_candidates(problem, k, fits[i].z, log_sens[j], fits[i].edges,
+                                         fits[i].stopped_early)
+        cand.append(lims)
+        items.extend((k, lim) for lim in lims)
+    reduced = _fit_reduced(problem, items, fits, position, options, depth) if items else {}
+    restarts: dict[int, Array] = {}
+    for j, i in enumerate(idx):
+        k = int(cards[i])
+        card = fits[i]
+        d = problem.card(k)[2]
+        n_free = problem.q
+        sigma2 = 2.0 * card.cost / max(d.size - n_free, 1)
+        sst = float(np.sum((d - d.mean()) ** 2))
+        known = {b.name for b in found[j]}
+        best_red: tuple[float, FitResult, Any] | None = None
+        restart_cost = math.inf
+        for lim in cand[j]:
+            got = reduced.get((k, lim.param, lim.direction))
+            if got is None:
+                continue
+            red = got[0].results[got[1]]
+            if red is None or not math.isfinite(red.cost):
+                continue
+            excess = 2.0 * (red.cost - card.cost)
+            if excess < -_LR_95 * sigma2 - 1e-12 * sst and lim.from_reduced:
+                # The reduced model fits clearly better: the full fit is stuck, not at a
+                # boundary. Restart the full model next to the reduced solution.
+                point = lim.full_point(dict(red.params))
+                if point is not None and red.cost < restart_cost:
+                    restart_cost = red.cost
+                    restarts[k] = np.array([point[n] for n in problem.model.param_names()])
+                continue
+            if excess <= _LR_95 * sigma2 + 1e-12 * sst:
+                if lim.param not in known:
+                    f = list(problem.free_idx).index(problem.model.param_names().index(
+                        lim.param))
+                    found[j].append(Limiting(lim.param, lim.direction,
+                                             float(math.exp(card.z[f])), lim.description,
+                                             "nested"))
+                    known.add(lim.param)
+                if best_red is None or red.cost < best_red[0]:
+                    best_red = (red.cost, red, lim)
+        if not found[j] or k in restarts:
+            continue
+        card.status = Status.BOUNDARY
+        names = ", ".join(b.name for b in found[j])
+        card.reason = (f"{card.reason}; {names} ran to a bound: the solution is a limiting "
+                       "model, not an interior optimum")
+        card.warnings.extend(b.describe() for b in found[j])
+        card.limits = tuple(found[j])
+        if best_red is None and isinstance(problem.initial_states[k], str):
+            target = next((problem.model.limit(b.name, b.direction) for b in found[j]
+                           if problem.model.limit(b.name, b.direction).reduced), None)
+            if target is not None:
+                got = _fit_reduced(problem, [(k, target)], fits, position, options,
+                                   depth).get((k, target.param, target.direction))
+                red = got[0].results[got[1]] if got else None
+                if red is not None:
+                    best_red = (red.cost, red, target)
+        if best_red is not None:
+            red, lim = best_red[1], best_red[2]
+            card.reduced = _summary_of(red)
+            card.warnings.append(
+                f"reduced model {red.model_name} ({lim.description.split(':')[0]}) fitted: "
+                f"R^2 = {red.r2:.6g}, RMSE = {red.rmse:.4g} {{position}}")
+    return restarts
+
+
+def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
+              units: Units) -> None:
+    idx = [i for i in range(len(fits)) if np.all(np.isfinite(fits[i].z))
+           and math.isfinite(fits[i].cost)]
+    model_names = problem.model.param_names()
+    for i in range(len(fits)):
+        if i not in idx:
+            f = findings_of(None, model_names=model_names, gauge_fixed=problem.gauge_fixed,
+                            initial_state=problem.initial_states[int(cards[i])],
+                            residual=problem.residual)
+            fits[i].findings, fits[i].determined = f.sentences, f.determined
+    if not idx:
+        return
+    names = problem.free_names
+    inner = np.ones((len(idx), len(names)), dtype=bool)
+    for j, i in enumerate(idx):
+        for b in fits[i].limits:
+            if b.name in names:
+                inner[j, names.index(b.name)] = False
+    nums = numbers(problem, cards[idx], np.array([fits[i].z for i in idx]), inner)
+    unit = ("(ln of position)^2, dimensionless" if problem.residual == "log"
+            else f"{units.position}^2")
+    for j, i in enumerate(idx):
+        card = fits[i]
+        num = nums[j]
+        serial = not num.exact and not (num.rho <= 2.576 / math.sqrt(max(num.n, 1)))
+        f = findings_of(num, model_names=model_names, gauge_fixed=problem.gauge_fixed,
+                        initial_state=problem.initial_states[int(cards[i])],
+                        residual=problem.residual,
+                        boundaries=[(b.name, b.direction, b.limit) for b in card.limits],
+                        serial=serial)
+        card.findings, card.determined = f.sentences, f.determined
+        unc = uncertainty_of(num, f.undetermined, [names.index(b.name) for b in card.limits
+                                                   if b.name in names], f.notes, unit)
+        card.uncertainty = unc
+        if unc is not None and unc.whiteness is not None and not unc.whiteness["white"]:
+            card.warnings.append(whiteness_warning(dict(unc.whiteness), num.n, len(names)))
+
+
+# --------------------------------------------------------------------------- the job
+def run(problem: Problem, cards: NDArray[np.int64], *, guess: Array | None,
+        c_start: Array | None = None, offset_start: Array | None = None,
+        options: JobOptions, depth: int = 0, allow_restart: bool = True) -> list[_Card]:
+    """The main job for the given cards of a problem; one :class:`_Card` per card."""
+    cards = np.asarray(cards, dtype=np.int64)
+    m = cards.size
+    q = problem.q
+    fits = [_Card(z=np.full(q, math.nan)) for _ in range(m)]
+    if m == 0:
+        return fits
+    workers = options.workers
+    solver = options.solver
+    auto = guess is None
+    guarded = not auto and options.multistart is True and options.method == "lm"
+    if auto or guarded:
+        starts = find_starts(problem, cards, guess=None if auto else guess, plan=options.plan,
+                             workers=workers)
+        z0 = starts.z.copy()
+        for i in range(m):
+            kind = "automatic start"
+            if guarded:
+                kind = ("start: the given guess, checked against the automatic start"
+                        if starts.from_guess[i] else
+                        "start: automatic (it reached a lower cost than the given guess)")
+            walked = ""
+            if starts.stopped_early[i] and np.all(np.isfinite(z0[i])):
+                zw, cw = _walk_valley(problem, int(cards[i]), z0[i], float(starts.cost[i]),
+                                      solver)
+                if cw < starts.cost[i]:
+                    z0[i] = zw
+                    walked = ", then walked along a flat valley"
+            fits[i].start = StartInfo(
+                f"{kind}: equation-error and grid estimates ({int(starts.n_candidates[i])} "
+                f"candidates), best {int(starts.n_polished[i])} polished{walked}",
+                int(starts.n_candidates[i]), int(starts.n_polished[i]))
+    else:
+        z0, _c = complete(problem, cards, np.asarray(guess, dtype=float), rescale=False,
+                          workers=workers)
+        p = problem.n_free
+        j = p
+        if problem.scale_fixed is None:
+            if c_start is not None:
+                given = np.isfinite(c_start)
+                z0[given, j] = np.log(c_start[given])
+            j += 1
+        if problem.offset_fixed is None and offset_start is not None:
+            given = np.isfinite(offset_start)
+            z0[given, j] = offset_start[given]
+        z0[~np.all(np.isfinite(z0), axis=1)] = to_z(
+            problem, np.asarray(guess, dtype=float))[~np.all(np.isfinite(z0), axis=1)]
+        z0 = np.where(np.isfinite(z0), z0, 0.0)
+
+    # 2. The solver.
+    if options.method == "newton-fd":
+        for i in range(m):
+            k = int(cards[i])
+            theta0 = _theta(problem, z0[i])
+            scale0, offset0 = _scale_offset(problem, z0[i])
+            out, hist = options.newton.solve(problem, k, theta0, scale0, offset0)
+            _apply(fits[i], out, 0, problem)
+            fits[i].newton_history = hist
+    else:
+        ok = np.all(np.isfinite(z0), axis=1)
+        run_idx = np.flatnonzero(ok)
+        if run_idx.size:
+            out = solver.solve(problem, cards[run_idx], z0[run_idx],
+                               history=options.history and m == 1, workers=workers)
+            for j, i in enumerate(run_idx):
+                _apply(fits[i], out, j, problem)
+            _mark_edges(problem, cards[run_idx], z0[run_idx], fits, list(run_idx))
+    for card in fits:
+        card.status = Status.CONVERGED if card.stop.converged else Status.FAILED
+        card.reason = card.message
+    _summarize(problem, cards, fits)
+
+    # 3. The guard around a user's guess.
+    if (not auto and options.multistart == "auto" and options.method == "lm"
+            and allow_restart):
+        doubtful = [i for i in range(m) if _doubtful(problem, int(cards[i]), fits[i])]
+        if doubtful:
+            guarded_fits = run(problem, cards[doubtful],
+                               guess=np.asarray(guess, dtype=float)[doubtful],
+                               options=_with(options, multistart=True), depth=depth)
+            for j, i in enumerate(doubtful):
+                g = guarded_fits[j]
+                first = fits[i]
+                if math.isfinite(g.cost) and not (g.cost >= first.cost):
+                    g.warnings.append(
+                        "the fit from the given guess looked wrong (status "
+                        f"{first.status.key}, R^2 = {first.r2:.4g}); the automatic multistart "
+                        "found "
+                        f"a better solution (cost {first.cost:.6g} -> {g.cost:.6g})")
+                    g.evaluations += first.evaluations
+                    g.done = True
+                    fits[i] = g
+
+    # 4. Boundaries.
+    todo = [i for i in range(m) if not fits[i].done]
+    if options.boundaries and todo:
+        restarts = _check_boundaries(problem, cards[todo], [fits[i] for i in todo], options,
+                                     depth)
+        if restarts and allow_restart:
+            again_cards = np.array(sorted(restarts), dtype=np.int64)
+            again = run(problem, again_cards,
+                        guess=np.array([restarts[int(k)] for k in again_cards]),
+                        options=_with(options, multistart=False), depth=depth,
+                        allow_restart=False)
+            position = {int(k): i for i, k in enumerate(cards)}
+            for j, k in enumerate(again_cards):
+                i = position[int(k)]
+                a = again[j]
+                if math.isfinite(a.cost) and a.cost < fits[i].cost:
+                    a.warnings.append(
+                        "restarted next to a limiting model that fitted better than the first "
+                        f"solution (cost {fits[i].cost:.6g} -> {a.cost:.6g})")
+                    a.start = fits[i].start
+                    a.done = True
+                    fits[i] = a
+    return fits
+
+
+def _with(options: JobOptions, **changes: Any) -> JobOptions:
+    from dataclasses import replace
+
+    return replace(options, **changes)
+
+
+def _run_batch(problem: Problem, *, guess: Array | None, c_start: Array | None = None,
+               offset_start: Array | None = None, options: JobOptions, depth: int = 0,
+               units: Units | None = None, warnings: Sequence[str] = ()) -> FitBatch:
+    """The job over every valid card of a problem, as a :class:`FitBatch`."""
+    valid = np.flatnonzero(problem.valid)
+    fits = run(problem, valid, guess=None if guess is None else np.asarray(guess)[valid],
+               c_start=None if c_start is None else np.asarray(c_start)[valid],
+               offset_start=None if offset_start is None else np.asarray(offset_start)[valid],
+               options=options, depth=depth)
+    units = units or Units()
+    if depth == 0:
+        # A reduced model's fit is summarised (parameters, quality, status): no diagnostics.
+        _diagnose(problem, valid, fits, units)
+    results: list[FitResult | None] = [None] * problem.n_cards
+    for j, k in enumerate(valid):
+        results[int(k)] = build_result(problem, int(k), fits[j], options, units, warnings)
+    return FitBatch(model_name=problem.model.__name__,
+                    param_names=problem.model.param_names(), results=tuple(results),
+                    invalid=problem.invalid)
+
+
+def build_result(problem: Problem, k: int, card: _Card, options: JobOptions, units: Units,
+                 warnings: Sequence[str] = ()) -> FitResult:
+    """One card's :class:`FitResult` from the job's answer."""
+    cls = problem.model
+    t, f, d = problem.card(k)
+    model: Model | None = None
+    status, reason = card.status, card.reason
+    z = card.z
+    if np.all(np.isfinite(z)):
+        theta = _theta(problem, z)
+        try:
+            model = cls.from_values(theta)
+        except ValueError as exc:
+            status = Status.FAILED
+            reason = f"{reason}; final parameters invalid: {exc}"
+    rmse, r2 = card.rmse, card.r2
+    jac = None
+    if model is not None:
+        scale, offset = _scale_offset(problem, z)
+        fitted, jac = _at_optimum(problem, k, z)
+        if not np.all(np.isfinite(fitted)):
+            status = Status.FAILED
+            reason = f"{reason}; the fitted response is not finite"
+    else:
+        fitted = np.full_like(d, np.nan)
+        scale = offset = math.nan
+        if status is not Status.FAILED:
+            status = Status.FAILED
+    params = model.as_dict() if model is not None else dict.fromkeys(cls.param_names(),
+                                                                      math.nan)
+    history = _history(problem, card)
+    text = tuple(w.replace("{position}", units.position) for w in (*warnings, *card.warnings))
+    boundary = (BoundaryInfo(card.limits, card.reduced) if card.limits else None)
+    state = problem.initial_states[k]
+    return FitResult(
+        model=model, model_name=cls.__name__, status=status, reason=reason, params=params,
+        scale=scale, offset=offset, iterations=card.accepted, nfev=card.evaluations,
+        history=history, rmse=rmse, r2=r2, cost=card.cost if model is not None else math.nan,
+        warnings=text, method=options.method, integrator=problem.integrator,
+        residual=problem.residual, observe=problem.observe, initial_state=state,
+        units=units, free=problem.free_names, t=t, load=f, data=d, fitted=fitted,
+        jacobian=jac, uncertainty=card.uncertainty, identifiability=card.findings,
+        determined=card.determined, boundary=boundary, start=card.start,
+        gauge="C = 1" if problem.gauge_fixed else None, problem=problem,
+        options={"method": options.method, "card": k, "solver": options.solver,
+                 "newton": options.newton, "units": units},
+    )
+
+
+def _at_optimum(problem: Problem, k: int, z: Array) -> tuple[Array, Array | None]:
+    """The fitted displacement and d(residual)/d(free values) in physical coordinates
+    (theta, C or D, offset), from one evaluation."""
+    data, model, settings = problem.arrays
+    q = problem.q
+    d = problem.card(k)[2]
+    rows = np.empty((q + 1, problem.n_samples(k)))
+    if not drive.residual_rows(z, k, data, model, settings, rows):
+        y, ok = drive.outputs(np.array([k], dtype=np.int64), np.ascontiguousarray(z[None]),
+                              data, model, settings, d.size)
+        scale, offset = _scale_offset(problem, z)
+        return scale * y + offset, None
+    fitted = d * np.exp(rows[q]) if problem.residual == "log" else rows[q] + d
+    jac = rows[:q].T.copy()
+    p = problem.n_free
+    jac[:, :p] /= np.exp(z[:p])
+    if problem.scale_fixed is None and problem.residual == "linear":
+        jac[:, p] /= math.exp(z[p])
+    return fitted, jac
+
+
+def _history(problem: Problem, card: _Card) -> tuple[Mapping[str, float], ...]:
+    if card.newton_history is not None:
+        return tuple(card.newton_history)
+    if card.history is None:
+        return ()
+    names = problem.model.param_names()
+    rows = []
+    for it, h in enumerate(card.history):
+        z = h[:-1]
+        theta = _theta(problem, z)
+        row: dict[str, float] = {"iteration": float(it)}
+        row.update(zip(names, theta.tolist(), strict=True))
+        scale, offset = _scale_offset(problem, z)
+        if problem.scale_fixed is None:
+            row["D" if problem.residual == "log" else "C"] = (
+                math.log(scale) if problem.residual == "log" else scale)
+        if problem.offset_fixed is None:
+            row["offset"] = offset
+        row["cost"] = float(h[-1])
+        rows.append(row)
+    return tuple(rows)
+
+
+# --------------------------------------------------------------------------- public API
+def _start_theta(model: Model | type[Model], x0: Mapping[str, float] | Model | ArrayLike | None
+                 ) -> tuple[type[Model], Array | None, dict[str, float]]:
+    """Model class, starting parameters (None: automatic) and extra start values (C, offset)."""
+    extras: dict[str, float] = {}
+    if isinstance(model, Model):
+        cls: type[Model] = type(model)
+        theta: Array | None = model.values
+    elif isinstance(model, type) and issubclass(model, Model):
+        cls, theta = model, None
+    else:
+        raise TypeError(
+            "model must be a model instance (a starting guess, e.g. Kelvin(k0=4, m=1, c1=0.2, "
+            f"k1=4)) or a model class (automatic start), got {model!r}")
+    if x0 is None:
+        return cls, theta, extras
+    if isinstance(x0, Model):
+        if type(x0) is not cls:
+            raise TypeError(f"x0 is a {type(x0).__name__}, the model a {cls.__name__}")
+        return cls, x0.values, extras
+    if isinstance(x0, Mapping):
+        names = cls.param_names()
+        unknown = set(x0) - set(names) - {"C", "D", "offset"}
+        if unknown:
+            raise ValueError(f"x0: unknown names {sorted(unknown)}; parameters are {names}")
+        values = []
+        for i, name in enumerate(names):
+            if name in x0:
+                values.append(float(x0[name]))
+            elif theta is not None:
+                values.append(float(theta[i]))
+            else:
+                raise ValueError(f"x0: missing {name!r} (give all of {names} or a model)")
+        for key in ("C", "D", "offset"):
+            if key in x0:
+                extras[key] = float(x0[key])
+        return cls, np.array(values), extras
+    arr = np.asarray(x0, dtype=float).ravel()
+    return cls, cls.from_values(arr).values, extras
+
+
+def fit(
+    model: Model | type[Model],
+    t: ArrayLike,
+    load: ArrayLike,
+    displacement: ArrayLike,
+    *,
+    method: Method = "lm",
+    integrator: str = "exact",
+    scale: float | str = 1.0,
+    residual: str = "linear",
+    x0: Mapping[str, float] | Model | ArrayLike | None = None,
+    observe: str | None = None,
+    initial_state: Any = "rest",
+    offset: bool | float = False,
+    period: float | None = None,
+    fixed: Mapping[str, float] | None = None,
+    units: Units | None = None,
+    solver: LevenbergMarquardt | PaperNewton | None = None,
+    multistart: bool | Literal["auto"] = "auto",
+    tol: float | None = None,
+    max_nfev: int | None = None,
+    eps0: float | None = None,
+    max_iter: int | None = None,
+    rel_step: float | None = None,
+) -> FitResult:
+    """Identify a model's parameters from a load record and the measured displacement.
+
+    Parameters
+    ----------
+    model : Model instance or Model class
+        An instance is the starting guess (e.g. ``Kelvin(k0=4, m=1, c1=0.2, k1=4)``); a class
+        asks for the automatic start.
+    t, load, displacement : array_like, shape (N,)
+        Time (s, strictly increasing, N >= 10), the input (load) and the measured output
+        (displacement) in the user's units.
+    method : {"lm", "newton-fd"}
+        ``lm``: exact sensitivities, log-parameters, Levenberg-Marquardt. ``newton-fd``:
+        the paper's Newton-Raphson with central differences.
+    integrator : {"exact", "euler"}
+        Forward model: exact first-order-hold discretization, or the paper's explicit Euler.
+    scale : float or "free"
+        The output scale factor C (fixed, default 1) or ``"free"``. For models with the scale
+        symmetry started from a load-driven state a free C is not identifiable: the gauge
+        C = 1 is fixed and a warning says so.
+    residual : {"linear", "log"}
+        ``linear``: C y + offset - data (eq. 14). ``log``: D + ln y - ln data (eq. 25).
+    x0 : mapping, Model or array, optional
+        Starting values (overrides the instance's); may include ``C``/``D`` and ``offset``.
+    observe : str, optional
+        Observed state (default: the model's).
+    initial_state : {"rest", "equilibrium", "periodic"} or numbers
+        See :func:`pumpid.simulate`.
+    offset : bool or float
+        Fit an additive position offset (True), or subtract a fixed one (float).
+    period : float, optional
+        Stroke period (s) for ``initial_state="periodic"``.
+    fixed : mapping, optional
+        Model parameters held at given values; the others are fitted.
+    units : Units, optional
+        Units of load and position, recorded in the result.
+    solver : LevenbergMarquardt or PaperNewton, optional
+        A configured solver (default: ``LevenbergMarquardt()``, or ``PaperNewton()`` for
+        ``method="newton-fd"``).
+    multistart : {"auto", True, False}
+        Guard a user's guess against local minima with the automatic start's multistart:
+        ``"auto"`` runs from the guess first and falls back to the multistart when that fit
+        failed, explains less than 99 % of the data's variance, or stays above the data's
+        noise level; ``True`` always, ``False`` never.
+    tol, max_nfev, eps0, max_iter, rel_step
+        Shorthands for the solver's settings (``LevenbergMarquardt(tol, max_nfev)``,
+        ``PaperNewton(eps0, max_iter, rel_step)``).
+
+    Returns
+    -------
+    FitResult
+        Never raises for a failed or divergent fit: its status is ``failed`` and ``reason``
+        says why. Bad input raises ``ValueError`` naming the problem.
+    """
+    if method not in ("lm", "newton-fd"):
+        raise ValueError(f"method must be 'lm' or 'newton-fd', got {method!r}")
+    if multistart not in ("auto", True, False):
+        raise ValueError(f"multistart must be 'auto', True or False, got {multistart!r}")
+    cls, theta0, extras = _start_theta(model, x0)
+    warnings: list[str] = []
+    problem = build_problem(cls, [CardData(t, load, displacement, initial_state, period)],
+                            observe=observe, integrator=integrator, residual=residual,
+                            scale=scale, offset=offset, fixed=fixed, warnings=warnings)
+    options = _options(method, solver, multistart, tol, max_nfev, eps0, max_iter, rel_step,
+                       workers=1, history=True)
+    guess = None
+    c_start = off_start = None
+    if theta0 is not None:
+        theta0 = np.array(theta0, dtype=float)
+        if problem.gauge_fixed and ("C" in extras or "D" in extras):
+            # Keep the user's start on the same curve: move it onto the gauge C = 1.
+            c = extras.pop("C", None) or math.exp(extras.pop("D", 0.0))
+            theta0 = theta0 / c
+        for i, value in problem.fixed:
+            theta0[i] = value
+        guess = theta0[None]
+        if "C" in extras or "D" in extras:
+            c_start = np.array([extras.get("C", math.exp(extras.get("D", 0.0)))])
+        if "offset" in extras:
+            off_start = np.array([extras["offset"]])
+    batch = _run_batch(problem, guess=guess, c_start=c_start, offset_start=off_start,
+                       options=options, units=units or Units(), warnings=warnings)
+    return batch.result(0)
+
+
+def _options(method: str, solver: Any, multistart: Any, tol: float | None,
+             max_nfev: int | None, eps0: float | None, max_iter: int | None,
+             rel_step: float | None, *, workers: int | None, history: bool) -> JobOptions:
+    lm_solver = solver if isinstance(solver, LevenbergMarquardt) else LevenbergMarquardt(
+        tol=1e-12 if tol is None else tol, max_evaluations=max_nfev)
+    newton = solver if isinstance(solver, PaperNewton) else PaperNewton(
+        eps0=1e-10 if eps0 is None else eps0, max_iter=200 if max_iter is None else max_iter,
+        rel_step=1e-3 if rel_step is None else rel_step)
+    if solver is not None and not isinstance(solver, LevenbergMarquardt | PaperNewton):
+        raise TypeError(f"solver must be LevenbergMarquardt or PaperNewton, got {solver!r}")
+    if isinstance(solver, PaperNewton):
+        method = "newton-fd"
+    return JobOptions(method=method, solver=lm_solver, newton=newton,  # type: ignore[arg-type]
+                      multistart=multistart, workers=workers, history=history)
+
+
+def fit_many(
+    model: Model | type[Model],
+    t: ArrayLike,
+    loads: ArrayLike,
+    displacements: ArrayLike,
+    *,
+    observe: str | None = None,
+    initial_state: Any = "rest",
+    integrator: str = "exact",
+    scale: float | str = 1.0,
+    residual: str = "linear",
+    offset: bool | float = False,
+    period: float | None = None,
+    fixed: Mapping[str, float] | None = None,
+    x0: ArrayLike | None = None,
+    units: Units | None = None,
+    solver: LevenbergMarquardt | None = None,
+    multistart: bool | Literal["auto"] = "auto",
+    tol: float | None = None,
+    max_nfev: int | None = None,
+    workers: int | None = None,
+) -> FitBatch:
+    """Fit one model structure to many cards: the main job of :func:`fit` for each.
+
+    Parameters
+    ----------
+    model : Model instance or Model class
+        An instance is the shared starting guess; a class asks for the automatic start.
+    t : array_like, shape (N,) or (cards, N)
+        Sample times (s) shared by all cards, or one row per card.
+    loads, displacements : array_like, shape (cards, N)
+        One card per row (a single 1-D record counts as one card).
+    observe, initial_state, integrator, scale, residual, offset, period, fixed, units,
+    solver, multistart, tol, max_nfev
+        As for :func:`fit`, applied to every card.
+    x0 : array_like, shape (cards, p) or (p,), optional
+        Starting parameters per card (or shared), canonical order; overrides the model's.
+    workers : int, optional
+        Threads (default: every core this process may use). Results do not depend on it.
+
+    Returns
+    -------
+    FitBatch
+        Each card's result, exactly what :func:`fit` returns for it alone. A card that fails
+        validation (non-finite values, a constant record, ...) is a row with status
+        ``invalid-input`` and the reason; it does not stop the others.
+    """
+    if isinstance(model, Model):
+        cls: type[Model] = type(model)
+        shared: Array | None = model.values
+    elif isinstance(model, type) and issubclass(model, Model):
+        cls, shared = model, None
+    else:
+        raise TypeError(
+            "model must be a model instance (a shared starting guess, e.g. Kelvin(k0=4, m=1, "
+            f"c1=0.2, k1=4)) or a model class (automatic start per card), got {model!r}")
+    f_all = _rows("loads", loads)
+    d_all = _rows("displacements", displacements)
+    if len(f_all) != len(d_all):
+        raise ValueError(f"loads has {len(f_all)} cards but displacements has {len(d_all)}")
+    n_cards = len(f_all)
+    t_arr = np.asarray(t, dtype=float)
+    if t_arr.ndim == 1:
+        t_rows = [t_arr] * n_cards
+    elif t_arr.ndim == 2 and t_arr.shape[0] == n_cards:
+        t_rows = list(t_arr)
+    else:
+        raise ValueError(f"t: expected shape (N,) or ({n_cards}, N), got {t_arr.shape}")
+    cards = [CardData(t_rows[i], f_all[i], d_all[i], initial_state, period)
+             for i in range(n_cards)]
+    warnings: list[str] = []
+    problem = build_problem(cls, cards, observe=observe, integrator=integrator,
+                            residual=residual, scale=scale, offset=offset, fixed=fixed,
+                            strict=False, warnings=warnings)
+    p = len(cls.param_names())
+    guess = None
+    if x0 is not None:
+        arr = np.asarray(x0, dtype=float)
+        if arr.ndim == 1:
+            arr = np.broadcast_to(arr, (n_cards, arr.size))
+        if arr.shape != (n_cards, p):
+            raise ValueError(f"x0: expected shape ({n_cards}, {p}) or ({p},), got {arr.shape}")
+        if not (np.isfinite(arr).all() and (arr > 0).all()):
+            raise ValueError("x0: starting parameters must be positive and finite")
+        guess = np.array(arr)
+    elif shared is not None:
+        guess = np.tile(shared, (n_cards, 1))
+    if guess is not None:
+        for i, value in problem.fixed:
+            guess[:, i] = value
+    options = _options("lm", solver, multistart, tol, max_nfev, None, None, None,
+                       workers=default_workers() if workers is None else workers,
+                       history=False)
+    return _run_batch(problem, guess=guess, options=options, units=units or Units(),
+                      warnings=warnings)
+
+
+def _rows(name: str, values: ArrayLike) -> list[Array]:
+    if isinstance(values, list | tuple) and values and np.ndim(values[0]) == 1:
+        return [np.asarray(v) for v in values]
+    arr = np.asarray(values)
+    if arr.ndim == 1:
+        return [arr]
+    if arr.ndim != 2:
+        raise ValueError(f"{name}: expected one card per row (cards, N), got shape {arr.shape}")
+    return list(arr)

@@ -1,0 +1,422 @@
+"""What every model is: a frozen dataclass of parameters and the knowledge that goes with it.
+
+A model maps a measured input (the load ``F(t)``) to displacement-like states through
+
+    x'(t) = A(theta) x(t) + B(theta) g(F(t)),        y(t) = x[observe](t)
+
+with physical states (displacements, velocities, internal forces), so no derivative of the
+measured load is ever needed and any physical state can be observed. ``g`` is the identity
+except for models that declare an input map (a static power law, for the flow surrogates).
+
+Each entry of ``A`` and ``B`` is declared as a sum of monomials in the parameters
+(:func:`term`): ``-(k0 + k1) / c1`` is ``term(-1, k0=1, c1=-1), term(-1, k1=1, c1=-1)``. That
+one declaration gives the matrices, their exact derivatives (the derivative of a monomial
+along ``ln theta_j`` is ``e_j`` times the monomial) and the compiled kernel's input
+(:meth:`Model.code`), so adding a model is one file with its terms and its knowledge:
+
+* ``equation_error``: per observed output, the linear equation-error form used by the
+  automatic start (regressors and the closed-form map back to parameters);
+* :meth:`Model.shape_grid`: dimensionless parameter shapes spanning plausible dynamics;
+* ``limits``: the limits a parameter can run to (0 or infinity), in words, and the reduced
+  model the data then want with the maps between the two parameter sets.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "EquationError",
+    "Limit",
+    "Model",
+    "ParamInfo",
+    "Term",
+    "evaluate_terms",
+    "param",
+    "term",
+]
+
+Array = NDArray[np.float64]
+
+
+def param(unit: str, doc: str, lower: float = 0.0, upper: float = math.inf) -> Any:
+    """Declare a model parameter field (positive by default).
+
+    ``unit`` is a template over the user's units: ``{load}``, ``{position}`` and ``s``.
+    """
+    return field(metadata={"unit": unit, "doc": doc, "lower": lower, "upper": upper})
+
+
+@dataclass(frozen=True)
+class ParamInfo:
+    """Static description of one model parameter."""
+
+    name: str
+    unit: str
+    doc: str
+    lower: float
+    upper: float
+
+    def unit_for(self, load: str, position: str) -> str:
+        """Return the unit with the user's load and position units filled in."""
+        return self.unit.format(load=load, position=position)
+
+
+@dataclass(frozen=True)
+class Term:
+    """A monomial ``coef * prod(theta[name] ** power)``."""
+
+    coef: float
+    powers: tuple[tuple[str, float], ...] = ()
+
+    def value(self, values: Mapping[str, float]) -> float:
+        """The monomial at the given parameter values."""
+        out = self.coef
+        for name, power in self.powers:
+            out *= values[name] ** power
+        return out
+
+
+def term(coef: float, **powers: float) -> Term:
+    """A monomial: ``term(-1, k0=1, m=-1)`` is ``-k0 / m``."""
+    return Term(float(coef), tuple((k, float(v)) for k, v in powers.items()))
+
+
+def evaluate_terms(terms: tuple[Term, ...], values: Mapping[str, float]) -> float:
+    """A sum of monomials at the given parameter values."""
+    return float(sum(t.value(values) for t in terms))
+
+
+@dataclass(frozen=True)
+class EquationError:
+    """The linear equation-error form of a model for one observed output.
+
+    ``target = sum_j coef_j * regressor_j`` where the regressors are derivatives of the
+    displacement (orders ``y_orders``) and of the load (``f_orders``), filtered alike;
+    ``target`` names the left-hand side (``("f", 0)``: the load itself; ``("y", 1)``: the
+    displacement's rate). ``to_theta`` maps coefficient rows (K, c) back to parameter rows
+    (K, p), NaN where a row has no physical solution.
+    """
+
+    target: tuple[str, int]
+    y_orders: tuple[int, ...]
+    f_orders: tuple[int, ...]
+    to_theta: Callable[[Array], Array]
+
+    @property
+    def order(self) -> int:
+        """Highest derivative order (the state-variable filter's order)."""
+        return max((*self.y_orders, *self.f_orders, self.target[1]))
+
+    @property
+    def n_coef(self) -> int:
+        """Number of coefficients."""
+        return len(self.y_orders) + len(self.f_orders)
+
+
+@dataclass(frozen=True)
+class Limit:
+    """A parameter running to 0 or infinity: what it means and, when known, the reduced model.
+
+    ``to_reduced`` gives each reduced parameter as a sum of monomials of the full ones, and
+    ``gain`` the factor by which the reduced model's output must be scaled to match the full
+    model's near the limit (a massless MSD is a first-order lag with gain 1/c).
+    ``from_reduced`` maps a reduced solution back to a full-model point next to the limit
+    (to restart a full fit that the reduced model beats).
+    """
+
+    param: str
+    direction: str  # "infinity" or "zero"
+    description: str
+    reduced: str | None = None
+    observe: str | None = None
+    to_reduced: Mapping[str, tuple[Term, ...]] = field(default_factory=dict)
+    gain: tuple[Term, ...] = (Term(1.0),)
+    from_reduced: Mapping[str, tuple[Term, ...]] = field(default_factory=dict)
+
+    def reduced_start(self, params: Mapping[str, float]) -> tuple[dict[str, float], float]:
+        """The reduced model's parameters and output gain at a full-model point."""
+        start = {k: evaluate_terms(v, params) for k, v in self.to_reduced.items()}
+        return start, evaluate_terms(self.gain, params)
+
+    def full_point(self, reduced: Mapping[str, float]) -> dict[str, float] | None:
+        """A full-model point next to the limit from the reduced model's parameters."""
+        if not self.from_reduced:
+            return None
+        return {k: evaluate_terms(v, reduced) for k, v in self.from_reduced.items()}
+
+
+@dataclass(frozen=True)
+class Model:
+    """Base class of the linear lumped models.
+
+    Subclasses declare their parameters as dataclass fields with :func:`param`, their state
+    equations as terms (``a_terms``, ``b_terms``), and their knowledge (``equation_error``,
+    :meth:`shape_grid`, ``limits``).
+    """
+
+    #: Names of the state variables, in order.
+    states: ClassVar[tuple[str, ...]] = ()
+    #: States that may be observed, with a plain description.
+    outputs: ClassVar[Mapping[str, str]] = {}
+    #: The default observed state.
+    default_output: ClassVar[str] = ""
+    #: True when scaling every parameter by lambda scales the zero-state response by 1/lambda,
+    #: so that with a free output scale C only ratios are identifiable.
+    scale_symmetric: ClassVar[bool] = False
+    #: Short name used by the CLI and in results.
+    key: ClassVar[str] = ""
+    #: One-line description.
+    title: ClassVar[str] = ""
+    #: Unit of the model's input: the first-order model of eq. (23) is driven by a rate.
+    input_unit: ClassVar[str] = "{load}"
+    #: Entries of A: {(row, col): terms}; of B: {row: terms}.
+    a_terms: ClassVar[Mapping[tuple[int, int], tuple[Term, ...]]] = {}
+    b_terms: ClassVar[Mapping[int, tuple[Term, ...]]] = {}
+    #: A static input map applied to the load before the linear dynamics: None, or
+    #: ("power-law", parameter name) for g = ref sign(F) |F/ref|^(1/n) (see ``input_reference``).
+    input_map: ClassVar[tuple[str, str] | None] = None
+    #: The reference of the power-law input map (in the input's unit).
+    input_reference: ClassVar[float] = 1.0
+    #: Not a linear state-space model (simulated and fitted by its own evaluator).
+    nonlinear: ClassVar[bool] = False
+    #: Equation-error forms per observed output (automatic start).
+    equation_error: ClassVar[Mapping[str, EquationError]] = {}
+    #: Known limits of the parameters.
+    limits: ClassVar[tuple[Limit, ...]] = ()
+
+    def __post_init__(self) -> None:
+        for info in self.param_info():
+            value = getattr(self, info.name)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"{type(self).__name__}: parameter {info.name} must be a number, got {value!r}"
+                ) from None
+            if not math.isfinite(value):
+                raise ValueError(f"{type(self).__name__}: parameter {info.name} is {value}")
+            if not (info.lower < value < info.upper):
+                raise ValueError(
+                    f"{type(self).__name__}: parameter {info.name} = {value:g} is outside "
+                    f"its bounds ({info.lower:g}, {info.upper:g}); physical parameters must "
+                    "be strictly positive"
+                )
+            object.__setattr__(self, info.name, value)
+
+    # ------------------------------------------------------------------ parameters
+    @classmethod
+    def param_info(cls) -> tuple[ParamInfo, ...]:
+        """Describe the parameters (name, unit template, description, bounds)."""
+        return _param_info(cls)
+
+    @classmethod
+    def param_names(cls) -> tuple[str, ...]:
+        """Parameter names in the model's canonical order."""
+        return tuple(p.name for p in _param_info(cls))
+
+    @property
+    def values(self) -> Array:
+        """Parameter values as an array in canonical order."""
+        return np.array([getattr(self, n) for n in self.param_names()], dtype=float)
+
+    def as_dict(self) -> dict[str, float]:
+        """Parameters as a ``{name: value}`` dictionary."""
+        return {n: getattr(self, n) for n in self.param_names()}
+
+    @classmethod
+    def from_values(cls, values: ArrayLike) -> Model:
+        """Build a model from an array of parameter values in canonical order."""
+        arr = np.asarray(values, dtype=float).ravel()
+        names = cls.param_names()
+        if arr.size != len(names):
+            raise ValueError(
+                f"{cls.__name__} takes {len(names)} parameters {names}, got {arr.size}"
+            )
+        return cls(**dict(zip(names, arr.tolist(), strict=True)))
+
+    def replace(self, **changes: float) -> Model:
+        """Return a copy with some parameters changed."""
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def n_states(cls) -> int:
+        """Number of state variables."""
+        return len(cls.states)
+
+    @classmethod
+    def output_index(cls, observe: str | None) -> int:
+        """Index of the observed state; ``None`` selects the default output."""
+        name = cls.default_output if observe is None else observe
+        if name not in cls.outputs:
+            raise ValueError(
+                f"{cls.__name__} cannot observe {name!r}; choose one of {sorted(cls.outputs)}"
+            )
+        return cls.states.index(name)
+
+    # ------------------------------------------------------------------ matrices
+    @classmethod
+    def code(cls) -> tuple[Any, ...]:
+        """The compiled kernel's form of the state equations (cached per class).
+
+        ``(a_pos (Ta, 2), a_coef (Ta,), a_exp (Ta, p), b_pos (Tb,), b_coef (Tb,),
+        b_exp (Tb, p))``: the position, coefficient and exponent row of every term.
+        """
+        return _code(cls)
+
+    @classmethod
+    def input_code(cls) -> Array:
+        """The input map for the kernel: (kind, parameter index, reference)."""
+        if cls.input_map is None:
+            return np.zeros(3)
+        kind, name = cls.input_map
+        if kind != "power-law":
+            raise ValueError(f"{cls.__name__}: unknown input map {kind!r}")
+        return np.array([1.0, float(cls.param_names().index(name)), float(cls.input_reference)])
+
+    @classmethod
+    def system_batch(cls, theta: ArrayLike) -> tuple[Array, Array, Array, Array]:
+        """A (..., n, n), B (..., n), dA/dtheta (..., p, n, n), dB/dtheta (..., p, n)."""
+        th = np.asarray(theta, dtype=float)
+        p = len(cls.param_names())
+        if th.shape[-1:] != (p,):
+            raise ValueError(f"{cls.__name__}: expected parameter vectors of length {p}")
+        a_pos, a_coef, a_exp, b_pos, b_coef, b_exp = cls.code()
+        n = cls.n_states()
+        batch = th.shape[:-1]
+        a = np.zeros((*batch, n, n))
+        b = np.zeros((*batch, n))
+        da = np.zeros((*batch, p, n, n))
+        db = np.zeros((*batch, p, n))
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            for (r, c), coef, exp in zip(a_pos, a_coef, a_exp, strict=True):
+                val = coef * np.prod(th**exp, axis=-1)
+                a[..., r, c] += val
+                for j in np.flatnonzero(exp):
+                    da[..., j, r, c] += exp[j] * val / th[..., j]
+            for r, coef, exp in zip(b_pos, b_coef, b_exp, strict=True):
+                val = coef * np.prod(th**exp, axis=-1)
+                b[..., r] += val
+                for j in np.flatnonzero(exp):
+                    db[..., j, r] += exp[j] * val / th[..., j]
+        return a, b, da, db
+
+    def matrices(self) -> tuple[Array, Array]:
+        """State matrix A (n, n) and input vector B (n,) of ``x' = A x + B g(F)``."""
+        a, b, _, _ = self.system_batch(self.values)
+        return a, b
+
+    def matrix_derivatives(self) -> tuple[Array, Array]:
+        """Exact derivatives dA/dtheta (p, n, n) and dB/dtheta (p, n), canonical order."""
+        _, _, da, db = self.system_batch(self.values)
+        return da, db
+
+    def transfer_function(self, s: ArrayLike, observe: str | None = None) -> NDArray[np.complex128]:
+        """Evaluate the transfer function from the (mapped) input to the observed state."""
+        a, b = self.matrices()
+        k = self.output_index(observe)
+        s_arr = np.atleast_1d(np.asarray(s, dtype=complex))
+        eye = np.eye(a.shape[0])
+        out = np.array([np.linalg.solve(si * eye - a, b)[k] for si in s_arr.ravel()])
+        return out.reshape(s_arr.shape)
+
+    def static_gain(self, observe: str | None = None) -> float:
+        """Static displacement of the observed state per unit constant input."""
+        a, b = self.matrices()
+        return float(-np.linalg.solve(a, b)[self.output_index(observe)])
+
+    def poles(self) -> NDArray[np.complex128]:
+        """Eigenvalues of A (1/s), sorted by decreasing real part."""
+        a, _ = self.matrices()
+        lam = np.linalg.eigvals(a)
+        return lam[np.argsort(-lam.real)]
+
+    def describe(self, load_unit: str = "N", position_unit: str = "m") -> str:
+        """One line per parameter: name = value unit."""
+        return "\n".join(
+            f"{p.name} = {getattr(self, p.name):.6g} {p.unit_for(load_unit, position_unit)}"
+            for p in self.param_info()
+        )
+
+    # ------------------------------------------------------------------ knowledge
+    @classmethod
+    def shape_grid(cls, w0: float) -> Array:
+        """Parameter shapes (S, p) at unit stiffness spanning plausible dynamics.
+
+        ``w0`` is the record's fundamental angular frequency (rad/s). The default spans
+        every parameter's natural size a decade either way; models override it with shapes
+        from their physics.
+        """
+        import itertools
+
+        factors = (0.1, 1.0, 10.0) if len(cls.param_names()) <= 4 else (0.3, 3.0)
+        base = np.array([_unit_size(p.unit, w0) for p in cls.param_info()])
+        return np.array([base * np.array(c) for c in itertools.product(
+            factors, repeat=base.size)])
+
+    @classmethod
+    def limit(cls, name: str, direction: str) -> Limit:
+        """The known limit of a parameter (a generic description when none is declared)."""
+        for lim in cls.limits:
+            if lim.param == name and lim.direction == direction:
+                return lim
+        arrow = "inf" if direction == "infinity" else "0"
+        return Limit(name, direction, f"{name} -> {arrow}")
+
+
+def _unit_size(unit: str, w0: float) -> float:
+    """Size of a unit template at unit load and position and time scale 1/w0."""
+    size = 1.0
+    for k, side in enumerate(unit.split("/", 1)):
+        sign = 1 if k == 0 else -1
+        for token in side.replace("(", "").replace(")", "").split("*"):
+            name, _, power = token.strip().partition("^")
+            if name == "s":
+                size *= (1.0 / w0) ** (sign * (float(power) if power else 1.0))
+    return size
+
+
+@functools.cache
+def _param_info(cls: type[Model]) -> tuple[ParamInfo, ...]:
+    # Dataclass introspection is slow; a model class's parameters never change.
+    return tuple(
+        ParamInfo(f.name, f.metadata["unit"], f.metadata["doc"], f.metadata["lower"],
+                  f.metadata["upper"])
+        for f in dataclasses.fields(cls)
+        if "unit" in f.metadata
+    )
+
+
+@functools.cache
+def _code(cls: type[Model]) -> tuple[Any, ...]:
+    names = cls.param_names()
+    p = len(names)
+
+    def rows(terms: list[tuple[Any, Term]]) -> tuple[Array, Array]:
+        coef = np.array([t.coef for _pos, t in terms], dtype=float)
+        exp = np.zeros((len(terms), p))
+        for k, (_pos, t) in enumerate(terms):
+            for name, power in t.powers:
+                if name not in names:
+                    raise ValueError(f"{cls.__name__}: term uses unknown parameter {name!r}")
+                exp[k, names.index(name)] += power
+        return coef, exp
+
+    a_list = [(pos, t) for pos, ts in cls.a_terms.items() for t in ts]
+    b_list = [(pos, t) for pos, ts in cls.b_terms.items() for t in ts]
+    a_pos = np.array([pos for pos, _t in a_list], dtype=np.int64).reshape(-1, 2)
+    b_pos = np.array([pos for pos, _t in b_list], dtype=np.int64)
+    a_coef, a_exp = rows(a_list)
+    b_coef, b_exp = rows(b_list)
+    out = (a_pos, a_coef, a_exp, b_pos, b_coef, b_exp)
+    for arr in out:
+        arr.flags.writeable = False
+    return out
