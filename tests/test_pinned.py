@@ -20,7 +20,7 @@ import pytest
 
 import pumpid
 from pumpid.cards import read_cards
-from pumpid.identify import fit_card
+from pumpid.pump import fit_card
 
 from .conftest import SHARED_RAW, well_load
 

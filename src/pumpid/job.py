@@ -32,16 +32,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .engine import drive, lm
-from .engine.problem import WINDOW, CardData, Problem, build_problem
+from .engine.problem import CardData, Problem, build_problem
 from .engine.solvers import LevenbergMarquardt, PaperNewton, SolverOutcome, Stop
-from .engine.start import StartPlan, complete, find_starts, to_z
+from .engine.start import StartPlan, complete, find_starts, to_z, walk_valley
 from .engine.threads import default_workers
 from .inference import boundaries as bnd
 from .inference.boundaries import BoundaryInfo, Limiting, ReducedFit
 from .inference.identifiability import findings_of, whiteness_warning
 from .inference.uncertainty import numbers, uncertainty_of
 from .models import Model, model_class
-from .result import CardInfo, FitBatch, FitResult, StartInfo, Status, Units
+from .result import FitBatch, FitResult, StartInfo, Status, Units
 
 __all__ = ["fit", "fit_many", "run"]
 
@@ -167,72 +167,6 @@ def _doubtful(problem: Problem, k: int, card: _Card) -> bool:
         return True
     d = problem.card(k)[2]
     return card.rmse > 2.0 * card.noise + 1e-9 * float(np.ptp(d))
-
-
-def _walk_valley(problem: Problem, k: int, z: Array, cost: float, solver: LevenbergMarquardt,
-                 rounds: int = 8) -> tuple[Array, float]:
-    """Follow a long, flat, curved valley where Levenberg-Marquardt only crawls.
-
-    When the data hardly constrain one combination (relative singular value of the scaled
-    Jacobian below 1e-4), a trust-region step along the valley is cut short by its
-    curvature. Jumping along the weakest direction and letting a short polish drop back to
-    the floor moves along it in a few long strides; the floor's cost tells which way is
-    down. On noisy data the floor is flat at the noise level and the walk stops at once.
-    """
-    data, model, settings = problem.arrays
-    span = float(np.ptp(problem.card(k)[2])) or 1.0
-    p = problem.n_free
-    ref = np.log(problem.reference[k][problem.free_idx])
-    polish = LevenbergMarquardt(tol=1e-10)
-
-    def jump(base: Array, step: Array) -> tuple[Array, float] | None:
-        znew = base.copy()
-        znew[:p] = np.clip(base[:p] + step[:p], ref - WINDOW, ref + WINDOW)
-        j = p
-        if problem.scale_fixed is None:
-            znew[j] = base[j] + step[j]
-            j += 1
-        if problem.offset_fixed is None:
-            znew[j] = base[j] + step[j] * span
-        out = polish.solve(problem, np.array([k]), znew[None], budget=40)
-        c = float(out.cost[0])
-        return (out.z[0], c) if math.isfinite(c) else None
-
-    for _ in range(rounds):
-        q = problem.q
-        rows = np.empty((q + 1, problem.n_samples(k)))
-        if not drive.residual_rows(z, k, data, model, settings, rows):
-            break
-        if problem.offset_fixed is None:
-            rows[q - 1] *= span
-        r_fac = np.zeros((q, q))
-        lm.householder(rows, q, r_fac, np.zeros(q))
-        _u, s, vt = np.linalg.svd(r_fac)
-        if not (s[0] > 0) or s[-1] / s[0] > 1e-4:
-            break
-        direction = vt[-1]
-        step = 0.25 * 2.5
-        probes: list[tuple[float, Array, float]] = []
-        for _shrink in range(3):
-            step /= 2.5
-            probes = []
-            for sign in (1.0, -1.0):
-                got = jump(z, sign * step * direction)
-                if got is not None and got[1] < 0.95 * cost:
-                    probes.append((sign, got[0], got[1]))
-            if probes:
-                break
-        if not probes:
-            break
-        sign, best_z, best_cost = min(probes, key=lambda item: item[2])
-        for _grow in range(4):
-            step *= 2.5
-            got = jump(z, sign * step * direction)
-            if got is None or got[1] >= best_cost:
-                break
-            best_z, best_cost = got
-        z, cost = best_z, best_cost
-    return z, cost
 
 
 def _reduced_problem(problem: Problem, cards: NDArray[np.int64], lim: Any,
@@ -465,8 +399,7 @@ def run(problem: Problem, cards: NDArray[np.int64], *, guess: Array | None,
                         "start: automatic (it reached a lower cost than the given guess)")
             walked = ""
             if starts.stopped_early[i] and np.all(np.isfinite(z0[i])):
-                zw, cw = _walk_valley(problem, int(cards[i]), z0[i], float(starts.cost[i]),
-                                      solver)
+                zw, cw = walk_valley(problem, int(cards[i]), z0[i], float(starts.cost[i]))
                 if cw < starts.cost[i]:
                     z0[i] = zw
                     walked = ", then walked along a flat valley"
@@ -907,13 +840,18 @@ def fit_many(
     if len(f_all) != len(d_all):
         raise ValueError(f"loads has {len(f_all)} cards but displacements has {len(d_all)}")
     n_cards = len(f_all)
-    t_arr = np.asarray(t, dtype=float)
-    if t_arr.ndim == 1:
-        t_rows = [t_arr] * n_cards
-    elif t_arr.ndim == 2 and t_arr.shape[0] == n_cards:
-        t_rows = list(t_arr)
+    if isinstance(t, list | tuple) and t and np.ndim(t[0]) == 1:
+        t_rows = [np.asarray(row, dtype=float) for row in t]
+        if len(t_rows) != n_cards:
+            raise ValueError(f"t: {len(t_rows)} time rows for {n_cards} cards")
     else:
-        raise ValueError(f"t: expected shape (N,) or ({n_cards}, N), got {t_arr.shape}")
+        t_arr = np.asarray(t, dtype=float)
+        if t_arr.ndim == 1:
+            t_rows = [t_arr] * n_cards
+        elif t_arr.ndim == 2 and t_arr.shape[0] == n_cards:
+            t_rows = list(t_arr)
+        else:
+            raise ValueError(f"t: expected shape (N,) or ({n_cards}, N), got {t_arr.shape}")
     cards = [CardData(t_rows[i], f_all[i], d_all[i], initial_state, period)
              for i in range(n_cards)]
     warnings: list[str] = []

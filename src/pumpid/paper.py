@@ -30,10 +30,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .fit import fit
+from .engine.simulate import simulate
+from .job import fit
 from .models import FirstOrder, MassSpringDamper
 from .result import FitResult
-from .simulate import simulate
 
 __all__ = ["PAPER_TABLES", "TABLE3_DESIGN", "reproduce", "table_data"]
 

@@ -23,7 +23,8 @@ import math
 import numpy as np
 
 from . import lm
-from .kernel import jit, simulate_card
+from .compiled import jit
+from .kernel import simulate_card
 
 __all__ = ["cost_items", "evaluate", "outputs", "solve_items"]
 

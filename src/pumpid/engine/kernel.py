@@ -31,8 +31,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from .compiled import jit
 
 __all__ = [
     "EQUILIBRIUM",
@@ -50,8 +51,6 @@ REST, EQUILIBRIUM, PERIODIC, GIVEN = 0, 1, 2, 3
 EXACT, EULER = 0, 1
 #: Input maps: none, or the power law g = ref * sign(F) * |F / ref|^(1/n) of one parameter.
 NO_MAP, POWER_LAW = 0, 1
-
-jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 # Pade coefficients b_k of the [m/m] approximants of exp (Higham 2005, table 2.3) and the
 # 1-norm bounds theta_m up to which degree m keeps the backward error below 2^-53.
@@ -246,6 +245,48 @@ def dual_expm(a, out):
 
 
 @jit
+def balance(a, d):
+    """Diagonal scaling by powers of 2 that balances row and column norms of ``a`` (in place).
+
+    Parlett and Reinsch's iteration (LAPACK's ``gebal`` without permutations): on return
+    ``a`` is ``D^-1 A D`` with ``D = diag(d)``. The similarity is exact in floating point;
+    it keeps the exponential of a matrix with entries of very different sizes (a soft and a
+    stiff spring, a gain of 1e10) from needing dozens of squarings.
+    """
+    m = a.shape[0]
+    for i in range(m):
+        d[i] = 1.0
+    done = False
+    while not done:
+        done = True
+        for i in range(m):
+            c = 0.0
+            r = 0.0
+            for j in range(m):
+                if j != i:
+                    c += abs(a[j, i])
+                    r += abs(a[i, j])
+            if c == 0.0 or r == 0.0:
+                continue
+            g = r / 2.0
+            f = 1.0
+            total = c + r
+            while c < g:
+                f *= 2.0
+                c *= 4.0
+            g = r * 2.0
+            while c >= g:
+                f /= 2.0
+                c /= 4.0
+            if (c + r) / f < 0.95 * total:
+                done = False
+                d[i] *= f
+                for j in range(m):
+                    a[i, j] /= f
+                    a[j, i] *= f
+
+
+@jit
 def dual_power(x, e, out):
     """``out = x ** e`` for a dual matrix and an integer ``e >= 0`` (binary powering)."""
     p_count, m, _ = x.shape
@@ -321,15 +362,41 @@ def discretize(a, b, h, integrator, phi, g0, g1):
     # The extra state is the load increment over the step (not its rate), so G1 is read off
     # directly instead of dividing by a possibly tiny h.
     big[0, n, n + 1] = 1.0
+    if not np.all(np.isfinite(big[0])):
+        return False
+    # exp(D^-1 M D) = D^-1 exp(M) D: find a diagonal D that balances the value, apply the
+    # same similarity to every part, and undo it on the exponential. D starts by scaling
+    # the input (whose blocks are linear in B) to the size of one, which the row and column
+    # balancing cannot do through the input's empty last row; the balancing then evens out
+    # states of very different sizes.
+    b_size = 0.0
+    for r in range(n):
+        b_size = max(b_size, abs(big[0, r, n]))
+    b_scale = 1.0 / b_size if (b_size > 0.0 and math.isfinite(b_size)) else 1.0
+    d0 = np.ones(m)
+    d0[n] = b_scale
+    d0[n + 1] = b_scale
+    trial = big[0].copy()
+    for r in range(m):
+        for c in range(m):
+            trial[r, c] *= d0[c] / d0[r]
+    d = np.empty(m)
+    balance(trial, d)
+    for r in range(m):
+        d[r] *= d0[r]
+    for i in range(p_count):
+        for r in range(m):
+            for c in range(m):
+                big[i, r, c] *= d[c] / d[r]
     e = np.empty_like(big)
     if not dual_expm(big, e):
         return False
     for i in range(p_count):
         for r in range(n):
             for c in range(n):
-                phi[i, r, c] = e[i, r, c]
-            g1[i, r] = e[i, r, n + 1]
-            g0[i, r] = e[i, r, n] - e[i, r, n + 1]
+                phi[i, r, c] = e[i, r, c] * d[r] / d[c]
+            g1[i, r] = e[i, r, n + 1] * d[r] / d[n + 1]
+            g0[i, r] = (e[i, r, n] * d[r] / d[n] - g1[i, r])
     return True
 
 

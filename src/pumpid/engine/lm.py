@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from .kernel import jit
+from .compiled import jit
 
 __all__ = ["CONVERGED", "EXHAUSTED", "FAILED", "TESTS", "householder", "propose", "start",
            "update"]

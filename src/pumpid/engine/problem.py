@@ -378,6 +378,11 @@ def _validate_card(
             )
         if offset is not False and offset != 0:
             raise ValueError("offset: not available with the log residual")
+        if mode == kernel.REST:
+            raise ValueError(
+                "residual='log' from rest: the model's output starts at exactly zero, whose "
+                "logarithm is not finite; start from equilibrium, a periodic state or a given "
+                "(non-zero) state, or use the linear residual")
     period = math.nan
     if mode == kernel.PERIODIC:
         span = float(t[-1] - t[0])

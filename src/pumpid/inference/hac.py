@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..engine.kernel import jit
+from ..engine.compiled import jit
 
 __all__ = ["PREWHITEN_CAP", "long_run_covariance", "long_run_rows"]
 
@@ -59,12 +59,29 @@ def _andrews_width(e):
 
 
 @jit
+def _outer_sum(x, y):
+    """x @ y.T for long rows (q, n): by hand, so no multi-threaded BLAS call is made for a
+    few rows of thousands of samples."""
+    q = x.shape[0]
+    r = y.shape[0]
+    n = x.shape[1]
+    out = np.zeros((q, r))
+    for i in range(q):
+        for j in range(r):
+            s = 0.0
+            for k in range(n):
+                s += x[i, k] * y[j, k]
+            out[i, j] = s
+    return out
+
+
+@jit
 def _var1(x):
     """Least-squares A of x_t = A x_{t-1} + e_t, for x of shape (q, n)."""
-    x0 = x[:, :-1]
-    x1 = x[:, 1:]
-    gram = x0 @ x0.T
-    cross = x1 @ x0.T
+    x0 = np.ascontiguousarray(x[:, :-1])
+    x1 = np.ascontiguousarray(x[:, 1:])
+    gram = _outer_sum(x0, x0)
+    cross = _outer_sum(x1, x0)
     a = cross @ np.linalg.pinv(gram)
     return a
 
@@ -103,7 +120,13 @@ def long_run_rows(x, prewhiten, bandwidth):
             for j in range(q):
                 sv[j] = min(sv[j], PREWHITEN_CAP)
             a = (left * sv) @ right
-        e = xs[:, 1:] - a @ xs[:, :-1]
+        e = np.empty((q, n - 1))
+        for i in range(q):
+            for k in range(n - 1):
+                acc = xs[i, k + 1]
+                for j in range(q):
+                    acc -= a[i, j] * xs[j, k]
+                e[i, k] = acc
     n_e = e.shape[1]
     if bandwidth <= 0:
         width = _andrews_width(e) if q > 0 else 1.0
@@ -115,7 +138,7 @@ def long_run_rows(x, prewhiten, bandwidth):
         m = min(bandwidth, n_e)
     omega = np.zeros((q, q))
     if m == 1:
-        omega = e @ e.T
+        omega = _outer_sum(e, e)
     else:
         # Bartlett weights (m - |l|)/m are the self-convolution of a length-m box: m * Omega
         # is W W^T, with W the sums of e over every window of m samples (partial windows at
@@ -130,7 +153,7 @@ def long_run_rows(x, prewhiten, bandwidth):
                 hi = min(j + 1, n_e)
                 lo = max(j + 1 - m, 0)
                 windows[i, j] = csum[hi] - csum[lo]
-        omega = windows @ windows.T / m
+        omega = _outer_sum(windows, windows) / m
     if prewhiten and q > 0:
         recolour = np.linalg.inv(np.eye(q) - a)
         omega = recolour @ omega @ recolour.T

@@ -8,7 +8,7 @@ interval is the likelihood-ratio one: the values with
 
 with ``t`` the two-sided Student quantile at the chosen level and N - p degrees of freedom.
 For a model linear in its parameters this equals the Wald interval of
-:mod:`pumpid.diagnostics`; for a curved problem it follows the cost's actual shape and, for a
+:mod:`pumpid.inference.uncertainty`; for a curved problem it follows the cost's actual shape and, for a
 parameter at a boundary, it is one-sided: the profile never rises above the threshold on the
 boundary's side, so that bound is ``None`` (0 or infinity). Like the Wald interval, it
 assumes white, homoscedastic, Gaussian noise; when the fit's residuals fail the whiteness
@@ -20,20 +20,19 @@ profile is a property of the cost function, not of the solver.
 
 from __future__ import annotations
 
-import inspect
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.stats
-from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from .blas import single_threaded
+from .uncertainty import t_quantile
 
 if TYPE_CHECKING:
-    from .result import FitResult
+    from matplotlib.figure import Figure
+
+    from ..result import FitResult
 
 __all__ = ["Profile", "profile"]
 
@@ -98,7 +97,7 @@ class Profile:
     @property
     def t_quantile(self) -> float:
         """The two-sided Student t quantile at :attr:`level`."""
-        return float(scipy.stats.t.ppf(0.5 + self.level / 2, self.dof))
+        return t_quantile(0.5 + self.level / 2, self.dof)
 
     @property
     def deviance(self) -> Array:
@@ -135,6 +134,8 @@ class Profile:
         matplotlib.figure.Figure
             A figure not attached to pyplot (save it with ``fig.savefig``).
         """
+        from matplotlib.figure import Figure
+
         fig = Figure(figsize=(6.4, 4.2), layout="constrained")
         ax = fig.add_subplot()
         ok = np.isfinite(self.cost)
@@ -188,71 +189,84 @@ def _unit_of(result: FitResult, name: str) -> str:
 
 
 class _Refitter:
-    """Refits of the result's problem with one value held fixed."""
+    """Refits of the result's problem with one value held fixed (continuation starts)."""
 
     def __init__(self, result: FitResult, name: str) -> None:
-        ctx = result.context or {}
-        if "problem" not in ctx:
-            raise ValueError("profile: the result carries no fit context (result.context)")
+        from ..engine.problem import CardData
+
+        problem = result.problem
+        if problem is None:
+            raise ValueError("profile: the result carries no problem to refit")
         self.result = result
         self.name = name
-        self.problem = problem = ctx["problem"]
-        self.model_cls = ctx["model_cls"]
-        opts = dict(ctx.get("options", {}))
+        self.problem = problem
+        self.model_cls = problem.model
+        k = int(result.options.get("card", 0))
+        t, f, d = problem.card(k)
+        period = problem.period[k]
+        self.card = CardData(t, f, d, problem.initial_states[k],
+                             None if not math.isfinite(period) else float(period))
         names = self.model_cls.param_names()
         self.base_fixed = {names[i]: v for i, v in problem.fixed}
         # The gauge of the scale symmetry stays as the fit chose it: profiling with C free
         # and a parameter held would move along a different, unrelated family.
-        scale = problem.scale_fixed if problem.gauge_fixed else opts.get("scale", 1.0)
-        self.options: dict[str, Any] = {
-            "integrator": problem.integrator, "residual": problem.residual,
-            "observe": problem.observe, "initial_state": problem.initial_state,
-            "period": problem.period, "units": opts.get("units"), "scale": scale,
-            "offset": opts.get("offset", False), "tol": opts.get("tol", 1e-12),
-            "max_nfev": opts.get("max_nfev"),
-        }
+        self.scale: float | str = ("free" if problem.scale_fixed is None
+                                   else float(problem.scale_fixed))
+        self.offset: bool | float = (True if problem.offset_fixed is None
+                                     else float(problem.offset_fixed))
         self.free_names = [n for n in result.free if n != name]
-        from .fit import fit
-
-        # Continuation from the neighbouring grid point is the right start for a profile; a
-        # multistart on every refit (if fit offers one) would only cost time.
-        self.no_multistart = "multistart" in inspect.signature(fit).parameters
+        self.solver = result.options.get("solver")
 
     def __call__(self, value: float, start: dict[str, float]) -> tuple[float, bool, dict]:
-        from .fit import fit
+        from ..engine.problem import build_problem
+        from ..engine.solvers import LevenbergMarquardt
+        from ..job import JobOptions, run
 
-        opts = dict(self.options)
         fixed = dict(self.base_fixed)
+        scale, offset = self.scale, self.offset
         if self.name == "C":
-            opts["scale"] = value
+            scale = value
         elif self.name == "D":
-            opts["scale"] = math.exp(value)
+            scale = math.exp(value)
         elif self.name == "offset":
-            opts["offset"] = value
+            offset = value
         else:
             fixed[self.name] = value
         params = {n: start[n] for n in self.model_cls.param_names()}
         if self.name in params:
             params[self.name] = value
-        x0 = dict(params)
-        for key in ("C", "D", "offset"):
-            if key in start and key in self.free_names:
-                x0[key] = start[key]
-        if self.no_multistart:
-            opts["multistart"] = False
         p = self.problem
         try:
-            res = fit(self.model_cls(**params), p.grid.t, p.load, p.data, method="lm",
-                      fixed=fixed or None, x0=x0, **opts)
+            sub = build_problem(self.model_cls, [self.card], observe=p.observe,
+                                integrator=p.integrator, residual=p.residual, scale=scale,
+                                offset=offset, fixed=fixed or None)
         except ValueError:
             return math.nan, False, {}
-        if res.model is None or not math.isfinite(res.cost):
+        guess = np.array([[params[n] for n in self.model_cls.param_names()]])
+        c_start = off_start = None
+        if "C" in self.free_names and sub.scale_fixed is None:
+            c_start = np.array([start.get("C", math.nan)])
+        if "offset" in self.free_names and sub.offset_fixed is None:
+            off_start = np.array([start.get("offset", math.nan)])
+        solver = self.solver if isinstance(self.solver, LevenbergMarquardt) else \
+            LevenbergMarquardt()
+        # Continuation from the neighbouring grid point is the right start for a profile;
+        # a multistart on every refit would only cost time.
+        (card,) = run(sub, np.zeros(1, dtype=np.int64), guess=guess, c_start=c_start,
+                      offset_start=off_start,
+                      options=JobOptions(solver=solver, multistart=False))
+        if not (np.all(np.isfinite(card.z)) and math.isfinite(card.cost)):
             return math.nan, False, {}
-        values = dict(res.params)
-        values.update({"C": res.scale, "offset": res.offset})
-        if res.scale > 0:
-            values["D"] = math.log(res.scale)
-        return res.cost, bool(res.converged or res.status == "boundary"), values
+        theta = sub.full_theta(np.exp(card.z[: sub.n_free]))
+        values = dict(zip(self.model_cls.param_names(), theta.tolist(), strict=True))
+        j = sub.n_free
+        scale_v = float(sub.scale_fixed) if sub.scale_fixed is not None else math.exp(card.z[j])
+        j += sub.scale_fixed is None
+        offset_v = float(sub.offset_fixed) if sub.offset_fixed is not None else float(card.z[j])
+        values.update({"C": scale_v, "offset": offset_v})
+        if scale_v > 0:
+            values["D"] = math.log(scale_v)
+        return card.cost, card.status.key in ("converged", "boundary"), values
 
 
 def _crossing(x0: float, d0: float, x1: float, d1: float, level: float) -> float:
@@ -263,7 +277,6 @@ def _crossing(x0: float, d0: float, x1: float, d1: float, level: float) -> float
 
 
 # --------------------------------------------------------------------------- entry point
-@single_threaded
 def profile(
     result: FitResult,
     name: str,
@@ -277,7 +290,7 @@ def profile(
     Parameters
     ----------
     result : FitResult
-        A fit from :func:`pumpid.fit` (its ``context`` is used for the refits).
+        A fit from :func:`pumpid.fit` (its ``problem`` is used for the refits).
     name : str
         A free value: a model parameter, ``"C"``/``"D"`` or ``"offset"``.
     n_points : int
@@ -309,7 +322,7 @@ def profile(
     dof = max(n_obs - len(result.free), 1)
     sst = float(np.sum((result.data - result.data.mean()) ** 2))
     sigma2 = max(2.0 * result.cost / dof, 1e-28 * sst / n_obs, 1e-300)
-    tq = float(scipy.stats.t.ppf(0.5 + level / 2, dof))
+    tq = t_quantile(0.5 + level / 2, dof)
     boundary = next((b for b in result.extra.get("boundaries") or [] if b["name"] == name), None)
 
     # Grid coordinate: ln(value) for positive quantities, the value itself otherwise.

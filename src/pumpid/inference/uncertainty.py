@@ -31,7 +31,7 @@ import scipy.stats
 from numpy.typing import NDArray
 
 from ..engine import drive, lm
-from ..engine.kernel import jit
+from ..engine.compiled import jit
 from ..engine.problem import Problem
 from .hac import long_run_rows
 
@@ -42,6 +42,7 @@ __all__ = [
     "WHITENESS_Z",
     "Numbers",
     "Uncertainty",
+    "analyse_rows",
     "diagnose_items",
     "residual_whiteness",
     "t_quantile",
@@ -70,22 +71,28 @@ HAC_METHOD = (
 
 
 @jit
-def _one(k, z, inner, span, data, model, settings):
-    q = z.size
-    bounds = data[3]
-    n = bounds[k + 1] - bounds[k]
-    rows = np.empty((q + 1, n))
+def analyse_rows(rows, inner, offset_col, span, prewhiten=True, bandwidth=0):
+    """The numbers behind one fit's uncertainty from its Jacobian columns and residual.
+
+    ``rows`` (q + 1, N): d r / d z for the solver coordinates z (ln of the positive values,
+    D, the offset) and the residual r last. ``inner`` (q,): the coordinates analysed (those
+    at a boundary left out); ``offset_col``: the offset's column (-1 when none), scaled by
+    ``span`` so that a unit step is the data's range. Returns singular values (q,), right
+    singular vectors (q, q), the covariance and the HAC covariance in scaled coordinates
+    over the inner coordinates (q, q; first ``qi`` rows), the robust standard error of each
+    direction (q,) and statistics (6,): usable, residual RMS, lag-1 autocorrelation, HAC
+    bandwidth, prewhitening persistence, capped. ``prewhiten`` and ``bandwidth`` (0:
+    Andrews' rule) configure the long-run covariance (:func:`long_run_rows`).
+    """
+    q = rows.shape[0] - 1
+    n = rows.shape[1]
     s_out = np.full(q, math.nan)
     vt_out = np.full((q, q), math.nan)
     cov_s = np.full((q, q), math.nan)
     hac_s = np.full((q, q), math.nan)
     dir_se = np.full(q, math.nan)
-    stats = np.full(6, math.nan)  # ok, rms, rho, bandwidth, persistence, capped
+    stats = np.full(6, math.nan)
     stats[0] = 0.0
-    if not drive.residual_rows(z, k, data, model, settings, rows):
-        return s_out, vt_out, cov_s, hac_s, dir_se, stats
-    offset_free = settings[5]
-    nf = settings[0].size
     idx = np.flatnonzero(inner)
     qi = idx.size
     r = rows[q].copy()
@@ -96,7 +103,7 @@ def _one(k, z, inner, span, data, model, settings):
     js = np.empty((qi + 1, n))
     for jj in range(qi):
         j = idx[jj]
-        factor = span if (offset_free and j == q - 1) else 1.0
+        factor = span if j == offset_col else 1.0
         for t in range(n):
             js[jj, t] = rows[j, t] * factor
     js[qi] = r
@@ -166,7 +173,7 @@ def _one(k, z, inner, span, data, model, settings):
                     scores[kk, t] += w * js[jj, t]
         for t in range(n):
             scores[kk, t] *= r[t] / (rms * s[c])
-    omega, m, persistence, capped = long_run_rows(scores, True, 0)
+    omega, m, persistence, capped = long_run_rows(scores, prewhiten, bandwidth)
     stats[3] = m
     stats[4] = persistence
     stats[5] = 1.0 if capped else 0.0
@@ -184,6 +191,21 @@ def _one(k, z, inner, span, data, model, settings):
         for b in range(qi):
             hac_s[a, b] = cov[a, b] * inflate
     return s_out, vt_out, cov_s, hac_s, dir_se, stats
+
+
+@jit
+def _one(k, z, inner, span, data, model, settings):
+    q = z.size
+    bounds = data[3]
+    n = bounds[k + 1] - bounds[k]
+    rows = np.empty((q + 1, n))
+    if not drive.residual_rows(z, k, data, model, settings, rows):
+        stats = np.full(6, math.nan)
+        stats[0] = 0.0
+        return (np.full(q, math.nan), np.full((q, q), math.nan), np.full((q, q), math.nan),
+                np.full((q, q), math.nan), np.full(q, math.nan), stats)
+    offset_col = q - 1 if settings[5] else -1
+    return analyse_rows(rows, inner, offset_col, span)
 
 
 @jit

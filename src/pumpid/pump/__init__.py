@@ -1,0 +1,11 @@
+"""The pump-card application: fit dynamometer cards, predict strokes, synthetic cards.
+
+A card gives the polished-rod load (the model's input) and position (the measured
+displacement); :func:`fit_card` fits one with the main job of :func:`pumpid.fit` and the
+card's own defaults (a fitted position offset; a single stroke is one period of a periodic
+motion).
+"""
+
+from .fit import evaluate_prediction, fit_card, predict, predict_card
+
+__all__ = ["evaluate_prediction", "fit_card", "predict", "predict_card"]

@@ -1,0 +1,141 @@
+"""Fitting dynamometer cards: the main job, on top of :func:`pumpid.fit`.
+
+A card gives the polished-rod load (the model's input) and position (the measured
+displacement). Its position zero and the static part of its load are arbitrary for the
+model, so a position offset is fitted by default; a single stroke is one period of a
+periodic motion, so the periodic steady state is the default initial state for such cards.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..cards import Card
+from ..engine.simulate import InitialState, simulate
+from ..job import fit
+from ..models import Kelvin, Model, model_class
+from ..result import CardInfo, FitResult, Prediction, Units
+
+__all__ = ["evaluate_prediction", "fit_card", "predict", "predict_card"]
+
+
+def _units(card: Card) -> Units:
+    return Units(load=card.load_unit or "load-unit", position=card.position_unit or "position-unit")
+
+
+def _require_time(card: Card) -> tuple[NDArray[np.float64], float | None]:
+    if card.t is None:
+        raise ValueError(
+            f"card {card.card_id or card.source!r} has no time: give the pumping speed "
+            "(spm=..., e.g. --spm 8.5) or the stroke period (period=... s)"
+        )
+    t = np.asarray(card.t, dtype=float)
+    period = card.period if card.periodic else None
+    if card.periodic and period is None and card.dt is not None:
+        period = card.n * card.dt
+    return t, period
+
+
+def fit_card(
+    card: Card,
+    model: str | Model | type[Model] = Kelvin,
+    *,
+    initial_state: InitialState | None = None,
+    offset: bool | float = True,
+    **fit_options: Any,
+) -> FitResult:
+    """Fit a model to one card (load in, position out).
+
+    Parameters
+    ----------
+    card : Card
+        A card with time (rebuilt from SPM or period when the file has none).
+    model : str, Model class or Model instance
+        ``"kelvin"`` (default), ``"maxwell"``, ``"msd"``; a class means an automatic start,
+        an instance is the starting guess.
+    initial_state : str or numbers, optional
+        Default: ``"periodic"`` for a single stroke (``card.periodic``), else ``"rest"``.
+    offset : bool or float
+        Fit a position offset (default True): a card's position zero is arbitrary.
+    **fit_options
+        Passed to :func:`pumpid.fit` (method, observe, scale, ...).
+
+    Returns
+    -------
+    FitResult
+        With ``extra["card"]`` holding the card's id, source and the notes of everything done
+        to its data.
+    """
+    t, period = _require_time(card)
+    if isinstance(model, str):
+        model = model_class(model)
+    if initial_state is None:
+        initial_state = "periodic" if card.periodic else "rest"
+    if initial_state == "periodic" and period is None:
+        raise ValueError(
+            f"card {card.card_id!r}: initial_state='periodic' needs the stroke period"
+        )
+    result = fit(
+        model, t, card.load, card.position, initial_state=initial_state, offset=offset,
+        period=period if initial_state == "periodic" else None, units=_units(card),
+        **fit_options,
+    )
+    return result.with_parts(card=CardInfo(
+        id=card.card_id, well=card.well_id, source=card.source,
+        time_source=card.time_source, spm=card.spm, period=card.period,
+        notes=tuple(card.notes)))
+
+
+def predict(
+    result: FitResult,
+    t: ArrayLike,
+    load: ArrayLike,
+    *,
+    initial_state: InitialState | None = None,
+    period: float | None = None,
+) -> NDArray[np.float64]:
+    """Displacement the fitted model predicts for another load record (same C and offset)."""
+    if result.model is None:
+        raise ValueError("the fit produced no model to predict with")
+    state = result.initial_state if initial_state is None else initial_state
+    if isinstance(state, list):
+        state = tuple(state)
+    y = simulate(result.model, t, load, observe=result.observe, initial_state=state,
+                 integrator=result.integrator, period=period)  # type: ignore[arg-type]
+    return result.scale * y + result.offset
+
+
+def evaluate_prediction(
+    measured: ArrayLike, predicted: ArrayLike
+) -> dict[str, float]:
+    """R^2 and RMSE of a prediction against measured displacement."""
+    m = np.asarray(measured, dtype=float)
+    p = np.asarray(predicted, dtype=float)
+    res = p - m
+    sst = float(np.sum((m - m.mean()) ** 2))
+    return {
+        "rmse": float(np.sqrt(np.mean(res**2))),
+        "r2": 1.0 - float(np.sum(res**2)) / sst if sst > 0 else math.nan,
+    }
+
+
+def predict_card(result: FitResult, card: Card) -> Prediction:
+    """Predict another card's position from its load with a fitted model (paper's Fig. 9).
+
+    Returns
+    -------
+    Prediction
+        The card's id, ``t``, ``load``, ``measured``, ``predicted`` arrays and the
+        prediction's ``r2`` and ``rmse`` (position units). The fit is not changed.
+    """
+    t, period = _require_time(card)
+    state = "periodic" if card.periodic else "rest"
+    predicted = predict(result, t, card.load, initial_state=state,
+                        period=period if state == "periodic" else None)
+    scores = evaluate_prediction(card.position, predicted)
+    return Prediction(card=card.card_id, t=t, load=np.asarray(card.load),
+                      measured=np.asarray(card.position), predicted=predicted, **scores)

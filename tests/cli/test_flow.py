@@ -1,0 +1,91 @@
+"""The ``pumpid flow`` commands on a parser of their own (as the main parser registers them)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import pytest
+
+from pumpid.cli.flow import add_flow_parser
+from pumpid.flow.pipeflow import Pipe, PowerLawFluid, newtonian_slowest_time_constant
+
+FLUID = ["--K", "10", "--rho", "1000", "--radius", "5e-3", "--length", "1"]
+
+
+def run(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="pumpid")
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_flow_parser(sub)
+    args = parser.parse_args(argv)
+    return int(args.func(args))
+
+
+def test_simulate_then_fit_json_round_trip(tmp_path, capsys):
+    out = tmp_path / "newtonian.csv"
+    assert run(["flow", "simulate", *FLUID, "--n", "1", "--dp", "1e5", "--samples", "201",
+                "-o", str(out)]) == 0
+    assert out.read_text().splitlines()[0] == "t [s],dp [Pa],q [m^3/s]"
+    capsys.readouterr()
+    assert run(["flow", "fit", str(out), "--json"]) == 0
+    obj = json.loads(capsys.readouterr().out)
+    for key in ("model", "method", "params", "scale", "converged", "iterations", "rmse", "r2",
+                "warnings"):
+        assert key in obj
+    assert obj["model"] == "FirstOrderLag" and obj["converged"] is True
+    assert obj["units"]["params"] == {"tau": "s", "gain": "(m^3/s)/(Pa)"}
+    tau1 = newtonian_slowest_time_constant(10.0, 1000.0, Pipe(5e-3, 1.0))
+    assert 0.9 * tau1 < obj["params"]["tau"] < tau1
+    assert obj["r2"] > 0.999
+    assert obj["flow"]["direction"] == "dp->q"
+
+
+def test_fit_text_table_and_report_folder(tmp_path, capsys):
+    out = tmp_path / "shear.csv"
+    assert run(["flow", "simulate", *FLUID, "--n", "0.4", "--dp", "2e5", "--samples", "151",
+                "--n-radial", "80", "-o", str(out)]) == 0
+    capsys.readouterr()
+    report = tmp_path / "report"
+    assert run(["flow", "fit", str(out), "--model", "shear-thinning", "--fix", "n=0.4",
+                "--out", str(report)]) == 0
+    text = capsys.readouterr().out
+    assert "tau" in text and " s" in text and "(m^3/s)/(Pa)" in text and "R^2 =" in text
+    assert "(fixed)" in text
+    for name in ("report.html", "result.json", "flow.png", "characteristic.png"):
+        assert (report / name).is_file()
+    html = (report / "report.html").read_text(encoding="utf-8")
+    assert "pressure drop in, flow rate out" in html
+
+
+def test_fit_reverse_direction_and_units(tmp_path, capsys):
+    path = tmp_path / "lpm.csv"
+    rows = ["t,dp,q"] + [f"{0.1 * i:.1f},{0 if i == 0 else 2.0},{(1 - 0.5 ** i) * 30:.12g}"
+                         for i in range(30)]
+    path.write_text("\n".join(rows) + "\n")
+    assert run(["flow", "fit", str(path), "--dp-unit", "bar", "--q-unit", "L/min",
+                "--json"]) == 0
+    obj = json.loads(capsys.readouterr().out)
+    assert obj["params"]["gain"] == pytest.approx(30 / 6e4 / 2e5, rel=0.05)
+    assert any("bar to Pa" in n for n in obj["flow"]["notes"])
+
+
+def test_study_command_writes_plot_and_table(tmp_path, capsys):
+    out = tmp_path / "study"
+    assert run(["flow", "study", *FLUID, "--n", "0.4", "--steps", "0.5,1,2", "--samples", "151",
+                "--n-radial", "60", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "log-log slope of tau_linear vs dp" in text
+    for name in ("tau_vs_step.png", "study.csv", "study.json", "report.html"):
+        assert (out / name).is_file()
+
+
+def test_errors_are_value_errors(tmp_path):
+    with pytest.raises(ValueError, match="either --dp"):
+        run(["flow", "simulate", *FLUID])
+    with pytest.raises(ValueError, match="no such file"):
+        run(["flow", "fit", str(tmp_path / "nope.csv")])
+    with pytest.raises(ValueError, match="--steps"):
+        run(["flow", "study", *FLUID, "--steps", "1"])
+    with pytest.raises(SystemExit):
+        run(["flow", "fit", "x.csv", "--model", "kelvin"])
+    assert PowerLawFluid(K=1, n=1, rho=1)  # constructor used by the commands

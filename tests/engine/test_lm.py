@@ -1,0 +1,159 @@
+"""The Levenberg-Marquardt machine on problems whose answers are known.
+
+Driven through :func:`pumpid.engine.solvers.run_python` (the same compiled state machine the
+card drivers step through) with residuals of ``a exp(-k t)`` in ``z = (ln a, ln k)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.optimize
+
+from pumpid import Stop
+from pumpid.engine import lm
+from pumpid.engine.solvers import run_python
+
+T = np.linspace(0.0, 3.0, 60)
+
+
+def _problem(amp: float, rate: float, noise: float = 0.0, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    data = amp * np.exp(-rate * T) + noise * rng.standard_normal(T.size)
+    calls: list[np.ndarray] = []
+
+    def evaluate(z: np.ndarray):
+        calls.append(z.copy())
+        a, k = math.exp(z[0]), math.exp(z[1])
+        model = a * np.exp(-k * T)
+        rows = np.vstack([model, -k * T * model, model - data])
+        r_fac = np.zeros((2, 2))
+        c = np.zeros(2)
+        cost = lm.householder(rows, 2, r_fac, c)
+        return cost, r_fac, c
+
+    return data, evaluate, calls
+
+
+def _solve(evaluate, z0, lo=(-np.inf, -np.inf), hi=(np.inf, np.inf), budget=200):
+    return run_python(evaluate, np.asarray(z0, float), np.asarray(lo, float),
+                      np.asarray(hi, float), tol=1e-12, max_evaluations=budget, n_capped=2)
+
+
+@pytest.mark.parametrize("cond", [1.0, 1e6])
+def test_householder_factor_matches_the_normal_equations(cond) -> None:
+    rng = np.random.default_rng(1)
+    q, n = 4, 50
+    jac = rng.standard_normal((q, n))
+    jac[-1] = jac[0] + jac[-1] / cond  # nearly dependent columns when cond is large
+    r = rng.standard_normal(n)
+    rows = np.vstack([jac, r])
+    r_fac = np.zeros((q, q))
+    qtr = np.zeros(q)
+    cost = lm.householder(rows.copy(), q, r_fac, qtr)
+    gram = jac @ jac.T
+    assert cost == pytest.approx(0.5 * r @ r, rel=1e-13)
+    np.testing.assert_allclose(r_fac.T @ r_fac, gram, rtol=1e-10, atol=1e-10 * np.abs(gram).max())
+    np.testing.assert_allclose(r_fac.T @ qtr, jac @ r, rtol=1e-9, atol=1e-9)
+    assert np.allclose(np.tril(r_fac, -1), 0.0)
+
+
+@pytest.mark.parametrize(("amp", "rate"), [(1.0, 0.5), (5.0, 2.0), (0.2, 1.2), (30.0, 0.1)])
+def test_reaches_the_optimum_from_far(amp, rate) -> None:
+    _data, evaluate, _calls = _problem(amp, rate)
+    out = _solve(evaluate, np.log([amp * 2.5, rate / 3.0]))
+    assert out.stops[0].converged
+    np.testing.assert_allclose(np.exp(out.z[0]), [amp, rate], rtol=1e-10)
+
+
+def test_noisy_problem_matches_scipy_least_squares() -> None:
+    data, evaluate, _calls = _problem(2.0, 0.7, noise=0.05, seed=3)
+    out = _solve(evaluate, np.log([1.0, 1.0]))
+    assert out.stops[0] in (Stop.GTOL, Stop.FTOL, Stop.XTOL)
+
+    def residual(z):
+        return np.exp(z[0]) * np.exp(-np.exp(z[1]) * T) - data
+
+    ref = scipy.optimize.least_squares(residual, np.log([1.0, 1.0]), method="lm", xtol=1e-15,
+                                       ftol=1e-15, gtol=1e-15)
+    # The minimum is unique and well conditioned: both solvers land on it to within their
+    # tolerances (the cost agrees far more tightly than the parameters can).
+    np.testing.assert_allclose(out.z[0], ref.x, rtol=1e-6)
+    assert out.cost[0] == pytest.approx(ref.cost, rel=1e-12)
+
+
+def test_a_bound_holds_the_coordinate_and_frees_the_others() -> None:
+    # The true rate (ln 2 = 0.69) lies above the bound 0.0: the rate stops there, and the
+    # amplitude is the best one for that rate.
+    _data, evaluate, _calls = _problem(3.0, 2.0)
+    out = _solve(evaluate, np.log([1.0, 0.5]), hi=(np.inf, 0.0))
+    assert out.stops[0].converged
+    assert out.z[0, 1] == 0.0
+    basis = np.exp(-T)
+    best_amp = (basis @ (3.0 * np.exp(-2.0 * T))) / (basis @ basis)
+    assert np.exp(out.z[0, 0]) == pytest.approx(best_amp, rel=1e-6)
+
+
+def test_log_steps_are_capped() -> None:
+    _data, evaluate, calls = _problem(1.0, 1.0)
+    z0 = np.log([1e4, 1.0])  # amplitude 1e4 times too large
+    _solve(evaluate, z0)
+    steps = np.abs(np.diff(np.vstack(calls), axis=0))
+    assert np.all(steps[:, 0] <= lm.MAX_LOG_STEP + 1e-12)
+
+
+def test_failures_and_budgets_are_reported() -> None:
+    _data, evaluate, _calls = _problem(1.0, 1.0)
+
+    def broken(z):
+        _cost, r_fac, c = evaluate(z)
+        return math.nan, r_fac, c
+
+    out = _solve(broken, np.log([3.0, 0.2]))
+    assert out.stops[0] is Stop.NOT_FINITE and not math.isfinite(out.cost[0])
+    short = _solve(evaluate, np.log([3.0, 0.2]), budget=3)
+    assert short.stops[0] is Stop.BUDGET and short.evaluations[0] == 3
+    assert "maximum number of model evaluations" in short.messages[0]
+
+
+def test_a_trial_point_that_cannot_be_evaluated_shrinks_the_step() -> None:
+    _data, evaluate, _calls = _problem(2.0, 0.3)
+    seen = {"n": 0}
+
+    def sometimes(z):
+        seen["n"] += 1
+        if seen["n"] == 2:  # the first trial point fails: the solver must recover
+            return math.nan, np.zeros((2, 2)), np.zeros(2)
+        return evaluate(z)
+
+    out = _solve(sometimes, np.log([5.0, 1.0]))
+    assert out.stops[0].converged
+    np.testing.assert_allclose(np.exp(out.z[0]), [2.0, 0.3], rtol=1e-9)
+
+
+def test_an_exact_start_stops_at_once() -> None:
+    _data, evaluate, calls = _problem(2.0, 0.3)
+    out = _solve(evaluate, np.log([2.0, 0.3]))
+    assert out.stops[0].converged and out.evaluations[0] <= 2 and len(calls) <= 2
+
+
+def test_a_coordinate_the_residual_ignores_stays_put() -> None:
+    # A third coordinate with an empty Jacobian column (a parameter the data do not see):
+    # the steps stay finite and never move it.
+    data = 2.0 * np.exp(-0.3 * T)
+
+    def evaluate(z):
+        a, k = math.exp(z[0]), math.exp(z[1])
+        model = a * np.exp(-k * T)
+        rows = np.vstack([model, -k * T * model, np.zeros_like(T), model - data])
+        r_fac = np.zeros((3, 3))
+        c = np.zeros(3)
+        return lm.householder(rows, 3, r_fac, c), r_fac, c
+
+    z0 = np.array([math.log(6.0), math.log(1.5), 0.7])
+    out = run_python(evaluate, z0, np.full(3, -np.inf), np.full(3, np.inf), tol=1e-12,
+                     max_evaluations=300, n_capped=2)
+    assert np.all(np.isfinite(out.z)) and out.z[0, 2] == 0.7
+    np.testing.assert_allclose(np.exp(out.z[0, :2]), [2.0, 0.3], rtol=1e-8)

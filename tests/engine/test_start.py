@@ -1,0 +1,158 @@
+"""Automatic start (pumpid.engine.start): candidates, multistart with a guess, valley walk."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pumpid import FirstOrder, Kelvin, LevenbergMarquardt, MassSpringDamper, Maxwell, fit, simulate
+from pumpid.engine.problem import CardData, build_problem
+from pumpid.engine.start import candidates, complete, find_starts, walk_valley
+
+from ..conftest import well_load
+
+T = np.linspace(0.0, 20.0, 1001)
+LOAD = well_load(T)
+KELVIN = Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0)
+ONE = np.zeros(1, dtype=np.int64)
+
+
+def _err(params, truth) -> float:
+    return max(abs(params[k] / v - 1) for k, v in truth.as_dict().items())
+
+
+def _problem(cls, t, load, data, **opts):
+    state = opts.pop("initial_state", "rest")
+    period = opts.pop("period", None)
+    return build_problem(cls, [CardData(t, load, data, state, period)], **opts)
+
+
+@pytest.mark.parametrize("truth", [KELVIN, Maxwell(k0=90.0, m=2.0, c1=40.0, k1=70.0),
+                                   MassSpringDamper(m=2.0, c=30.0, k=90.0)],
+                         ids=lambda m: type(m).__name__)
+def test_model_class_means_automatic_start(truth) -> None:
+    data = simulate(truth, T, LOAD)
+    res = fit(type(truth), T, LOAD, data)
+    assert res.converged, res.reason
+    assert _err(res.params, truth) < 1e-7
+    assert res.start.note.startswith("automatic start") and res.start.candidates > 10
+
+
+def test_first_order_automatic_start() -> None:
+    t = np.linspace(0, 10, 501)
+    f = np.sin(t) + 2
+    data = simulate(FirstOrder(tau=0.8), t, f)
+    res = fit(FirstOrder, t, f, data)
+    assert res.params["tau"] == pytest.approx(0.8, rel=1e-8)
+    # The equation-error form itself finds the time constant of noiseless data.
+    problem = _problem(FirstOrder, t, f, data)
+    theta, owner, kinds = candidates(problem, ONE)
+    assert "equation error" in kinds
+    assert np.any(np.abs(theta[:, 0] / 0.8 - 1) < 1e-3)
+
+
+@pytest.mark.parametrize(("cls", "observe", "truth"), [
+    (Kelvin, "u2", KELVIN), (Kelvin, "u", KELVIN),
+    (Maxwell, "u", Maxwell(k0=90.0, m=2.0, c1=40.0, k1=70.0))])
+def test_equation_error_recovers_noiseless_parameters(cls, observe, truth) -> None:
+    data = simulate(truth, T, LOAD, observe=observe)
+    problem = _problem(cls, T, LOAD, data, observe=observe)
+    theta, _owner, kinds = candidates(problem, ONE)
+    assert kinds[0] == "equation error"
+    assert all(np.all(np.isfinite(c)) and np.all(c > 0) for c in theta)
+    best = min(np.max(np.abs(c / truth.values - 1)) for c in theta)
+    assert best < 1e-2
+
+
+def test_candidates_are_ranked_with_their_best_scale_and_offset() -> None:
+    data = simulate(KELVIN, T, LOAD) + 3.0
+    problem = _problem(Kelvin, T, LOAD, data, offset=True)
+    z, cost = complete(problem, ONE, KELVIN.values[None])
+    assert z[0, -1] == pytest.approx(3.0, rel=1e-9) and cost[0] < 1e-12
+    # A shape at the wrong stiffness level is rescaled (the scale symmetry), not refused.
+    z, cost = complete(problem, ONE, 7.0 * KELVIN.values[None])
+    assert np.exp(z[0, :4]) == pytest.approx(KELVIN.values, rel=1e-9) and cost[0] < 1e-12
+
+
+def test_a_poor_guess_joins_the_multistart_and_loses() -> None:
+    data = simulate(KELVIN, T, LOAD)
+    # A guess far away (factors 0.005 to 1.4): plain lm from it ends in another minimum,
+    # not at the truth.
+    guess = KELVIN.values * np.array([0.0052, 1.3856, 0.6288, 0.0068])
+    plain = fit(Kelvin.from_values(guess), T, LOAD, data, multistart=False)
+    assert _err(plain.params, KELVIN) > 1e-3
+    starts = find_starts(_problem(Kelvin, T, LOAD, data), ONE, guess=guess[None])
+    assert not starts.from_guess[0]
+    guarded = fit(Kelvin.from_values(guess), T, LOAD, data, multistart=True)
+    assert _err(guarded.params, KELVIN) < 1e-7
+    assert "automatic" in guarded.start.note
+    # The default ("auto") sees the first fit's poor quality and falls back to the same.
+    auto = fit(Kelvin.from_values(guess), T, LOAD, data)
+    assert _err(auto.params, KELVIN) < 1e-7
+
+
+def test_a_good_guess_is_kept() -> None:
+    data = simulate(KELVIN, T, LOAD)
+    starts = find_starts(_problem(Kelvin, T, LOAD, data), ONE,
+                         guess=(KELVIN.values * 1.01)[None])
+    assert np.allclose(np.exp(starts.z[0, :4]), KELVIN.values, rtol=1e-3)
+
+
+def _weak_arm_card(noise: float = 0.0):
+    # A Maxwell arm much softer than the main spring (k0/k1 ~ 28), on a periodic card with
+    # an offset: the data pin the arm only along a long, curved, flat valley.
+    truth = Maxwell(k0=118.0, m=18.6, c1=52.0, k1=4.2)
+    period, n = 8.0, 401
+    t = np.arange(n) * period / n
+    load = well_load(t, period=period, seed=5)
+    data = simulate(truth, t, load, initial_state="periodic", period=period) + 12.0
+    data = data + noise * np.ptp(data) * np.random.default_rng(0).standard_normal(n)
+    return truth, t, load, data, {"initial_state": "periodic", "period": period,
+                                  "offset": True}
+
+
+def _floor_point(problem, truth, jump):
+    """A point on the valley's floor far from the truth: a jump along the weakest direction
+    from the truth, dropped back to the floor by a short polish that runs out there."""
+    from pumpid.engine import drive, lm
+
+    z_truth = np.r_[np.log(truth.values), 12.0]
+    data, model, settings = problem.arrays
+    rows = np.empty((problem.q + 1, problem.n_samples(0)))
+    assert drive.residual_rows(z_truth, 0, data, model, settings, rows)
+    span = float(np.ptp(problem.card(0)[2]))
+    rows[problem.q - 1] *= span
+    r_fac = np.zeros((problem.q, problem.q))
+    lm.householder(rows, problem.q, r_fac, np.zeros(problem.q))
+    _u, s, vt = np.linalg.svd(r_fac)
+    assert s[-1] / s[0] < 1e-4  # a valley the walk is meant for
+    z = z_truth + jump * vt[-1] * np.r_[np.ones(4), span]
+    out = LevenbergMarquardt(tol=1e-10).solve(problem, ONE, z[None], budget=10)
+    assert out.stops[0].key == "budget"
+    return out.z[0], float(out.cost[0])
+
+
+@pytest.mark.parametrize("jump", [1.0, 2.0])
+def test_valley_walk_reaches_the_truth_on_a_weak_maxwell_arm(jump) -> None:
+    truth, t, load, data, opts = _weak_arm_card()
+    problem = _problem(Maxwell, t, load, data, **opts)
+    z, cost = _floor_point(problem, truth, jump)
+    names = truth.param_names()
+    assert _err(dict(zip(names, np.exp(z[:4]), strict=True)), truth) > 1.0
+    zw, cw = walk_valley(problem, 0, z, cost)
+    assert cw < 1e-15 * cost
+    assert _err(dict(zip(names, np.exp(zw[:4]), strict=True)), truth) < 1e-9
+    res = fit(Maxwell, t, load, data, **opts)
+    assert _err(res.params, truth) < 1e-6
+
+
+def test_valley_walk_stays_put_on_noisy_data() -> None:
+    # With noise the valley floor is flat at the noise level: nothing to gain by walking.
+    truth, t, load, data, opts = _weak_arm_card(noise=0.01)
+    problem = _problem(Maxwell, t, load, data, **opts)
+    res = fit(truth, t, load, data, **opts)
+    z = np.r_[np.log(res.model.values), res.offset]
+    zw, cw = walk_valley(problem, 0, z, res.cost)
+    assert cw >= 0.95 * res.cost * (1 - 1e-9) or math.isclose(cw, res.cost)
