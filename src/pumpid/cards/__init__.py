@@ -9,6 +9,8 @@ Public names
 ------------
 Card, CardError, TIME_SOURCES
     The immutable card type, the one error type (a ``ValueError``), allowed time sources.
+printable
+    Card ids and file names with control characters escaped, for messages and screens.
 read_cards, read_card, parse_cards, detect_format, FORMATS
     Readers: delimited tables (CSV/TSV/semicolon/pipe, with or without header), pipe-delimited
     SCADA exports (one card per row), JSON, whitespace tables, sktime ``.ts``.
@@ -43,6 +45,7 @@ Conventions
 """
 
 from ._errors import CardError
+from ._printable import printable
 from ._readers import FORMATS, detect_format, parse_cards, read_card, read_cards
 from ._strokes import split_strokes
 from ._types import TIME_SOURCES, Card
@@ -70,6 +73,7 @@ __all__ = [
     "normalize_load_unit",
     "normalize_position_unit",
     "parse_cards",
+    "printable",
     "read_card",
     "read_cards",
     "split_strokes",
