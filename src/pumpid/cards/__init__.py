@@ -11,6 +11,8 @@ Card, CardError, TIME_SOURCES
     The immutable card type, the one error type (a ``ValueError``), allowed time sources.
 printable
     Card ids and file names with control characters escaped, for messages and screens.
+detect_column_roles, ColumnRoles, ROLE_CONFIDENCE_MIN
+    Which column of a headerless table is position and which is load, and how sure.
 read_cards, read_card, parse_cards, detect_format, FORMATS
     Readers: delimited tables (CSV/TSV/semicolon/pipe, with or without header), pipe-delimited
     SCADA exports (one card per row), JSON, whitespace tables, sktime ``.ts``.
@@ -47,6 +49,7 @@ Conventions
 from ._errors import CardError
 from ._printable import printable
 from ._readers import FORMATS, detect_format, parse_cards, read_card, read_cards
+from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
 from ._strokes import split_strokes
 from ._types import TIME_SOURCES, Card
 from ._units import (
@@ -63,12 +66,15 @@ __all__ = [
     "FORMATS",
     "LOAD_UNITS",
     "POSITION_UNITS",
+    "ROLE_CONFIDENCE_MIN",
     "TIME_SOURCES",
     "TIME_UNITS",
     "Card",
     "CardError",
+    "ColumnRoles",
     "convert_load",
     "convert_position",
+    "detect_column_roles",
     "detect_format",
     "normalize_load_unit",
     "normalize_position_unit",
