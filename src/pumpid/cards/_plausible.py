@@ -45,7 +45,8 @@ SWAP_CONFIDENCE = 0.95
 
 
 def _fmt(x: float) -> str:
-    return f"{x:.4g}"
+    # A range of values near +-1e308 overflows: say so rather than print "inf".
+    return f"{x:.4g}" if math.isfinite(x) else "beyond 1.8e+308"
 
 
 def _position_checks(label: str, pos: NDArray[np.float64], unit: str | None) -> list[str]:

@@ -128,7 +128,7 @@ class _UnitClues:
                     f"field {name!r} ({fmt(value)}) is not the stroke of the row's positions "
                     f"({fmt(stroke)}): its unit is not taken for the positions"
                 )
-        return self._system(fields, "position")
+        return self.system(fields, "position")
 
     def load(
         self, o: Opts, fields: list[str], line: int, load: np.ndarray, notes: list[str]
@@ -156,9 +156,9 @@ class _UnitClues:
                     f"field {name!r} ({fmt(value)}) is not the {what} of the row's loads "
                     f"({fmt(target)}): its unit is not taken for the loads"
                 )
-        return self._system(fields, "load")
+        return self.system(fields, "load")
 
-    def _system(self, fields: list[str], kind: str) -> tuple[str | None, str]:
+    def system(self, fields: list[str], kind: str) -> tuple[str | None, str]:
         if "system" not in self.roles:
             return None, ""
         value = fields[self.roles["system"]]
@@ -289,12 +289,12 @@ def read_scada(o: Opts, holder: list[str], column_keys: dict[str, str]) -> list[
                 if pr == "sp":
                     pos_unit, pos_where = clues.position(o, fields, lineno, pos, card_notes)
                 else:
-                    pos_unit, pos_where = clues._system(fields, "position")
+                    pos_unit, pos_where = clues.system(fields, "position")
             if load_unit is None and o.load_unit is None:
                 if lr == "sl":
                     load_unit, load_where = clues.load(o, fields, lineno, load, card_notes)
                 else:
-                    load_unit, load_where = clues._system(fields, "load")
+                    load_unit, load_where = clues.system(fields, "load")
             raw = Raw(
                 position=pos,
                 load=load,

@@ -303,8 +303,9 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
                     # Fortran exponents and decimal commas; plain text is not tried again.
                     if "d" in tok or "D" in tok or (decimal_comma and "," in tok):
                         try:
-                            value = num(o, tok, line=lineno, field=names[c],
-                                        decimal_comma=decimal_comma)  # fmt: skip
+                            value = num(
+                                o, tok, line=lineno, field=names[c], decimal_comma=decimal_comma
+                            )
                             comma_used[0] = comma_used[0] or "," in tok
                         except CardError:
                             value = None
@@ -384,8 +385,9 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
     values = [
         np.frombuffer(col.values, dtype=float) if col.values is not None else None for col in cols
     ]
-    text_ids = [np.frombuffer(col.ids, dtype=np.int64) if col.ids is not None else None
-                for col in cols]  # fmt: skip
+    text_ids = [
+        np.frombuffer(col.ids, dtype=np.int64) if col.ids is not None else None for col in cols
+    ]
     lines_all = np.frombuffer(line_no, dtype=np.int64)
 
     # ------------------------------------------------------------------ roles
@@ -400,9 +402,13 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
                 f"no header: column {candidates[0]} read as position and column "
                 f"{candidates[1]} as load (too few rows to recognise them)"
             )
-            column_roles = {"position": candidates[0], "load": candidates[1],
-                            "confidence": 0.0, "words": "low",
-                            "method": "default order (too few rows)"}  # fmt: skip
+            column_roles = {
+                "position": candidates[0],
+                "load": candidates[1],
+                "confidence": 0.0,
+                "words": "low",
+                "method": "default order (too few rows)",
+            }
         else:
             roles["position"], roles["load"] = roles_found.position, roles_found.load
             detected = True
@@ -422,14 +428,22 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
             if v is not None
         )
         how = "given by the caller (columns=)" if named else "header names"
-        column_roles = {"position": roles["position"], "load": roles["load"],
-                        "confidence": 1.0, "words": "certain", "method": how}  # fmt: skip
+        column_roles = {
+            "position": roles["position"],
+            "load": roles["load"],
+            "confidence": 1.0,
+            "words": "certain",
+            "method": how,
+        }
     pos_i, load_i = roles["position"], roles["load"]
     for c in (pos_i, load_i):
         if cols[c].first_text is not None:
             lineno, tok = cols[c].first_text  # type: ignore[misc]
-            raise o.error(number_problem(tok) if tok else "empty value where a number is "
-                          "expected", line=lineno, field=names[c])  # fmt: skip
+            raise o.error(
+                number_problem(tok) if tok else "empty value where a number is expected",
+                line=lineno,
+                field=names[c],
+            )
     moderate_warning = None
     if detected and column_roles["confidence"] < 0.95:
         moderate_warning = (
@@ -575,24 +589,22 @@ def _detect(
             line=lineno,
             field=f"column_{c}",
         )
-    numeric = free
-    texty: dict[int, str] = {}
     try:
         # A prefix of the rows decides as well as the whole (it holds many strokes), at a
         # bounded cost in memory and time for very long headerless records.
-        found = detect_column_roles([values[c][:_DETECT_ROWS] for c in numeric])  # type: ignore[index]
+        found = detect_column_roles([values[c][:_DETECT_ROWS] for c in free])  # type: ignore[index]
     except CardError as exc:
-        described = "; ".join(f"column {k}: {d}" for k, d in texty.items())
         raise o.error(
-            f"no header, and the position and load columns cannot be recognised: {exc.reason}"
-            + (f" ({described})" if described else "")
-            + "; "
-            + _cli_hint(*(free[:2] if len(free) >= 2 else (0, 1)))
+            f"no header, and the position and load columns cannot be recognised: {exc.reason}; "
+            + _cli_hint(free[0], free[1])
         ) from exc
-    pos, load = numeric[found.position], numeric[found.load]
-    other = {numeric[k]: d for k, d in found.other.items()}
-    other.update(texty)
+    pos, load = free[found.position], free[found.load]
+    other = {free[k]: d for k, d in found.other.items()}
     other.update({i: f"given role {r!r}" for r, i in roles.items()})
+    scores = {}
+    for pair, score in found.scores.items():
+        p, q = (int(k) for k in pair.split(","))
+        scores[f"{free[p]},{free[q]}"] = score
     found = ColumnRoles(
         position=pos,
         load=load,
@@ -600,7 +612,7 @@ def _detect(
         words=found.words,
         method=found.method,
         other=dict(sorted(other.items())),
-        scores=found.scores,
+        scores=scores,
     )
     if found.confidence < ROLE_CONFIDENCE_MIN:
         raise o.error(
