@@ -227,3 +227,11 @@ def test_short_headerless_table_reports_its_length_not_the_roles():
     pos, load = synthetic_card(rng, n=12)
     with pytest.raises(CardError, match="only 12 samples"):
         parse_cards(text_table([pos, load]), name="s.txt")
+
+
+@pytest.mark.parametrize(
+    "values", [[[1.0, 2.0], [1.0]], [["a", "b"], [1.0, 2.0]], np.arange(10.0), [object()]]
+)
+def test_bad_input_to_the_detector(values):
+    with pytest.raises(CardError):
+        detect_column_roles(values)

@@ -252,9 +252,13 @@ def _pair_score(pp: _Profile, pl: _Profile) -> float:
 
 
 def _as_columns(values: ArrayLike | Sequence[ArrayLike]) -> list[NDArray[np.float64]]:
-    if isinstance(values, np.ndarray) and values.ndim == 2:
-        return [np.asarray(values[:, k], dtype=float) for k in range(values.shape[1])]
-    cols = [np.asarray(v, dtype=float) for v in values]  # type: ignore[union-attr]
+    try:
+        if isinstance(values, np.ndarray) and values.ndim == 2:
+            cols = [np.asarray(values[:, k], dtype=float) for k in range(values.shape[1])]
+        else:
+            cols = [np.asarray(v, dtype=float) for v in values]  # type: ignore[union-attr]
+    except (TypeError, ValueError) as exc:
+        raise CardError(f"columns must be numeric: {exc}") from exc
     if any(c.ndim != 1 for c in cols) or len({c.size for c in cols}) > 1:
         raise CardError("columns must be 1-D and of equal length")
     return cols

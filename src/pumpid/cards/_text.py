@@ -21,7 +21,6 @@ __all__ = [
     "parse_number",
     "printable",
     "sniff_wide_encoding",
-    "split_lines",
 ]
 
 # Column / key names recognised for each role, after normalize_name(). Deliberately exact
@@ -57,17 +56,12 @@ _NAME_WITH_BRACKET_UNIT = re.compile(r"^(.*?)\s*[\[({]\s*([^\])}]*?)\s*[\])}]\s*
 _FORTRAN_D = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))[dD]([+-]?\d+)$")
 
 
-def split_lines(text: str) -> list[str]:
-    """Split on any newline convention, keeping editor line numbering (1-based index + 1)."""
-    return text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
-
-
 def iter_lines(text: str) -> Iterator[tuple[int, str]]:
-    """Yield ``(line number, line)`` for every line of ``text``, one at a time.
+    r"""Yield ``(line number, line)`` for every line of ``text``, one at a time.
 
-    Lines end at ``\n``, ``\r\n`` or a lone ``\r`` (numbered as an editor does). Unlike
-    :func:`split_lines` this never holds all the lines at once: a 50 MB table becomes
-    millions of small strings, several times the size of the text itself.
+    Lines end at ``\n``, ``\r\n`` or a lone ``\r`` and are numbered as an editor does. They
+    are never all held at once: a 50 MB table would become millions of small strings,
+    several times the size of the text itself.
     """
     n_cr = text.count("\r")
     if n_cr and n_cr != text.count("\r\n"):
