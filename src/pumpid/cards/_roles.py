@@ -139,6 +139,7 @@ class _Profile:
     sine: float = math.nan  # share of the variance in the strongest harmonic and its neighbours
     zero_min: bool = False  # minimum within 5 % of the range from zero
     y: NDArray[np.float64] | None = None  # the column scaled to at most 1 in magnitude
+    span: float = math.nan  # range of y
 
 
 def _upward_crossings(y: NDArray[np.float64], lo: float, hi: float) -> int:
@@ -160,12 +161,13 @@ def _profile(x: NDArray[np.float64]) -> _Profile:
     span = hi_v - lo_v
     if span <= 1e-12:
         return _Profile("constant")
-    distinct = int(np.unique(y).size)
+    ordered = np.sort(y)
+    distinct = 1 + int(np.count_nonzero(ordered[1:] != ordered[:-1]))
     if distinct < _MIN_DISTINCT:
         return _Profile(f"only {distinct} distinct values (a flag or a code)")
-    d = np.diff(y)
-    moving = d[d != 0]
-    up = float(np.count_nonzero(moving > 0)) / moving.size
+    d = y[1:] - y[:-1]
+    n_up, n_down = int(np.count_nonzero(d > 0)), int(np.count_nonzero(d < 0))
+    up = n_up / (n_up + n_down)
     if max(up, 1.0 - up) >= _MONOTONE:
         return _Profile("monotone (angle, index or time)")
     closed = np.append(y, y[0])
@@ -175,8 +177,8 @@ def _profile(x: NDArray[np.float64]) -> _Profile:
     # pickup and release stay sharp at that scale.
     lag = max(1, round(y.size / strokes / _SCALE_DIVISOR))
     ys = _smooth(y, lag)
-    total = float(np.abs(np.diff(ys)).sum() + abs(ys[0] - ys[-1]))
-    excess = max(0.0, total / (2.0 * float(np.ptp(ys)) * strokes) - 1.0)
+    total = float(np.abs(ys[1:] - ys[:-1]).sum()) + abs(float(ys[0] - ys[-1]))
+    excess = max(0.0, total / (2.0 * float(ys.max() - ys.min()) * strokes) - 1.0)
     d = y[lag:] - y[:-lag]
     dd = d[lag:] - d[:-lag]
     d1 = math.sqrt(float(np.dot(d, d)) / d.size)
@@ -184,10 +186,12 @@ def _profile(x: NDArray[np.float64]) -> _Profile:
     c = y - y.mean()
     den = float(np.dot(c, c))
     rho1 = float(np.dot(c[1:], c[:-1])) / den if den > 0 else 0.0
-    power = np.abs(np.fft.rfft(c)) ** 2
+    spectrum = np.fft.rfft(c)
+    power = spectrum.real**2 + spectrum.imag**2
     power[0] = 0.0
     k = int(np.argmax(power))
-    sine = float(power[max(1, k - 1) : k + 2].sum() / power.sum()) if power.sum() > 0 else 0.0
+    whole = float(power.sum())
+    sine = float(power[max(1, k - 1) : k + 2].sum()) / whole if whole > 0 else 0.0
     return _Profile(
         "candidate",
         excess=excess,
@@ -196,6 +200,7 @@ def _profile(x: NDArray[np.float64]) -> _Profile:
         sine=sine,
         zero_min=abs(lo_v) <= _ZERO_TOL * span,
         y=y,
+        span=span,
     )
 
 
@@ -219,11 +224,13 @@ def _position_likeness(p: _Profile) -> float:
     )
 
 
-def _work(yp: NDArray[np.float64], yl: NDArray[np.float64]) -> float:
+def _work(pp: _Profile, pl: _Profile) -> float:
     """Loop integral of load over position (trapezoids, closed), over the bounding box."""
-    w = float(np.dot(yl[1:] + yl[:-1], np.diff(yp)))
+    yp, yl = pp.y, pl.y
+    assert yp is not None and yl is not None
+    w = float(np.dot(yl[1:] + yl[:-1], yp[1:] - yp[:-1]))
     w += float((yl[0] + yl[-1]) * (yp[0] - yp[-1]))  # the closing segment
-    return 0.5 * w / (float(np.ptp(yp)) * float(np.ptp(yl)))
+    return 0.5 * w / (pp.span * pl.span)
 
 
 def _not_a_position(p: _Profile) -> float:
@@ -246,7 +253,7 @@ def _pair_score(pp: _Profile, pl: _Profile) -> float:
     score = _position_likeness(pp) - _position_likeness(pl)
     score -= _GATE_WEIGHT * _not_a_position(pp)
     score -= _GATE_WEIGHT * _not_a_load(pl)
-    score += _WORK_WEIGHT * max(-1.0, min(1.0, _work(pp.y, pl.y) / _WORK_SCALE))
+    score += _WORK_WEIGHT * max(-1.0, min(1.0, _work(pp, pl) / _WORK_SCALE))
     score += _ZERO_WEIGHT * (float(pp.zero_min) - float(pl.zero_min))
     return score
 
