@@ -268,3 +268,11 @@ def test_fixtures_read_as_before():
         "position": 1, "load": 2, "confidence": 1.0, "words": "certain", "method": "header names",
     }  # fmt: skip
     assert card.warnings == ()
+
+
+def test_a_column_named_like_the_readers_record_does_not_replace_it():
+    pos, load = stroke(30)
+    text = table(pos, load, "column_roles,position,load", prefix=lambda i: str(i))
+    (card,) = parse_cards(text, name="c.csv")
+    assert card.metadata["column_roles"]["method"] == "header names"
+    assert card.metadata["column_roles (column)"].shape == (30,)

@@ -553,6 +553,8 @@ def _keep_extra(
     notes: list[str],
 ) -> None:
     assert vals is not None
+    if name == "column_roles":  # the reader's own record keeps its key
+        name = "column_roles (column)"
     v = vals[start:end]
     t = None if ids is None else ids[start:end]
     if t is not None and np.any(t >= 0):
