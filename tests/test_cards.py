@@ -258,11 +258,13 @@ class TestCsv:
         p2 = write(tmp_path, "t.csv", csv_text())
         assert read_card(p2, columns={"t": None}).time_source == "none"
 
-    def test_headerless_csv_default_order_and_indices(self, tmp_path):
+    def test_headerless_csv_roles_detected_and_indices(self, tmp_path):
         pos, load = synthetic_stroke(25)
         p = write(tmp_path, "h.csv", "\n".join(f"{i * 14.6},{pos[i]},{load[i]}" for i in range(25)))
-        card = read_card(p)
-        assert any("column 0 read as position" in n for n in card.notes)
+        card = read_card(p)  # column 0 is a monotone angle: neither position nor load
+        assert any("column 1 read as position and column 2 as load" in n for n in card.notes)
+        assert card.metadata["column_roles"]["position"] == 1
+        np.testing.assert_allclose(card.position, pos)
         card = read_card(p, columns={"position": 1, "load": 2}, position_unit="in")
         np.testing.assert_allclose(card.load, load)
         assert "column_0" in card.metadata
@@ -385,10 +387,12 @@ class TestWhitespace:
         assert card.load[0] == 45.0 and card.position.max() == pytest.approx(4.8)
         assert card.source == "fortran_table.dat, lines 2-33"
 
-    def test_default_order_is_stated(self):
-        card = read_card(DATA / "fortran_table.dat")
-        assert card.position[0] == 45.0
-        assert any("column 0 read as position and column 1 as load" in n for n in card.notes)
+    def test_column_roles_recognised_and_stated(self):
+        card = read_card(DATA / "fortran_table.dat")  # load first, then position
+        assert card.load[0] == 45.0 and card.position.max() == pytest.approx(4.8)
+        assert any("column 1 read as position and column 0 as load" in n for n in card.notes)
+        roles = card.metadata["column_roles"]
+        assert (roles["position"], roles["load"]) == (1, 0) and roles["confidence"] > 0.95
 
     def test_fortran_d_exponent(self, tmp_path):
         pos, load = synthetic_stroke(20)

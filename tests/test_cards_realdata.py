@@ -15,6 +15,8 @@ import pytest
 
 from pumpid.cards import CardError, read_card, read_cards, split_strokes
 
+from .conftest import REPORTED
+
 RAW = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "raw"
 
 if not RAW.is_dir():
@@ -187,10 +189,47 @@ class TestCupb:
         kn = card.with_units(load="kN").to_units(load="N")
         assert kn.load.max() == pytest.approx(card.load.max() * 1000)
 
-    def test_default_column_order_would_be_wrong_and_is_noted(self):
-        card = read_card(self.FOLDER / "DK3.txt")
-        assert any("column 0 read as position" in n for n in card.notes)
-        assert card.position.max() > 70  # loads taken for positions: the note says why
+    def test_explicit_columns_win_even_when_wrong_and_a_warning_says_so(self):
+        card = read_card(self.FOLDER / "DK3.txt", columns={"position": 0, "load": 1})
+        assert card.position.max() > 70  # obeyed: loads taken for positions
+        assert card.metadata["column_roles"]["method"] == "given by the caller (columns=)"
+        assert any("look swapped" in w for w in card.warnings)
+
+
+# --------------------------------------------------------------------------- headerless sets
+# The two public headerless sets, and where position and load really are (SOURCE.md).
+HEADERLESS = {"cupb_dynamometer_card": (1, 0), "dzhang123_dynacard_realdata": (1, 2)}
+HEADERLESS_FILES = [
+    p
+    for folder in HEADERLESS
+    for p in sorted((RAW / folder).glob("*"))
+    if p.is_file() and p.name not in NOT_CARDS
+]
+
+
+@pytest.mark.parametrize(
+    "path", HEADERLESS_FILES, ids=[str(p.relative_to(RAW)) for p in HEADERLESS_FILES]
+)
+def test_headerless_sets_read_the_right_way_round_without_options(path):
+    want = HEADERLESS[path.parent.name]
+    card = read_card(path)
+    roles = card.metadata["column_roles"]
+    assert (roles["position"], roles["load"]) == want
+    assert roles["confidence"] >= 0.95 and roles["words"] in ("high", "very high")
+    assert any("recognised from their shapes" in n for n in card.notes)
+    assert not card.warnings
+    named = read_card(path, columns={"position": want[0], "load": want[1]})
+    np.testing.assert_array_equal(card.position, named.position)
+    np.testing.assert_array_equal(card.load, named.load)
+
+
+def test_headerless_sets_present_and_confidence_reported():
+    assert len(HEADERLESS_FILES) == 13
+    conf = [read_card(p).metadata["column_roles"]["confidence"] for p in HEADERLESS_FILES]
+    REPORTED.append(
+        f"column roles of {len(conf)} headerless public cards recognised without options: "
+        f"confidence {min(conf):.4f} to {max(conf):.4f}"
+    )
 
 
 # --------------------------------------------------------------------------- ShapeFormer

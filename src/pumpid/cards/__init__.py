@@ -1,9 +1,9 @@
 """Dynamometer card readers.
 
 Read load-versus-position cards from the file layouts met in practice, check them, and
-record in plain language (``Card.notes``) everything done to the data. This package knows
-nothing about the models fitted to the cards, and the rest of pumpid knows nothing about
-files.
+record in plain language everything done to the data (``Card.notes``) and everything that
+looks wrong but was not refused (``Card.warnings``). This package knows nothing about the
+models fitted to the cards, and the rest of pumpid knows nothing about files.
 
 Public names
 ------------
@@ -12,6 +12,10 @@ Card, CardError, TIME_SOURCES
 read_cards, read_card, parse_cards, detect_format, FORMATS
     Readers: delimited tables (CSV/TSV/semicolon/pipe, with or without header), pipe-delimited
     SCADA exports (one card per row), JSON, whitespace tables, sktime ``.ts``.
+detect_column_roles, ColumnRoles, ROLE_CONFIDENCE_MIN
+    Which column of a headerless table is position and which is load, and how sure.
+printable
+    Card ids and file names with control characters escaped, for messages and screens.
 split_strokes
     Cut a multi-stroke time record into single strokes.
 POSITION_UNITS, LOAD_UNITS, TIME_UNITS, convert_position, convert_load,
@@ -22,9 +26,22 @@ Conventions
 -----------
 * Values are never converted while reading. Units come from the caller
   (``position_unit=``/``load_unit=``, which win), else from the file (column-name
-  suffixes such as ``position_in``, ``load (kN)``, ``t_s``; JSON ``units``; SCADA header
-  suffixes), else stay ``None`` with a note. ``Card.to_units`` converts explicitly and
-  notes it. Time is always in seconds (``t_ms``/``time (ms)`` columns are scaled, noted).
+  suffixes such as ``position_in``, ``load (kN)``, ``t_s``; JSON ``units``; SCADA field
+  suffixes, or the export's summary fields, see below), else stay ``None``, said once per
+  file in the first card's notes. ``Card.to_units`` converts explicitly and notes it. Time
+  is always in seconds (``t_ms``/``time (ms)`` columns are scaled, noted).
+* Text: a byte-order mark (UTF-8, UTF-16, UTF-32) or the zero-byte pattern of UTF-16/UTF-32
+  decides the encoding, else UTF-8, else Latin-1 (noted); ``encoding=`` wins over all that.
+* Headerless tables: the position and load columns are recognised from their shapes
+  (:func:`detect_column_roles`: the position rises once to a single maximum and back per
+  stroke, smooth and sinusoid-like against sample index; the load is rougher and forms with
+  it a loop of positive work; monotone columns such as an angle, an index or time, constant
+  and few-valued columns are neither). The choice and its confidence go to a note and to
+  ``metadata["column_roles"]`` (``position``, ``load``, ``confidence``, ``words``,
+  ``method``, ``other``); tables with a header record there how the header named them.
+  Below ``ROLE_CONFIDENCE_MIN`` (0.9) the read is refused and the message asks for
+  ``columns=`` (command line ``--columns position=1,load=0``); below 0.95 the card gets a
+  warning. Given ``columns=`` always win.
 * Time: a time column wins. Otherwise SPM or period (caller first, then the file) rebuilds
   time assuming uniform sampling over ONE stroke: ``t_i = i*T/N`` for the ``N`` distinct
   samples; such cards are marked ``periodic``. Otherwise ``t`` is None.
@@ -32,18 +49,43 @@ Conventions
   dropped; for cards without a time column, a last sample equal to the first in both
   position and load (relative tolerance 1e-9) is dropped as a duplicated closing point.
   Nothing else is repaired: NaN/inf, fewer than ``min_samples`` samples, time not strictly
-  increasing, mismatched lengths, constant load or position, unknown units and unparsable
-  numbers raise :class:`CardError` naming the file, the line or field, and the problem.
+  increasing, mismatched lengths, constant load or position (or varying only in the 12th
+  significant digit, at any scale), unknown units, unparsable or complex numbers, a SPM or
+  period that is not a positive number, and the rows of one card id in two separate blocks
+  of a table (say A, B, A: refused rather than merged, naming both blocks' lines) raise
+  :class:`CardError` naming the file, the line or field, and the problem. No other
+  exception (nor a numpy warning) escapes the readers; messages show control characters
+  escaped (:func:`printable`), while ``Card.card_id`` keeps the raw id.
 * SCADA exports: by default each row gives its surface card; downhole lists, when present,
   are kept unchecked in ``metadata["downhole_position"]``/``["downhole_load"]``.
   ``scada_cards="downhole"`` or ``"both"`` returns checked downhole cards (id suffix
   ``/downhole``). SPM wins over ``Stroke Period`` (a note flags a disagreement > 1 %).
+  Without units in the list fields' names, a ``Stroke Length (in)`` field equal (within
+  2 %) to the stroke or top of the row's positions gives the position unit, a ``Peak
+  Load (lbf)`` / ``Min Load (lbf)`` field equal to the row's largest / smallest load gives
+  the load unit, and a ``Units`` field saying English gives inches and pounds-force; each
+  inference is checked on that row and noted.
 * Extra table columns are kept in ``metadata``: constant ones as scalars, varying numeric
   ones as arrays aligned with the kept samples.
+
+Plausibility warnings
+---------------------
+A polished-rod card whose magnitudes are unlikely gets a warning (``Card.warnings``) naming
+the card and the value with its unit; nothing is changed or refused. With an unknown unit,
+a value is flagged only when it is implausible in every unit it could be in.
+
+* stroke length (range of the position) above 15 m (590 in) or below 0.01 m (0.4 in);
+* a position more than 30 m from zero;
+* largest load magnitude above 450 kN (about 100,000 lbf) or below 10 N (about 2 lbf);
+* load range below 1 % of the mean load;
+* position and load that look swapped: the detector above, run on the two, prefers the
+  other order with confidence 0.95 or more (not checked when the roles were just detected).
 """
 
 from ._errors import CardError
+from ._printable import printable
 from ._readers import FORMATS, detect_format, parse_cards, read_card, read_cards
+from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
 from ._strokes import split_strokes
 from ._types import TIME_SOURCES, Card
 from ._units import (
@@ -60,16 +102,20 @@ __all__ = [
     "FORMATS",
     "LOAD_UNITS",
     "POSITION_UNITS",
+    "ROLE_CONFIDENCE_MIN",
     "TIME_SOURCES",
     "TIME_UNITS",
     "Card",
     "CardError",
+    "ColumnRoles",
     "convert_load",
     "convert_position",
+    "detect_column_roles",
     "detect_format",
     "normalize_load_unit",
     "normalize_position_unit",
     "parse_cards",
+    "printable",
     "read_card",
     "read_cards",
     "split_strokes",

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 
+from ._printable import printable
+
 __all__ = ["CardError"]
 
 
@@ -35,7 +37,9 @@ class CardError(ValueError):
     Notes
     -----
     ``str(error)`` reads ``"<path>, line <n>, field '<name>': <message>"``, leaving out the
-    parts that are unknown.
+    parts that are unknown. Non-printable characters in the path and the message (control
+    characters, ANSI escape codes from a hostile file or card id) are shown escaped, so the
+    message is safe to print; :attr:`path` keeps the name as given.
     """
 
     def __init__(
@@ -55,9 +59,10 @@ class CardError(ValueError):
     def _compose(self) -> str:
         where: list[str] = []
         if self.path:
-            where.append(str(self.path))
+            where.append(printable(str(self.path)))
         if self.line is not None:
             where.append(f"line {self.line}")
         if self.field:
             where.append(f"field {self.field!r}")
-        return f"{', '.join(where)}: {self.reason}" if where else self.reason
+        reason = printable(self.reason)
+        return f"{', '.join(where)}: {reason}" if where else reason

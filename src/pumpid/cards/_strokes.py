@@ -83,13 +83,21 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
         If the position is constant, no complete stroke is found, or every stroke is
         shorter than ``min_samples``.
     """
-    pos = card.position
-    if card.n < 2 or pos.max() == pos.min():
-        raise CardError(f"card {card.card_id!r}: constant position, no strokes", field="position")
-    with np.errstate(over="ignore", invalid="ignore"):
+    where = card.source or None
+    raw = card.position
+    if card.n < 2 or raw.max() == raw.min():
+        raise CardError(
+            f"card {card.card_id!r}: constant position, no strokes", path=where, field="position"
+        )
+    # Work on the position divided by its largest magnitude: every level and range below is
+    # then finite and meaningful at any scale (1e-300 or 1e300), and the boundaries found
+    # are the same sample indices.
+    with np.errstate(all="ignore"):
+        scaled = raw / np.max(np.abs(raw))
+        pos = scaled
         p_lo, p_hi = (float(v) for v in np.percentile(pos, [1.0, 99.0]))
-        span = p_hi - p_lo
-    if not np.isfinite(span) or span <= 0:
+    span = p_hi - p_lo
+    if not span > 0:
         p_lo, p_hi = float(pos.min()), float(pos.max())
         span = p_hi - p_lo
     ups = _upward_crossings(pos, p_lo + _LOW * span, p_lo + _HIGH * span)
@@ -125,7 +133,7 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
         tail = int(ups[-1] + np.argmin(pos[ups[-1] :]))
         # "At the usual bottom level" must allow for noise and drift, measured by how much
         # the interior bottoms scatter and by the sample noise of the raw position.
-        level = max(_LEVEL * span, float(np.ptp(pos[interior])), 3.0 * _noise_sd(card.position))
+        level = max(_LEVEL * span, float(np.ptp(pos[interior])), 3.0 * _noise_sd(scaled))
         # The head minimum lies below ``lo`` by construction (the record was below it before
         # the first upward crossing); the tail minimum must be checked, or a record ending
         # near the top would give a bogus short last stroke.
@@ -140,6 +148,7 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
         raise CardError(
             f"card {card.card_id!r}: no complete stroke found (a record with several strokes "
             "needs two bottoms of stroke)",
+            path=where,
             field="position",
         )
     segments = list(pairwise(bounds))
@@ -147,6 +156,7 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
     if not kept:
         raise CardError(
             f"card {card.card_id!r}: every stroke is shorter than {min_samples} samples",
+            path=where,
             field="position",
         )
     dropped = []

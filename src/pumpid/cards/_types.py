@@ -30,8 +30,17 @@ _UNIFORM_RTOL = 1e-3
 
 def _as_vector(values: ArrayLike, name: str) -> NDArray[np.float64]:
     try:
-        arr = np.array(values, dtype=float)  # a copy: the card must not share caller memory
+        probe = np.asarray(values)
     except (TypeError, ValueError) as exc:
+        raise CardError(f"{name} must be numeric: {exc}", field=name) from exc
+    # float() of a complex array silently drops the imaginary part (numpy only warns).
+    if np.iscomplexobj(probe) or (
+        probe.dtype == object and any(isinstance(v, complex) for v in probe.ravel().tolist())
+    ):
+        raise CardError(f"{name} holds complex numbers; a card holds real numbers only", field=name)
+    try:
+        arr = np.array(probe, dtype=float)  # a copy: the card must not share caller memory
+    except (TypeError, ValueError, OverflowError) as exc:
         raise CardError(f"{name} must be numeric: {exc}", field=name) from exc
     if arr.ndim != 1:
         raise CardError(f"{name} must be one-dimensional, got shape {arr.shape}", field=name)
@@ -78,7 +87,16 @@ class Card:
     notes : tuple of str
         Plain-language record of everything done to the data since it left the file.
     metadata : dict
-        Any other fields (class label, timestamps, extra columns ...).
+        Any other fields (class label, timestamps, extra columns ...). The readers add
+        ``metadata["column_roles"]`` for tables: which columns were read as position and
+        load, how sure the reader is, and how it decided.
+    warnings : tuple of str
+        What looks wrong with the data but was not refused: implausible magnitudes for a
+        polished-rod card (see the thresholds in :mod:`pumpid.cards`), position and load
+        that look swapped, column roles guessed with only moderate confidence. Filled by
+        the readers; each message names the card and the value with its unit. Unlike
+        :attr:`notes`, which say what was done to the data, warnings say what the user
+        should check. Transformations carry them over unchanged.
 
     Raises
     ------
@@ -101,6 +119,7 @@ class Card:
     periodic: bool = False
     notes: tuple[str, ...] = ()
     metadata: dict[str, Any] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         pos = _as_vector(self.position, "position")
@@ -144,6 +163,8 @@ class Card:
         object.__setattr__(self, "position_unit", pu)
         object.__setattr__(self, "load_unit", lu)
         object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
+        warns = (self.warnings,) if isinstance(self.warnings, str) else self.warnings
+        object.__setattr__(self, "warnings", tuple(str(w) for w in warns))
         object.__setattr__(self, "metadata", dict(self.metadata))
         object.__setattr__(self, "spm", None if self.spm is None else float(self.spm))
         object.__setattr__(self, "period", None if self.period is None else float(self.period))

@@ -1,0 +1,431 @@
+"""What every format reader shares: options, the raw record, number parsing and building.
+
+Every reader turns text into a list of :class:`Raw` records (numbers plus where they came
+from); :func:`build` then applies the documented clean-ups (flagged closure rows, duplicated
+closing point), checks everything and makes the :class:`~pumpid.cards.Card`. Keeping the
+checks in one place is what makes the error messages uniform across formats.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._errors import CardError
+from ._plausible import plausibility_warnings
+from ._text import iter_lines, number_problem, parse_number
+from ._types import Card
+from ._units import TIME_UNITS, normalize_load_unit, normalize_position_unit, normalize_time_unit
+
+# A duplicated closing point is an exact copy of the first sample; printed numbers are
+# copied text, so anything looser than this would start eating genuine samples.
+_CLOSE_RTOL = 1e-9
+# A signal whose range is below this fraction of its magnitude varies only in its last
+# printed digits (rounding), whatever its scale: it carries nothing to identify.
+FLAT_RTOL = 1e-12
+
+_INT_TEXT = re.compile(r"^[+-]?[0-9]{1,18}$")
+_TRUE = frozenset({"1", "true", "yes", "y", "t"})
+_FALSE = frozenset({"0", "false", "no", "n", "f", ""})
+
+ColumnRoleMeta = dict[str, Any]
+
+
+# --------------------------------------------------------------------------- options
+@dataclass(frozen=True)
+class Opts:
+    """The reading options, checked, plus what the readers need to name things."""
+
+    path: str  # label used in error messages
+    name: str  # file name used in Card.source
+    stem: str  # default card id
+    position_unit: str | None
+    load_unit: str | None
+    spm: float | None
+    period: float | None
+    columns: dict[str, str | int | None] | None
+    well_id: str | None
+    min_samples: int
+    drop_closing_point: bool
+    scada_cards: str
+    delimiter: str | None
+    file_notes: tuple[str, ...]
+
+    def error(
+        self, message: str, *, line: int | None = None, field: str | None = None
+    ) -> CardError:
+        return CardError(message, path=self.path, line=line, field=field)
+
+
+@dataclass
+class Raw:
+    """Numbers of one card as read, before checks and clean-ups."""
+
+    position: Sequence[float] | NDArray[np.float64]
+    load: Sequence[float] | NDArray[np.float64]
+    card_id: str
+    source: str
+    t: Sequence[float] | NDArray[np.float64] | None = None
+    lines: Sequence[int] | NDArray[np.int64] | None = None  # line of each sample
+    line: int | None = None  # line of the whole card (one-line formats)
+    pos_field: str = "position"
+    load_field: str = "load"
+    t_field: str = "t"
+    t_factor: float = 1.0
+    pos_unit: str | None = None  # canonical unit stated by the file
+    pos_unit_where: str = ""
+    load_unit: str | None = None
+    load_unit_where: str = ""
+    well_id: str | None = None
+    spm: float | None = None
+    period: float | None = None
+    rate_where: str = ""
+    notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    metadata: dict[str, Any] = field(default_factory=dict)
+    row_arrays: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    closure_mask: NDArray[np.bool_] | None = None
+    closure_field: str = ""
+    roles_detected: bool = False  # position/load chosen from their shapes
+
+
+# --------------------------------------------------------------------------- helpers
+def fmt(x: float) -> str:
+    return f"{x:.6g}"
+
+
+def line_span(lines: Sequence[int] | NDArray[np.int64]) -> str:
+    if len(lines) == 0:
+        return ""
+    lo, hi = int(min(lines)), int(max(lines))
+    return f"line {lo}" if lo == hi else f"lines {lo}-{hi}"
+
+
+def meaningful(text: str) -> Iterator[tuple[int, str]]:
+    """Non-blank lines that are not ``#`` comments, with their line numbers, lazily."""
+    for i, line in iter_lines(text):
+        head = line[:1]
+        if head and head not in " \t#\f\v":
+            yield i, line
+            continue
+        s = line.strip()
+        if s and not s.startswith("#"):
+            yield i, line
+
+
+def num(o: Opts, token: str, *, line: int | None, field: str, decimal_comma: bool = False) -> float:
+    """Parse a number or raise a CardError naming the line and field."""
+    tok = token.strip()
+    if not tok:
+        raise o.error("empty value where a number is expected", line=line, field=field)
+    try:
+        return parse_number(tok)
+    except OverflowError as exc:  # pragma: no cover - float() of text gives inf instead
+        raise o.error(f"number {tok!r} is out of range", line=line, field=field) from exc
+    except ValueError as exc:
+        if decimal_comma and tok.count(",") == 1:
+            try:
+                return parse_number(tok.replace(",", "."))
+            except ValueError:
+                pass
+        raise o.error(number_problem(tok), line=line, field=field) from exc
+
+
+def numbers(o: Opts, text: str, *, line: int, field: str, sep: str = ",") -> NDArray[np.float64]:
+    """A ``sep``-separated list of numbers as a float array (``field[i]`` in errors)."""
+    parts = text.split(sep)
+    if "_" not in text:
+        try:  # the common case in one pass; the slow path below finds the culprit
+            return np.array([float(p) for p in parts], dtype=float)
+        except ValueError:
+            pass
+    return np.array(
+        [num(o, p, line=line, field=f"{field}[{i}]") for i, p in enumerate(parts)], dtype=float
+    )
+
+
+def rate(o: Opts, value: float, *, line: int | None, field: str, what: str) -> float:
+    if math.isnan(value):
+        raise o.error(f"{what} is not a number (NaN)", line=line, field=field)
+    if not (math.isfinite(value) and value > 0):
+        raise o.error(
+            f"{what} must be a positive finite number, got {value!r}", line=line, field=field
+        )
+    return value
+
+
+def same(a: float, b: float) -> bool:
+    a, b = float(a), float(b)  # Python floats: no overflow warning near 1e308
+    return abs(a - b) <= _CLOSE_RTOL * max(abs(a), abs(b))
+
+
+def file_unit(o: Opts, kind: str, text: str | None, *, line: int | None, field: str) -> str | None:
+    """Validate a unit written in the file (column name, JSON units ...)."""
+    if text is None:
+        return None
+    caller = o.position_unit if kind == "position" else o.load_unit
+    norm = normalize_position_unit if kind == "position" else normalize_load_unit
+    try:
+        return norm(text, field=field)
+    except CardError as exc:
+        if caller is not None:  # the caller's declaration wins; nothing to validate
+            return None
+        raise o.error(exc.reason, line=line, field=field) from exc
+
+
+def time_factor(o: Opts, text: str | None, *, line: int | None, field: str) -> float:
+    if text is None:
+        return 1.0
+    try:
+        return TIME_UNITS[normalize_time_unit(text, field=field)]
+    except CardError as exc:
+        raise o.error(exc.reason, line=line, field=field) from exc
+
+
+def parse_flag(o: Opts, token: str, *, line: int, field: str) -> bool:
+    tok = token.strip().lower()
+    if tok in _TRUE:
+        return True
+    if tok in _FALSE:
+        return False
+    try:
+        value = parse_number(tok)
+    except ValueError:
+        value = math.nan
+    if not math.isnan(value):
+        return value != 0
+    raise o.error(
+        f"expected a yes/no flag (1/0, true/false), got {token!r}", line=line, field=field
+    )
+
+
+def scalar(token: str) -> int | float | str:
+    """A metadata value: int for integers as written, float for other numbers, else text."""
+    tok = token.strip()
+    if _INT_TEXT.match(tok):
+        return int(tok)
+    try:
+        return parse_number(tok)
+    except ValueError:
+        return tok
+
+
+def flat(x: NDArray[np.float64]) -> bool:
+    """True when ``x`` does not vary beyond rounding of its own magnitude (any scale)."""
+    hi, lo = float(np.max(x)), float(np.min(x))
+    if hi == lo:
+        return True
+    # Halves: the range of values near +-1e308 must not overflow.
+    return (hi / 2 - lo / 2) <= 0.5 * FLAT_RTOL * max(abs(hi), abs(lo))
+
+
+# --------------------------------------------------------------------------- building
+def build(raw: Raw, o: Opts, said: set[str]) -> Card:
+    """Check one raw card, apply the documented clean-ups and make the Card.
+
+    ``said`` collects file-wide notes already given to an earlier card of the same file
+    (unknown units), so that they are not repeated on every card.
+    """
+    notes = [*o.file_notes, *raw.notes]
+    meta = dict(raw.metadata)
+    with np.errstate(all="ignore"):
+        pos = np.asarray(raw.position, dtype=float)
+        load = np.asarray(raw.load, dtype=float)
+        t = None if raw.t is None else np.asarray(raw.t, dtype=float) * raw.t_factor
+    lines = None if raw.lines is None else np.asarray(raw.lines, dtype=np.int64)
+    arrays = dict(raw.row_arrays)
+    label = f"card {raw.card_id!r}"
+
+    def err(msg: str, k: int | None = None, fld: str | None = None) -> CardError:
+        line = raw.line
+        if k is not None and lines is not None and k < lines.size:
+            line = int(lines[k])
+        elif k is not None and fld is not None and raw.line is None:
+            fld = f"{fld}[{k}]"  # JSON: no lines, so point into the array instead
+        return o.error(f"{label}: {msg}", line=line, field=fld)
+
+    if pos.size == 0 and load.size == 0:
+        raise err("no samples", fld=raw.pos_field)
+    if pos.size != load.size:
+        raise err(
+            f"{raw.pos_field} has {pos.size} values but {raw.load_field} has {load.size}",
+            fld=raw.load_field,
+        )
+    if t is not None and t.size != pos.size:
+        raise err(
+            f"{raw.t_field} has {t.size} values but {raw.pos_field} has {pos.size}", fld=raw.t_field
+        )
+    for arr, fld in ((pos, raw.pos_field), (load, raw.load_field), (t, raw.t_field)):
+        if arr is None:
+            continue
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            k = int(bad[0])
+            if arr is t and np.isfinite(raw.t[k]):  # type: ignore[index]
+                raise err(f"time {raw.t[k]!r} overflows when converted to seconds", k, fld)  # type: ignore[index]
+            kind = "NaN" if np.isnan(arr[k]) else "infinite"
+            raise err(f"{kind} value in {fld} (sample {k})", k, fld)
+
+    keep = np.ones(pos.size, dtype=bool)
+    if raw.closure_mask is not None and raw.closure_mask.any():
+        idx = np.flatnonzero(raw.closure_mask)
+        keep &= ~raw.closure_mask
+        where = "" if lines is None else f" ({line_span(lines[idx])})"
+        notes.append(
+            f"{idx.size} row(s) flagged as closure point in column {raw.closure_field!r} "
+            f"dropped{where}"
+        )
+    if o.drop_closing_point and t is None and keep.sum() >= 2:
+        first, last = np.flatnonzero(keep)[[0, -1]]
+        if same(pos[first], pos[last]) and same(load[first], load[last]):
+            keep[last] = False
+            where = "" if lines is None else f" (line {int(lines[last])})"
+            notes.append(
+                "duplicated closing point dropped: the last sample repeats the first in "
+                f"position and load{where}"
+            )
+    if not keep.all():
+        pos, load = pos[keep], load[keep]
+        t = None if t is None else t[keep]
+        lines = None if lines is None else lines[keep]
+        arrays = {k: v[keep] for k, v in arrays.items()}
+
+    if t is not None and t.size > 1:
+        with np.errstate(invalid="ignore", over="ignore"):
+            bad = np.flatnonzero(~(np.diff(t) > 0))
+        if bad.size:
+            k = int(bad[0]) + 1
+            raise err(
+                f"time is not strictly increasing: {fmt(t[k])} s follows {fmt(t[k - 1])} s",
+                k,
+                raw.t_field,
+            )
+    if pos.size < o.min_samples:
+        first_line = None if lines is None or not lines.size else int(lines[0])
+        raise o.error(
+            f"{label}: only {pos.size} samples, at least {o.min_samples} needed",
+            line=first_line if first_line is not None else raw.line,
+            field=raw.pos_field,
+        )
+    for arr, fld, what in ((load, raw.load_field, "load"), (pos, raw.pos_field, "position")):
+        if flat(arr):
+            if float(arr.max()) == float(arr.min()):
+                raise err(f"constant {what} ({fmt(arr[0])} in every sample)", fld=fld)
+            raise err(
+                f"{what} is constant to {-math.log10(FLAT_RTOL):.0f} significant digits "
+                f"({fmt(arr.min())} to {fmt(arr.max())}): it varies only by rounding, nothing "
+                "to identify",
+                fld=fld,
+            )
+
+    # Units: the caller's declaration wins over what the file says (and a note records it).
+    units: dict[str, str | None] = {}
+    for kind, caller, stated, where in (
+        ("position", o.position_unit, raw.pos_unit, raw.pos_unit_where),
+        ("load", o.load_unit, raw.load_unit, raw.load_unit_where),
+    ):
+        if caller is not None:
+            if stated is not None and stated != caller:
+                notes.append(
+                    f"{kind} unit {caller} given by the caller overrides {stated} ({where})"
+                )
+            units[kind] = caller
+        elif stated is not None:
+            notes.append(f"{kind} unit {stated} taken from {where}")
+            units[kind] = stated
+        else:
+            # Said once per file: the unit is a property of the file, not of each card.
+            key = f"unknown {kind} unit"
+            if key not in said:
+                said.add(key)
+                notes.append(
+                    f"{kind} unit not stated in the file nor given by the caller: left unknown "
+                    "(noted on the first such card of the file only)"
+                )
+            units[kind] = None
+    if raw.t is not None and raw.t_factor != 1.0:
+        notes.append(f"time converted to seconds (x {raw.t_factor:g})")
+
+    # Time: file time wins; otherwise the caller's rate, then the file's rate.
+    spm, period, rate_where = raw.spm, raw.period, raw.rate_where
+    if o.spm is not None or o.period is not None:
+        if spm is not None or period is not None:
+            notes.append(
+                f"stroke rate given by the caller overrides the one in the file ({rate_where})"
+            )
+        spm, period, rate_where = o.spm, o.period, "given by the caller"
+    if spm is not None and period is None:
+        period = 60.0 / spm
+    elif period is not None and spm is None:
+        spm = 60.0 / period
+    if (
+        spm is not None
+        and period is not None
+        and not (math.isfinite(spm) and math.isfinite(period) and spm > 0 and period > 0)
+    ):
+        raise err(f"stroke rate out of range (SPM {spm!r}, period {period!r} s)")
+    well_id = raw.well_id
+    if o.well_id is not None:
+        if well_id is not None and well_id != o.well_id:
+            notes.append(
+                f"well id {o.well_id!r} given by the caller overrides {well_id!r} from the file"
+            )
+        well_id = o.well_id
+    periodic = False
+    n = int(pos.size)
+    if t is not None:
+        time_source = "file"
+        notes.append(f"time taken from the file ({raw.t_field})")
+    elif spm is not None and period is not None:
+        used = "spm" if raw.spm is not None or o.spm is not None else "period"
+        what = f"{fmt(spm)} SPM" if used == "spm" else f"stroke period {fmt(period)} s"
+        t = np.arange(n) * (period / n)
+        time_source = used
+        periodic = True
+        notes.append(
+            f"time rebuilt from {what} ({rate_where}) assuming uniform sampling over one stroke: "
+            f"t_i = i*T/N with T = {fmt(period)} s, N = {n}"
+        )
+    else:
+        time_source = "none"
+        notes.append("no time in the file and no SPM or period given: t is None")
+    for name, arr in arrays.items():
+        meta.setdefault(name, arr)
+    warnings = [
+        *raw.warnings,
+        *plausibility_warnings(
+            raw.card_id,
+            pos,
+            load,
+            units["position"],
+            units["load"],
+            fields=(raw.pos_field, raw.load_field),
+            check_swap=not raw.roles_detected,
+        ),
+    ]
+    try:
+        return Card(
+            position=pos,
+            load=load,
+            t=t,
+            position_unit=units["position"],
+            load_unit=units["load"],
+            source=raw.source,
+            card_id=raw.card_id,
+            well_id=well_id,
+            spm=spm,
+            period=period,
+            time_source=time_source,
+            periodic=periodic,
+            notes=tuple(notes),
+            metadata=meta,
+            warnings=tuple(warnings),
+        )
+    except CardError as exc:  # pragma: no cover - the checks above should catch everything
+        raise o.error(f"{label}: {exc.reason}", line=raw.line, field=exc.field) from exc

@@ -1,0 +1,185 @@
+"""JSON cards: one card object, a list of them, or ``{"cards": [...], <shared fields>}``."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._common import Opts, Raw, file_unit, rate, time_factor
+from ._text import interpret_name, normalize_name
+
+__all__ = ["read_json"]
+
+_JSON_ROLE_EXTRA = {
+    "units": "units", "position_unit": "position_unit", "load_unit": "load_unit",
+    "time_unit": "time_unit", "t_unit": "time_unit", "name": "card",
+}  # fmt: skip
+
+
+def _json_numbers(o: Opts, value: Any, where: str) -> NDArray[np.float64]:
+    if not isinstance(value, list):
+        raise o.error(f"expected a list of numbers, got {type(value).__name__}", field=where)
+    out = []
+    for i, v in enumerate(value):
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            shown = repr(v) if len(repr(v)) <= 40 else repr(v)[:37] + "..."
+            raise o.error(f"expected a number, got {shown}", field=f"{where}[{i}]")
+        try:
+            out.append(float(v))
+        except OverflowError as exc:
+            raise o.error("number out of range", field=f"{where}[{i}]") from exc
+    return np.array(out, dtype=float)
+
+
+def _json_rate(o: Opts, value: Any, where: str, what: str) -> float | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise o.error(f"{what} must be a number, got {type(value).__name__}", field=where)
+    try:
+        return rate(o, float(value), line=None, field=where, what=what)
+    except OverflowError as exc:
+        raise o.error(f"{what} out of range", field=where) from exc
+
+
+def _json_str(o: Opts, value: Any, where: str) -> str:
+    if isinstance(value, bool) or not isinstance(value, str | int | float):
+        raise o.error(f"expected a string, got {type(value).__name__}", field=where)
+    return str(value)
+
+
+def read_json(o: Opts, holder: list[str]) -> list[Raw]:
+    """Read a JSON document; ``holder`` holds the text and is emptied."""
+    try:
+        doc = json.loads(holder.pop())
+    except json.JSONDecodeError as exc:
+        raise o.error(f"invalid JSON: {exc.msg} (column {exc.colno})", line=exc.lineno) from exc
+    except (ValueError, RecursionError) as exc:
+        raise o.error(f"invalid JSON: {exc}") from exc
+    shared: dict[str, Any] = {}
+    prefix = "cards"
+    if isinstance(doc, list):
+        items: Any = doc
+        prefix = ""
+    elif isinstance(doc, dict):
+        cards_key = next((k for k in doc if isinstance(k, str) and k.lower() == "cards"), None)
+        if cards_key is not None:
+            items = doc[cards_key]
+            if not isinstance(items, list):
+                raise o.error("'cards' must be a list of card objects", field=cards_key)
+            shared = {k: v for k, v in doc.items() if k != cards_key}
+        else:
+            items, prefix = [doc], ""
+    else:
+        raise o.error(f"top level must be an object or a list, got {type(doc).__name__}")
+    if not items:
+        raise o.error("no cards in the JSON document", field=prefix or None)
+    out = []
+    for k, item in enumerate(items):
+        where = f"{prefix}[{k}]" if (prefix or len(items) > 1 or isinstance(doc, list)) else ""
+        if not isinstance(item, dict):
+            raise o.error(
+                f"a card must be an object, got {type(item).__name__}", field=where or None
+            )
+        out.append(_json_card(o, {**shared, **item}, where, k, len(items)))
+    return out
+
+
+def _json_card(o: Opts, obj: dict[str, Any], where: str, k: int, count: int) -> Raw:
+    def at(key: str) -> str:
+        return f"{where}.{key}" if where else key
+
+    found: dict[str, tuple[str, Any, str | None]] = {}
+    meta: dict[str, Any] = {}
+    notes: list[str] = []
+    for key, value in obj.items():
+        norm = normalize_name(key)
+        role: str | None = _JSON_ROLE_EXTRA.get(norm)
+        unit = None
+        if role is None:
+            role, _base, unit = interpret_name(key)
+        if role is None or role in found:
+            meta[key] = value
+            continue
+        found[role] = (key, value, unit)
+    for role in ("position", "load"):
+        if role not in found:
+            raise o.error(f"missing {role!r} array", field=where or None)
+    units_obj: dict[str, Any] = {}
+    if "units" in found:
+        ukey, uval, _ = found["units"]
+        if not isinstance(uval, dict):
+            raise o.error('\'units\' must be an object like {"position": "in"}', field=at(ukey))
+        for uk, uv in uval.items():
+            nk = normalize_name(uk)
+            nk = {"time": "t", "pos": "position", "force": "load"}.get(nk, nk)
+            if nk not in ("position", "load", "t"):
+                notes.append(f"unit for {uk!r} in 'units' not used")
+                continue
+            units_obj[nk] = (_json_str(o, uv, at(f"{ukey}.{uk}")), at(f"{ukey}.{uk}"))
+    for role, kind in (("position_unit", "position"), ("load_unit", "load"), ("time_unit", "t")):
+        if role in found and found[role][1] is not None:
+            units_obj.setdefault(
+                kind, (_json_str(o, found[role][1], at(found[role][0])), at(found[role][0]))
+            )
+    for role in ("position", "load", "t"):
+        if role in found and found[role][2] is not None:
+            units_obj.setdefault(role, (found[role][2], at(found[role][0])))
+
+    pkey, lkey = found["position"][0], found["load"][0]
+    pos = _json_numbers(o, found["position"][1], at(pkey))
+    load = _json_numbers(o, found["load"][1], at(lkey))
+    t = t_field = None
+    t_factor = 1.0
+    if "t" in found and found["t"][1] is not None:
+        t_field = at(found["t"][0])
+        t = _json_numbers(o, found["t"][1], t_field)
+        if "t" in units_obj:
+            t_factor = time_factor(o, units_obj["t"][0], line=None, field=units_obj["t"][1])
+    if "card" in found:
+        card_id = _json_str(o, found["card"][1], at(found["card"][0]))
+    else:
+        card_id = o.stem if count == 1 else f"{o.stem}[{k}]"
+    well_id = None
+    if "well" in found and found["well"][1] is not None:
+        well_id = _json_str(o, found["well"][1], at(found["well"][0]))
+    spm = period = None
+    rate_where = ""
+    if "spm" in found:
+        spm = _json_rate(o, found["spm"][1], at(found["spm"][0]), "spm")
+        rate_where = f"key {found['spm'][0]!r}"
+    if "period" in found:
+        period = _json_rate(o, found["period"][1], at(found["period"][0]), "period")
+        if spm is not None and period is not None:
+            meta[found["period"][0]] = period
+            period = None
+        elif period is not None:
+            rate_where = f"key {found['period'][0]!r}"
+    if "closure" in found:
+        meta[found["closure"][0]] = found["closure"][1]
+    pu = units_obj.get("position")
+    lu = units_obj.get("load")
+    return Raw(
+        position=pos,
+        load=load,
+        t=t,
+        t_field=t_field or "t",
+        t_factor=t_factor,
+        card_id=card_id,
+        source=f"{o.name}, {where or 'top level'}",
+        pos_field=at(pkey),
+        load_field=at(lkey),
+        pos_unit=None if pu is None else file_unit(o, "position", pu[0], line=None, field=pu[1]),
+        pos_unit_where="" if pu is None else f"JSON {pu[1]!r}",
+        load_unit=None if lu is None else file_unit(o, "load", lu[0], line=None, field=lu[1]),
+        load_unit_where="" if lu is None else f"JSON {lu[1]!r}",
+        well_id=well_id,
+        spm=spm,
+        period=period,
+        rate_where=rate_where,
+        notes=notes,
+        metadata=meta,
+    )

@@ -1,0 +1,185 @@
+"""Plausibility of a card's magnitudes for a polished-rod dynamometer card.
+
+Nothing here changes or refuses data: a value that is possible but unlikely for a sucker-rod
+pump (a stroke of kilometres, a load of a few millinewtons) becomes a warning naming the
+card and the value with its unit. When a unit is unknown, a value is flagged only if it is
+implausible in every unit it could be in.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._errors import CardError
+from ._roles import detect_column_roles
+from ._units import LOAD_UNITS, POSITION_UNITS
+
+__all__ = [
+    "MAX_LOAD_N",
+    "MAX_POSITION_M",
+    "MAX_STROKE_M",
+    "MIN_LOAD_N",
+    "MIN_LOAD_SWING",
+    "MIN_STROKE_M",
+    "SWAP_CONFIDENCE",
+    "plausibility_warnings",
+]
+
+#: Longest plausible polished-rod stroke (the longest long-stroke units reach about 10 m).
+MAX_STROKE_M = 15.0
+#: Shortest plausible stroke: below a centimetre the "card" is not a pump stroke.
+MIN_STROKE_M = 0.01
+#: Largest plausible distance of any position sample from zero.
+MAX_POSITION_M = 30.0
+#: Largest plausible polished-rod load in magnitude (about 100,000 lbf).
+MAX_LOAD_N = 450e3
+#: Smallest plausible largest load magnitude (about 2 lbf): a rod string weighs far more.
+MIN_LOAD_N = 10.0
+#: Smallest plausible load swing (range over the card) as a fraction of the mean load.
+MIN_LOAD_SWING = 0.01
+#: Confidence above which a card's position and load are said to look swapped.
+SWAP_CONFIDENCE = 0.95
+
+
+def _fmt(x: float) -> str:
+    # A range of values near +-1e308 overflows: say so rather than print "inf".
+    return f"{x:.4g}" if math.isfinite(x) else "beyond 1.8e+308"
+
+
+def _position_checks(label: str, pos: NDArray[np.float64], unit: str | None) -> list[str]:
+    out: list[str] = []
+    stroke = float(np.max(pos) / 2 - np.min(pos) / 2) * 2  # no overflow near 1e308
+    reach = float(np.max(np.abs(pos)))
+    if unit is not None:
+        k = POSITION_UNITS[unit]
+        s_m, r_m = stroke * k, reach * k
+        if s_m > MAX_STROKE_M:
+            out.append(
+                f"{label}: stroke length {_fmt(stroke)} {unit} ({_fmt(s_m)} m) is implausible "
+                f"for a polished rod (more than {MAX_STROKE_M:g} m); check the position unit"
+            )
+        elif s_m < MIN_STROKE_M:
+            out.append(
+                f"{label}: stroke length {_fmt(stroke)} {unit} ({_fmt(s_m)} m) is implausible "
+                f"for a polished rod (less than {MIN_STROKE_M:g} m); check the position unit"
+            )
+        if r_m > MAX_POSITION_M and s_m <= MAX_STROKE_M:
+            out.append(
+                f"{label}: positions reach {_fmt(reach)} {unit} ({_fmt(r_m)} m) from zero, "
+                f"more than {MAX_POSITION_M:g} m: a polished-rod position stays within a "
+                "stroke of its bottom"
+            )
+        return out
+    smallest, largest = min(POSITION_UNITS.values()), max(POSITION_UNITS.values())
+    small_name = min(POSITION_UNITS, key=POSITION_UNITS.__getitem__)
+    large_name = max(POSITION_UNITS, key=POSITION_UNITS.__getitem__)
+    if stroke * smallest > MAX_STROKE_M:
+        out.append(
+            f"{label}: stroke length {_fmt(stroke)} (position unit unknown) is implausible in "
+            f"any position unit (more than {MAX_STROKE_M:g} m even in {small_name})"
+        )
+    elif stroke * largest < MIN_STROKE_M:
+        out.append(
+            f"{label}: stroke length {_fmt(stroke)} (position unit unknown) is implausible in "
+            f"any position unit (less than {MIN_STROKE_M:g} m even in {large_name})"
+        )
+    elif reach * smallest > MAX_POSITION_M:
+        out.append(
+            f"{label}: positions reach {_fmt(reach)} (position unit unknown) from zero: "
+            f"more than {MAX_POSITION_M:g} m even in {small_name}"
+        )
+    return out
+
+
+def _load_checks(label: str, load: NDArray[np.float64], unit: str | None) -> list[str]:
+    out: list[str] = []
+    peak = float(np.max(np.abs(load)))
+    if unit is not None:
+        p_n = peak * LOAD_UNITS[unit]
+        if p_n > MAX_LOAD_N:
+            out.append(
+                f"{label}: load reaches {_fmt(peak)} {unit} ({_fmt(p_n)} N), implausible for "
+                f"a rod string (more than {MAX_LOAD_N:g} N, about 100,000 lbf); check the "
+                "load unit"
+            )
+        elif p_n < MIN_LOAD_N:
+            out.append(
+                f"{label}: load never exceeds {_fmt(peak)} {unit} ({_fmt(p_n)} N) in "
+                f"magnitude, implausible for a rod string (less than {MIN_LOAD_N:g} N); check "
+                "the load unit"
+            )
+    else:
+        smallest, largest = min(LOAD_UNITS.values()), max(LOAD_UNITS.values())
+        if peak * smallest > MAX_LOAD_N:
+            out.append(
+                f"{label}: load reaches {_fmt(peak)} (load unit unknown), implausible in any "
+                f"load unit (more than {MAX_LOAD_N:g} N even in N)"
+            )
+        elif peak * largest < MIN_LOAD_N:
+            out.append(
+                f"{label}: load never exceeds {_fmt(peak)} (load unit unknown) in magnitude, "
+                f"implausible in any load unit (less than {MIN_LOAD_N:g} N even in klbf)"
+            )
+    mean = float(np.mean(load / 2)) * 2  # halves: no overflow near 1e308
+    swing = float(np.max(load) / 2 - np.min(load) / 2) * 2
+    if mean != 0 and math.isfinite(swing) and swing < MIN_LOAD_SWING * abs(mean):
+        shown = "" if unit is None else f" {unit}"
+        out.append(
+            f"{label}: load varies by only {_fmt(swing)}{shown} around a mean of "
+            f"{_fmt(mean)}{shown} ({_fmt(100 * swing / abs(mean))} %, less than "
+            f"{100 * MIN_LOAD_SWING:g} %): a pump card's load swings with the fluid load"
+        )
+    return out
+
+
+def plausibility_warnings(
+    card_id: str,
+    position: NDArray[np.float64],
+    load: NDArray[np.float64],
+    position_unit: str | None,
+    load_unit: str | None,
+    *,
+    fields: tuple[str, str] = ("position", "load"),
+    check_swap: bool = True,
+) -> list[str]:
+    """Warnings about magnitudes and shapes implausible for a polished-rod card.
+
+    Parameters
+    ----------
+    card_id : str
+        Named in every message (shown escaped if it holds control characters).
+    position, load : ndarray
+        Finite samples of equal length.
+    position_unit, load_unit : str or None
+        Canonical units, None when unknown.
+    fields : tuple of str
+        Names of the position and load columns, for the swap message.
+    check_swap : bool
+        Also check whether the two look swapped (skip it when the roles were just detected
+        from the same shapes).
+
+    Returns
+    -------
+    list of str
+    """
+    label = f"card {card_id!r}"
+    if position.size == 0 or load.size == 0:
+        return []
+    with np.errstate(all="ignore"):  # extreme magnitudes are what is being looked for
+        out = _position_checks(label, position, position_unit)
+        out += _load_checks(label, load, load_unit)
+    if check_swap and position.size >= 8:
+        try:
+            roles = detect_column_roles([position, load])
+        except CardError:
+            roles = None
+        if roles is not None and roles.position == 1 and roles.confidence >= SWAP_CONFIDENCE:
+            out.append(
+                f"{label}: position and load look swapped: {fields[1]!r} has the shape of a "
+                f"stroke position and {fields[0]!r} that of a load (confidence "
+                f"{roles.confidence:.3f}); check which column is which (columns=)"
+            )
+    return out

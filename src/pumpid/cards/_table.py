@@ -1,0 +1,626 @@
+"""Delimited and whitespace tables: one sample per row, with or without a header.
+
+The text is read one line at a time and every number goes straight into a growing float
+array per column; no list of lines or of token lists is ever held. Rows of one card must be
+contiguous (a card-id column splits the file into cards). Without a header the position and
+load columns are recognised from their shapes (see :mod:`pumpid.cards._roles`).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from array import array
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._common import (
+    Opts,
+    Raw,
+    fmt,
+    line_span,
+    meaningful,
+    num,
+    parse_flag,
+    rate,
+    scalar,
+    time_factor,
+)
+from ._common import file_unit as _file_unit
+from ._errors import CardError
+from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
+from ._text import interpret_name, is_complex_text, is_number, normalize_name, number_problem
+
+__all__ = ["COLUMN_KEYS", "read_table"]
+
+#: ``columns=`` keys and the role each one names.
+COLUMN_KEYS = {
+    "t": "t", "time": "t", "position": "position", "load": "load", "card": "card",
+    "card_id": "card", "well": "well", "well_id": "well", "spm": "spm", "period": "period",
+    "closure": "closure",
+}  # fmt: skip
+
+# Rows of a headerless table looked at to recognise its columns.
+_DETECT_ROWS = 20_000
+# How the cells of a column are read.
+_NUM, _FLAG, _KEY, _ANY = "num", "flag", "key", "any"
+
+
+def _cli_hint(position: int, load: int) -> str:
+    return (
+        f"name them with columns={{'position': {position}, 'load': {load}}} "
+        f"(command line: --columns position={position},load={load})"
+    )
+
+
+def resolve_columns(
+    o: Opts, header: list[str] | None, ncols: int, header_line: int | None
+) -> tuple[dict[str, int], dict[str, str | None], list[str], bool]:
+    """Map roles to column indices.
+
+    Returns roles, unit text per role, notes, and whether position and load are still to be
+    detected from the data (headerless table, not named by the caller).
+    """
+    notes: list[str] = []
+    roles: dict[str, int] = {}
+    units: dict[str, str | None] = {}
+    disabled: set[str] = set()
+    names = header if header is not None else [f"column_{k}" for k in range(ncols)]
+    for key, spec in (o.columns or {}).items():
+        role = COLUMN_KEYS[key]
+        if spec is None:
+            disabled.add(role)
+            continue
+        if isinstance(spec, int):
+            if not 0 <= spec < ncols:
+                raise o.error(
+                    f"column index {spec} is out of range: the file has {ncols} columns "
+                    "(numbered from 0)",
+                    line=header_line,
+                    field=f"columns[{key!r}]",
+                )
+            idx = spec
+        else:
+            if header is None:
+                raise o.error(
+                    f"the file has no header row, so column {spec!r} cannot be found by name; "
+                    "give column numbers (from 0)",
+                    field=f"columns[{key!r}]",
+                )
+            want = spec.strip().lower()
+            matches = [k for k, h in enumerate(header) if h.strip().lower() == want]
+            if not matches:
+                matches = [
+                    k for k, h in enumerate(header) if normalize_name(h) == normalize_name(spec)
+                ]
+            if not matches:
+                raise o.error(
+                    f"no column named {spec!r}; the header has: {', '.join(map(repr, header))}",
+                    line=header_line,
+                    field=f"columns[{key!r}]",
+                )
+            idx = matches[0]
+        roles[role] = idx
+        units[role] = interpret_name(names[idx])[2] if header is not None else None
+    pending = False
+    if header is not None:
+        for idx, name in enumerate(header):
+            role, _base, unit = interpret_name(name)
+            if role is None or role in disabled or idx in roles.values():
+                continue
+            if role in roles:
+                notes.append(f"column {name!r} also looks like {role}; not used")
+                continue
+            roles[role] = idx
+            units[role] = unit
+        if "position" not in roles or "load" not in roles:
+            missing = [r for r in ("position", "load") if r not in roles]
+            raise o.error(
+                f"no {' or '.join(missing)} column recognised in the header "
+                f"({', '.join(map(repr, header))}); name them e.g. 'position_in', 'load_lbf' "
+                "or pass columns={'position': ..., 'load': ...}",
+                line=header_line,
+                field=missing[0],
+            )
+    elif "position" not in roles and "load" not in roles:
+        if ncols - len(roles) < 2:
+            raise o.error(
+                f"only {ncols} column found; position and load need two"
+                if ncols < 2
+                else f"only {ncols - len(roles)} column(s) left for position and load",
+                line=header_line,
+            )
+        pending = True
+    elif "position" not in roles or "load" not in roles:
+        raise o.error(
+            "columns= must give both 'position' and 'load' for a file without header",
+            field="columns",
+        )
+    if len(set(roles.values())) != len(roles):
+        raise o.error(f"two roles use the same column: {roles}", field="columns")
+    return roles, units, notes, pending
+
+
+class _Column:
+    """The cells of one column: floats, plus interned text for cells that are not numbers."""
+
+    __slots__ = ("first_text", "ids", "names", "texts", "values")
+
+    def __init__(self, with_values: bool = True) -> None:
+        self.values: array[float] | None = array("d") if with_values else None
+        self.ids: array[int] | None = None  # text id per row, -1 for numbers
+        self.texts: dict[str, int] = {}
+        self.names: list[str] = []
+        self.first_text: tuple[int, str] | None = None  # (line, token) of the first text
+
+    def intern(self, tok: str) -> int:
+        k = self.texts.get(tok)
+        if k is None:
+            k = self.texts[tok] = len(self.names)
+            self.names.append(tok)
+        return k
+
+    def has_text(self) -> bool:
+        return self.ids is not None
+
+
+def _splitter(o: Opts, delimiter: str | None) -> Callable[[str, int], list[str]]:
+    if delimiter is None:
+        return lambda line, _lineno: line.split()
+
+    def split(line: str, lineno: int) -> list[str]:
+        if '"' not in line:  # no quoting: a plain split is what the csv module would do
+            return [tok.strip() for tok in line.split(delimiter)]
+        try:
+            tokens = next(csv.reader([line], delimiter=delimiter, skipinitialspace=True))
+        except (csv.Error, StopIteration) as exc:
+            raise o.error(f"cannot split the line into fields: {exc}", line=lineno) from exc
+        return [tok.strip() for tok in tokens]
+
+    return split
+
+
+def _looks_like_header(tokens: list[str]) -> bool:
+    # Complex numbers are numbers written wrongly, not column names: refuse them later.
+    return any(tok and not is_number(tok) and not is_complex_text(tok) for tok in tokens)
+
+
+def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
+    """Read a delimited or whitespace table; ``holder`` holds the text and is emptied."""
+    rows = meaningful(holder.pop())  # the generator holds the only reference to the text
+    first = next(rows, None)
+    if first is None:
+        raise o.error("no data rows")
+    split = _splitter(o, delimiter)
+    first_line, first_text = first
+    first_toks = split(first_text, first_line)
+    header: list[str] | None = None
+    pending_row: tuple[int, list[str]] | None = None
+    if _looks_like_header(first_toks):
+        header = [h if h else f"column_{k}" for k, h in enumerate(first_toks)]
+        ncols = len(header)
+    else:
+        pending_row = (first_line, first_toks)
+        ncols = len(first_toks)
+    hl = first_line if header is not None else None
+    roles, unit_text, col_notes, detect = resolve_columns(o, header, ncols, hl)
+    names = header if header is not None else [f"column_{k}" for k in range(ncols)]
+    where_cols = "header" if header is not None else "first row"
+    decimal_comma = delimiter == ";"
+
+    pos_unit = load_unit = None
+    if not detect:
+        pos_i, load_i = roles["position"], roles["load"]
+        pos_unit = _file_unit(o, "position", unit_text.get("position"), line=hl, field=names[pos_i])
+        load_unit = _file_unit(o, "load", unit_text.get("load"), line=hl, field=names[load_i])
+    t_i, card_i, well_i = roles.get("t"), roles.get("card"), roles.get("well")
+    t_factor = 1.0
+    if t_i is not None:
+        t_factor = time_factor(o, unit_text.get("t"), line=hl, field=names[t_i])
+    period_factor = 1.0
+    if roles.get("period") is not None:
+        period_factor = time_factor(
+            o, unit_text.get("period"), line=hl, field=names[roles["period"]]
+        )
+    key_i = card_i if card_i is not None else well_i
+
+    # ------------------------------------------------------------------ cell readers
+    mode: dict[int, str] = {}
+    for c in range(ncols):
+        role = next((r for r, i in roles.items() if i == c), None)
+        if role in ("position", "load", "t", "spm", "period"):
+            mode[c] = _NUM
+        elif role == "closure":
+            mode[c] = _FLAG
+        elif c in (card_i, well_i):
+            mode[c] = _KEY
+        else:
+            mode[c] = _ANY
+    cols = [_Column(with_values=mode[c] != _KEY) for c in range(ncols)]
+    line_no: array[int] = array("q")
+    comma_used = [False]
+
+    def slow_number(tok: str, lineno: int, c: int) -> float:
+        try:
+            value = num(o, tok, line=lineno, field=names[c], decimal_comma=decimal_comma)
+        except CardError as exc:
+            if c == t_i and (any(ch in tok for ch in ":/T") or tok.count("-") > 1):
+                raise o.error(
+                    f"{exc.reason}: date/time stamps are not read as time; convert them "
+                    "to seconds, or ignore the column with columns={'t': None}",
+                    line=lineno,
+                    field=names[c],
+                ) from exc
+            raise
+        if decimal_comma and "," in tok:
+            comma_used[0] = True
+        return value
+
+    def reader(c: int) -> Callable[[str, int], None]:
+        col = cols[c]
+        kind = mode[c]
+        if kind == _KEY:
+            assert col.ids is None
+            col.ids = ids = array("q")
+            is_card = c == key_i
+
+            def read_key(tok: str, lineno: int) -> None:
+                if is_card and not tok:
+                    raise o.error("empty card identifier", line=lineno, field=names[c])
+                ids.append(col.intern(tok))
+
+            return read_key
+        assert col.values is not None
+        append = col.values.append
+        if kind == _NUM:
+
+            def read_num(tok: str, lineno: int) -> None:
+                if "_" not in tok:
+                    try:
+                        append(float(tok))
+                        return
+                    except ValueError:
+                        pass
+                append(slow_number(tok, lineno, c))
+
+            return read_num
+        if kind == _FLAG:
+
+            def read_flag(tok: str, lineno: int) -> None:
+                append(1.0 if parse_flag(o, tok, line=lineno, field=names[c]) else 0.0)
+
+            return read_flag
+
+        def read_any(tok: str, lineno: int) -> None:
+            value: float | None = None
+            if "_" not in tok:
+                try:
+                    value = float(tok)
+                except ValueError:
+                    # Fortran exponents and decimal commas; plain text is not tried again.
+                    if "d" in tok or "D" in tok or (decimal_comma and "," in tok):
+                        try:
+                            value = num(
+                                o, tok, line=lineno, field=names[c], decimal_comma=decimal_comma
+                            )
+                            comma_used[0] = comma_used[0] or "," in tok
+                        except CardError:
+                            value = None
+            if value is not None:
+                append(value)
+                if col.ids is not None:
+                    col.ids.append(-1)
+                return
+            if col.ids is None:  # the first text in this column: earlier rows were numbers
+                col.ids = array("q", [-1]) * (len(col.values) if col.values is not None else 0)
+                col.first_text = (lineno, tok)
+            append(math.nan)
+            col.ids.append(col.intern(tok))
+
+        return read_any
+
+    readers = [reader(c) for c in range(ncols)]
+    extra = [c for c in range(ncols) if mode[c] == _ANY]
+
+    # ------------------------------------------------------------------ the rows
+    # Blocks of contiguous rows with the same card key: (key id, first row, first line,
+    # first token of every extra column).
+    blocks: list[tuple[int, int, int, list[str]]] = []
+    block_comma: set[int] = set()
+    finished: dict[int, tuple[int, int]] = {}  # key id -> (first line, last line)
+    split_card: tuple[int, tuple[int, int], int] | None = None
+    key_ids = cols[key_i].ids if key_i is not None else None
+    prev_line = 0
+
+    def separate_blocks_error(key: int, first: tuple[int, int], start: int, end: int) -> CardError:
+        assert key_i is not None
+        card = cols[key_i].names[key]
+        return o.error(
+            f"card {card!r} has rows in two separate blocks, lines {first[0]}-{first[1]} and "
+            f"lines {start}-{end}, with rows of other cards between; a card's rows must be "
+            "contiguous: sort the file by card, or give each block its own id",
+            line=start,
+            field=names[key_i],
+        )
+
+    def all_rows() -> Any:
+        if pending_row is not None:
+            yield pending_row[0], pending_row[1]
+        for lineno, line in rows:
+            yield lineno, split(line, lineno)
+
+    for r, (lineno, toks) in enumerate(all_rows()):
+        if len(toks) != ncols:
+            raise o.error(
+                f"expected {ncols} fields (as in the {where_cols}), found {len(toks)}", line=lineno
+            )
+        for c in range(ncols):
+            readers[c](toks[c], lineno)
+        line_no.append(lineno)
+        if key_ids is not None:
+            kid = key_ids[-1]
+            if not blocks or kid != blocks[-1][0]:
+                if split_card is not None:
+                    raise separate_blocks_error(*split_card, prev_line)
+                if blocks:
+                    finished[blocks[-1][0]] = (blocks[-1][2], prev_line)
+                if kid in finished:
+                    split_card = (kid, finished[kid], lineno)
+                blocks.append((kid, r, lineno, [toks[c] for c in extra]))
+        elif not blocks:
+            blocks.append((-1, 0, lineno, [toks[c] for c in extra]))
+        if comma_used[0]:
+            block_comma.add(len(blocks) - 1)
+            comma_used[0] = False
+        prev_line = lineno
+    if split_card is not None:
+        raise separate_blocks_error(*split_card, prev_line)
+    nrows = len(line_no)
+    if nrows == 0:
+        raise o.error("header but no data rows", line=first_line)
+
+    values = [
+        np.frombuffer(col.values, dtype=float) if col.values is not None else None for col in cols
+    ]
+    text_ids = [
+        np.frombuffer(col.ids, dtype=np.int64) if col.ids is not None else None for col in cols
+    ]
+    lines_all = np.frombuffer(line_no, dtype=np.int64)
+
+    # ------------------------------------------------------------------ roles
+    column_roles: dict[str, Any]
+    detected = False
+    if detect:
+        roles_found = _detect(o, values, cols, roles, nrows)
+        if roles_found is None:  # too few rows to judge: let the sample count refuse
+            candidates = [c for c in range(ncols) if c not in roles.values()]
+            roles["position"], roles["load"] = candidates[0], candidates[1]
+            col_notes.append(
+                f"no header: column {candidates[0]} read as position and column "
+                f"{candidates[1]} as load (too few rows to recognise them)"
+            )
+            column_roles = {
+                "position": candidates[0],
+                "load": candidates[1],
+                "confidence": 0.0,
+                "words": "low",
+                "method": "default order (too few rows)",
+            }
+        else:
+            roles["position"], roles["load"] = roles_found.position, roles_found.load
+            detected = True
+            others = "; ".join(f"column {k}: {d}" for k, d in roles_found.other.items())
+            col_notes.append(
+                f"no header: column {roles_found.position} read as position and column "
+                f"{roles_found.load} as load, recognised from their shapes with "
+                f"{roles_found.words} confidence ({roles_found.confidence:.3f})"
+                + (f"; other columns: {others}" if others else "")
+                + "; pass columns= to change"
+            )
+            column_roles = roles_found.to_metadata()
+    else:
+        named = any(
+            COLUMN_KEYS[k] in ("position", "load")
+            for k, v in (o.columns or {}).items()
+            if v is not None
+        )
+        how = "given by the caller (columns=)" if named else "header names"
+        column_roles = {
+            "position": roles["position"],
+            "load": roles["load"],
+            "confidence": 1.0,
+            "words": "certain",
+            "method": how,
+        }
+    pos_i, load_i = roles["position"], roles["load"]
+    for c in (pos_i, load_i):
+        if cols[c].first_text is not None:
+            lineno, tok = cols[c].first_text  # type: ignore[misc]
+            raise o.error(
+                number_problem(tok) if tok else "empty value where a number is expected",
+                line=lineno,
+                field=names[c],
+            )
+    moderate_warning = None
+    if detected and column_roles["confidence"] < 0.95:
+        moderate_warning = (
+            f"the position and load columns of this headerless file were recognised with only "
+            f"{column_roles['words']} confidence ({column_roles['confidence']:.3f}): check them, "
+            f"and if they are wrong {_cli_hint(load_i, pos_i)}"
+        )
+
+    # ------------------------------------------------------------------ the cards
+    used = set(roles.values())
+    out: list[Raw] = []
+    pos_all, load_all = values[pos_i], values[load_i]
+    assert pos_all is not None and load_all is not None
+    t_all = values[t_i] if t_i is not None else None
+    bounds = [b[1] for b in blocks] + [nrows]
+    for b, (kid, start, _line0, firsts) in enumerate(blocks):
+        end = bounds[b + 1]
+        lines = lines_all[start:end]
+        notes = list(col_notes)
+        card_id = cols[key_i].names[kid] if key_i is not None else o.stem
+        raw = Raw(
+            position=pos_all[start:end],
+            load=load_all[start:end],
+            t=None if t_all is None else t_all[start:end],
+            card_id=card_id,
+            source=f"{o.name}, {line_span(lines)}",
+            lines=lines,
+            pos_field=names[pos_i],
+            load_field=names[load_i],
+            t_field=names[t_i] if t_i is not None else "t",
+            t_factor=t_factor,
+            pos_unit=pos_unit,
+            pos_unit_where=f"column name {names[pos_i]!r}",
+            load_unit=load_unit,
+            load_unit_where=f"column name {names[load_i]!r}",
+            notes=notes,
+            metadata={"column_roles": dict(column_roles)},
+            roles_detected=detected,
+        )
+        if moderate_warning is not None:
+            raw.warnings.append(moderate_warning)
+        if well_i is not None:
+            ids = text_ids[well_i]
+            assert ids is not None
+            wells = np.unique(ids[start:end])
+            if wells.size > 1:
+                shown = ", ".join(sorted(cols[well_i].names[int(w)] for w in wells))
+                raise o.error(
+                    f"card {card_id!r} spans several wells ({shown})",
+                    line=int(lines[0]),
+                    field=names[well_i],
+                )
+            raw.well_id = cols[well_i].names[int(wells[0])] or None
+        for role in ("spm", "period"):
+            col = roles.get(role)
+            if col is None:
+                continue
+            vals = values[col]
+            assert vals is not None
+            vals = vals[start:end]
+            bad = np.flatnonzero(~np.isfinite(vals))
+            if bad.size:
+                k = int(bad[0])
+                rate(o, float(vals[k]), line=int(lines[k]), field=names[col], what=role)
+            if np.any(vals != vals[0]):
+                k = int(np.flatnonzero(vals != vals[0])[0])
+                raise o.error(
+                    f"{role} changes within card {card_id!r} ({fmt(vals[0])} then "
+                    f"{fmt(vals[k])}); one card has one stroke rate",
+                    line=int(lines[k]),
+                    field=names[col],
+                )
+            with np.errstate(over="ignore"):
+                value = float(vals[0]) * (period_factor if role == "period" else 1.0)
+            value = rate(o, value, line=int(lines[0]), field=names[col], what=role)
+            setattr(raw, role, value)
+            raw.rate_where = raw.rate_where or f"column {names[col]!r}"
+        if raw.spm is not None and raw.period is not None:
+            # SPM wins; the period is kept in metadata so nothing from the file is lost.
+            raw.metadata[names[roles["period"]]] = raw.period
+            raw.period = None
+        col = roles.get("closure")
+        if col is not None:
+            flags = values[col]
+            assert flags is not None
+            raw.closure_mask = flags[start:end] > 0.5
+            raw.closure_field = names[col]
+        # Everything else is kept: constant columns as scalars, varying numeric ones as arrays.
+        for j, c in enumerate(extra):
+            if c in used:
+                continue
+            _keep_extra(raw, names[c], values[c], text_ids[c], start, end, firsts[j], notes)
+        if b in block_comma:
+            notes.append("decimal commas read as decimal points")
+        out.append(raw)
+    return out
+
+
+def _keep_extra(
+    raw: Raw,
+    name: str,
+    vals: NDArray[np.float64] | None,
+    ids: NDArray[np.int64] | None,
+    start: int,
+    end: int,
+    first: str,
+    notes: list[str],
+) -> None:
+    assert vals is not None
+    if name == "column_roles":  # the reader's own record keeps its key
+        name = "column_roles (column)"
+    v = vals[start:end]
+    t = None if ids is None else ids[start:end]
+    if t is not None and np.any(t >= 0):
+        if np.all(t == t[0]):
+            raw.metadata[name] = scalar(first)
+        else:
+            notes.append(f"column {name!r} has varying non-numeric values; not kept")
+        return
+    if np.all(v == v[0]) or np.all(np.isnan(v)):
+        raw.metadata[name] = scalar(first)
+    else:
+        raw.row_arrays[name] = np.array(v)  # a copy: the file-wide column must not live on
+
+
+def _detect(
+    o: Opts,
+    values: list[NDArray[np.float64] | None],
+    cols: list[_Column],
+    roles: dict[str, int],
+    nrows: int,
+) -> ColumnRoles | None:
+    """Recognise position and load in a headerless table, or refuse."""
+    if nrows < o.min_samples:
+        return None
+    free = [c for c in range(len(cols)) if c not in roles.values()]
+    # Without a header every column was a number on the first row: text further down is a
+    # broken number, not a text column.
+    broken = [cols[c].first_text for c in free if cols[c].first_text is not None]
+    if broken:
+        lineno, tok = min(broken)  # type: ignore[type-var]
+        c = next(c for c in free if cols[c].first_text == (lineno, tok))
+        raise o.error(
+            number_problem(tok) if tok else "empty value where a number is expected",
+            line=lineno,
+            field=f"column_{c}",
+        )
+    try:
+        # A prefix of the rows decides as well as the whole (it holds many strokes), at a
+        # bounded cost in memory and time for very long headerless records.
+        found = detect_column_roles([values[c][:_DETECT_ROWS] for c in free])  # type: ignore[index]
+    except CardError as exc:
+        raise o.error(
+            f"no header, and the position and load columns cannot be recognised: {exc.reason}; "
+            + _cli_hint(free[0], free[1])
+        ) from exc
+    pos, load = free[found.position], free[found.load]
+    other = {free[k]: d for k, d in found.other.items()}
+    other.update({i: f"given role {r!r}" for r, i in roles.items()})
+    scores = {}
+    for pair, score in found.scores.items():
+        p, q = (int(k) for k in pair.split(","))
+        scores[f"{free[p]},{free[q]}"] = score
+    found = ColumnRoles(
+        position=pos,
+        load=load,
+        confidence=found.confidence,
+        words=found.words,
+        method=found.method,
+        other=dict(sorted(other.items())),
+        scores=scores,
+    )
+    if found.confidence < ROLE_CONFIDENCE_MIN:
+        raise o.error(
+            "no header, and which column is position and which is load cannot be told with "
+            f"confidence: the best guess, position = column {pos} and load = column {load}, "
+            f"has confidence {found.confidence:.2f} (below {ROLE_CONFIDENCE_MIN:g}); "
+            + _cli_hint(pos, load)
+        )
+    return found

@@ -1,0 +1,258 @@
+"""Hostile input through the readers.
+
+Whatever a file holds (random bytes, broken versions of the made-up fixtures, extreme
+numbers, NaN and infinity, mixed encodings, very long lines, empty columns, duplicate
+headers), :func:`read_cards` either returns cards whose arrays are finite and of matching
+lengths, or raises :class:`CardError` whose message names the file. Nothing else escapes,
+not even a numpy ``RuntimeWarning``, and every message, note and warning is printable.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from pumpid.cards import Card, CardError, read_cards
+
+DATA = Path(__file__).parent / "data" / "cards"
+FIXTURES = {p.name: p.read_bytes() for p in sorted(DATA.iterdir()) if p.is_file()}
+NAME = "hostile-input"  # every message must name the file: look for this
+
+QUICK = settings(
+    max_examples=150,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("hostile")
+
+
+def check(folder: Path, data: bytes, suffix: str = ".csv", **options) -> list[Card] | None:
+    """Write ``data`` to a file, read it and check the only allowed outcomes."""
+    path = folder / f"{NAME}{suffix}"
+    path.write_bytes(data)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a leaked RuntimeWarning fails the test
+        try:
+            cards = read_cards(path, **options)
+        except CardError as exc:
+            msg = str(exc)
+            assert NAME in msg, msg
+            assert msg.isprintable(), msg
+            return None
+    assert cards
+    for card in cards:
+        assert isinstance(card, Card)
+        assert card.position.shape == card.load.shape == (card.n,)
+        assert card.n >= options.get("min_samples", 20)
+        assert np.all(np.isfinite(card.position)) and np.all(np.isfinite(card.load))
+        if card.t is not None:
+            assert card.t.shape == (card.n,) and np.all(np.isfinite(card.t))
+            assert np.all(np.diff(card.t) > 0)
+        for text in (*card.notes, *card.warnings):
+            assert isinstance(text, str) and text.isprintable(), text
+    return cards
+
+
+# --------------------------------------------------------------------------- tokens
+EXTREME = [
+    "1e308", "-1e308", "1.7976931348623157e308", "1e309", "-1e309", "1e-308", "-1e-308",
+    "5e-324", "2.2e-308", "4.9e-324", "-0.0", "0", "0.0", "+0", "9" * 40, "-" + "9" * 400,
+    "1" + "0" * 5000, "nan", "NaN", "-nan", "inf", "-inf", "Infinity", "1.0D+308", "1D-320",
+    "1+2j", "(3-4j)", "2j", "1_000", "0x10", "1e", ".", "-", "", " ", "١٢٣", "１２", "1,5",
+    "\x1b[31m5\x1b[0m", "\u200b7", "'8'", '"9"', "1e308,1e308", "?",
+]  # fmt: skip
+numbers = st.one_of(
+    st.sampled_from(EXTREME),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.floats(min_value=-1e4, max_value=1e4).map(lambda x: f"{x:.6g}"),
+    st.integers(min_value=-(10**30), max_value=10**30).map(str),
+)
+words = st.sampled_from(
+    ["position", "load", "t", "time (ms)", "card_id", "well", "spm", "period", "position_in",
+     "load_lbf", "Position [m]", "Load (kN)", "is_closure_point", "", "x", "position",
+     "load (furlong)", "t_s", "\x1b[2J", "名前", "a\tb"]
+)  # fmt: skip
+ENCODINGS = ["utf-8", "utf-8-sig", "utf-16", "utf-16-le", "utf-16-be", "utf-32", "latin-1"]
+
+
+SCALES = [1e-300, 1e-6, 1.0, 1e6, 1e300]
+GOOD_HEADERS = [
+    ["position_in", "load_lbf"],
+    ["t_s", "position", "load"],
+    ["card_id", "position", "load", "spm"],
+    ["load (kN)", "Position [m]", "is_closure_point"],
+    ["position", "position", "load"],  # a duplicated name
+    ["position", "", "load", ""],  # empty names
+]
+
+
+@st.composite
+def delimited(draw) -> bytes:
+    """A card-like table with hostile cells here and there, any encoding and line ending."""
+    sep = draw(st.sampled_from([",", ";", "\t", "|", " "]))
+    header = draw(st.one_of(st.sampled_from(GOOD_HEADERS), st.lists(words, min_size=1, max_size=5)))
+    with_header = draw(st.booleans())
+    ncols = len(header)
+    nrows = draw(st.integers(0, 60))
+    sp, sl = draw(st.sampled_from(SCALES)), draw(st.sampled_from(SCALES))
+    th = 2 * np.pi * np.arange(nrows) / max(nrows, 1)
+    pos = (sp * 50 * (1 - np.cos(th))).tolist()
+    load = (sl * (8000 + 2000 * np.tanh(4 * np.sin(th)))).tolist()
+    hostile_rate = draw(st.sampled_from([0, 0, 20, 5]))
+    lines = [sep.join(h.replace(sep, "_") for h in header)] if with_header else []
+    for i in range(nrows):
+        row = []
+        for name in header:
+            if "load" in name.lower():
+                row.append(repr(load[i]))
+            elif "card" in name:
+                row.append("C1")
+            elif name.startswith("t"):
+                row.append(repr(0.1 * i))
+            elif name in ("spm", "is_closure_point"):
+                row.append("7" if name == "spm" else "0")
+            else:
+                row.append(repr(pos[i]))
+        if hostile_rate and draw(st.integers(0, hostile_rate)) == 0:
+            row[draw(st.integers(0, ncols - 1))] = draw(numbers)
+        if hostile_rate and draw(st.integers(0, 4 * hostile_rate)) == 0:
+            row = row[:-1]
+        lines.append(sep.join(row))
+    text = draw(st.sampled_from(["\n", "\r\n", "\r"])).join(lines)
+    encoding = draw(st.sampled_from(ENCODINGS))
+    try:
+        data = text.encode(encoding)
+    except UnicodeEncodeError:
+        data = text.encode("utf-8")
+    if draw(st.integers(0, 5)) == 0:  # mixed encodings: a second part in another one
+        data += draw(st.sampled_from(["7,8\n", "é,ü\n"])).encode(draw(st.sampled_from(ENCODINGS)))
+    return data
+
+
+@st.composite
+def scada(draw) -> bytes:
+    n = draw(st.integers(0, 30))
+    cells = draw(st.lists(numbers, min_size=n, max_size=n))
+    good = [repr(float(50 * (1 - np.cos(2 * np.pi * i / max(n, 1))))) for i in range(n)]
+    loads = [c if draw(st.booleans()) else g for c, g in zip(cells, good, strict=True)]
+    header = "Well|SPM|Stroke Length (in)|Peak Load (lbf)|Surface Positions|Surface Loads"
+    spm = draw(numbers)
+    row = f"W\x07|{spm}|{draw(numbers)}|{draw(numbers)}|{','.join(good)}|{','.join(loads)}"
+    return (header + "\n" + row + "\n").encode("utf-8")
+
+
+@st.composite
+def json_doc(draw) -> bytes:
+    n = draw(st.integers(0, 30))
+    values = st.one_of(
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.integers(min_value=-(10**400), max_value=10**400),
+        st.sampled_from([None, True, "1", [], {}]),
+    )
+    pos = [float(i) for i in range(n)]
+    if n and draw(st.booleans()):
+        pos[draw(st.integers(0, n - 1))] = draw(values)
+    load = [float(5 + (i % 3)) for i in range(n)]
+    doc = {"card_id": draw(words), "position": pos, "load": load, "spm": draw(values)}
+    text = json.dumps(doc, allow_nan=True, default=str)
+    return text.encode("utf-8")
+
+
+# --------------------------------------------------------------------------- properties
+@QUICK
+@given(st.binary(max_size=3000))
+def test_random_bytes(folder, data):
+    check(folder, data)
+
+
+@QUICK
+@given(st.sampled_from(sorted(FIXTURES)), st.integers(0, 10_000), st.booleans())
+def test_truncated_fixtures(folder, name, cut, from_start):
+    data = FIXTURES[name]
+    k = cut % (len(data) + 1)
+    check(folder, data[k:] if from_start else data[:k], Path(name).suffix)
+
+
+_inserts = st.one_of(
+    st.sampled_from([t.encode("utf-8") for t in EXTREME]),
+    st.sampled_from([b"\x00", b"\xff\xfe", b"\xfe\xff", b"\xef\xbb\xbf", b"\r", b"\x1b[2J",
+                     "é".encode("utf-16"), b"|", b",", b";", b"\n\n", b"@data\n", b"{"]),
+    st.binary(min_size=1, max_size=6),
+)  # fmt: skip
+
+
+@QUICK
+@given(
+    st.sampled_from(sorted(FIXTURES)),
+    st.lists(st.tuples(st.integers(0, 10_000), _inserts, st.booleans()), min_size=1, max_size=4),
+)
+def test_mutated_fixtures(folder, name, edits):
+    data = bytearray(FIXTURES[name])
+    for at, payload, replace in edits:
+        i = at % (len(data) + 1)
+        if replace:
+            data[i : i + len(payload)] = payload
+        else:
+            data[i:i] = payload
+    check(folder, bytes(data), Path(name).suffix)
+
+
+@QUICK
+@given(delimited())
+def test_hostile_tables(folder, data):
+    check(folder, data)
+    check(folder, data, min_samples=2)
+
+
+@QUICK
+@given(scada(), st.sampled_from(["surface", "both"]))
+def test_hostile_scada_rows(folder, data, which):
+    check(folder, data, ".txt", min_samples=2, scada_cards="surface")
+    check(folder, data, ".txt", min_samples=2, format="scada", scada_cards=which)
+
+
+@QUICK
+@given(json_doc())
+def test_hostile_json(folder, data):
+    check(folder, data, ".json", min_samples=2)
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=list(HealthCheck))
+@given(st.integers(10_000, 200_000), st.sampled_from(["token", "columns", "list"]))
+def test_very_long_lines(folder, size, kind):
+    if kind == "token":
+        data = b"position,load\n" + b"1" * size + b",2\n"
+    elif kind == "columns":
+        data = (",".join(["1"] * (size // 2)) + "\n").encode() * 3
+    else:
+        values = ",".join(["1.5"] * (size // 4))
+        data = f"Well|Surface Positions|Surface Loads\nW|{values}|{values}\n".encode()
+    check(folder, data)
+    check(folder, b'position,load\n"' + b"x" * size + b'",1\n')
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "position,position,load\n" + "".join(f"{i % 9},{i % 5},{i % 7}\n" for i in range(30)),
+        "position,,load,\n" + "".join(f"{i % 9},,{i % 7},\n" for i in range(30)),
+        ",,\n" * 30,
+        "load,load\n" + "1,2\n" * 30,
+        "\n".join(["1e308 1e308"] * 30),
+        "\n".join(["5e-324 -0.0"] * 30),
+        "\n".join(f"{(-1) ** i * 1.7e308!r},{i}" for i in range(30)),
+    ],
+)
+def test_duplicate_headers_empty_columns_and_extremes(folder, text):
+    check(folder, text.encode())
+    check(folder, text.encode("utf-16"), min_samples=2)
