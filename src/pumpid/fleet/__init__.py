@@ -1,0 +1,1 @@
+"""Fleet analysis: many wells' fit results over time, which changed, when and how."""

@@ -1,0 +1,1 @@
+"""Rod-pump helpers: synthetic pumping-unit kinematics, cards and fields of wells."""
