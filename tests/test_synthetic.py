@@ -114,8 +114,14 @@ def test_synthetic_card_fields() -> None:
     assert card.metadata["parameters"] == model.as_dict()
     again = synthetic_card(model, spm=8.0, n_samples=120, noise=(0.001, 0.004), seed=4)
     np.testing.assert_array_equal(card.load, again.load)
-    with pytest.raises(ValueError, match="Nyquist"):
-        periodic_load(model, np.tile([0.0, 1.0], 8), 7.5)
+    # a position with content at half the sampling rate is still followed exactly
+    zigzag = np.tile([0.0, 1.0], 8) + np.sin(2 * np.pi * np.arange(16) / 16)
+    load = periodic_load(model, zigzag, 7.5, observe="u")
+    t = np.arange(16) * 7.5 / 16
+    y = pumpid.simulate(model, t, load, observe="u", initial_state="periodic", period=7.5)
+    np.testing.assert_allclose(y - y.mean(), zigzag - zigzag.mean(), atol=1e-10)
+    with pytest.raises(ValueError, match="hold"):
+        periodic_load(model, zigzag, 7.5, hold="cubic")
 
 
 def _read(path: Path, row: pd.Series) -> list[pumpid.cards.Card]:
@@ -184,3 +190,20 @@ def test_field_parameters_and_errors(tmp_path: Path) -> None:
         synthetic_field(tmp_path, change=StepChange(0, "k9", 1.2, 1))
     with pytest.raises(ValueError, match="first-order"):
         synthetic_field(tmp_path, model="first-order")
+
+
+def test_field_truth_feeds_change_detection(tmp_path: Path) -> None:
+    # The truth table, read as a results table of perfect fits, shows the step it was given.
+    from pumpid.fleet.changes import detect_changes
+
+    truth = synthetic_field(tmp_path, n_wells=4, days=20, cards_per_day=4, seed=5,
+                            formats=("parquet",), n_samples=32, hold="none",
+                            change=StepChange(well=1, parameter="k1", factor=0.7, at=45),
+                            broken_fraction=0.02)
+    table = truth.assign(status=np.where(truth["broken"].isna(), "converged", "invalid-input"))
+    alerts = detect_changes(table, ["p_k1", "p_k0"])
+    assert alerts[["well_id", "quantity", "direction"]].values.tolist() == [
+        ["W001", "p_k1", "down"]]
+    first = truth.set_index("card_id").loc[alerts["first_card_id"].iloc[0], "card_index"]
+    assert abs(first - 45) <= 3
+    assert alerts["unit"].iloc[0] == "lbf/in"

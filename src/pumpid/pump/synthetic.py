@@ -342,8 +342,13 @@ def periodic_load(
     ------
     ValueError
         If the position is not a finite 1-D array of at least 4 samples, the period is not
-        positive, ``hold`` is unknown, the position has content at the Nyquist frequency
-        (sample more finely), or the model does not respond at a needed harmonic.
+        positive, ``hold`` is unknown, or the model does not respond at a needed harmonic.
+
+    Notes
+    -----
+    With an even number of samples, the harmonic at half the sampling rate is seen by the
+    samples only as ``(-1)^i``; its load is taken as that cosine, which the model's
+    response reproduces at the samples exactly.
     """
     x = np.asarray(position, dtype=float)
     if x.ndim != 1 or x.size < 4 or not np.all(np.isfinite(x)):
@@ -358,14 +363,13 @@ def periodic_load(
     top = float(mag[1:].max()) if mag.size > 1 else 0.0
     k_all = np.arange(spec.size)
     keep = (k_all >= 1) & (mag > _HARMONIC_FLOOR * top)
-    if n % 2 == 0 and keep[-1]:
-        raise ValueError(
-            "the position has content at the Nyquist frequency (half the sampling rate); "
-            "its load is not determined by the samples: sample more finely"
-        )
     load_spec = np.zeros_like(spec)
     if keep.any():
         resp = _sampled_response(model, observe, k_all[keep], n, float(period), hold)
+        if n % 2 == 0 and keep[-1]:
+            # Half the sampling rate: the samples see only the cosine, (-1)^i, whose response
+            # at the samples is the real part (with hold="linear" the folded sum is real).
+            resp[-1] = resp[-1].real
         if not np.all(np.isfinite(resp)) or np.any(resp == 0):
             raise ValueError("the model does not respond at every harmonic of the position")
         load_spec[keep] = spec[keep] / resp
