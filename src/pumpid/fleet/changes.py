@@ -40,7 +40,9 @@ constant noise level; otherwise the values themselves.
    threshold and the false-alarm probability holds whatever the length). ``alpha`` is the
    requested per-well false-alarm probability divided by the number of quantities tested
    (Bonferroni: a steady well raises any alert with probability at most ``false_alarm``;
-   correlated quantities make it smaller).
+   correlated quantities make it smaller). Of the simulated maxima the order statistic
+   that bounds the quantile from above with 95 % confidence is taken, so the simulation's
+   own error does not push the false-alarm rate above the target.
 5. **Change point.** The change's first card, not the alarm card: the CUSUM's own estimate
    (the card after the statistic last left zero) is refined by the split that best fits
    two levels (least absolute deviations, weighted by ``1 / sigma_i``) within
@@ -77,6 +79,8 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 from numpy.typing import NDArray
+
+from pumpid import model_class
 
 __all__ = [
     "ALERT_COLUMNS",
@@ -178,8 +182,6 @@ def _parameter_unit(frame: pd.DataFrame, quantity: str) -> str:
     """A parameter's unit from the model's own description, when the table allows it."""
     name = quantity[2:]
     try:
-        from pumpid import model_class
-
         models = frame["model"].dropna().unique()
         if len(models) != 1:
             return "model units"
@@ -188,15 +190,85 @@ def _parameter_unit(frame: pd.DataFrame, quantity: str) -> str:
         position = str(frame["position_unit"].dropna().iloc[0])
         return info.unit_for(load, position)
     except (KeyError, IndexError, ValueError, AttributeError):
-        # No model column, several models or unknown units: say so rather than guess.
+        # No model column, several models, unknown units, or a model class without unit
+        # descriptions: say so rather than guess.
         return "model units"
 
 
-def _order(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
-    """The well's rows in time order, or in table order when any time is missing."""
-    if "time" in frame.columns and frame["time"].notna().all() and len(frame):
-        return frame.sort_values("time", kind="stable"), "time"
-    return frame, "card order"
+@dataclass(frozen=True)
+class _Usable:
+    """The usable rows of a table, each well's in its order, with per-well bounds."""
+
+    frame: pd.DataFrame
+    wells: tuple[str, ...]
+    bounds: NDArray[np.int64]
+    order: tuple[str, ...]  # "time" or "card order", per well
+    card_id: NDArray[np.object_]
+    time: NDArray[np.datetime64]  # UTC, NaT where unknown
+
+
+def _prepare(frame: pd.DataFrame) -> _Usable:
+    """Usable rows, sorted by well, then by time, or by table order for a well with any
+    card whose time is unknown (a time order cannot place such a card)."""
+    rows = frame[frame["status"].isin(USABLE_STATUSES)]
+    well = rows["well_id"].astype(str).to_numpy()
+    if "time" in rows.columns:
+        time = pd.to_datetime(rows["time"], utc=True).dt.tz_localize(None)
+        time = time.astype("datetime64[ns]").to_numpy()
+    else:
+        time = np.full(len(rows), np.datetime64("NaT"), dtype="datetime64[ns]")
+    missing = pd.Series(np.isnat(time)).groupby(well).transform("any").to_numpy()
+    key = np.where(missing, 0, time.astype(np.int64))
+    idx = np.lexsort((np.arange(len(rows)), key, well))
+    well, missing = well[idx], missing[idx]
+    wells, starts = np.unique(well, return_index=True)
+    bounds = np.append(starts, len(well)).astype(np.int64)
+    sorted_rows = rows.iloc[idx]
+    return _Usable(
+        frame=sorted_rows,
+        wells=tuple(str(w) for w in wells),
+        bounds=bounds,
+        order=tuple("card order" if missing[b] else "time" for b in starts),
+        card_id=sorted_rows["card_id"].astype(str).to_numpy(dtype=object),
+        time=time[idx],
+    )
+
+
+def _quantity(
+    usable: _Usable, q: str
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], list[str], str]:
+    """One quantity over the usable rows: values, standard errors, which rows count, the
+    unit of each well, and the kind (derived or parameter)."""
+    frame = usable.frame
+    col, se_cols, det_col, unit_col, kind = _columns(q)
+    values = pd.to_numeric(frame[col], errors="coerce").to_numpy(dtype=float)
+    keep = np.isfinite(values)
+    if det_col is not None and det_col in frame.columns:
+        keep &= frame[det_col].fillna(False).astype(bool).to_numpy()
+    se = np.full(values.size, np.nan)
+    for c in se_cols:
+        if c in frame.columns:
+            other = pd.to_numeric(frame[c], errors="coerce").to_numpy(dtype=float)
+            se = np.fmax(se, np.where(other >= 0, other, np.nan))  # the larger error
+    n_wells = len(usable.wells)
+    code = np.repeat(np.arange(n_wells), np.diff(usable.bounds))
+    units = [""] * n_wells
+    if unit_col is not None and unit_col in frame.columns:
+        stated = frame[unit_col].to_numpy(dtype=object)
+        has = keep & pd.notna(stated)
+        if has.any():
+            counts = pd.DataFrame({"w": code[has], "u": stated[has].astype(str)}).value_counts()
+            major = counts.reset_index().drop_duplicates("w")  # value_counts sorts by count
+            for w, u in zip(major["w"], major["u"], strict=True):
+                units[int(w)] = u
+            # Values in another unit cannot be compared with these: leave them out (a row
+            # that states no unit is taken to share the well's).
+            well_unit = np.array(units, dtype=object)[code]
+            keep &= ~pd.notna(stated) | (stated.astype(str) == well_unit)
+    elif kind == "parameter":
+        units = [_parameter_unit(frame.iloc[usable.bounds[i]:usable.bounds[i + 1]], q)
+                 for i in range(n_wells)]  # fmt: skip
+    return values, se, keep, units, kind
 
 
 # --------------------------------------------------------------------------- statistics
@@ -529,63 +601,41 @@ def detect_changes(
     if not names or frame.empty:
         return pd.DataFrame(columns=list(ALERT_COLUMNS))
     alpha = false_alarm / len(names)
-    usable = frame["status"].isin(USABLE_STATUSES)
-    for well, group in frame[usable].groupby("well_id", sort=True):
-        ordered, order = _order(group)
-        for q in names:
+    usable = _prepare(frame)
+    for q in names:
+        values, se, keep, units, kind = _quantity(usable, q)
+        for i, well in enumerate(usable.wells):
+            part = slice(usable.bounds[i], usable.bounds[i + 1])
+            k = keep[part]
+            if k.sum() < min_cards + 1:
+                continue
             rows.extend(_series_alerts(
-                ordered, str(well), q, order, min_cards=min_cards, alpha=alpha,
-                reference=reference, clip=clip, tail_dof=tail_dof,
-                outlier_fraction=outlier_fraction,
+                values[part][k], se[part][k], usable.card_id[part][k], usable.time[part][k],
+                well=well, quantity=q, unit=units[i], kind=kind, order=usable.order[i],
+                min_cards=min_cards, alpha=alpha, reference=reference, clip=clip,
+                tail_dof=tail_dof, outlier_fraction=outlier_fraction,
             ))
     out = pd.DataFrame(rows, columns=list(ALERT_COLUMNS))
-    out["first_time"] = pd.to_datetime(out["first_time"], utc=True)
-    out["alarm_time"] = pd.to_datetime(out["alarm_time"], utc=True)
+    out = out.sort_values(["well_id", "quantity", "first_index"], kind="stable")
+    for col in ("first_time", "alarm_time"):
+        out[col] = pd.to_datetime(out[col], utc=True).astype("datetime64[ns, UTC]")
     return out.reset_index(drop=True)
 
 
-def _series(
-    ordered: pd.DataFrame, q: str
-) -> tuple[pd.DataFrame, NDArray[np.float64], NDArray[np.float64], str, str]:
-    """A well's usable cards of one quantity: rows, values, standard errors, unit, kind."""
-    col, se_cols, det_col, unit_col, kind = _columns(q)
-    values = pd.to_numeric(ordered[col], errors="coerce").to_numpy(dtype=float)
-    keep = np.isfinite(values)
-    if det_col is not None and det_col in ordered.columns:
-        keep &= ordered[det_col].fillna(False).astype(bool).to_numpy()
-    unit = ""
-    if unit_col is not None and unit_col in ordered.columns:
-        units = ordered[unit_col].where(keep)
-        if units.notna().any():
-            unit = str(units.mode().iloc[0])
-            # Values in another unit cannot be compared with these: leave them out.
-            keep &= (ordered[unit_col] == unit).to_numpy()
-    elif kind == "parameter":
-        unit = _parameter_unit(ordered, q)
-    se = np.full(values.size, np.nan)
-    for c in se_cols:
-        if c in ordered.columns:
-            other = pd.to_numeric(ordered[c], errors="coerce").to_numpy(dtype=float)
-            se = np.fmax(se, np.where(other >= 0, other, np.nan))  # the larger error
-    return ordered[keep], values[keep], se[keep], unit, kind
-
-
 def _series_alerts(
-    ordered: pd.DataFrame, well: str, q: str, order: str, *, min_cards: int, alpha: float,
-    reference: float, clip: float, tail_dof: float, outlier_fraction: float,
+    values: NDArray[np.float64], se: NDArray[np.float64], ids: NDArray[np.object_],
+    times: NDArray[np.datetime64], *, well: str, quantity: str, unit: str, kind: str,
+    order: str, min_cards: int, alpha: float, reference: float, clip: float, tail_dof: float,
+    outlier_fraction: float,
 ) -> list[dict[str, Any]]:
-    rows, values, se, unit, kind = _series(ordered, q)
-    if values.size < min_cards + 1:
-        return []
+    """The alerts of one well's series of one quantity (values in time order)."""
+    q = quantity
     log = bool(np.all(values > 0))
     y = np.log(values) if log else values
     s = se / values if log else se
     changes, _ = _scan(y, s, min_cards=min_cards, alpha=alpha, reference=reference, clip=clip,
                        tail_dof=tail_dof, outlier_fraction=outlier_fraction)
     bounds = [0] + [c.first for c in changes] + [values.size]
-    ids = rows["card_id"].astype(str).to_numpy()
-    times = rows["time"] if "time" in rows.columns else pd.Series(pd.NaT, index=rows.index)
-    times = pd.to_datetime(times, utc=True).to_numpy()
     out = []
     for j, ch in enumerate(changes):
         seg_b = values[bounds[j]:bounds[j + 1]]
@@ -647,49 +697,49 @@ def summarise_wells(
     """
     frame = load_results(table)
     names = list(quantities) if quantities is not None else available_quantities(frame)
+    names = [q for q in names if _columns(q)[0] in frame.columns]
     alerts = alerts if alerts is not None else pd.DataFrame(columns=list(ALERT_COLUMNS))
+    if frame.empty:
+        return pd.DataFrame(columns=["well_id", "cards"])
+    well = frame["well_id"].astype(str)
     status = frame["status"].where(frame["status"].isin(STATUSES), "other")
-    counts = pd.crosstab(frame["well_id"], status)
-    rows = []
-    for well, group in frame.groupby("well_id", sort=True):
-        row: dict[str, Any] = {"well_id": str(well), "cards": len(group)}
-        for st in (*STATUSES, "other"):
-            key = "n_" + st.replace("-", "_")
-            row[key] = int(counts.loc[well, st]) if st in counts.columns else 0
-        usable = group[group["status"].isin(USABLE_STATUSES)]
-        row["usable"] = len(usable)
-        times = pd.to_datetime(group["time"], utc=True) if "time" in group.columns else None
-        row["first_time"] = times.min() if times is not None else pd.NaT
-        row["last_time"] = times.max() if times is not None else pd.NaT
-        mine = alerts[alerts["well_id"].astype(str) == str(well)]
-        row["alerts"] = len(mine)
-        row["alerted_quantities"] = ", ".join(dict.fromkeys(mine["quantity"].astype(str)))
-        if len(mine):
-            size = mine["change_se"].astype(float).abs()
-            top = mine.loc[size.idxmax()]
-            row["max_abs_change_se"] = float(size.max())
-            row["largest_change"] = (
-                f"{top['quantity']} {top['before']:.4g} -> {top['after']:.4g} {top['unit']} "
-                f"({top['change_rel']:+.1%}) from card {top['first_card_id']}"
-            )
-        else:
-            row["max_abs_change_se"] = math.nan
-            row["largest_change"] = ""
-        ordered, _ = _order(usable)
-        for q in names:
-            if _columns(q)[0] not in frame.columns:
-                continue
-            srows, values, _, unit, _ = _series(ordered, q)
-            row[f"latest_{q}"] = float(values[-1]) if values.size else math.nan
-            row[f"latest_{q}_unit"] = unit
-            row[f"latest_{q}_time"] = (
-                pd.Timestamp(srows["time"].iloc[-1]) if values.size and "time" in srows.columns
-                else pd.NaT
-            )
-        rows.append(row)
-    out = pd.DataFrame(rows)
-    if out.empty:
-        return out
+    out = pd.crosstab(well, status).reindex(columns=[*STATUSES, "other"], fill_value=0)
+    out.columns = ["n_" + str(c).replace("-", "_") for c in out.columns]
+    out.insert(0, "cards", out.sum(axis=1))
+    out.insert(len(out.columns), "usable", out[[f"n_{st.replace('-', '_')}"
+                                                for st in USABLE_STATUSES]].sum(axis=1))
+    if "time" in frame.columns:
+        times = pd.to_datetime(frame["time"], utc=True).groupby(well)
+        out["first_time"], out["last_time"] = times.min(), times.max()
+    else:
+        out["first_time"] = out["last_time"] = pd.NaT
+    mine = alerts.assign(_w=alerts["well_id"].astype(str),
+                         _size=pd.to_numeric(alerts["change_se"], errors="coerce").abs())
+    by_well = mine.groupby("_w")
+    out["alerts"] = by_well.size().reindex(out.index, fill_value=0).astype(int)
+    out["alerted_quantities"] = by_well["quantity"].agg(
+        lambda s: ", ".join(dict.fromkeys(s.astype(str)))).reindex(out.index, fill_value="")
+    out["max_abs_change_se"] = by_well["_size"].max().reindex(out.index)
+    top = mine.sort_values("_size", ascending=False, kind="stable").drop_duplicates("_w")
+    phrases = {
+        r["_w"]: (f"{r['quantity']} {r['before']:.4g} -> {r['after']:.4g} {r['unit']} "
+                  f"({r['change_rel']:+.1%}) from card {r['first_card_id']}")
+        for _, r in top.iterrows()
+    }
+    out["largest_change"] = [phrases.get(w, "") for w in out.index]
+    usable = _prepare(frame)
+    code = np.repeat(np.arange(len(usable.wells)), np.diff(usable.bounds))
+    for q in names:
+        values, _, keep, units, _ = _quantity(usable, q)
+        last = pd.DataFrame({"w": code[keep], "v": values[keep], "t": usable.time[keep]})
+        last = last.groupby("w").tail(1).set_index("w")
+        ids = pd.Index(usable.wells)
+        latest = pd.Series(last["v"].to_numpy(), index=ids[last.index.to_numpy()])
+        when = pd.Series(last["t"].to_numpy(), index=ids[last.index.to_numpy()])
+        out[f"latest_{q}"] = latest.reindex(out.index)
+        out[f"latest_{q}_unit"] = pd.Series(units, index=ids).reindex(out.index).fillna("")
+        out[f"latest_{q}_time"] = pd.to_datetime(when.reindex(out.index), utc=True)
+    out = out.reset_index(names="well_id")
     out["_has"] = out["alerts"] > 0
     out = out.sort_values(["_has", "max_abs_change_se", "well_id"],
                           ascending=[False, False, True], na_position="last", kind="stable")
