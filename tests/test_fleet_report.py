@@ -82,3 +82,13 @@ def test_many_wells_are_sampled_and_no_alerts(tmp_path: Path) -> None:
     assert "3 of 900 wells without" in page
     assert len([k for k in files if k.startswith("well_")]) == 3
     assert len(pd.read_csv(files["wells"])) == 900
+
+
+def test_parameters_shown_with_their_units(table: pd.DataFrame, tmp_path: Path) -> None:
+    frame = table.assign(p_k0=200.0 * np.exp(0.02 * np.sin(np.arange(len(table)))),
+                         p_k0_se=1.5)
+    files = write_fleet_report(frame, tmp_path, quantities=["stiffness", "p_k0"],
+                               steady_sample=1)
+    page = files["report"].read_text(encoding="utf-8")
+    assert "p_k0 [lbf/in]" in page and "stiffness [lbf/in]" in page
+    assert "distribution_p_k0" in files

@@ -163,11 +163,14 @@ def _version() -> str:
 
 
 # --------------------------------------------------------------------------- data helpers
-def _column_unit(frame: pd.DataFrame, quantity: str) -> str:
-    col = f"d_{quantity}_unit" if not quantity.startswith("p_") else None
-    if col and col in frame.columns and frame[col].notna().any():
-        return str(frame[col].mode().iloc[0])
-    return "model units" if quantity.startswith("p_") else ""
+def _column_unit(summary: pd.DataFrame, quantity: str) -> str:
+    """The unit most wells state for a quantity (from the well summary's latest values)."""
+    col = f"latest_{quantity}_unit"
+    if col not in summary.columns:
+        return ""
+    stated = summary[col].dropna().astype(str)
+    stated = stated[stated != ""]
+    return str(stated.mode().iloc[0]) if len(stated) else ""
 
 
 def _values(frame: pd.DataFrame, quantity: str) -> tuple[pd.Series, pd.Series, pd.Series]:
@@ -431,11 +434,8 @@ def write_fleet_report(
                     f"{detect_options.get('min_cards', 30)} cards")
     else:
         settings = "alerts given by the caller"
-    units = {q: _column_unit(frame, q) for q in names}
-    for q in names:  # an alert's unit, where the table has none, is the better word
-        if q in set(alerts["quantity"]) and not units[q]:
-            units[q] = str(alerts.loc[alerts["quantity"] == q, "unit"].iloc[0])
     summary = summarise_wells(frame, alerts, names)
+    units = {q: _column_unit(summary, q) for q in names}
     files: dict[str, Path] = {}
     alerts_path = out / "alerts.csv"
     alerts.to_csv(alerts_path, index=False, date_format="%Y-%m-%dT%H:%M:%S%z")
