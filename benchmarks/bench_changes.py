@@ -18,6 +18,17 @@ under t5 noise with a coefficient of variation of 2 %, 3.5 % and 5 %. Figures: t
 of wells whose change was found (an alert whose first card is within 10 cards of the true
 one), the alarm delay (alarm card minus true first card: median, 90th percentile, largest)
 and the error of the estimated first card (fraction within 0 and +-3 cards, largest).
+
+Figures from one run (``--wells 6000``; 2 cores, Python 3.11, numpy 2.4, pandas 3.1; the
+run is seeded, so the same versions give the same counts):
+
+* false alarms (wells with any alert): Gaussian 60 of 6000 (1.00 %, 95 % interval
+  0.76-1.29 %), t5 59 (0.98 %, 0.75-1.27 %), t5 with outliers 47 (0.78 %, 0.58-1.04 %);
+* steps of 20-40 % at 2-5 % noise: all found; alarm 3 cards after the first changed card
+  (median), 90th percentile 3-5, largest 7 (+20 % at 5 %); first card exact for 88.5-100 %
+  of wells and within +-3 cards for all;
+* steps of 10 %: at 2 % noise like the larger ones (largest delay 5); at 5 % noise a median
+  delay of 8-10 cards, largest 26-40, first card within +-3 for 93-96.5 %.
 """
 
 from __future__ import annotations
