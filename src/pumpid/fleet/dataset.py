@@ -1,0 +1,283 @@
+"""Cards stored in the Parquet long layout: one row per sample, many wells and cards.
+
+Layout (one file, or a folder of files read one by one in sorted order):
+
+``well_id`` (str, required)
+    Constant within a card.
+``card_id`` (str, required)
+    Unique within a file; a card's rows need not be contiguous.
+``position``, ``load`` (float, required)
+    One sample each.
+``sample`` (int) or ``t`` (float, seconds from the card's start)
+    At least one is required. Samples are put in order of ``sample`` (or of ``t``), which
+    must not repeat. With ``t`` the time comes from the file; otherwise the card is one
+    stroke sampled uniformly in time and its time is rebuilt from ``spm``
+    (``t_i = i T / N``, ``T = 60 / spm``; marked periodic), as pumpid's other readers do.
+``time`` (datetime, optional)
+    The card's time; constant within a card; kept as a UTC ``pandas.Timestamp`` in
+    ``Card.metadata["time"]`` (naive times are taken as UTC, with a note).
+``spm`` (float, optional)
+    Strokes per minute, constant within a card and positive.
+``position_unit``, ``load_unit`` (str, optional)
+    Constant within a card; a unit given by the caller wins.
+
+Other columns are ignored. Every problem raises :class:`pumpid.cards.CardError` naming the
+file, the card and the column.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pumpid.cards import Card, CardError
+
+__all__ = ["iter_parquet_cards", "read_parquet_cards"]
+
+_REQUIRED = ("well_id", "card_id", "position", "load")
+
+
+def _files(path: Path) -> list[Path]:
+    if path.is_dir():
+        files = sorted(p for p in path.rglob("*.parquet") if p.is_file())
+        if not files:
+            raise CardError("no .parquet files in the folder", path=path)
+        return files
+    if not path.exists():
+        raise CardError("no such file or folder", path=path)
+    return [path]
+
+
+def _constant(
+    frame: pd.DataFrame, column: str, *, path: Path, card: str
+) -> Any:
+    values = frame[column]
+    first = values.iloc[0]
+    same = values.isna().all() if pd.isna(first) else bool((values == first).all())
+    if not same:
+        raise CardError(
+            f"card {card!r}: {column} changes within the card ({first!r}, then "
+            f"{values[values != first].iloc[0]!r})",
+            path=path,
+            field=column,
+        )
+    return None if pd.isna(first) else first
+
+
+def _card(
+    frame: pd.DataFrame,
+    card_id: str,
+    *,
+    path: Path,
+    position_unit: str | None,
+    load_unit: str | None,
+    min_samples: int,
+) -> Card:
+    def err(message: str, column: str | None = None) -> CardError:
+        return CardError(f"card {card_id!r}: {message}", path=path, field=column)
+
+    order_col = "sample" if "sample" in frame.columns else "t"
+    order = frame[order_col].to_numpy(dtype=float)
+    if not np.all(np.isfinite(order)):
+        raise err(f"missing or non-finite {order_col}", order_col)
+    frame = frame.iloc[np.argsort(order, kind="stable")]
+    order = np.sort(order)
+    if order.size > 1 and np.any(np.diff(order) <= 0):
+        k = int(np.flatnonzero(np.diff(order) <= 0)[0]) + 1
+        raise err(f"{order_col} {order[k]:g} appears twice", order_col)
+    well = _constant(frame, "well_id", path=path, card=card_id)
+    if well is None or not str(well).strip():
+        raise err("empty well_id", "well_id")
+    arrays = {}
+    for col in ("position", "load"):
+        try:
+            arr = frame[col].to_numpy(dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise err(f"{col} is not numeric ({exc})", col) from exc
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            kind = "NaN" if np.isnan(arr[bad[0]]) else "infinite"
+            raise err(f"{kind} value in {col} (sample {int(bad[0])})", col)
+        arrays[col] = arr
+    n = arrays["position"].size
+    if n < min_samples:
+        raise err(f"only {n} samples, at least {min_samples} needed", "position")
+    for col in ("load", "position"):
+        if np.ptp(arrays[col]) == 0:
+            raise err(f"constant {col} ({arrays[col][0]:.6g} in every sample)", col)
+    notes = [f"read from the Parquet long layout ({path.name})"]
+    spm = None
+    if "spm" in frame.columns:
+        spm = _constant(frame, "spm", path=path, card=card_id)
+        if spm is not None:
+            spm = float(spm)
+            if not (math.isfinite(spm) and spm > 0):
+                raise err(f"spm must be positive and finite, got {spm}", "spm")
+    units: dict[str, str | None] = {"position": position_unit, "load": load_unit}
+    for kind in ("position", "load"):
+        col = f"{kind}_unit"
+        stated = _constant(frame, col, path=path, card=card_id) if col in frame.columns else None
+        if units[kind] is None and stated is not None:
+            units[kind] = str(stated)
+    t = None
+    period = None
+    time_source = "none"
+    periodic = False
+    if order_col == "t":
+        t = order
+        time_source = "file"
+        notes.append("time taken from the file (t)")
+    elif spm is not None:
+        period = 60.0 / spm
+        t = np.arange(n) * (period / n)
+        time_source = "spm"
+        periodic = True
+        notes.append(
+            f"time rebuilt from {spm:.6g} SPM assuming uniform sampling over one stroke: "
+            f"t_i = i*T/N with T = {period:.6g} s, N = {n}"
+        )
+    else:
+        notes.append("no t column and no SPM: t is None")
+    stamp = None
+    if "time" in frame.columns:
+        value = _constant(frame, "time", path=path, card=card_id)
+        if value is not None:
+            try:
+                stamp = pd.Timestamp(value)
+            except (TypeError, ValueError) as exc:
+                raise err(f"time {value!r} is not a date and time", "time") from exc
+            if stamp.tzinfo is None:
+                stamp = stamp.tz_localize("UTC")
+                notes.append("card time has no time zone: taken as UTC")
+            else:
+                stamp = stamp.tz_convert("UTC")
+    try:
+        return Card(
+            position=arrays["position"],
+            load=arrays["load"],
+            t=t,
+            position_unit=units["position"],
+            load_unit=units["load"],
+            source=f"{path.name}, card {card_id}",
+            card_id=card_id,
+            well_id=str(well),
+            spm=spm,
+            period=period,
+            time_source=time_source,
+            periodic=periodic,
+            notes=tuple(notes),
+            metadata={"time": stamp},
+        )
+    except CardError as exc:
+        raise err(exc.reason, exc.field) from exc
+
+
+def iter_parquet_cards(
+    path: str | os.PathLike[str],
+    *,
+    position_unit: str | None = None,
+    load_unit: str | None = None,
+    min_samples: int = 20,
+) -> Iterator[Card | CardError]:
+    """Read cards from the Parquet long layout, yielding an error in place of a bad card.
+
+    For batch runs: one bad card (or one unreadable file) does not stop the others.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.parquet`` file, or a folder whose ``*.parquet`` files (searched recursively)
+        are read in sorted order.
+    position_unit, load_unit : str, optional
+        Units of every card; they win over the files' unit columns.
+    min_samples : int, default 20
+        Fewer samples than this in a card is an error.
+
+    Yields
+    ------
+    pumpid.cards.Card or pumpid.cards.CardError
+        Cards in order of first appearance in each file; a :class:`CardError` (naming the
+        file, the card and the column) in place of a card that fails a check, or of a
+        whole file that cannot be read or lacks a required column.
+
+    Raises
+    ------
+    CardError
+        Only when ``path`` itself does not exist or a folder holds no Parquet file.
+    """
+    for file in _files(Path(os.fspath(path))):
+        try:
+            frame = pd.read_parquet(file)
+        except Exception as exc:  # pyarrow raises several types for a corrupt file
+            yield CardError(f"cannot read the Parquet file: {exc}", path=file)
+            continue
+        missing = [c for c in _REQUIRED if c not in frame.columns]
+        if "sample" not in frame.columns and "t" not in frame.columns:
+            missing.append("sample (or t)")
+        if missing:
+            yield CardError(
+                f"missing column(s) {', '.join(missing)}; the file has "
+                f"{', '.join(map(str, frame.columns))}",
+                path=file,
+                field=missing[0],
+            )
+            continue
+        if frame["card_id"].isna().any():
+            yield CardError("empty card_id", path=file, field="card_id")
+            continue
+        for card_id, group in frame.groupby(frame["card_id"].astype(str), sort=False):
+            try:
+                yield _card(
+                    group,
+                    str(card_id),
+                    path=file,
+                    position_unit=position_unit,
+                    load_unit=load_unit,
+                    min_samples=min_samples,
+                )
+            except CardError as exc:
+                yield exc
+
+
+def read_parquet_cards(
+    path: str | os.PathLike[str],
+    *,
+    position_unit: str | None = None,
+    load_unit: str | None = None,
+    min_samples: int = 20,
+) -> list[Card]:
+    """Read every card of the Parquet long layout; stop at the first problem.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.parquet`` file or a folder of them (see :func:`iter_parquet_cards`).
+    position_unit, load_unit : str, optional
+        Units of every card; they win over the files' unit columns.
+    min_samples : int, default 20
+        Fewer samples than this in a card is an error.
+
+    Returns
+    -------
+    list of pumpid.cards.Card
+
+    Raises
+    ------
+    CardError
+        For the first card or file that fails a check, naming the file, the card and the
+        column. Use :func:`iter_parquet_cards` to read past bad cards.
+    """
+    cards = []
+    for item in iter_parquet_cards(
+        path, position_unit=position_unit, load_unit=load_unit, min_samples=min_samples
+    ):
+        if isinstance(item, CardError):
+            raise item
+        cards.append(item)
+    return cards

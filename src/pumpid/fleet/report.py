@@ -1,0 +1,543 @@
+"""The fleet report: one self-contained HTML page on many wells' fits over time.
+
+:func:`write_fleet_report` writes ``report.html`` (figures embedded as base64 PNG, inline
+style sheet, no script, nothing loaded from elsewhere), the PNGs themselves, ``alerts.csv``
+(one row per detected change, as :func:`pumpid.fleet.changes.detect_changes` returns it)
+and ``wells.csv`` (one row per well, :func:`pumpid.fleet.changes.summarise_wells`).
+
+The page shows, in order: the run summary (wells, cards and their statuses, the period
+covered, the quantities and the detection settings); the alerts, largest first; the wells
+table (alerted wells first, then by size of change in standard errors) with status counts
+and the latest value of each quantity; each quantity's distribution across wells; and
+per-well trends with +-2 standard-error bands and the change points marked. For fleets of
+thousands of wells the trends are drawn for the alerted wells (up to a limit) and a random
+sample of steady ones, and the page says how many of each; the wells table on the page is
+limited in the same way, ``wells.csv`` has them all. Every number is printed with its name
+and unit; text from the table (ids, warnings) is escaped.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+import os
+import re
+from collections.abc import Iterable, Sequence
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from .changes import (
+    STATUSES,
+    USABLE_STATUSES,
+    available_quantities,
+    detect_changes,
+    load_results,
+    summarise_wells,
+)
+
+__all__ = ["write_fleet_report"]
+
+_CSS = """
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 2em auto;
+       max-width: 100em; padding: 0 1em; color: #222; line-height: 1.4; }
+h1 { font-size: 1.6em; margin-bottom: 0.2em; }
+h2 { font-size: 1.25em; border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.6em; }
+h3 { font-size: 1.05em; margin-bottom: 0.2em; }
+table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.92em; }
+th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
+th { background: #f2f2f2; }
+td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace;
+         white-space: nowrap; }
+tr.alert td:first-child { border-left: 4px solid #b00020; }
+.up { color: #b00020; font-weight: bold; }
+.down { color: #1f4fa0; font-weight: bold; }
+.muted { color: #666; }
+figure { margin: 1em 0; }
+figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
+figcaption { color: #555; font-size: 0.92em; }
+footer { margin-top: 2em; color: #777; font-size: 0.85em; }
+div.scroll { overflow-x: auto; max-width: 100%; }
+"""
+
+_DPI = 96
+_STATUS_COLOURS = {"converged": "#176a2c", "boundary": "#c98a00", "poor-fit": "#9a5b00",
+                   "failed": "#b00020", "invalid-input": "#6b2d8c", "other": "#777777"}  # fmt: skip
+
+
+# --------------------------------------------------------------------------- formatting
+def _e(text: Any) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _unit_text(unit: Any) -> str:
+    u = "" if unit is None or (isinstance(unit, float) and math.isnan(unit)) else str(unit)
+    return "dimensionless" if u in ("", "-", "1") else u
+
+
+def _num(value: Any, digits: int = 4) -> str:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return "n/a"
+    if not math.isfinite(x):
+        return "n/a" if math.isnan(x) else ("+inf" if x > 0 else "-inf")
+    return f"{x:.{digits}g}"
+
+
+def _with_unit(value: Any, unit: Any, digits: int = 4) -> str:
+    text = _num(value, digits)
+    if text == "n/a":
+        return text
+    u = _unit_text(unit)
+    return f"{text} ({u})" if u == "dimensionless" else f"{text} {u}"
+
+
+def _count(n: Any, word: str) -> str:
+    """``"1 card"``, ``"3 cards"``."""
+    k = int(n)
+    return f"{k} {word}" if k == 1 else f"{k} {word}s"
+
+
+def _when(value: Any) -> str:
+    if value is None or value is pd.NaT or (isinstance(value, float) and math.isnan(value)):
+        return "time unknown"
+    try:
+        ts = pd.Timestamp(value)
+    except (TypeError, ValueError):
+        return str(value)
+    if ts is pd.NaT:
+        return "time unknown"
+    return ts.strftime("%Y-%m-%d %H:%M UTC")
+
+
+def _table(headers: Sequence[str], rows: Iterable[Sequence[str]], *, num_cols: Iterable[int] = (),
+           row_classes: Sequence[str] | None = None) -> str:
+    num = set(num_cols)
+    out = ["<table>", "<thead><tr>", *(f"<th>{_e(h)}</th>" for h in headers), "</tr></thead>",
+           "<tbody>"]  # fmt: skip
+    for i, row in enumerate(rows):
+        cls = f' class="{_e(row_classes[i])}"' if row_classes and row_classes[i] else ""
+        cells = "".join(
+            f'<td class="num">{_e(c)}</td>' if j in num else f"<td>{_e(c)}</td>"
+            for j, c in enumerate(row)
+        )
+        out.append(f"<tr{cls}>{cells}</tr>")
+    out.append("</tbody></table>")
+    return '<div class="scroll">' + "\n".join(out) + "</div>"
+
+
+def _png(fig: Figure) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=_DPI, bbox_inches="tight")
+    return buf.getvalue()
+
+
+def _figure_html(data: bytes, alt: str, caption: str) -> str:
+    b64 = base64.b64encode(data).decode("ascii")
+    return (f'<figure><img src="data:image/png;base64,{b64}" alt="{_e(alt)}">'
+            f"<figcaption>{_e(caption)}</figcaption></figure>")
+
+
+def _safe_name(text: str, taken: set[str]) -> str:
+    base = re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("._") or "well"
+    name, k = base, 1
+    while name in taken:
+        k += 1
+        name = f"{base}_{k}"
+    taken.add(name)
+    return name
+
+
+def _version() -> str:
+    try:
+        return metadata.version("pumpid")
+    except metadata.PackageNotFoundError:
+        return "(version unknown)"
+
+
+# --------------------------------------------------------------------------- data helpers
+def _column_unit(summary: pd.DataFrame, quantity: str) -> str:
+    """The unit most wells state for a quantity (from the well summary's latest values)."""
+    col = f"latest_{quantity}_unit"
+    if col not in summary.columns:
+        return ""
+    stated = summary[col].dropna().astype(str)
+    stated = stated[stated != ""]
+    return str(stated.mode().iloc[0]) if len(stated) else ""
+
+
+def _values(frame: pd.DataFrame, quantity: str) -> tuple[pd.Series, pd.Series, pd.Series]:
+    """Value, standard error and a usable mask of one quantity over rows of ``frame``."""
+    col = quantity if quantity.startswith("p_") else f"d_{quantity}"
+    value = pd.to_numeric(frame[col], errors="coerce")
+    se = pd.Series(np.nan, index=frame.index)
+    for c in (f"{col}_se", f"{col}_se_hac"):
+        if c in frame.columns:
+            se = np.fmax(se, pd.to_numeric(frame[c], errors="coerce"))
+    ok = frame["status"].isin(USABLE_STATUSES) & value.notna() & np.isfinite(value)
+    det = f"{col}_determined"
+    if det in frame.columns:
+        ok &= frame[det].fillna(False).astype(bool)
+    return value, se, ok
+
+
+def _per_well_median(frame: pd.DataFrame, quantity: str) -> pd.Series:
+    value, _, ok = _values(frame, quantity)
+    return value[ok].groupby(frame.loc[ok, "well_id"].astype(str)).median()
+
+
+# --------------------------------------------------------------------------- figures
+def _distribution_figure(frame: pd.DataFrame, quantity: str, unit: str,
+                         alerted: set[str]) -> Figure | None:
+    med = _per_well_median(frame, quantity)
+    if med.empty:
+        return None
+    fig = Figure(figsize=(6.4, 3.2))
+    ax = fig.subplots()
+    values = med.to_numpy(dtype=float)
+    positive = bool(np.all(values > 0)) and values.max() > 3 * values.min()
+    bins: Any = 30
+    if positive:
+        bins = np.geomspace(values.min(), values.max(), 31)
+        ax.set_xscale("log")
+    ax.hist(values, bins=bins, color="#8fb3d9", edgecolor="#4a6f96")
+    marked = med[med.index.isin(alerted)]
+    if len(marked):
+        ax.plot(marked.to_numpy(), np.zeros(len(marked)), "v", color="#b00020", ms=8,
+                clip_on=False, label=f"wells with an alert ({len(marked)})")
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_xlabel(f"{quantity}: median over each well's cards [{_unit_text(unit)}]")
+    ax.set_ylabel("wells")
+    ax.set_title(f"{quantity} across {len(med)} wells", fontsize=10)
+    return fig
+
+
+def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
+                 alerts: pd.DataFrame, well: str) -> Figure:
+    rows = len(quantities)
+    fig = Figure(figsize=(8.0, 1.9 * rows + 0.6))
+    axes = np.atleast_1d(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0])
+    timed = "time" in group.columns and group["time"].notna().all() and len(group) > 0
+    ordered = group.sort_values("time", kind="stable") if timed else group
+    x_all = (pd.to_datetime(ordered["time"], utc=True).dt.tz_localize(None) if timed
+             else pd.Series(np.arange(len(ordered)), index=ordered.index))
+    bad = ~ordered["status"].isin(USABLE_STATUSES)
+    for ax, q in zip(axes, quantities, strict=True):
+        value, se, ok = _values(ordered, q)
+        x, v, s = x_all[ok], value[ok], se[ok]
+        if len(v):
+            band = np.where(np.isfinite(s), 2.0 * s, 0.0)
+            ax.fill_between(x, v - band, v + band, color="#c6dbef", linewidth=0,
+                            label="value ± 2 SE")
+            ax.plot(x, v, ".-", color="#08519c", ms=3, lw=0.6, label="value of a card")
+        if bad.any():
+            ax.plot(x_all[bad], np.full(int(bad.sum()), np.nanmin(v) if len(v) else 0.0), "x",
+                    color="#b00020", ms=4, label="failed / invalid card")
+        mine = alerts[(alerts["well_id"].astype(str) == well) & (alerts["quantity"] == q)]
+        ids = ordered["card_id"].astype(str)
+        for _, a in mine.iterrows():
+            key = ids == str(a["first_card_id"])
+            if not key.any():
+                continue
+            xc = x_all[key].iloc[0]
+            ax.axvline(xc, color="#b00020", lw=1.2, ls="--",
+                       label="first card of a change" if _ == mine.index[0] else None)
+            ax.annotate(f"{a['change_rel']:+.0%}", (xc, 0.98), xycoords=("data", "axes fraction"),
+                        xytext=(4, -10), textcoords="offset points", color="#b00020",
+                        fontsize=8, fontweight="bold")
+            # the medians before and after, over the cards they were taken from
+            xs, fi = x.to_numpy(), int(a["first_index"])
+            if 0 <= fi < xs.size:
+                lo = xs[max(fi - int(a["n_before"]), 0)]
+                hi = xs[min(fi + int(a["n_after"]) - 1, xs.size - 1)]
+                ax.hlines(a["before"], lo, xc, color="#e6550d", lw=1.5,
+                          label="median before / after")
+                ax.hlines(a["after"], xc, hi, color="#e6550d", lw=1.5)
+        ax.set_ylabel(f"{q}\n[{_unit_text(units.get(q, ''))}]", fontsize=8)
+        ax.tick_params(labelsize=8)
+        ax.grid(alpha=0.3)
+    handles: dict[str, Any] = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.setdefault(lab, h)
+    fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncols=5,
+               fontsize=7, frameon=False, bbox_to_anchor=(0.5, -0.02))
+    axes[-1].set_xlabel("card time (UTC)" if timed else "card number (no times in the table)")
+    fig.suptitle(f"well {well}", fontsize=10)
+    fig.autofmt_xdate()
+    fig.subplots_adjust(bottom=0.16 if rows > 1 else 0.3)
+    return fig
+
+
+def _status_figure(counts: pd.Series) -> Figure:
+    fig = Figure(figsize=(7.5, 1.1))
+    ax = fig.subplots()
+    left = 0.0
+    total = float(counts.sum())
+    for st, n in counts.items():
+        if n == 0:
+            continue
+        ax.barh([0], [n], left=left, color=_STATUS_COLOURS.get(str(st), "#777777"),
+                label=f"{st}: {n} cards")
+        left += n
+    ax.set_xlim(0, max(total, 1))
+    ax.set_yticks([])
+    ax.set_xlabel("cards")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.9), ncols=3, fontsize=8,
+              frameon=False)
+    ax.set_title("fit status of every card", fontsize=10)
+    return fig
+
+
+# --------------------------------------------------------------------------- sections
+def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequence[str],
+                     units: dict[str, str], settings: str) -> str:
+    status = frame["status"].where(frame["status"].isin(STATUSES), "other")
+    counts = status.value_counts().reindex([*STATUSES, "other"], fill_value=0)
+    n = len(frame)
+    times = pd.to_datetime(frame["time"], utc=True) if "time" in frame.columns else None
+    span = "no card times in the table"
+    if times is not None and times.notna().any():
+        span = f"{_when(times.min())} to {_when(times.max())}"
+    rows = [
+        ("wells", _count(frame["well_id"].nunique(), "well")),
+        ("cards", _count(n, "card")),
+        ("cards used for trends (converged, boundary, poor-fit)",
+         _count(counts[list(USABLE_STATUSES)].sum(), "card")),
+        *((f"status {st}", f"{_count(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
+          for st in counts.index if counts[st] or st in STATUSES),
+        ("cards without a time",
+         _count(times.isna().sum() if times is not None else n, "card")),
+        ("period covered", span),
+        ("quantities trended", ", ".join(f"{q} [{_unit_text(units[q])}]" for q in quantities)
+         or "none"),
+        ("alerts", f"{_count(len(alerts), 'alert')} in "
+                   f"{_count(alerts['well_id'].nunique(), 'well')}"),
+        ("detection", settings),
+    ]
+    return _table(("item", "value"), rows)
+
+
+def _alerts_section(alerts: pd.DataFrame) -> str:
+    if alerts.empty:
+        return "<p>No persistent change was found in any well.</p>"
+    order = alerts.assign(_size=alerts["change_se"].astype(float).abs()).sort_values(
+        ["_size"], ascending=False, kind="stable")
+    rows, classes = [], []
+    for _, a in order.iterrows():
+        unit = a["unit"]
+        rows.append([
+            str(a["well_id"]), str(a["quantity"]), str(a["first_card_id"]),
+            _when(a["first_time"]),
+            f"{a['alarm_card_id']} ({_count(a['delay_cards'], 'card')} later)",
+            _with_unit(a["before"], unit), _with_unit(a["after"], unit),
+            _with_unit(a["change"], unit), f"{float(a['change_rel']):+.1%}",
+            f"{_num(a['change_se'], 3)} standard errors", str(a["direction"]),
+            f"{int(a['n_before'])} / {_count(a['n_after'], 'card')}",
+        ])  # fmt: skip
+        classes.append("alert")
+    headers = ("well", "quantity", "first changed card", "its time", "alarm card",
+               "before (median)", "after (median)", "change (after - before)",
+               "relative change", "size of change", "direction", "cards before / after")
+    return _table(headers, rows, num_cols=(5, 6, 7, 8, 9), row_classes=classes)
+
+
+def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], limit: int) -> str:
+    shown = summary.head(limit)
+    headers = ["well", "cards", *(f"{st}" for st in STATUSES), "alerts", "largest change",
+               *(f"latest {q}" for q in quantities)]  # fmt: skip
+    rows, classes = [], []
+    for _, w in shown.iterrows():
+        cells = [str(w["well_id"]), _count(w["cards"], "card")]
+        cells += [_count(w["n_" + st.replace("-", "_")], "card") for st in STATUSES]
+        cells.append(_count(w["alerts"], "alert"))
+        size = w["max_abs_change_se"]
+        cells.append(f"{w['largest_change']} [{_num(size, 3)} standard errors]"
+                     if w["alerts"] else "none")
+        for q in quantities:
+            cells.append(_with_unit(w.get(f"latest_{q}"), w.get(f"latest_{q}_unit", "")))
+        rows.append(cells)
+        classes.append("alert" if w["alerts"] else "")
+    note = ""
+    if len(summary) > limit:
+        note = (f"<p class=\"muted\">The first {limit} of {len(summary)} wells are listed "
+                "(alerted wells first); wells.csv lists them all.</p>")
+    num = range(1, 2 + len(STATUSES) + 1)
+    return note + _table(headers, rows, num_cols=[*num, *range(len(headers) - len(quantities),
+                                                               len(headers))],
+                         row_classes=classes)
+
+
+# --------------------------------------------------------------------------- entry point
+def write_fleet_report(
+    results: pd.DataFrame | str | os.PathLike[str],
+    out_dir: str | os.PathLike[str],
+    *,
+    alerts: pd.DataFrame | None = None,
+    quantities: Sequence[str] | None = None,
+    max_wells_plotted: int = 24,
+    steady_sample: int = 6,
+    max_wells_listed: int = 500,
+    seed: int = 0,
+    **detect_options: Any,
+) -> dict[str, Path]:
+    """Write the fleet report (HTML, PNGs, alerts.csv, wells.csv) for a results table.
+
+    Parameters
+    ----------
+    results : pandas.DataFrame or path
+        The results table, or a Parquet file or folder holding it.
+    out_dir : str or path
+        Output folder (created).
+    alerts : pandas.DataFrame, optional
+        Changes found by :func:`pumpid.fleet.changes.detect_changes`; computed here (with
+        ``quantities`` and ``detect_options``) when not given.
+    quantities : sequence of str, optional
+        Quantities to show (default: every derived quantity of the table).
+    max_wells_plotted : int, default 24
+        Most alerted wells drawn (the largest changes first).
+    steady_sample : int, default 6
+        Wells without alerts drawn for comparison, picked at random with ``seed``.
+    max_wells_listed : int, default 500
+        Most wells in the page's wells table (alerted wells first); ``wells.csv`` has all.
+    seed : int, default 0
+        For the sample of steady wells.
+    **detect_options
+        Passed to :func:`~pumpid.fleet.changes.detect_changes` when ``alerts`` is None.
+
+    Returns
+    -------
+    dict of str to Path
+        ``"report"`` (report.html), ``"alerts"`` (alerts.csv), ``"wells"`` (wells.csv) and
+        one entry per PNG, keyed by its file name without ``.png``.
+
+    Raises
+    ------
+    ValueError
+        If the table lacks ``well_id``, ``card_id`` or ``status``, or a quantity is unknown.
+    """
+    frame = load_results(results)
+    out = Path(os.fspath(out_dir))
+    out.mkdir(parents=True, exist_ok=True)
+    names = list(quantities) if quantities is not None else available_quantities(frame)
+    if alerts is None:
+        alerts = detect_changes(frame, names, **detect_options)
+        settings = (f"robust two-sided CUSUM; per-well false-alarm probability "
+                    f"{detect_options.get('false_alarm', 0.01):.1%}, reference windows of "
+                    f"{detect_options.get('min_cards', 30)} cards")
+    else:
+        settings = "alerts given by the caller"
+    summary = summarise_wells(frame, alerts, names)
+    units = {q: _column_unit(summary, q) for q in names}
+    files: dict[str, Path] = {}
+    alerts_path = out / "alerts.csv"
+    alerts.to_csv(alerts_path, index=False, date_format="%Y-%m-%dT%H:%M:%S%z")
+    files["alerts"] = alerts_path
+    wells_path = out / "wells.csv"
+    summary.to_csv(wells_path, index=False, date_format="%Y-%m-%dT%H:%M:%S%z")
+    files["wells"] = wells_path
+
+    def save(fig: Figure, name: str) -> bytes:
+        data = _png(fig)
+        path = out / f"{name}.png"
+        path.write_bytes(data)
+        files[name] = path
+        return data
+
+    status = frame["status"].where(frame["status"].isin(STATUSES), "other")
+    counts = status.value_counts().reindex([*STATUSES, "other"], fill_value=0)
+    parts: list[str] = []
+    parts.append("<section id=\"summary\"><h2>Run summary</h2>")
+    parts.append(_summary_section(frame, alerts, names, units, settings))
+    parts.append(_figure_html(save(_status_figure(counts), "status"), "status of every card",
+                              "Cards by fit status. Only converged, boundary and poor-fit "
+                              "cards enter the trends; the others are counted here."))
+    parts.append("</section>")
+
+    parts.append("<section id=\"alerts\"><h2>Alerts</h2>")
+    parts.append("<p>Each row is a persistent shift in one quantity of one well: the first "
+                 "card of the new level (the estimated change point), the card at which the "
+                 "detector raised the alarm, the medians before and after, and the size of "
+                 "the change in units of its standard error. Largest first.</p>")
+    parts.append(_alerts_section(alerts))
+    parts.append("</section>")
+
+    parts.append("<section id=\"wells\"><h2>Wells</h2>")
+    parts.append("<p>Wells with alerts first (largest change in standard errors first), "
+                 "then the others by name; card counts per fit status and the latest "
+                 "usable value of each quantity.</p>")
+    parts.append(_wells_section(summary, names, max_wells_listed))
+    parts.append("</section>")
+
+    alerted = set(alerts["well_id"].astype(str))
+    parts.append("<section id=\"distributions\"><h2>Quantities across wells</h2>")
+    taken: set[str] = set()
+    for q in names:
+        fig = _distribution_figure(frame, q, units[q], alerted)
+        if fig is None:
+            parts.append(f"<p>{_e(q)}: no usable value in any well.</p>")
+            continue
+        name = _safe_name(f"distribution_{q}", taken)
+        parts.append(_figure_html(save(fig, name), f"distribution of {q}",
+                                  f"Distribution across wells of each well's median {q} "
+                                  f"[{_unit_text(units[q])}]; triangles mark wells with an "
+                                  "alert."))
+    parts.append("</section>")
+
+    # Which wells to draw: the alerted ones by decreasing size, then a random few steady.
+    ranked = summary[summary["alerts"] > 0]["well_id"].astype(str).tolist()
+    drawn_alerted = ranked[:max_wells_plotted]
+    steady = sorted(set(frame["well_id"].astype(str)) - alerted)
+    rng = np.random.default_rng(seed)
+    k = min(steady_sample, len(steady))
+    drawn_steady = sorted(rng.choice(steady, size=k, replace=False).tolist()) if k else []
+    parts.append("<section id=\"trends\"><h2>Trends per well</h2>")
+    parts.append(
+        f"<p>Drawn: {len(drawn_alerted)} of {len(ranked)} wells with an alert (largest "
+        f"change first) and {len(drawn_steady)} of {len(steady)} wells without, picked at "
+        f"random (seed {seed}) for comparison. Each panel shows one quantity over the "
+        "well's cards with a band of ± 2 standard errors; dashed lines mark the first "
+        "card of each change; crosses at the bottom mark cards whose fit failed or whose "
+        "input was invalid.</p>"
+    )
+    groups = {str(w): g for w, g in frame.groupby(frame["well_id"].astype(str))}
+    for label, wells in (("with an alert", drawn_alerted), ("without an alert", drawn_steady)):
+        for well in wells:
+            fig = _well_figure(groups[well], names, units, alerts, well)
+            name = _safe_name(f"well_{well}", taken)
+            n_alerts = int((alerts["well_id"].astype(str) == well).sum())
+            parts.append(f"<h3>Well {_e(well)} ({_e(label)}: {_count(n_alerts, 'alert')})</h3>")
+            parts.append(_figure_html(save(fig, name), f"trends of well {well}",
+                                      f"Well {well}: quantities over time, value ± 2 SE."))
+    parts.append("</section>")
+
+    body = "\n".join(parts)
+    page = f"""<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>pumpid fleet report</title>
+<style>{_CSS}</style>
+</head>
+<body>
+<h1>pumpid fleet report</h1>
+<p class="muted">Which wells changed, when, and how: {frame['well_id'].nunique()} wells,
+{len(frame)} cards, {len(alerts)} alerts.</p>
+{body}
+<footer>Made by pumpid {_e(_version())}. Change detection: see
+pumpid.fleet.changes for the method and its assumptions.</footer>
+</body>
+</html>
+"""
+    report = out / "report.html"
+    report.write_text(page, encoding="utf-8")
+    files["report"] = report
+    return files

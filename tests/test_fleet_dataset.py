@@ -1,0 +1,92 @@
+"""The Parquet long layout reader: cards back, and every problem named by file and card."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pumpid.cards import Card, CardError
+from pumpid.fleet.dataset import iter_parquet_cards, read_parquet_cards
+
+
+def _long(card_ids: list[str], n: int = 30, **extra: object) -> pd.DataFrame:
+    frames = []
+    for k, cid in enumerate(card_ids):
+        phase = np.arange(n) / n
+        frames.append(pd.DataFrame({
+            "well_id": "P-1", "card_id": cid,
+            "time": pd.Timestamp("2024-05-01", tz="UTC") + pd.Timedelta(hours=k),
+            "sample": np.arange(n), "position": 50 * (1 - np.cos(2 * np.pi * phase)),
+            "load": 6000 + 2000 * np.sin(2 * np.pi * phase + 0.3), "spm": 6.0, **extra,
+        }))
+    return pd.concat(frames, ignore_index=True)
+
+
+def test_reads_cards_with_time_and_units(tmp_path: Path) -> None:
+    frame = _long(["a", "b"], position_unit="in", load_unit="lbf")
+    frame = frame.sample(frac=1.0, random_state=0)  # row order must not matter
+    frame.to_parquet(tmp_path / "x.parquet")
+    cards = read_parquet_cards(tmp_path / "x.parquet")
+    assert sorted(c.card_id for c in cards) == ["a", "b"]
+    card = {c.card_id: c for c in cards}["b"]
+    assert card.well_id == "P-1" and card.n == 30 and card.periodic
+    assert (card.position_unit, card.load_unit) == ("in", "lbf")
+    assert card.metadata["time"] == pd.Timestamp("2024-05-01 01:00", tz="UTC")
+    np.testing.assert_allclose(card.t, np.arange(30) * 10.0 / 30)
+    np.testing.assert_allclose(card.position, 50 * (1 - np.cos(2 * np.pi * np.arange(30) / 30)))
+
+
+def test_folder_and_t_column(tmp_path: Path) -> None:
+    _long(["a"]).to_parquet(tmp_path / "1.parquet")
+    frame = _long(["b"]).drop(columns=["sample", "spm"])
+    frame["t"] = np.arange(30) * 0.25
+    frame["time"] = frame["time"].dt.tz_localize(None)
+    frame.to_parquet(tmp_path / "2.parquet")
+    cards = read_parquet_cards(tmp_path, position_unit="m", load_unit="kN")
+    assert [c.card_id for c in cards] == ["a", "b"]
+    assert cards[1].time_source == "file" and not cards[1].periodic
+    assert any("UTC" in n for n in cards[1].notes)
+    assert cards[1].position_unit == "m"
+
+
+@pytest.mark.parametrize(
+    ("change", "message", "field"),
+    [
+        (lambda f: f.assign(load=np.where(f.index == 40, np.nan, f["load"])), "NaN", "load"),
+        (lambda f: f.assign(sample=np.where(f.index == 40, 11, f["sample"])), "twice", "sample"),
+        (lambda f: f.assign(well_id=np.where(f.index == 40, "P-2", f["well_id"])),
+         "changes within", "well_id"),
+        (lambda f: f.assign(load=np.where(f["card_id"] == "b", 1.0, f["load"])),
+         "constant load", "load"),
+        (lambda f: f[(f["card_id"] == "a") | (f["sample"] < 5)], "only 5 samples", "position"),
+        (lambda f: f.assign(spm=np.where(f["card_id"] == "b", -3.0, f["spm"])), "spm", "spm"),
+    ],
+)
+def test_bad_card_named(tmp_path: Path, change, message: str, field: str) -> None:
+    path = tmp_path / "bad.parquet"
+    change(_long(["a", "b"])).to_parquet(path)
+    with pytest.raises(CardError, match=message) as info:
+        read_parquet_cards(path)
+    err = info.value
+    assert err.path == str(path) and err.field == field and "card 'b'" in str(err)
+    items = list(iter_parquet_cards(path))  # the batch reader keeps the good card
+    assert isinstance(items[0], Card) and isinstance(items[1], CardError)
+
+
+def test_bad_files(tmp_path: Path) -> None:
+    (tmp_path / "junk.parquet").write_bytes(b"\x00not parquet at all")
+    with pytest.raises(CardError, match="cannot read") as info:
+        read_parquet_cards(tmp_path / "junk.parquet")
+    assert info.value.path == str(tmp_path / "junk.parquet")
+    _long(["a"]).drop(columns=["sample"]).to_parquet(tmp_path / "nosample.parquet")
+    with pytest.raises(CardError, match=r"sample \(or t\)"):
+        read_parquet_cards(tmp_path / "nosample.parquet")
+    with pytest.raises(CardError, match="no such"):
+        read_parquet_cards(tmp_path / "absent.parquet")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(CardError, match=r"no \.parquet"):
+        read_parquet_cards(empty)

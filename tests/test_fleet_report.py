@@ -1,0 +1,94 @@
+"""The fleet report: its files, a self-contained page, every alerted well named."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pumpid.fleet.changes import detect_changes
+from pumpid.fleet.report import write_fleet_report
+from tests.test_fleet_changes import results_table
+
+STEPS = {2: ("stiffness", 1.3, 60), 5: ("damping_ratio", 0.7, 80)}
+
+
+@pytest.fixture(scope="module")
+def table() -> pd.DataFrame:
+    frame = results_table(12, 150, cv=0.03, seed=21, steps=STEPS)
+    rng = np.random.default_rng(2)
+    rows = frame.index[rng.choice(len(frame), 60, replace=False)]
+    frame.loc[rows[:40], "status"] = "failed"
+    frame.loc[rows[40:], "status"] = "invalid-input"
+    frame.loc[rows[:40], ["d_stiffness", "d_natural_frequency", "d_damping_ratio"]] = np.nan
+    frame.loc[frame.index[0], "well_id"] = "<b>odd & well</b>"  # text must be escaped
+    return frame
+
+
+def test_report_files_and_page(table: pd.DataFrame, tmp_path: Path) -> None:
+    path = tmp_path / "results.parquet"
+    table.to_parquet(path)
+    files = write_fleet_report(path, tmp_path / "out", max_wells_plotted=5, steady_sample=2)
+    for key in ("report", "alerts", "wells", "status", "distribution_stiffness"):
+        assert files[key].is_file() and files[key].stat().st_size > 0
+    pngs = sorted(p.name for p in (tmp_path / "out").glob("*.png"))
+    assert pngs == sorted(f"{k}.png" for k in files if k not in ("report", "alerts", "wells"))
+    for png in pngs:
+        assert (tmp_path / "out" / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    page = files["report"].read_text(encoding="utf-8")
+    # self-contained: nothing fetched from anywhere, no script
+    assert "http" not in page.lower()
+    assert not re.search(r"<(script|link|iframe)\b", page, re.IGNORECASE)
+    assert all(src.startswith("data:image/png;base64,")
+               for src in re.findall(r'src="([^"]*)"', page))
+    assert "<b>odd" not in page and "&lt;b&gt;odd &amp; well&lt;/b&gt;" in page
+    alerts = pd.read_csv(files["alerts"])
+    assert set(alerts["well_id"]) == {"W0002", "W0005"}
+    for well in alerts["well_id"]:
+        assert f"Well {well}" in page  # drawn, with its heading
+        assert page.count(well) >= 3  # and in the alerts and wells tables
+    for section in ("Run summary", "Alerts", "Wells", "Quantities across wells",
+                    "Trends per well"):
+        assert f"<h2>{section}</h2>" in page
+    assert "13 wells" in page and "1800 cards" in page and "40 cards (2.2%)" in page
+    assert "lbf/in" in page and "Hz" in page
+    assert "2 of 2 wells with an alert" in page and "2 of 11 wells without" in page
+
+
+def test_alerts_csv_round_trips(table: pd.DataFrame, tmp_path: Path) -> None:
+    alerts = detect_changes(table)
+    files = write_fleet_report(table, tmp_path, alerts=alerts, steady_sample=0)
+    back = pd.read_csv(files["alerts"], parse_dates=["first_time", "alarm_time"])
+    pd.testing.assert_frame_equal(back, alerts, check_dtype=False)
+    wells = pd.read_csv(files["wells"])
+    assert len(wells) == table["well_id"].nunique()
+    assert wells["well_id"].iloc[:2].tolist() == alerts.assign(
+        s=alerts["change_se"].abs()).sort_values("s", ascending=False)["well_id"].tolist()
+    assert "alerts given by the caller" in files["report"].read_text(encoding="utf-8")
+
+
+def test_many_wells_are_sampled_and_no_alerts(tmp_path: Path) -> None:
+    frame = results_table(900, 36, cv=0.03, seed=4)
+    frame.loc[frame["well_id"] == "W0003", "time"] = pd.NaT
+    empty = detect_changes(frame.iloc[:0])
+    files = write_fleet_report(frame, tmp_path, alerts=empty, quantities=["stiffness"],
+                               steady_sample=3, max_wells_listed=50)
+    page = files["report"].read_text(encoding="utf-8")
+    assert "No persistent change was found" in page
+    assert "The first 50 of 900 wells are listed" in page
+    assert "3 of 900 wells without" in page
+    assert len([k for k in files if k.startswith("well_")]) == 3
+    assert len(pd.read_csv(files["wells"])) == 900
+
+
+def test_parameters_shown_with_their_units(table: pd.DataFrame, tmp_path: Path) -> None:
+    frame = table.assign(p_k0=200.0 * np.exp(0.02 * np.sin(np.arange(len(table)))),
+                         p_k0_se=1.5)
+    files = write_fleet_report(frame, tmp_path, quantities=["stiffness", "p_k0"],
+                               steady_sample=1)
+    page = files["report"].read_text(encoding="utf-8")
+    assert "p_k0 [lbf/in]" in page and "stiffness [lbf/in]" in page
+    assert "distribution_p_k0" in files
