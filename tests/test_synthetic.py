@@ -128,8 +128,11 @@ def _read(path: Path, row: pd.Series) -> list[pumpid.cards.Card]:
     if path.suffix == ".parquet":
         return read_parquet_cards(path)
     if row["format"] == "whitespace":
+        # A linear model's card is a smooth loop: the column-role detector rightly will not
+        # guess which column is which, so the reader is told (as a user would be asked to).
         return read_cards(path, well_id=row["well_id"], spm=row["spm"],
-                          position_unit="in", load_unit="lbf")
+                          position_unit="in", load_unit="lbf",
+                          columns={"position": 0, "load": 1})
     return read_cards(path)
 
 

@@ -57,7 +57,9 @@ rest of the well stays readable) and the whitespace layout (one card per file).
 ``whitespace/<well>/<card_id>.txt``
     Two columns without header (position, load), ``#`` comments on top; the format has no
     place for ids, rate or time: the card id is the file name, and well id and SPM come
-    from the truth table (``read_cards(path, well_id=..., spm=...)``).
+    from the truth table; a linear model's smooth loop does not tell its columns apart,
+    so name them (``read_cards(path, well_id=..., spm=..., columns={"position": 0,
+    "load": 1})``).
 ``parquet/<well>.parquet``
     The long layout, one row per sample (read with
     :func:`pumpid.fleet.dataset.read_parquet_cards`): ``well_id`` (str), ``card_id`` (str),
