@@ -31,10 +31,18 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .engine import drive, lm
+from .engine import drive
 from .engine.problem import CardData, Problem, build_problem
 from .engine.solvers import LevenbergMarquardt, PaperNewton, SolverOutcome, Stop
-from .engine.start import StartPlan, complete, find_starts, to_z, walk_valley
+from .engine.start import (
+    StartPlan,
+    WidePlan,
+    complete,
+    find_starts,
+    search_wider,
+    to_z,
+    walk_valley,
+)
 from .engine.threads import default_workers
 from .inference import boundaries as bnd
 from .inference.boundaries import BoundaryInfo, Limiting, ReducedFit
@@ -86,9 +94,11 @@ class JobOptions:
     """The options of the main job that are not part of the problem."""
 
     method: Method = "lm"
-    solver: LevenbergMarquardt = LevenbergMarquardt()
-    newton: PaperNewton = PaperNewton()
-    plan: StartPlan = StartPlan()
+    solver: LevenbergMarquardt = field(default_factory=LevenbergMarquardt)
+    newton: PaperNewton = field(default_factory=PaperNewton)
+    plan: StartPlan = field(default_factory=StartPlan)
+    #: The wider search for cards whose first answer does not explain the data (None: off).
+    wide: WidePlan | None = field(default_factory=WidePlan)
     multistart: bool | Literal["auto"] = "auto"
     workers: int | None = 1
     history: bool = False
@@ -309,6 +319,7 @@ def _check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[_Ca
                     best_red = (red.cost, red, lim)
         if not found[j] or k in restarts:
             continue
+        _to_the_limit(problem, k, card, found[j], options)
         card.status = Status.BOUNDARY
         names = ", ".join(b.name for b in found[j])
         card.reason = (f"{card.reason}; {names} ran to a bound: the solution is a limiting "
@@ -331,6 +342,34 @@ def _check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[_Ca
                 f"reduced model {red.model_name} ({lim.description.split(':')[0]}) fitted: "
                 f"R^2 = {red.r2:.6g}, RMSE = {red.rmse:.4g} {{position}}")
     return restarts
+
+
+def _to_the_limit(problem: Problem, k: int, card: _Card, limits: Sequence[Limiting],
+                  options: JobOptions) -> None:
+    """Move parameters found at a boundary to the edge of the search window (the limit as
+    far as the window reaches) and refit the others there; kept when it fits better.
+
+    Along a limit the cost keeps creeping down while the solver's steps shrink, so where a
+    boundary parameter stops is a matter of the solver's patience: at the window's edge the
+    answer is the limit itself, the same for every run.
+    """
+    names = [problem.model.param_names()[i] for i in problem.free_idx]
+    z0 = card.z.copy()
+    lo, hi = problem.window(np.array([k], dtype=np.int64), z0[None])
+    lo, hi = lo.copy(), hi.copy()
+    for b in limits:
+        if b.name not in names:
+            continue
+        f = names.index(b.name)
+        edge = hi[0, f] if b.direction == "infinity" else lo[0, f]
+        z0[f] = lo[0, f] = hi[0, f] = edge
+    out = options.solver.solve(problem, np.array([k], dtype=np.int64), z0[None],
+                               bounds=(lo, hi))
+    card.evaluations += int(out.evaluations[0])
+    if math.isfinite(out.cost[0]) and out.cost[0] < card.cost:
+        card.z = out.z[0].copy()
+        card.cost = float(out.cost[0])
+        card.accepted += int(out.accepted[0])
 
 
 def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
@@ -468,7 +507,44 @@ def run(problem: Problem, cards: NDArray[np.int64], *, guess: Array | None,
                     g.done = True
                     fits[i] = g
 
-    # 4. Boundaries.
+    # 4. A wider search where the answer does not explain the data (a wrong basin, or a
+    # model that misses part of the response: then other basins compete).
+    if (options.wide is not None and options.method == "lm" and options.multistart is not False
+            and allow_restart):
+        hard = [i for i in range(m) if not fits[i].done
+                and np.all(np.isfinite(fits[i].z))
+                and _doubtful(problem, int(cards[i]), fits[i])]
+        if hard:
+            z_wide, c_wide, counts = search_wider(
+                problem, cards[hard], np.array([fits[i].z for i in hard]),
+                np.array([fits[i].cost for i in hard]), plan=options.wide, solver=solver,
+                workers=workers)
+            better = [j for j, i in enumerate(hard)
+                      if c_wide[j] < fits[i].cost * (1 - 1e-12)]
+            if better:
+                # The improved points are converged already: one more solver run from each
+                # gives them their stop test and history.
+                idx = [hard[j] for j in better]
+                again = solver.solve(problem, cards[idx], z_wide[better],
+                                     history=options.history and m == 1, workers=workers)
+                for j, i in enumerate(idx):
+                    before = fits[i].cost
+                    evals = fits[i].evaluations
+                    fits[i].evaluations = 0
+                    fits[i].accepted = 0
+                    _apply(fits[i], again, j, problem)
+                    fits[i].evaluations += evals
+                    fits[i].status = (Status.CONVERGED if fits[i].stop.converged
+                                      else Status.FAILED)
+                    fits[i].reason = fits[i].message
+                    fits[i].warnings.append(
+                        f"the first answer did not explain the data; a wider search "
+                        f"({int(counts[better[j]])} more starts) found a better optimum "
+                        f"(cost {before:.6g} -> {fits[i].cost:.6g})")
+                _mark_edges(problem, cards[idx], z_wide[better], fits, idx)
+                _summarize(problem, cards, fits)
+
+    # 5. Boundaries.
     todo = [i for i in range(m) if not fits[i].done]
     if options.boundaries and todo:
         restarts = _check_boundaries(problem, cards[todo], [fits[i] for i in todo], options,
@@ -577,7 +653,7 @@ def _at_optimum(problem: Problem, k: int, z: Array) -> tuple[Array, Array | None
     d = problem.card(k)[2]
     rows = np.empty((q + 1, problem.n_samples(k)))
     if not drive.residual_rows(z, k, data, model, settings, rows):
-        y, ok = drive.outputs(np.array([k], dtype=np.int64), np.ascontiguousarray(z[None]),
+        y, _ok = drive.outputs(np.array([k], dtype=np.int64), np.ascontiguousarray(z[None]),
                               data, model, settings, d.size)
         scale, offset = _scale_offset(problem, z)
         return scale * y + offset, None

@@ -49,7 +49,7 @@ __all__ = [
 Array = NDArray[np.float64]
 
 
-class Status(str, enum.Enum):
+class Status(enum.StrEnum):
     """What a fit's answer is, with its meaning in words.
 
     A member is its name as a string (``Status.CONVERGED == "converged"``), the name JSON,

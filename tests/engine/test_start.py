@@ -48,7 +48,7 @@ def test_first_order_automatic_start() -> None:
     assert res.params["tau"] == pytest.approx(0.8, rel=1e-8)
     # The equation-error form itself finds the time constant of noiseless data.
     problem = _problem(FirstOrder, t, f, data)
-    theta, owner, kinds = candidates(problem, ONE)
+    theta, _owner, kinds = candidates(problem, ONE)
     assert "equation error" in kinds
     assert np.any(np.abs(theta[:, 0] / 0.8 - 1) < 1e-3)
 
@@ -154,5 +154,5 @@ def test_valley_walk_stays_put_on_noisy_data() -> None:
     problem = _problem(Maxwell, t, load, data, **opts)
     res = fit(truth, t, load, data, **opts)
     z = np.r_[np.log(res.model.values), res.offset]
-    zw, cw = walk_valley(problem, 0, z, res.cost)
+    _zw, cw = walk_valley(problem, 0, z, res.cost)
     assert cw >= 0.95 * res.cost * (1 - 1e-9) or math.isclose(cw, res.cost)

@@ -40,8 +40,6 @@ from pumpid.flow import (
     simulate_flow_record,
     step_response_study,
 )
-from pumpid.flow.records import normalize_flow_unit
-from pumpid.flow.report import plot_tau_vs_step, write_flow_outputs, write_study_outputs
 from pumpid.flow.pipeflow import (
     J01,
     Pipe,
@@ -49,6 +47,8 @@ from pumpid.flow.pipeflow import (
     newtonian_slowest_time_constant,
     szymanski_flow_rate,
 )
+from pumpid.flow.records import normalize_flow_unit
+from pumpid.flow.report import plot_tau_vs_step, write_flow_outputs, write_study_outputs
 
 DATA = Path(__file__).parents[1] / "data" / "flow"
 PIPE = Pipe(radius=5e-3, length=1.0)

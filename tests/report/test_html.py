@@ -13,9 +13,8 @@ import pytest
 from matplotlib.figure import Figure
 
 import pumpid
-from pumpid.report import plots
 from pumpid.inference.boundaries import BoundaryInfo, Limiting, ReducedFit
-from pumpid.report import render_html, write_outputs, write_report
+from pumpid.report import plots, render_html, write_outputs, write_report
 from pumpid.result import CardInfo, FitResult, Status
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

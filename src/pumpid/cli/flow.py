@@ -69,8 +69,8 @@ def _fmt(value: Any, digits: int = 8) -> str:
 # --------------------------------------------------------------------------- simulate
 def cmd_flow_simulate(args: argparse.Namespace) -> int:
     """Simulate the reference pipe flow for a pressure-drop step or history; write t, dp, q."""
-    from ..flow.pipeflow import power_law_time_scale
     from ..flow import simulate_flow_record
+    from ..flow.pipeflow import power_law_time_scale
 
     fluid, pipe = _fluid_pipe(args)
     if (args.dp is None) == (args.dp_file is None):

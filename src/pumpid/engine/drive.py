@@ -38,7 +38,7 @@ def _card(data, k):
 @jit
 def _unpack(z, settings, lz):
     """Fill ``lz`` (p,) from z; return (C, offset)."""
-    free, lz_base, log_res, scale_free, scale_fixed, offset_free, offset_fixed = settings
+    free, lz_base, _log_res, scale_free, scale_fixed, offset_free, offset_fixed = settings
     nf = free.size
     lz[:] = lz_base
     for i in range(nf):
@@ -188,7 +188,7 @@ def solve_one(z0, lo, hi, tol, max_evals, n_capped, card, data, model, settings,
 @jit
 def cost_items(cards, z, data, model, settings):
     """Cost ``0.5 |r|^2`` of many (card, point) items (no sensitivities); inf when not finite."""
-    m, q = z.shape
+    m, _q = z.shape
     nf = settings[0].size
     out = np.empty(m)
     for i in range(m):
@@ -255,7 +255,7 @@ def linear_items(cards, z, rescale, data, model, settings):
     the scale held. Returns the completed points (m, q) and their costs (inf when the point
     cannot be simulated or the amplitude is not positive).
     """
-    m, q = z.shape
+    m, _q = z.shape
     free, _lz_base, log_res, scale_free, scale_fixed, offset_free, offset_fixed = settings
     nf = free.size
     out = z.copy()

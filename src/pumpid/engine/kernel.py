@@ -175,7 +175,7 @@ def dual_expm(a, out):
     Scaling and squaring with the Pade degree chosen from the value's 1-norm (Higham 2005);
     the derivative parts follow every product and the final solve exactly.
     """
-    p_count, m, _ = a.shape
+    _p_count, m, _ = a.shape
     norm = 0.0
     for c in range(m):
         s = 0.0
@@ -197,7 +197,7 @@ def dual_expm(a, out):
     else:
         b = _B13
         if norm > _THETA[4]:
-            squarings = int(math.ceil(math.log2(norm / _THETA[4])))
+            squarings = math.ceil(math.log2(norm / _THETA[4]))
     degree = b.size - 1
     x = a * (0.5 ** squarings)
     x2 = np.empty_like(x)
@@ -289,7 +289,7 @@ def balance(a, d):
 @jit
 def dual_power(x, e, out):
     """``out = x ** e`` for a dual matrix and an integer ``e >= 0`` (binary powering)."""
-    p_count, m, _ = x.shape
+    _p_count, m, _ = x.shape
     out[:] = 0.0
     for r in range(m):
         out[0, r, r] = 1.0

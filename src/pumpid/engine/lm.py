@@ -345,7 +345,7 @@ def propose(state):
 @jit
 def update(state, cost_try, r_try, c_try):
     """Take the evaluation of ``z_try``; False when the iteration stopped."""
-    z, lo, hi, r, c, diag, z_try, fs, ints = state
+    z, _lo, _hi, r, c, diag, z_try, fs, ints = state
     q = z.size
     tol = fs[_TOL]
     cost = fs[_COST]

@@ -136,7 +136,7 @@ class LevenbergMarquardt:
 
     def budget(self, q: int) -> int:
         """Evaluations per item for a problem with q solver coordinates."""
-        return int(self.max_evaluations) if self.max_evaluations is not None else 100 * q
+        return int(self.max_evaluations) if self.max_evaluations is not None else 1000 * q
 
     def solve(
         self,
@@ -147,16 +147,22 @@ class LevenbergMarquardt:
         budget: NDArray[np.int64] | int | None = None,
         history: bool = False,
         workers: int | None = 1,
+        bounds: tuple[Array, Array] | None = None,
     ) -> SolverOutcome:
         """Minimize from z0 (m, q) on the given cards (m,).
 
         ``budget`` overrides the evaluations per item. ``history`` records the accepted
-        points of a single item. ``workers`` threads share the items.
+        points of a single item. ``workers`` threads share the items. ``bounds`` (lo, hi),
+        each (m, q), replace the problem's search window (equal bounds hold a coordinate).
         """
         cards = np.ascontiguousarray(cards, dtype=np.int64)
         z0 = np.ascontiguousarray(z0, dtype=float)
         m, q = z0.shape
-        lo, hi = problem.window(cards, z0)
+        if bounds is None:
+            lo, hi = problem.window(cards, z0)
+        else:
+            lo = np.ascontiguousarray(bounds[0], dtype=float)
+            hi = np.ascontiguousarray(bounds[1], dtype=float)
         limit = self.budget(q) if budget is None else budget
         # The start is one evaluation; the state machine counts the trial points after it.
         trials = np.maximum(np.broadcast_to(np.asarray(limit, dtype=np.int64), (m,)) - 1, 1)

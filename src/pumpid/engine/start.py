@@ -21,6 +21,7 @@ point is the start. All of it runs for every card of a problem at once.
 from __future__ import annotations
 
 import math
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,7 +33,18 @@ from .problem import WINDOW, Problem
 from .solvers import LevenbergMarquardt, SolverOutcome
 from .threads import run_chunks
 
-__all__ = ["StartPlan", "Starts", "candidates", "complete", "find_starts", "to_z", "walk_valley"]
+__all__ = [
+    "StartPlan",
+    "Starts",
+    "WidePlan",
+    "candidates",
+    "complete",
+    "find_starts",
+    "harmonic_scan",
+    "search_wider",
+    "to_z",
+    "walk_valley",
+]
 
 Array = NDArray[np.float64]
 
@@ -199,6 +211,117 @@ def equation_error_items(cards, lams, data, form, scale, offset_free):
             else:
                 out[i, li] = _time_coefs(t, y, f, lam, form, uniform[k])
     return out
+
+
+@jit
+def _complex_solve(a, b):
+    """x = a^-1 b for a small complex matrix (Gaussian elimination, partial pivoting)."""
+    n = a.shape[0]
+    m = a.copy()
+    x = b.copy()
+    for k in range(n):
+        p = k
+        big = abs(m[k, k])
+        for r in range(k + 1, n):
+            if abs(m[r, k]) > big:
+                big = abs(m[r, k])
+                p = r
+        if big == 0.0:
+            return x, False
+        if p != k:
+            for c in range(n):
+                tmp = m[k, c]
+                m[k, c] = m[p, c]
+                m[p, c] = tmp
+            tmp = x[k]
+            x[k] = x[p]
+            x[p] = tmp
+        for r in range(k + 1, n):
+            f = m[r, k] / m[k, k]
+            for c in range(k, n):
+                m[r, c] -= f * m[k, c]
+            x[r] -= f * x[k]
+    for k in range(n - 1, -1, -1):
+        s = x[k]
+        for c in range(k + 1, n):
+            s -= m[k, c] * x[c]
+        x[k] = s / m[k, k]
+    return x, True
+
+
+@jit
+def harmonic_scan(t, f, d, shapes, code, n, obs, offset_free, symmetric, scale, kmax):
+    """Cost of parameter shapes on a periodic card by its harmonics (a fast ranking).
+
+    The card's load and data are taken to their first ``kmax`` harmonics; each shape's
+    response at harmonic k is ``H(i k w) F_k`` with H the model's continuous transfer
+    function (close to the exact discrete one at the harmonics that carry a card). For a
+    scale-symmetric model on a fixed scale the amplitude is free: the best one is solved
+    for and the shape rescaled to it (returned as the factor). The offset, when free, takes
+    the mean. Returns (costs (S,), factors (S,)).
+    """
+    n_samples = t.size
+    period = (t[n_samples - 1] - t[0]) * n_samples / (n_samples - 1)
+    kmax = min(kmax, n_samples // 2)
+    first = 1 if offset_free else 0
+    nk = kmax + 1 - first
+    fk = np.empty(nk, np.complex128)
+    dk = np.empty(nk, np.complex128)
+    for i in range(nk):
+        k = first + i
+        sf = 0.0 + 0.0j
+        sd = 0.0 + 0.0j
+        w = -2.0 * math.pi * k / n_samples
+        for j in range(n_samples):
+            e = complex(math.cos(w * j), math.sin(w * j))
+            sf += f[j] * e
+            sd += d[j] * e
+        fk[i] = sf
+        dk[i] = sd
+    s_count = shapes.shape[0]
+    costs = np.full(s_count, math.inf)
+    factors = np.ones(s_count)
+    free = np.zeros(0, np.int64)
+    a = np.empty((1, n, n))
+    b = np.empty((1, n))
+    eye = np.eye(n).astype(np.complex128)
+    y = np.empty(nk, np.complex128)
+    for s in range(s_count):
+        ok = True
+        for j in range(shapes.shape[1]):
+            if not (shapes[s, j] > 0.0):
+                ok = False
+        if not ok:
+            continue
+        kernel.system(np.log(shapes[s]), free, code, a, b)
+        bc = b[0].astype(np.complex128)
+        for i in range(nk):
+            k = first + i
+            om = 2.0 * math.pi * k / period
+            x, good = _complex_solve(1j * om * eye - a[0], bc)
+            if not good:
+                ok = False
+                break
+            y[i] = x[obs] * fk[i]
+        if not ok:
+            continue
+        amp = scale
+        if symmetric:
+            num = 0.0
+            den = 0.0
+            for i in range(nk):
+                num += (y[i].conjugate() * dk[i]).real
+                den += abs(y[i]) ** 2
+            if not (den > 0.0 and num > 0.0):
+                continue
+            amp = num / den
+        total = 0.0
+        for i in range(nk):
+            total += abs(amp * y[i] - dk[i]) ** 2
+        if math.isfinite(total):
+            costs[s] = total
+            factors[s] = scale / amp
+    return costs, factors
 
 
 # --------------------------------------------------------------------------- candidates
@@ -489,3 +612,165 @@ def walk_valley(problem: Problem, k: int, z: Array, cost: float,
             best_z, best_cost = got
         z, cost = best_z, best_cost
     return z, cost
+
+
+@dataclass(frozen=True)
+class WidePlan:
+    """How far the wide search goes when the first answer does not explain the data.
+
+    Each round polishes ``per_round`` new points -- the best-ranked shapes of the model's
+    dense grid (ranked by the card's harmonics for a periodic stroke, by its samples
+    otherwise) and ``random`` log-uniform points within ``spread`` of the natural scales --
+    then runs the solver to convergence from the best distinct ones. The search stops when
+    two independent starts agree on the best cost (``agree``, relative), or after
+    ``rounds`` rounds.
+    """
+
+    rounds: int = 3
+    per_round: int = 8
+    random: int = 4
+    spread: float = 1e3
+    polish_evaluations: int = 80
+    finals: int = 2
+    agree: float = 1e-6
+    harmonics: int = 64
+
+
+def _card_rng(problem: Problem, k: int) -> np.random.Generator:
+    """A generator seeded by the card's own samples: its search is the same in any batch."""
+    _t, f, d = problem.card(k)
+    seed = zlib.crc32(np.ascontiguousarray(f).tobytes() + np.ascontiguousarray(d).tobytes())
+    return np.random.default_rng(seed)
+
+
+def _ranked_shapes(problem: Problem, k: int, plan: WidePlan) -> Array:
+    """The model's dense shapes on card k, best first, as rescaled parameter rows."""
+    w0 = _fundamental(problem, k)
+    shapes = problem.model.shape_grid(w0, dense=True)
+    if problem.fixed:
+        for i, value in problem.fixed:
+            shapes[:, i] = value
+    t, f, d = problem.card(k)
+    periodic = (problem.mode[k] == kernel.PERIODIC and problem.uniform[k]
+                and problem.model.input_map is None
+                and abs(problem.period[k] - t.size * (t[1] - t[0])) <= 1e-6 * problem.period[k])
+    symmetric = bool(problem.model.scale_symmetric and problem.scale_fixed is not None
+                     and not problem.fixed)
+    scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
+    if periodic:
+        code = problem.model.code()
+        costs, factors = harmonic_scan(t, f, d, np.ascontiguousarray(shapes), code,
+                                       problem.model.n_states(), problem.out_index,
+                                       problem.offset_fixed is None, symmetric, float(scale),
+                                       plan.harmonics)
+        if symmetric:
+            shapes = shapes * factors[:, None]
+    else:
+        z, costs = complete(problem, np.full(shapes.shape[0], k, dtype=np.int64), shapes)
+        shapes = problem.full_theta(np.exp(z[:, : problem.n_free]))
+    order = np.argsort(costs)
+    return shapes[order[np.isfinite(costs[order])]]
+
+
+def _distinct(points: list[Array], z: Array, p: int, tol: float = 0.05) -> bool:
+    return all(np.max(np.abs(z[:p] - q[:p])) > tol for q in points)
+
+
+def search_wider(
+    problem: Problem,
+    cards: NDArray[np.int64],
+    z_now: Array,
+    cost_now: Array,
+    *,
+    plan: WidePlan = WidePlan(),
+    solver: LevenbergMarquardt | None = None,
+    workers: int | None = 1,
+) -> tuple[Array, Array, NDArray[np.int64]]:
+    """A wider multistart for cards whose answer does not explain their data.
+
+    The model's dense shape grid (ranked cheaply) and random points within ``plan.spread``
+    of the natural scales are polished in rounds; the solver runs to convergence from the
+    best distinct polished points. Stops for a card when two independent starts agree on
+    its best cost, which then is the global optimum with good confidence.
+
+    Returns the best points (m, q), their costs (m,) and the number of points polished.
+    """
+    solver = solver or LevenbergMarquardt()
+    cards = np.asarray(cards, dtype=np.int64)
+    m = cards.size
+    p = problem.n_free
+    best_z = np.array(z_now, dtype=float).copy()
+    best_cost = np.array(cost_now, dtype=float).copy()
+    polished_count = np.zeros(m, dtype=np.int64)
+    pools = [_ranked_shapes(problem, int(k), plan) for k in cards]
+    rngs = [_card_rng(problem, int(k)) for k in cards]
+    finals: list[list[tuple[float, Array]]] = [[] for _ in range(m)]
+    for i in range(m):
+        if math.isfinite(best_cost[i]):
+            finals[i].append((float(best_cost[i]), best_z[i].copy()))
+    active = list(range(m))
+    polish = LevenbergMarquardt(tol=1e-10)
+    for round_ in range(plan.rounds):
+        if not active:
+            break
+        items_card: list[int] = []
+        items_theta: list[Array] = []
+        owner: list[int] = []
+        for i in active:
+            k = int(cards[i])
+            pool = pools[i][round_ * plan.per_round:(round_ + 1) * plan.per_round]
+            ref = problem.reference[k]
+            rand = ref * np.exp(rngs[i].uniform(-math.log(plan.spread), math.log(plan.spread),
+                                                (plan.random, problem.n_params)))
+            for i_fix, value in problem.fixed:
+                rand[:, i_fix] = value
+            for theta in (*pool, *rand):
+                items_card.append(k)
+                items_theta.append(theta)
+                owner.append(i)
+        if not items_card:
+            break
+        item_cards = np.array(items_card, dtype=np.int64)
+        z0, c0 = complete(problem, item_cards, np.array(items_theta), workers=workers)
+        keep = np.isfinite(c0)
+        owner_arr = np.array(owner)[keep]
+        out = polish.solve(problem, item_cards[keep], z0[keep],
+                           budget=plan.polish_evaluations, workers=workers)
+        # The best distinct polished points of each card go on to convergence.
+        chosen_card: list[int] = []
+        chosen_z: list[Array] = []
+        chosen_owner: list[int] = []
+        for i in active:
+            mine = np.flatnonzero(owner_arr == i)
+            polished_count[i] += mine.size
+            mine = mine[np.isfinite(out.cost[mine])]
+            picked: list[Array] = []
+            for j in mine[np.argsort(out.cost[mine])]:
+                if len(picked) >= plan.finals:
+                    break
+                if _distinct(picked, out.z[j], p):
+                    picked.append(out.z[j])
+            for z in picked:
+                chosen_card.append(int(cards[i]))
+                chosen_z.append(z)
+                chosen_owner.append(i)
+        if chosen_card:
+            full = solver.solve(problem, np.array(chosen_card, dtype=np.int64),
+                                np.array(chosen_z), workers=workers)
+            for j, i in enumerate(chosen_owner):
+                if math.isfinite(full.cost[j]):
+                    finals[i].append((float(full.cost[j]), full.z[j].copy()))
+        still = []
+        for i in active:
+            results = sorted(finals[i], key=lambda item: item[0])
+            if not results:
+                continue
+            top = results[0][0]
+            best_cost[i], best_z[i] = results[0]
+            agreeing = [z for c, z in results if c <= top * (1 + plan.agree) + 1e-300]
+            # Two starts that end on the same best cost from different places: the best
+            # basin has been found twice.
+            if len(agreeing) < 2:
+                still.append(i)
+        active = still
+    return best_z, best_cost, polished_count

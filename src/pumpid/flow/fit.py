@@ -460,7 +460,9 @@ def simulate_flow_record(
     source: str | None = None,
     **options: Any,
 ) -> FlowRecord:
-    """A reference record from the pipe-flow simulator (:func:`pumpid.flow.pipeflow.simulate_pipe_flow`).
+    """A reference record from the pipe-flow simulator.
+
+    The simulator is :func:`pumpid.flow.pipeflow.simulate_pipe_flow`.
 
     Parameters
     ----------

@@ -188,8 +188,9 @@ class _Referenced:
 @lru_cache(maxsize=64)
 def _bind(base: type, dp_ref: float) -> type:
     return type(base.__name__, (base,), {
-        "dp_ref": dp_ref, "input_reference": dp_ref, "_unbound": base, "__module__": base.__module__,
-        "__qualname__": base.__qualname__, "__doc__": base.__doc__,
+        "dp_ref": dp_ref, "input_reference": dp_ref, "_unbound": base,
+        "__module__": base.__module__, "__qualname__": base.__qualname__,
+        "__doc__": base.__doc__,
     })
 
 

@@ -8,11 +8,11 @@ interval is the likelihood-ratio one: the values with
 
 with ``t`` the two-sided Student quantile at the chosen level and N - p degrees of freedom.
 For a model linear in its parameters this equals the Wald interval of
-:mod:`pumpid.inference.uncertainty`; for a curved problem it follows the cost's actual shape and, for a
-parameter at a boundary, it is one-sided: the profile never rises above the threshold on the
-boundary's side, so that bound is ``None`` (0 or infinity). Like the Wald interval, it
-assumes white, homoscedastic, Gaussian noise; when the fit's residuals fail the whiteness
-check, a note says so (the interval is then too narrow).
+:mod:`pumpid.inference.uncertainty`; for a curved problem it follows the cost's actual shape
+and, for a parameter at a boundary, it is one-sided: the profile never rises above the
+threshold on the boundary's side, so that bound is ``None`` (0 or infinity). Like the Wald
+interval, it assumes white, homoscedastic, Gaussian noise; when the fit's residuals fail the
+whiteness check, a note says so (the interval is then too narrow).
 
 The refits use the default solver (``method="lm"``) whatever method produced the result: the
 profile is a property of the cost function, not of the solver.

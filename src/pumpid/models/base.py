@@ -348,16 +348,20 @@ class Model:
 
     # ------------------------------------------------------------------ knowledge
     @classmethod
-    def shape_grid(cls, w0: float) -> Array:
+    def shape_grid(cls, w0: float, dense: bool = False) -> Array:
         """Parameter shapes (S, p) at unit stiffness spanning plausible dynamics.
 
-        ``w0`` is the record's fundamental angular frequency (rad/s). The default spans
-        every parameter's natural size a decade either way; models override it with shapes
-        from their physics.
+        ``w0`` is the record's fundamental angular frequency (rad/s). ``dense`` asks for the
+        wide search's grid (many more shapes, into the limits). The default spans every
+        parameter's natural size a decade (dense: three decades) either way; models override
+        it with shapes from their physics.
         """
         import itertools
 
-        factors = (0.1, 1.0, 10.0) if len(cls.param_names()) <= 4 else (0.3, 3.0)
+        if dense:
+            factors: tuple[float, ...] = (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0, 1e3)
+        else:
+            factors = (0.1, 1.0, 10.0) if len(cls.param_names()) <= 4 else (0.3, 3.0)
         base = np.array([_unit_size(p.unit, w0) for p in cls.param_info()])
         return np.array([base * np.array(c) for c in itertools.product(
             factors, repeat=base.size)])

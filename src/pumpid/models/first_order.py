@@ -50,7 +50,9 @@ class FirstOrder(Model):
     )
 
     @classmethod
-    def shape_grid(cls, w0: float) -> np.ndarray:
-        """Relaxation times from 0.01 to 3 record fundamentals' periods."""
+    def shape_grid(cls, w0: float, dense: bool = False) -> np.ndarray:
+        """Relaxation times from 0.01 to 3 record fundamentals' periods (dense: 1e-4 to
+        100)."""
         span = 2 * math.pi / w0
-        return np.array([[span * f] for f in (0.01, 0.03, 0.1, 0.3, 1.0, 3.0)])
+        factors = np.geomspace(1e-4, 100.0, 31) if dense else (0.01, 0.03, 0.1, 0.3, 1.0, 3.0)
+        return np.array([[span * f] for f in factors])

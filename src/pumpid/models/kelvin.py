@@ -48,17 +48,31 @@ def _from_u(c: np.ndarray) -> np.ndarray:
     return out
 
 
-def viscoelastic_shapes(w0: float, series: bool) -> np.ndarray:
+def viscoelastic_shapes(w0: float, series: bool, dense: bool = False) -> np.ndarray:
     """Shapes (k0, m, c1, k1) of the three-parameter viscoelastic models at unit k1.
 
     Natural frequencies of 0.5-16 fundamentals, k0/k1 from 0.3 to 30 and dashpot time
     constants c1/k1 of 0.1-10 over w0. ``series``: the static stiffness is k0 k1/(k0+k1)
-    (Kelvin); otherwise k0 + k1 (Maxwell).
+    (Kelvin); otherwise k0 + k1 (Maxwell). ``dense``: the wide search's grid, natural
+    frequencies from 0.25 to 64 fundamentals in steps of 12 % and on each of the first 16
+    harmonics (a lightly damped resonance has a local optimum near every harmonic of a
+    card), k0/k1 from 0.01 to 1e6 and time constants from 1e-5 to 300 over w0.
     """
+    if dense:
+        # Log-spaced frequencies, and each of the first 16 harmonics itself: a nearly
+        # undamped resonance placed on a harmonic is a local optimum of its own.
+        ratios = tuple(sorted({*np.geomspace(0.25, 64.0, 48).tolist(),
+                               *(float(h) for h in range(1, 17))}))
+        stiffness = (0.01, 0.1, 1.0, 10.0, 100.0, 1e4, 1e6)
+        taus = (1e-5, 1e-3, 0.03, 0.3, 3.0, 30.0, 300.0)
+    else:
+        ratios = (0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
+        stiffness = (0.3, 1.0, 3.0, 30.0)
+        taus = (0.1, 1.0, 10.0)
     rows = []
-    for r in (0.5, 1.0, 2.0, 4.0, 8.0, 16.0):
-        for k0_over_k1 in (0.3, 1.0, 3.0, 30.0):
-            for tau_w0 in (0.1, 1.0, 10.0):
+    for r in ratios:
+        for k0_over_k1 in stiffness:
+            for tau_w0 in taus:
                 k1, k0 = 1.0, k0_over_k1
                 k_static = k0 * k1 / (k0 + k1) if series else k0 + k1
                 m = k_static / (r * w0) ** 2
@@ -128,6 +142,6 @@ class Kelvin(Model):
     )
 
     @classmethod
-    def shape_grid(cls, w0: float) -> np.ndarray:
+    def shape_grid(cls, w0: float, dense: bool = False) -> np.ndarray:
         """See :func:`viscoelastic_shapes` (series springs)."""
-        return viscoelastic_shapes(w0, series=True)
+        return viscoelastic_shapes(w0, series=True, dense=dense)

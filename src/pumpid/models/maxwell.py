@@ -83,6 +83,6 @@ class Maxwell(Model):
     )
 
     @classmethod
-    def shape_grid(cls, w0: float) -> np.ndarray:
+    def shape_grid(cls, w0: float, dense: bool = False) -> np.ndarray:
         """See :func:`pumpid.models.kelvin.viscoelastic_shapes` (parallel springs)."""
-        return viscoelastic_shapes(w0, series=False)
+        return viscoelastic_shapes(w0, series=False, dense=dense)

@@ -55,11 +55,15 @@ class MassSpringDamper(Model):
     )
 
     @classmethod
-    def shape_grid(cls, w0: float) -> np.ndarray:
-        """Natural frequencies of 0.5-16 fundamentals and damping ratios of 0.05-2."""
+    def shape_grid(cls, w0: float, dense: bool = False) -> np.ndarray:
+        """Natural frequencies of 0.5-16 fundamentals and damping ratios of 0.05-2 (dense:
+        0.25-64 fundamentals in steps of 12 %, damping ratios of 0.001-10)."""
+        ratios = tuple(np.geomspace(0.25, 64.0, 48)) if dense else (
+            0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
+        zetas = (0.001, 0.01, 0.05, 0.2, 0.7, 2.0, 10.0) if dense else (0.05, 0.2, 0.7, 2.0)
         rows = []
-        for r in (0.5, 1.0, 2.0, 4.0, 8.0, 16.0):
-            for zeta in (0.05, 0.2, 0.7, 2.0):
+        for r in ratios:
+            for zeta in zetas:
                 wn = r * w0
                 rows.append([1.0 / wn**2, 2 * zeta / wn, 1.0])
         return np.array(rows)
