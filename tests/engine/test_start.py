@@ -48,7 +48,7 @@ def test_first_order_automatic_start() -> None:
     assert res.params["tau"] == pytest.approx(0.8, rel=1e-8)
     # The equation-error form itself finds the time constant of noiseless data.
     problem = _problem(FirstOrder, t, f, data)
-    theta, _owner, kinds = candidates(problem, ONE)
+    theta, _owner, kinds, _kind = candidates(problem, ONE)
     assert "equation error" in kinds
     assert np.any(np.abs(theta[:, 0] / 0.8 - 1) < 1e-3)
 
@@ -59,7 +59,7 @@ def test_first_order_automatic_start() -> None:
 def test_equation_error_recovers_noiseless_parameters(cls, observe, truth) -> None:
     data = simulate(truth, T, LOAD, observe=observe)
     problem = _problem(cls, T, LOAD, data, observe=observe)
-    theta, _owner, kinds = candidates(problem, ONE)
+    theta, _owner, kinds, _kind = candidates(problem, ONE)
     assert kinds[0] == "equation error"
     assert all(np.all(np.isfinite(c)) and np.all(c > 0) for c in theta)
     best = min(np.max(np.abs(c / truth.values - 1)) for c in theta)

@@ -453,6 +453,74 @@ def _advance(phi, g0, g1, x, ga, gb, xn, mapped, dga, dgb):
 
 
 @jit
+def _pass3(phi, g0, g1, x, g, dg, mapped, obs, y, dy, store):
+    """The uniform recursion for three states, unrolled (the common case: Kelvin, Maxwell).
+
+    Runs samples 1..N-1 from the state ``x`` at sample 0 (left at the last sample); with
+    ``store`` writes the observed state and its derivatives at samples 1..N-1.
+    """
+    p_count = phi.shape[0]
+    n_samples = g.size
+    p00, p01, p02 = phi[0, 0, 0], phi[0, 0, 1], phi[0, 0, 2]
+    p10, p11, p12 = phi[0, 1, 0], phi[0, 1, 1], phi[0, 1, 2]
+    p20, p21, p22 = phi[0, 2, 0], phi[0, 2, 1], phi[0, 2, 2]
+    a0, a1, a2 = g0[0, 0], g0[0, 1], g0[0, 2]
+    b0, b1, b2 = g1[0, 0], g1[0, 1], g1[0, 2]
+    x0, x1, x2 = x[0, 0], x[0, 1], x[0, 2]
+    for k in range(n_samples - 1):
+        ga = g[k]
+        gb = g[k + 1]
+        # Derivative blocks first: they need the value state before it advances.
+        for i in range(1, p_count):
+            d0, d1, d2 = x[i, 0], x[i, 1], x[i, 2]
+            e0 = (p00 * d0 + p01 * d1 + p02 * d2 + phi[i, 0, 0] * x0 + phi[i, 0, 1] * x1
+                  + phi[i, 0, 2] * x2 + g0[i, 0] * ga + g1[i, 0] * gb)
+            e1 = (p10 * d0 + p11 * d1 + p12 * d2 + phi[i, 1, 0] * x0 + phi[i, 1, 1] * x1
+                  + phi[i, 1, 2] * x2 + g0[i, 1] * ga + g1[i, 1] * gb)
+            e2 = (p20 * d0 + p21 * d1 + p22 * d2 + phi[i, 2, 0] * x0 + phi[i, 2, 1] * x1
+                  + phi[i, 2, 2] * x2 + g0[i, 2] * ga + g1[i, 2] * gb)
+            if i == mapped + 1:
+                e0 += a0 * dg[k] + b0 * dg[k + 1]
+                e1 += a1 * dg[k] + b1 * dg[k + 1]
+                e2 += a2 * dg[k] + b2 * dg[k + 1]
+            x[i, 0] = e0
+            x[i, 1] = e1
+            x[i, 2] = e2
+            if store:
+                dy[i - 1, k + 1] = x[i, obs]
+        n0 = p00 * x0 + p01 * x1 + p02 * x2 + a0 * ga + b0 * gb
+        n1 = p10 * x0 + p11 * x1 + p12 * x2 + a1 * ga + b1 * gb
+        n2 = p20 * x0 + p21 * x1 + p22 * x2 + a2 * ga + b2 * gb
+        x0, x1, x2 = n0, n1, n2
+        if store:
+            y[k + 1] = n0 if obs == 0 else (n1 if obs == 1 else n2)
+    x[0, 0] = x0
+    x[0, 1] = x1
+    x[0, 2] = x2
+
+
+@jit
+def _pass_any(phi, g0, g1, x, g, dg, mapped, obs, y, dy, store):
+    """:func:`_pass3` for any number of states."""
+    xn = np.empty_like(x)
+    for k in range(g.size - 1):
+        _advance(phi, g0, g1, x, g[k], g[k + 1], xn, mapped, dg[k], dg[k + 1])
+        x[:] = xn
+        if store:
+            y[k + 1] = x[0, obs]
+            for i in range(dy.shape[0]):
+                dy[i, k + 1] = x[1 + i, obs]
+
+
+@jit
+def _uniform_pass(phi, g0, g1, x, g, dg, mapped, obs, y, dy, store):
+    if phi.shape[1] == 3:
+        _pass3(phi, g0, g1, x, g, dg, mapped, obs, y, dy, store)
+    else:
+        _pass_any(phi, g0, g1, x, g, dg, mapped, obs, y, dy, store)
+
+
+@jit
 def _store(x, k, obs, y, dy, states):
     y[k] = x[0, obs]
     for i in range(dy.shape[0]):
@@ -520,16 +588,17 @@ def simulate_card(lz, free, code, n, imap, t, f, mode, x0, period, uniform, inte
         tmp = np.empty((p_count, n, n))
         for r in range(n):
             phi_t[0, r, r] = 1.0
-        for k in range(n_samples - 1):
-            if not uniform:
+        if uniform:
+            _uniform_pass(phi, g0, g1, x, g, dg, mapped, obs, y, dy, False)
+            dual_power(phi, n_samples - 1, phi_t)
+        else:
+            for k in range(n_samples - 1):
                 if not discretize(a, b, t[k + 1] - t[k], integrator, phi, g0, g1):
                     return False
                 dual_mul(phi, phi_t, tmp)
                 phi_t[:] = tmp
-            _advance(phi, g0, g1, x, g[k], g[k + 1], xn, mapped, dg[k], dg[k + 1])
-            x[:] = xn
-        if uniform:
-            dual_power(phi, n_samples - 1, phi_t)
+                _advance(phi, g0, g1, x, g[k], g[k + 1], xn, mapped, dg[k], dg[k + 1])
+                x[:] = xn
         closing = period - (t[n_samples - 1] - t[0])
         phi_c = np.empty((p_count, n, n))
         g0_c = np.empty((p_count, n))
@@ -556,6 +625,12 @@ def simulate_card(lz, free, code, n, imap, t, f, mode, x0, period, uniform, inte
             for r in range(n):
                 x[i, r] = rhs[i, r, 0]
     _store(x, 0, obs, y, dy, states)
+    if uniform and states.shape[0] == 0:
+        _uniform_pass(phi, g0, g1, x, g, dg, mapped, obs, y, dy, True)
+        for k in range(n_samples):
+            if not math.isfinite(y[k]):
+                return False
+        return True
     for k in range(n_samples - 1):
         if not uniform:
             if not discretize(a, b, t[k + 1] - t[k], integrator, phi, g0, g1):

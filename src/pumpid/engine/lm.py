@@ -16,7 +16,11 @@ Levenberg-Marquardt) on the triangular factor of ``[J r]``:
 * MINPACK's stop tests: trust radius <= tol |D z| (xtol), relative actual and predicted cost
   reductions <= tol (ftol), cosine between residual and Jacobian columns <= tol (gtol). A full
   Gauss-Newton step that is already below xtol, or predicted to gain less than ftol right
-  after a reliable step, ends the iteration without one more evaluation.
+  after a reliable step, ends the iteration without one more evaluation;
+* a restart of the scaling every ``SEGMENT`` evaluations that still made progress: the
+  running maximum of the column norms remembers where the iteration came from, and along a
+  long curved valley (a parameter on its way back from near a limit) that memory makes the
+  steps crawl; ``D`` and the radius are then taken afresh from the current point.
 
 The loop is written as *reverse communication*: :func:`propose` computes the next trial point
 (or decides to stop) and :func:`update` takes the evaluation of that point. The compiled
@@ -45,13 +49,15 @@ __all__ = ["CONVERGED", "EXHAUSTED", "FAILED", "TESTS", "householder", "propose"
 MAX_LOG_STEP = 1.0
 #: Initial trust radius as a multiple of |D z0| (MINPACK's ``factor``).
 FACTOR = 100.0
+#: Evaluations between restarts of the scaling (when the segment still made progress).
+SEGMENT = 100
 #: Outcome codes.
 RUNNING, CONVERGED, EXHAUSTED, FAILED = -1, 0, 2, 3
 #: Which stop test fired, for converged problems.
 TESTS = ("gtol", "ftol", "xtol", "zero")
 
 # Slots of the state's float and integer arrays.
-_COST, _DELTA, _PRED, _PNORM, _TOL, _GCOS = 0, 1, 2, 3, 4, 5
+_COST, _DELTA, _PRED, _PNORM, _TOL, _GCOS, _SEGCOST = 0, 1, 2, 3, 4, 5, 6
 _EVALS, _ACCEPTED, _TRUSTED, _GN, _CODE, _TEST, _NCAP, _MAXEV = 0, 1, 2, 3, 4, 5, 6, 7
 
 
@@ -202,7 +208,7 @@ def start(z0, cost, r, c, lo, hi, tol, n_capped, max_evals):
     q = z0.size
     z = z0.copy()
     diag = np.ones(q)
-    fs = np.zeros(6)
+    fs = np.zeros(7)
     ints = np.zeros(8, np.int64)
     ints[_CODE] = RUNNING
     ints[_TEST] = -1
@@ -230,6 +236,7 @@ def start(z0, cost, r, c, lo, hi, tol, n_capped, max_evals):
         fs[_DELTA] = FACTOR * math.sqrt(znorm)
         if not fs[_DELTA] > 0.0:
             fs[_DELTA] = FACTOR
+        fs[_SEGCOST] = cost
     return (z, lo.copy(), hi.copy(), r.copy(), c.copy(), diag, np.zeros(q), fs, ints)
 
 
@@ -394,6 +401,18 @@ def update(state, cost_try, r_try, c_try):
         ints[_CODE] = CONVERGED
         ints[_TEST] = 1 if f_test else 2
         return False
+    if ints[_EVALS] % SEGMENT == 0:
+        if fs[_SEGCOST] - fs[_COST] > tol * fs[_COST]:
+            znorm = 0.0
+            for j in range(q):
+                col = 0.0
+                for i in range(q):
+                    col += r[i, j] * r[i, j]
+                col = math.sqrt(col)
+                diag[j] = col if col > 0.0 else 1.0
+                znorm += (diag[j] * z[j]) ** 2
+            fs[_DELTA] = FACTOR * math.sqrt(znorm) if znorm > 0.0 else FACTOR
+        fs[_SEGCOST] = fs[_COST]
     if ints[_EVALS] >= ints[_MAXEV]:
         ints[_CODE] = EXHAUSTED
         return False

@@ -136,7 +136,7 @@ class LevenbergMarquardt:
 
     def budget(self, q: int) -> int:
         """Evaluations per item for a problem with q solver coordinates."""
-        return int(self.max_evaluations) if self.max_evaluations is not None else 1000 * q
+        return int(self.max_evaluations) if self.max_evaluations is not None else 100 * q
 
     def solve(
         self,

@@ -158,11 +158,10 @@ def _dft(x, kmax):
 
 
 @jit
-def _harmonic_coefs(y, f, period, lam, form, first):
+def _harmonic_coefs(yk, fk, period, lam, form, first):
+    """Equation error over the harmonics ``yk``, ``fk`` (k = 0..K) at bandwidth ``lam``."""
     target_f, target_order, y_orders, f_orders, order = form
-    kmax = min(y.size // 2, _HARMONICS)
-    yk = _dft(y, kmax)
-    fk = _dft(f, kmax)
+    kmax = yk.size - 1
     ncoef = y_orders.size + f_orders.size
     rows = kmax + 1 - first
     mat = np.empty((2 * rows, ncoef))
@@ -186,12 +185,163 @@ def _harmonic_coefs(y, f, period, lam, form, first):
 
 
 @jit
+def _denominator(coef, form):
+    """The monic denominator D(s) (coefficients by power, D[order] = 1) that an
+    equation-error estimate puts on the displacement; NaN when there is none."""
+    target_f, target_order, y_orders, _f_orders, order = form
+    poly = np.zeros(order + 1)
+    if target_f:
+        for j in range(y_orders.size):
+            poly[y_orders[j]] += coef[j]
+    else:
+        poly[target_order] += 1.0
+        for j in range(y_orders.size):
+            poly[y_orders[j]] -= coef[j]
+    lead = poly[order]
+    if lead == 0.0 or not np.all(np.isfinite(poly)):
+        return np.full(order + 1, math.nan)
+    return poly / lead
+
+
+@jit
+def _stable(poly):
+    """All roots of the monic polynomial (coefficients by power) in the left half-plane."""
+    if not np.all(np.isfinite(poly)):
+        return False
+    roots = np.roots(poly[::-1].astype(np.complex128))
+    for r in roots:
+        if not r.real < 0.0:
+            return False
+    return True
+
+
+@jit
+def _filter_den(t, x, poly, uniform):
+    """``s^k x / D(s)``, k = 0..n, from rest (exact first-order hold), D monic of order n."""
+    n = poly.size - 1
+    a = np.zeros((1, n, n))
+    b = np.zeros((1, n))
+    for r in range(n - 1):
+        a[0, r, r + 1] = 1.0
+    for j in range(n):
+        a[0, n - 1, j] = -poly[j]
+    b[0, n - 1] = 1.0
+    phi = np.empty((1, n, n))
+    g0 = np.empty((1, n))
+    g1 = np.empty((1, n))
+    w = np.zeros(n)
+    wn = np.empty(n)
+    out = np.empty((t.size, n + 1))
+    kernel.discretize(a, b, t[1] - t[0], kernel.EXACT, phi, g0, g1)
+    for k in range(t.size):
+        if k > 0:
+            if not uniform:
+                kernel.discretize(a, b, t[k] - t[k - 1], kernel.EXACT, phi, g0, g1)
+            for r in range(n):
+                s = g0[0, r] * x[k - 1] + g1[0, r] * x[k]
+                for c in range(n):
+                    s += phi[0, r, c] * w[c]
+                wn[r] = s
+            w[:] = wn
+        top = x[k]
+        for j in range(n):
+            out[k, j] = w[j]
+            top -= poly[j] * w[j]
+        out[k, n] = top
+    return out
+
+
+@jit
+def _refine_time(t, y, f, coef, form, uniform, offset_free, iterations):
+    """Steiglitz-McBride refinement of a time-domain equation-error estimate.
+
+    The fixed filter ``lam^n / (s + lam)^n`` weights the equation error unevenly; filtering
+    by ``1 / D(s)`` of the current estimate instead turns the equation error into the
+    output error at convergence (Steiglitz and McBride's iteration, in continuous time).
+    The record must start from rest (or from equilibrium, passed as deviations).
+    """
+    target_f, target_order, y_orders, f_orders, _order = form
+    ncoef = y_orders.size + f_orders.size
+    best = coef.copy()
+    for _ in range(iterations):
+        poly = _denominator(best, form)
+        if not _stable(poly):
+            break
+        yf = _filter_den(t, y, poly, uniform)
+        ff = _filter_den(t, f, poly, uniform)
+        extra = 1 if offset_free else 0
+        mat = np.empty((t.size, ncoef + extra))
+        for j in range(y_orders.size):
+            mat[:, j] = yf[:, y_orders[j]]
+        for j in range(f_orders.size):
+            mat[:, y_orders.size + j] = ff[:, f_orders[j]]
+        if offset_free:
+            mat[:, ncoef] = _filter_den(t, np.ones(t.size), poly, uniform)[:, 0]
+        target = ff[:, target_order] if target_f else yf[:, target_order]
+        new = _lstsq(mat, target)[:ncoef]
+        if not np.all(np.isfinite(new)):
+            break
+        change = 0.0
+        for j in range(ncoef):
+            change = max(change, abs(new[j] - best[j]) / max(abs(best[j]), 1e-300))
+        best = new
+        if change < 1e-8:
+            break
+    return best
+
+
+@jit
+def _refine_harmonic(yk, fk, period, coef, form, first, iterations):
+    """:func:`_refine_time` over a periodic card's harmonics (weights 1 / D(i k w))."""
+    target_f, target_order, y_orders, f_orders, order = form
+    ncoef = y_orders.size + f_orders.size
+    kmax = yk.size - 1
+    rows = kmax + 1 - first
+    best = coef.copy()
+    for _ in range(iterations):
+        poly = _denominator(best, form)
+        if not _stable(poly):
+            break
+        mat = np.empty((2 * rows, ncoef))
+        target = np.empty(2 * rows)
+        for i in range(rows):
+            k = first + i
+            s = 2j * math.pi * k / period
+            den = 0.0 + 0.0j
+            for j in range(order, -1, -1):
+                den = den * s + poly[j]
+            weight = 1.0 / den
+            for j in range(y_orders.size):
+                v = weight * s ** y_orders[j] * yk[k]
+                mat[i, j] = v.real
+                mat[rows + i, j] = v.imag
+            for j in range(f_orders.size):
+                v = weight * s ** f_orders[j] * fk[k]
+                mat[i, y_orders.size + j] = v.real
+                mat[rows + i, y_orders.size + j] = v.imag
+            tv = (fk[k] if target_f else yk[k]) * s**target_order * weight
+            target[i] = tv.real
+            target[rows + i] = tv.imag
+        new = _lstsq(mat, target)
+        if not np.all(np.isfinite(new)):
+            break
+        change = 0.0
+        for j in range(ncoef):
+            change = max(change, abs(new[j] - best[j]) / max(abs(best[j]), 1e-300))
+        best = new
+        if change < 1e-8:
+            break
+    return best
+
+
+@jit
 def equation_error_items(cards, lams, data, form, scale, offset_free):
-    """Equation-error coefficients (m, L, c) for cards (m,) at bandwidths lams (m, L)."""
+    """Equation-error coefficients (m, 2 L, c) for cards (m,) at bandwidths lams (m, L): the
+    estimate at each bandwidth, then its Steiglitz-McBride refinement (NaN where none)."""
     t_all, f_all, d_all, bounds, mode, _x0, period, uniform = data
     ncoef = form[2].size + form[3].size
     m, n_lam = lams.shape
-    out = np.full((m, n_lam, ncoef), math.nan)
+    out = np.full((m, 2 * n_lam, ncoef), math.nan)
     for i in range(m):
         k = cards[i]
         a, b = bounds[k], bounds[k + 1]
@@ -201,15 +351,37 @@ def equation_error_items(cards, lams, data, form, scale, offset_free):
         n_samples = b - a
         periodic = (mode[k] == kernel.PERIODIC and uniform[k]
                     and abs(period[k] - n_samples * (t[1] - t[0])) <= 1e-6 * period[k])
+        first = 0 if not offset_free else 1
+        if periodic:
+            # The harmonics once per card; every bandwidth reuses them.
+            kmax = min(y.size // 2, _HARMONICS)
+            yk = _dft(y, kmax)
+            fk = _dft(f, kmax)
+        else:
+            yk = np.zeros(1, np.complex128)
+            fk = np.zeros(1, np.complex128)
+        # A record from rest (or from equilibrium, as deviations) can be refined in time.
+        refine_time = not periodic and (mode[k] == kernel.REST or mode[k] == kernel.EQUILIBRIUM)
+        y_dev = y - y[0] if mode[k] == kernel.EQUILIBRIUM else y
+        f_dev = f - f[0] if mode[k] == kernel.EQUILIBRIUM else f
+        tt = t - t[0]
         for li in range(n_lam):
             lam = lams[i, li]
             if not lam > 0.0:
                 continue
             if periodic:
-                out[i, li] = _harmonic_coefs(y, f, period[k], lam, form,
-                                             0 if not offset_free else 1)
+                coef = _harmonic_coefs(yk, fk, period[k], lam, form, first)
+                out[i, li] = coef
+                if np.all(np.isfinite(coef)):
+                    out[i, n_lam + li] = _refine_harmonic(yk, fk, period[k], coef, form,
+                                                          first, 8)
             else:
-                out[i, li] = _time_coefs(t, y, f, lam, form, uniform[k])
+                coef = _time_coefs(t, y, f, lam, form, uniform[k])
+                out[i, li] = coef
+                if refine_time and np.all(np.isfinite(coef)):
+                    out[i, n_lam + li] = _refine_time(
+                        tt, y_dev, f_dev, coef, form, uniform[k],
+                        offset_free and mode[k] == kernel.REST, 8)
     return out
 
 
@@ -325,6 +497,34 @@ def harmonic_scan(t, f, d, shapes, code, n, obs, offset_free, symmetric, scale, 
 
 
 # --------------------------------------------------------------------------- candidates
+def _bandwidths(problem: Problem, cards: NDArray[np.int64]) -> Array:
+    """The state-variable filters' bandwidths per card (NaN where a card has fewer)."""
+    lams = np.full((cards.size, len(_BANDWIDTHS)), math.nan)
+    for i, k in enumerate(cards):
+        t, _f, _d = problem.card(int(k))
+        base = 2 * math.pi / float(t[-1] - t[0])
+        dt_min = float(np.min(np.diff(t)))
+        ok = [base * b for b in _BANDWIDTHS if base * b * dt_min < 0.5] or [0.5 / dt_min]
+        lams[i, : len(ok)] = ok
+    return lams
+
+
+def _equation_error(problem: Problem, cards: NDArray[np.int64], lams: Array,
+                    model: type, observe: str | None) -> Array | None:
+    """Parameter rows (cards x bandwidths, p) of a model's equation-error estimates on the
+    problem's cards, or None when the model has no form for that output."""
+    form = model.equation_error.get(observe or model.default_output)
+    if form is None:
+        return None
+    data, _model, _settings = problem.arrays
+    scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
+    packed = (form.target[0] == "f", int(form.target[1]),
+              np.array(form.y_orders, dtype=np.int64),
+              np.array(form.f_orders, dtype=np.int64), int(form.order))
+    coefs = equation_error_items(cards, lams, data, packed, float(scale),
+                                 problem.offset_fixed is None)
+    return form.to_theta(coefs.reshape(-1, form.n_coef))
+
 def _fundamental(problem: Problem, k: int) -> float:
     t, _f, _d = problem.card(k)
     span = float(t[-1] - t[0])
@@ -356,52 +556,74 @@ def _stiffness_factor(problem: Problem, stiff: float) -> Array:
     return out
 
 
-def candidates(problem: Problem, cards: NDArray[np.int64]) -> tuple[Array, NDArray[np.int64],
-                                                                     list[str]]:
+def candidates(problem: Problem, cards: NDArray[np.int64]
+               ) -> tuple[Array, NDArray[np.int64], list[str], NDArray[np.int64]]:
     """Candidate parameter sets for the given cards.
 
-    Returns the candidates (m, p), the card of each (m,) and the kinds present.
+    Returns the candidates (m, p), the card of each (m,), the kinds present and the kind of
+    each candidate (m,) as an index into them.
     """
     model = problem.model
-    form = model.equation_error.get(problem.observe)
     rows: list[Array] = []
     owners: list[NDArray[np.int64]] = []
-    kinds = []
-    data, _model, _settings = problem.arrays
-    scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
-    if form is not None and problem.residual == "linear":
-        kinds.append("equation error")
-        lams = np.full((cards.size, len(_BANDWIDTHS)), math.nan)
-        for i, k in enumerate(cards):
-            t, _f, _d = problem.card(int(k))
-            base = 2 * math.pi / float(t[-1] - t[0])
-            dt_min = float(np.min(np.diff(t)))
-            ok = [base * b for b in _BANDWIDTHS if base * b * dt_min < 0.5] or [0.5 / dt_min]
-            lams[i, : len(ok)] = ok
-        packed = (form.target[0] == "f", int(form.target[1]),
-                  np.array(form.y_orders, dtype=np.int64),
-                  np.array(form.f_orders, dtype=np.int64), int(form.order))
-        coefs = equation_error_items(cards, lams, data, packed, float(scale),
-                                     problem.offset_fixed is None)
-        theta = form.to_theta(coefs.reshape(-1, form.n_coef))
-        good = np.all(np.isfinite(theta) & (theta > 0), axis=1)
-        rows.append(theta[good])
-        owners.append(np.repeat(cards, len(_BANDWIDTHS))[good])
+    kinds: list[str] = []
+    kind_of: list[NDArray[np.int64]] = []
+    if problem.residual == "linear":
+        lams = _bandwidths(problem, cards)
+        theta = _equation_error(problem, cards, lams, model, problem.observe)
+        if theta is not None:
+            kinds.append("equation error")
+            good = np.all(np.isfinite(theta) & (theta > 0), axis=1)
+            rows.append(theta[good])
+            owners.append(np.repeat(cards, 2 * lams.shape[1])[good])
+            kind_of.append(np.full(int(good.sum()), len(kinds) - 1, dtype=np.int64))
+        # The limiting models: their own equation-error estimates, mapped to a full-model
+        # point next to the limit (the model's own map: a factor 1000 toward it). When the
+        # data want a limit the fit starts near it instead of crawling toward it, and it can
+        # still come back when they do not.
+        names = model.param_names()
+        for lim in model.limits:
+            if lim.reduced is None or not lim.from_reduced or lim.param not in names:
+                continue
+            from ..models import model_class
+
+            reduced = model_class(lim.reduced)
+            red = _equation_error(problem, cards, lams, reduced, lim.observe)
+            if red is None:
+                continue
+            owner = np.repeat(cards, 2 * lams.shape[1])
+            mapped = []
+            for row, k in zip(red, owner, strict=True):
+                if not np.all(np.isfinite(row) & (row > 0)):
+                    continue
+                point = lim.full_point(dict(zip(reduced.param_names(), row.tolist(),
+                                                strict=True)))
+                if point is None:
+                    continue
+                mapped.append((np.array([point[n] for n in names]), k))
+            if mapped:
+                arrow = "inf" if lim.direction == "infinity" else "0"
+                kinds.append(f"limit {lim.param} -> {arrow}")
+                rows.append(np.array([m for m, _k in mapped]))
+                owners.append(np.array([k for _m, k in mapped], dtype=np.int64))
+                kind_of.append(np.full(len(mapped), len(kinds) - 1, dtype=np.int64))
     if problem.residual == "linear":
         kinds.append("shape grid")
         for k in cards:
             shapes = model.shape_grid(_fundamental(problem, int(k)))
             rows.append(shapes)
             owners.append(np.full(shapes.shape[0], k, dtype=np.int64))
+            kind_of.append(np.full(shapes.shape[0], len(kinds) - 1, dtype=np.int64))
     kinds.append("heuristic")
     rows.append(np.array([_heuristic(problem, int(k)) for k in cards]))
     owners.append(np.asarray(cards, dtype=np.int64))
+    kind_of.append(np.full(cards.size, len(kinds) - 1, dtype=np.int64))
     theta = np.concatenate(rows)
     owner = np.concatenate(owners)
     if problem.fixed:
         for i, value in problem.fixed:
             theta[:, i] = value
-    return theta, owner, kinds
+    return theta, owner, kinds, np.concatenate(kind_of)
 
 
 # --------------------------------------------------------------------------- ranking
@@ -439,8 +661,8 @@ class StartPlan:
     """How the automatic start searches: candidates polished and their budget."""
 
     polish: int = 3
-    polish_evaluations: int = 60
-    polish_tol: float = 1e-10
+    polish_evaluations: int = 30
+    polish_tol: float = 1e-6
 
 
 @dataclass(frozen=True)
@@ -471,23 +693,39 @@ def find_starts(
     """
     cards = np.asarray(cards, dtype=np.int64)
     m = cards.size
-    theta, owner, kinds = candidates(problem, cards)
+    theta, owner, kinds, kind_of = candidates(problem, cards)
     z_all, cost_all = complete(problem, owner, theta, workers=workers)
     position = {int(k): i for i, k in enumerate(cards)}
     picks: list[int] = []
     pick_card: list[int] = []
     n_cand = np.zeros(m, dtype=np.int64)
+    p = problem.n_free
     order = np.lexsort((cost_all, owner))
-    counts: dict[int, int] = {}
+    chosen: dict[int, list[int]] = {}
+    for j in order:
+        if math.isfinite(cost_all[j]):
+            n_cand[position[int(owner[j])]] += 1
+    # The best ``polish`` distinct candidates of each card, then the best of each kind not
+    # among them: estimates of one kind often share a bias (equation error leans toward a
+    # limit), so every kind gets its own chance against local minima.
+    for j in order:
+        k = int(owner[j])
+        mine = chosen.setdefault(k, [])
+        if not math.isfinite(cost_all[j]) or len(mine) >= plan.polish:
+            continue
+        if all(np.max(np.abs(z_all[j, :p] - z_all[i, :p])) > 0.1 for i in mine):
+            mine.append(int(j))
     for j in order:
         k = int(owner[j])
         if not math.isfinite(cost_all[j]):
             continue
-        n_cand[position[k]] += 1
-        if counts.get(k, 0) < plan.polish:
-            counts[k] = counts.get(k, 0) + 1
-            picks.append(int(j))
-            pick_card.append(k)
+        mine = chosen[k]
+        if all(kind_of[i] != kind_of[j] for i in mine) and all(
+                np.max(np.abs(z_all[j, :p] - z_all[i, :p])) > 0.1 for i in mine):
+            mine.append(int(j))
+    for k, mine in chosen.items():
+        picks.extend(mine)
+        pick_card.extend([k] * len(mine))
     z_pol = z_all[picks] if picks else np.zeros((0, problem.q))
     item_card = np.array(pick_card, dtype=np.int64)
     is_guess = np.zeros(len(picks), dtype=bool)
