@@ -8,14 +8,16 @@ loop) -> immutable result -> report::
     print(result.report())
 """
 
+from .engine.problem import CardData
 from .engine.simulate import simulate, simulate_sensitivities
 from .engine.solvers import LevenbergMarquardt, PaperNewton, Stop
-from .job import fit, fit_many
+from .job import fit, fit_many, fit_records
 from .models import MODELS, FirstOrder, Kelvin, MassSpringDamper, Maxwell, Model, model_class
 from .result import FitBatch, FitResult, Prediction, Status, Units
 
 __all__ = [
     "MODELS",
+    "CardData",
     "FirstOrder",
     "FitBatch",
     "FitResult",
@@ -31,6 +33,7 @@ __all__ = [
     "Units",
     "fit",
     "fit_many",
+    "fit_records",
     "model_class",
     "simulate",
     "simulate_sensitivities",

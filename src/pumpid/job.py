@@ -46,6 +46,7 @@ from .engine.start import (
 from .engine.threads import default_workers
 from .inference import boundaries as bnd
 from .inference.boundaries import BoundaryInfo, Limiting, ReducedFit
+from .inference.derived import derived_of
 from .inference.identifiability import findings_of, whiteness_warning
 from .inference.uncertainty import numbers, uncertainty_of
 from .models import Model, model_class
@@ -81,6 +82,7 @@ class _Card:
     findings: tuple[str, ...] = ()
     determined: dict[str, Any] = field(default_factory=dict)
     uncertainty: Any = None
+    derived: Mapping[str, Any] = field(default_factory=dict)
     done: bool = False
     newton_history: list[dict[str, float]] | None = None
     rmse: float = math.nan
@@ -376,7 +378,9 @@ def _to_the_limit(problem: Problem, k: int, card: _Card, limits: Sequence[Limiti
 
 
 def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
-              units: Units) -> None:
+              units: Sequence[Units]) -> None:
+    """Identifiability, uncertainty and whiteness of every fitted card (``units`` per card
+    of the problem)."""
     idx = [i for i in range(len(fits)) if np.all(np.isfinite(fits[i].z))
            and math.isfinite(fits[i].cost)]
     model_names = problem.model.param_names()
@@ -395,11 +399,11 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
             if b.name in names:
                 inner[j, names.index(b.name)] = False
     nums = numbers(problem, cards[idx], np.array([fits[i].z for i in idx]), inner)
-    unit = ("(ln of position)^2, dimensionless" if problem.residual == "log"
-            else f"{units.position}^2")
     for j, i in enumerate(idx):
         card = fits[i]
         num = nums[j]
+        unit = ("(ln of position)^2, dimensionless" if problem.residual == "log"
+                else f"{units[int(cards[i])].position}^2")
         serial = not num.exact and not (num.rho <= 2.576 / math.sqrt(max(num.n, 1)))
         f = findings_of(num, model_names=model_names, gauge_fixed=problem.gauge_fixed,
                         initial_state=problem.initial_states[int(cards[i])],
@@ -410,6 +414,13 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
         unc = uncertainty_of(num, f.undetermined, [names.index(b.name) for b in card.limits
                                                    if b.name in names], f.notes, unit)
         card.uncertainty = unc
+        if problem.model.input_map is None:
+            z = card.z
+            scale = _scale_offset(problem, z)[0]
+            card.derived = derived_of(
+                problem.model, _theta(problem, z), observe=problem.observe, scale=scale,
+                nums=num, units=(units[int(cards[i])].load, units[int(cards[i])].position),
+                serial=serial)
         if unc is not None and unc.whiteness is not None and not unc.whiteness["white"]:
             card.warnings.append(whiteness_warning(dict(unc.whiteness), num.n, len(names)))
 
@@ -580,20 +591,23 @@ def _with(options: JobOptions, **changes: Any) -> JobOptions:
 
 def _run_batch(problem: Problem, *, guess: Array | None, c_start: Array | None = None,
                offset_start: Array | None = None, options: JobOptions, depth: int = 0,
-               units: Units | None = None, warnings: Sequence[str] = ()) -> FitBatch:
+               units: Units | Sequence[Units] | None = None,
+               warnings: Sequence[str] = ()) -> FitBatch:
     """The job over every valid card of a problem, as a :class:`FitBatch`."""
     valid = np.flatnonzero(problem.valid)
     fits = run(problem, valid, guess=None if guess is None else np.asarray(guess)[valid],
                c_start=None if c_start is None else np.asarray(c_start)[valid],
                offset_start=None if offset_start is None else np.asarray(offset_start)[valid],
                options=options, depth=depth)
-    units = units or Units()
+    per_card = (list(units) if units is not None and not isinstance(units, Units)
+                else [units or Units()] * problem.n_cards)
     if depth == 0:
         # A reduced model's fit is summarised (parameters, quality, status): no diagnostics.
-        _diagnose(problem, valid, fits, units)
+        _diagnose(problem, valid, fits, per_card)
     results: list[FitResult | None] = [None] * problem.n_cards
     for j, k in enumerate(valid):
-        results[int(k)] = build_result(problem, int(k), fits[j], options, units, warnings)
+        results[int(k)] = build_result(problem, int(k), fits[j], options, per_card[int(k)],
+                                       warnings)
     return FitBatch(model_name=problem.model.__name__,
                     param_names=problem.model.param_names(), results=tuple(results),
                     invalid=problem.invalid)
@@ -641,7 +655,8 @@ def build_result(problem: Problem, k: int, card: _Card, options: JobOptions, uni
         residual=problem.residual, observe=problem.observe, initial_state=state,
         units=units, free=problem.free_names, t=t, load=f, data=d, fitted=fitted,
         jacobian=jac, uncertainty=card.uncertainty, identifiability=card.findings,
-        determined=card.determined, boundary=boundary, start=card.start,
+        determined=card.determined, derived=card.derived, boundary=boundary,
+        start=card.start,
         gauge="C = 1" if problem.gauge_fixed else None, problem=problem,
         options={"method": options.method, "card": k, "solver": options.solver,
                  "newton": options.newton, "units": units},
@@ -908,15 +923,7 @@ def fit_many(
         validation (non-finite values, a constant record, ...) is a row with status
         ``invalid-input`` and the reason; it does not stop the others.
     """
-    if isinstance(model, Model):
-        cls: type[Model] = type(model)
-        shared: Array | None = model.values
-    elif isinstance(model, type) and issubclass(model, Model):
-        cls, shared = model, None
-    else:
-        raise TypeError(
-            "model must be a model instance (a shared starting guess, e.g. Kelvin(k0=4, m=1, "
-            f"c1=0.2, k1=4)) or a model class (automatic start per card), got {model!r}")
+    _batch_model(model)
     f_all = _rows("loads", loads)
     d_all = _rows("displacements", displacements)
     if len(f_all) != len(d_all):
@@ -934,12 +941,68 @@ def fit_many(
             t_rows = list(t_arr)
         else:
             raise ValueError(f"t: expected shape (N,) or ({n_cards}, N), got {t_arr.shape}")
-    cards = [CardData(t_rows[i], f_all[i], d_all[i], initial_state, period)
-             for i in range(n_cards)]
+    records = [CardData(t_rows[i], f_all[i], d_all[i], initial_state, period)
+               for i in range(n_cards)]
+    return fit_records(model, records, observe=observe, integrator=integrator, scale=scale,
+                       residual=residual, offset=offset, fixed=fixed, x0=x0, units=units,
+                       solver=solver, multistart=multistart, tol=tol, max_nfev=max_nfev,
+                       workers=workers)
+
+
+def fit_records(
+    model: Model | type[Model],
+    records: Sequence[CardData],
+    *,
+    observe: str | None = None,
+    integrator: str = "exact",
+    scale: float | str = 1.0,
+    residual: str = "linear",
+    offset: bool | float = False,
+    fixed: Mapping[str, float] | None = None,
+    x0: ArrayLike | None = None,
+    units: Units | Sequence[Units] | None = None,
+    solver: LevenbergMarquardt | None = None,
+    multistart: bool | Literal["auto"] = "auto",
+    tol: float | None = None,
+    max_nfev: int | None = None,
+    workers: int | None = None,
+    invalid: Sequence[str] | None = None,
+) -> FitBatch:
+    """Fit one model structure to records that each carry their own time, initial state
+    and period: the main job of :func:`fit` for each, in one batch.
+
+    Parameters
+    ----------
+    model : Model instance or Model class
+        An instance is the shared starting guess; a class asks for the automatic start.
+    records : sequence of CardData
+        One record per card (its own time, load, displacement, initial state and period).
+    units : Units or sequence of Units, optional
+        Shared, or one per record.
+    invalid : sequence of str, optional
+        A reason per record that is known to be unusable ("" for the others): such a record
+        becomes an ``invalid-input`` row with that reason.
+    observe, integrator, scale, residual, offset, fixed, x0, solver, multistart, tol,
+    max_nfev, workers
+        As for :func:`fit_many`.
+
+    Returns
+    -------
+    FitBatch
+        Each record's result, exactly what :func:`fit` returns for it alone.
+    """
+    cls, shared = _batch_model(model)
+    n_cards = len(records)
+    if units is None or isinstance(units, Units):
+        unit_rows: Units | list[Units] = units or Units()
+    else:
+        unit_rows = list(units)
+        if len(unit_rows) != n_cards:
+            raise ValueError(f"units: {len(unit_rows)} entries for {n_cards} records")
     warnings: list[str] = []
-    problem = build_problem(cls, cards, observe=observe, integrator=integrator,
+    problem = build_problem(cls, records, observe=observe, integrator=integrator,
                             residual=residual, scale=scale, offset=offset, fixed=fixed,
-                            strict=False, warnings=warnings)
+                            strict=False, warnings=warnings, invalid=invalid)
     p = len(cls.param_names())
     guess = None
     if x0 is not None:
@@ -959,8 +1022,19 @@ def fit_many(
     options = _options("lm", solver, multistart, tol, max_nfev, None, None, None,
                        workers=default_workers() if workers is None else workers,
                        history=False)
-    return _run_batch(problem, guess=guess, options=options, units=units or Units(),
+    return _run_batch(problem, guess=guess, options=options, units=unit_rows,
                       warnings=warnings)
+
+
+def _batch_model(model: Model | type[Model]) -> tuple[type[Model], Array | None]:
+    """The model class and the shared starting guess (None: automatic start per card)."""
+    if isinstance(model, Model):
+        return type(model), model.values
+    if isinstance(model, type) and issubclass(model, Model):
+        return model, None
+    raise TypeError(
+        "model must be a model instance (a shared starting guess, e.g. Kelvin(k0=4, m=1, "
+        f"c1=0.2, k1=4)) or a model class (automatic start per card), got {model!r}")
 
 
 def _rows(name: str, values: ArrayLike) -> list[Array]:

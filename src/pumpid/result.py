@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .inference.boundaries import BoundaryInfo, Limiting, ReducedFit
+from .inference.derived import Derived
 from .inference.uncertainty import Uncertainty
 from .models import Model
 
@@ -36,6 +37,7 @@ if TYPE_CHECKING:
 __all__ = [
     "BoundaryInfo",
     "CardInfo",
+    "Derived",
     "FitBatch",
     "FitResult",
     "Limiting",
@@ -111,10 +113,12 @@ class CardInfo:
     spm: float | None = None
     period: float | None = None
     notes: tuple[str, ...] = ()
+    #: When the card was recorded (ISO 8601), where the file says.
+    time: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form."""
-        return {"id": self.id, "well": self.well, "source": self.source,
+        return {"id": self.id, "well": self.well, "time": self.time, "source": self.source,
                 "time_source": self.time_source, "spm": self.spm, "period": self.period,
                 "notes": list(self.notes)}
 
@@ -245,6 +249,7 @@ class FitResult:
     uncertainty: Uncertainty | None = field(default=None, repr=False)
     identifiability: tuple[str, ...] = ()
     determined: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    derived: Mapping[str, Derived] = field(default_factory=dict, repr=False)
     boundary: BoundaryInfo | None = None
     start: StartInfo | None = None
     card: CardInfo | None = None
@@ -259,6 +264,7 @@ class FitResult:
         for name in ("t", "load", "data", "fitted", "jacobian"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
         object.__setattr__(self, "params", MappingProxyType(dict(self.params)))
+        object.__setattr__(self, "derived", MappingProxyType(dict(self.derived)))
 
     # ------------------------------------------------------------------ derived
     @property
@@ -369,10 +375,49 @@ class FitResult:
                                                 "fitted values"}})
         out["identifiability"] = list(self.identifiability)
         out["determined"] = dict(self.determined)
+        out["derived"] = {name: d.to_dict() for name, d in self.derived.items()}
         if self.card is not None:
             out["card"] = self.card.to_dict()
         out.update(self.application)
         return MappingProxyType(out)
+
+    def to_row(self) -> dict[str, Any]:
+        """One flat row for a results table (the fleet's layout).
+
+        Keys: ``well_id``, ``card_id``, ``time``, ``source``, ``model``, ``observe``,
+        ``status``, ``reason``, ``warnings`` (joined by " | "), ``r2``, ``rmse``, ``cost``,
+        ``n_samples``, ``nfev``, ``position_unit``, ``load_unit``; per parameter
+        ``p_NAME``, ``p_NAME_se``, ``p_NAME_se_hac``; ``scale`` and ``offset``; per derived
+        quantity ``d_NAME``, ``d_NAME_se``, ``d_NAME_se_hac``, ``d_NAME_determined``,
+        ``d_NAME_unit``. Standard errors are NaN where not computed.
+        """
+        card = self.card
+        row: dict[str, Any] = {
+            "well_id": card.well if card else None,
+            "card_id": card.id if card else None,
+            "time": card.time if card else None,
+            "source": card.source if card else None,
+            "model": self.model_name, "observe": self.observe, "status": self.status.key,
+            "reason": self.reason, "warnings": " | ".join(self.warnings),
+            "r2": self.r2, "rmse": self.rmse, "cost": self.cost,
+            "n_samples": int(self.t.size), "nfev": self.nfev,
+            "position_unit": self.units.position, "load_unit": self.units.load,
+        }
+        se = self.stderr
+        se_hac = self.stderr_hac
+        for name, value in self.params.items():
+            row[f"p_{name}"] = value
+            row[f"p_{name}_se"] = float(se.get(name, math.nan))
+            row[f"p_{name}_se_hac"] = float(se_hac.get(name, math.nan))
+        row["scale"] = self.scale
+        row["offset"] = self.offset
+        for name, d in self.derived.items():
+            row[f"d_{name}"] = d.value
+            row[f"d_{name}_se"] = d.stderr
+            row[f"d_{name}_se_hac"] = d.stderr_hac
+            row[f"d_{name}_determined"] = d.determined
+            row[f"d_{name}_unit"] = d.unit
+        return row
 
     def with_parts(self, **changes: Any) -> FitResult:
         """A copy with some parts replaced (e.g. ``card=CardInfo(...)``)."""
@@ -488,6 +533,20 @@ def diagnostics_text(result: FitResult) -> str:
     return "\n".join(lines)
 
 
+def derived_text(result: FitResult) -> list[str]:
+    """The derived quantities as report lines (empty when there are none)."""
+    if not result.derived:
+        return []
+    lines = ["", "  derived quantities (what the data determine in physical terms):",
+             f"  {'quantity':<18}  {'value':<12}  {'std. error':<11}  {'robust':<11}  "
+             f"{'determined':<10}  unit"]
+    for d in result.derived.values():
+        lines.append(f"  {d.name:<18}  {_fmt(d.value, 6):<12}  {_fmt(d.stderr, 4):<11}  "
+                     f"{_fmt(d.stderr_hac, 4):<11}  {'yes' if d.determined else 'no':<10}  "
+                     f"{d.unit}")
+    return lines
+
+
 def format_report(result: FitResult, history: bool = False) -> str:
     """The text report of :meth:`FitResult.report`."""
     units = result.param_units()
@@ -525,6 +584,7 @@ def format_report(result: FitResult, history: bool = False) -> str:
                      f"{result.units.position} ({off_state})")
     lines += ["", f"  fit quality: RMSE = {_fmt(result.rmse, 6)} {result.units.position}, "
               f"R^2 = {_fmt(result.r2, 8)}"]
+    lines += derived_text(result)
     diag = diagnostics_text(result)
     if diag:
         lines += ["", diag]

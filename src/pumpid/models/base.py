@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "DerivedInfo",
     "EquationError",
     "Limit",
     "Model",
@@ -152,6 +153,61 @@ class Limit:
         if not self.from_reduced:
             return None
         return {k: evaluate_terms(v, reduced) for k, v in self.from_reduced.items()}
+
+
+@dataclass(frozen=True)
+class DerivedInfo:
+    """A quantity computed from a model's parameters: name, unit template, meaning."""
+
+    name: str
+    unit: str
+    meaning: str
+
+    def unit_for(self, load: str, position: str) -> str:
+        """The unit in the data's units."""
+        return self.unit.replace("{load}", load).replace("{position}", position)
+
+
+#: The quantities of :meth:`Model.derived_values`, by the number of states.
+_TIME_CONSTANT = DerivedInfo("time_constant", "s", "time constant of the real pole (-1/pole)")
+_NATURAL = DerivedInfo("natural_frequency", "Hz",
+                       "natural frequency of the oscillating pair of poles (|pole| / 2 pi)")
+_DAMPING = DerivedInfo("damping_ratio", "1",
+                       "damping ratio of that pair (-Re pole / |pole|; above 1: two real "
+                       "poles, overdamped)")
+_STATIC = DerivedInfo("static_stiffness", "{load}/{position}",
+                      "load per unit displacement of the observed output at equilibrium "
+                      "(1 / (C x static gain))")
+_EXTRA_POLE = DerivedInfo("time_constant", "s",
+                          "time constant of the real pole outside the oscillating pair "
+                          "(creep or relaxation)")
+
+
+def _pair_and_rest(lam: NDArray[np.complex128]) -> tuple[list[complex], list[complex]]:
+    """The oscillating pair of poles and the others.
+
+    A complex pair when there is one; with only real poles, the two that sit closest together
+    on a log scale (the pair that became real as damping grew), the isolated one apart.
+    """
+    lam = np.asarray(lam)
+    cplx = [i for i in range(lam.size) if lam[i].imag > 0]
+    if cplx:
+        i = max(cplx, key=lambda j: lam[j].imag)
+        j = int(np.argmin(np.abs(lam - np.conj(lam[i]))))
+        rest = [complex(lam[k]) for k in range(lam.size) if k not in (i, j)]
+        return [complex(lam[i]), complex(lam[j])], rest
+    if lam.size == 2:
+        return [complex(x) for x in lam], []
+    logs = np.log(np.abs(lam.real) + 1e-300)
+    best = (math.inf, 0, 1)
+    for a in range(lam.size):
+        for b in range(a + 1, lam.size):
+            gap = abs(logs[a] - logs[b])
+            if gap < best[0]:
+                best = (gap, a, b)
+    _, a, b = best
+    return ([complex(lam[a]), complex(lam[b])],
+            [complex(lam[k]) for k in range(lam.size) if k not in (a, b)])
 
 
 @dataclass(frozen=True)
@@ -338,6 +394,62 @@ class Model:
         a, _ = self.matrices()
         lam = np.linalg.eigvals(a)
         return lam[np.argsort(-lam.real)]
+
+    @classmethod
+    def derived_info(cls) -> tuple[DerivedInfo, ...]:
+        """The quantities :meth:`derived_values` gives, in order.
+
+        Physical combinations a card determines even where single parameters are not: from
+        the poles, an oscillating pair's natural frequency and damping ratio and any other
+        real pole's time constant; from the static gain, the stiffness seen at the observed
+        output (for load-driven models).
+        """
+        n = cls.n_states()
+        out: list[DerivedInfo] = []
+        if n == 1:
+            out.append(_TIME_CONSTANT)
+        else:
+            out += [_NATURAL, _DAMPING]
+            if n == 3:
+                out.append(_EXTRA_POLE)
+        if cls.input_unit == "{load}":
+            out.append(_STATIC)
+        return tuple(out)
+
+    @classmethod
+    def derived_values(cls, theta: ArrayLike, observe: str | None = None,
+                       scale: float = 1.0) -> Array:
+        """The values of :meth:`derived_info` at parameters ``theta`` (canonical order).
+
+        NaN where a quantity does not exist there (for example no equilibrium).
+        """
+        a, b, _, _ = cls.system_batch(np.asarray(theta, dtype=float))
+        infos = cls.derived_info()
+        out = np.full(len(infos), math.nan)
+        if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+            return out
+        lam = np.linalg.eigvals(a)
+        values: dict[str, float] = {}
+        if lam.size == 1:
+            values["time_constant"] = -1.0 / lam[0].real if lam[0].real < 0 else math.nan
+        else:
+            pair, rest = _pair_and_rest(lam)
+            wn2 = (pair[0] * pair[1]).real
+            if wn2 > 0:
+                wn = math.sqrt(wn2)
+                values["natural_frequency"] = wn / (2 * math.pi)
+                values["damping_ratio"] = -(pair[0] + pair[1]).real / (2 * wn)
+            if rest and rest[0].real < 0:
+                values["time_constant"] = -1.0 / rest[0].real
+        try:
+            gain = float(-np.linalg.solve(a, b)[cls.output_index(observe)])
+        except np.linalg.LinAlgError:
+            gain = math.nan
+        if gain != 0 and math.isfinite(gain):
+            values["static_stiffness"] = 1.0 / (scale * gain)
+        for i, info in enumerate(infos):
+            out[i] = values.get(info.name, math.nan)
+        return out
 
     def describe(self, load_unit: str = "N", position_unit: str = "m") -> str:
         """One line per parameter: name = value unit."""

@@ -6,6 +6,6 @@ card's own defaults (a fitted position offset; a single stroke is one period of 
 motion).
 """
 
-from .fit import evaluate_prediction, fit_card, predict, predict_card
+from .fit import evaluate_prediction, fit_card, fit_cards, predict, predict_card
 
-__all__ = ["evaluate_prediction", "fit_card", "predict", "predict_card"]
+__all__ = ["evaluate_prediction", "fit_card", "fit_cards", "predict", "predict_card"]

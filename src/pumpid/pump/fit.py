@@ -9,18 +9,20 @@ periodic motion, so the periodic steady state is the default initial state for s
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..cards import Card
+from ..engine.problem import CardData
 from ..engine.simulate import InitialState, simulate
-from ..job import fit
+from ..job import fit, fit_records
 from ..models import Kelvin, Model, model_class
-from ..result import CardInfo, FitResult, Prediction, Units
+from ..result import CardInfo, FitBatch, FitResult, Prediction, Units
 
-__all__ = ["evaluate_prediction", "fit_card", "predict", "predict_card"]
+__all__ = ["evaluate_prediction", "fit_card", "fit_cards", "predict", "predict_card"]
 
 
 def _units(card: Card) -> Units:
@@ -70,24 +72,85 @@ def fit_card(
         With ``extra["card"]`` holding the card's id, source and the notes of everything done
         to its data.
     """
-    t, period = _require_time(card)
+    record = _record(card, initial_state)
     if isinstance(model, str):
         model = model_class(model)
+    result = fit(
+        model, record.t, record.load, record.data, initial_state=record.initial_state,
+        offset=offset, period=record.period, units=_units(card), **fit_options,
+    )
+    return result.with_parts(card=_card_info(card))
+
+
+def _record(card: Card, initial_state: InitialState | None) -> CardData:
+    """The card as the engine's record; ValueError when it cannot be fitted as asked."""
+    t, period = _require_time(card)
     if initial_state is None:
         initial_state = "periodic" if card.periodic else "rest"
     if initial_state == "periodic" and period is None:
         raise ValueError(
             f"card {card.card_id!r}: initial_state='periodic' needs the stroke period"
         )
-    result = fit(
-        model, t, card.load, card.position, initial_state=initial_state, offset=offset,
-        period=period if initial_state == "periodic" else None, units=_units(card),
-        **fit_options,
-    )
-    return result.with_parts(card=CardInfo(
-        id=card.card_id, well=card.well_id, source=card.source,
-        time_source=card.time_source, spm=card.spm, period=card.period,
-        notes=tuple(card.notes)))
+    return CardData(t, card.load, card.position, initial_state,
+                    period if initial_state == "periodic" else None)
+
+
+def _card_info(card: Card) -> CardInfo:
+    stamp = card.metadata.get("time", card.metadata.get("timestamp"))
+    return CardInfo(id=card.card_id, well=card.well_id, source=card.source,
+                    time_source=card.time_source, spm=card.spm, period=card.period,
+                    notes=tuple(card.notes), time=None if stamp is None else str(stamp))
+
+
+def fit_cards(
+    cards: Sequence[Card],
+    model: str | Model | type[Model] = Kelvin,
+    *,
+    initial_state: InitialState | None = None,
+    offset: bool | float = True,
+    workers: int | None = None,
+    **fit_options: Any,
+) -> FitBatch:
+    """Fit one model structure to many cards in one batch: :func:`fit_card` for each.
+
+    Every card keeps its own time, stroke period, initial state and units; the answers are
+    those :func:`fit_card` gives for each card alone (the batch only shares the work).
+
+    Parameters
+    ----------
+    cards : sequence of Card
+    model, initial_state, offset
+        As for :func:`fit_card`.
+    workers : int, optional
+        Threads (default: every core this process may use). Results do not depend on it.
+    **fit_options
+        Passed to :func:`pumpid.fit_records` (observe, scale, fixed, x0, solver, ...).
+
+    Returns
+    -------
+    FitBatch
+        One result per card, in order. A card that cannot be fitted (no time, no period for
+        a periodic start, invalid samples) is an ``invalid-input`` row with the reason; it
+        does not stop the others.
+    """
+    if isinstance(model, str):
+        model = model_class(model)
+    records: list[CardData] = []
+    reasons: list[str] = []
+    for card in cards:
+        try:
+            records.append(_record(card, initial_state))
+            reasons.append("")
+        except ValueError as exc:
+            # A placeholder the engine will not fit: the row keeps the reason.
+            records.append(CardData(np.arange(10.0), np.ones(10), np.ones(10)))
+            reasons.append(str(exc))
+    batch = fit_records(model, records, offset=offset, units=[_units(c) for c in cards],
+                        workers=workers, invalid=reasons, **fit_options)
+    results = tuple(None if r is None else r.with_parts(card=_card_info(c))
+                    for r, c in zip(batch.results, cards, strict=True))
+    return FitBatch(model_name=batch.model_name, param_names=batch.param_names,
+                    results=results, invalid=batch.invalid)
 
 
 def predict(

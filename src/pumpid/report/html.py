@@ -56,7 +56,7 @@ CAPTIONS: dict[str, str] = {
 _KNOWN_EXTRA = ("model_name", "gauge", "start", "card", "stderr", "ci95", "stderr_hac",
                 "ci95_hac", "correlation",
                 "identifiability", "boundaries", "reduced", "prediction", "edges",
-                "covariance", "sigma2", "uncertainty", "determined")
+                "covariance", "sigma2", "uncertainty", "determined", "derived")
 _PREDICTION_KEYS = ("t", "load", "measured", "predicted")
 
 _CSS = """
@@ -364,6 +364,17 @@ def _params_html(result: FitResult) -> str:
     return _table(headers, rows, cls="params", num_cols=[i for i in value_cols if i != 2])
 
 
+def _derived_html(result: FitResult) -> str:
+    rows = [[d.name, _num(d.value, 6), d.unit, _num(d.stderr), _num(d.stderr_hac),
+             "yes" if d.determined else "no", d.meaning] for d in result.derived.values()]
+    return (
+        "<p>Physical combinations of the parameters, from the model's poles and static gain: "
+        "they stay determined where single parameters trade off, so they are the numbers "
+        "to trend.</p>\n"
+        + _table(("quantity", "value", "unit", "std. error", "robust std. error (HAC)",
+                  "determined", "meaning"), rows, num_cols=(1, 3, 4)))
+
+
 def _quality_html(result: FitResult) -> str:
     pos = result.units.position
     res = result.residuals
@@ -609,6 +620,8 @@ def render_html(
     body.append(_section("Convergence", _status_html(result), sid="convergence"))
     body.append(_section("Parameters", _params_html(result), sid="parameters"))
     body.append(_section("Fit quality", _quality_html(result), sid="quality"))
+    if result.derived:
+        body.append(_section("Derived quantities", _derived_html(result), sid="derived"))
     if result.warnings:
         body.append(_section("Warnings", _list(result.warnings), sid="warnings"))
     boundary_html = _boundary_html(result)

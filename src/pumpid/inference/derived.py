@@ -1,0 +1,139 @@
+"""Derived quantities of a fit with their standard errors: what can be trended.
+
+On real cards single parameters are often not determined (the Kelvin model's k0 runs to its
+rigid limit and the mass, the Kelvin spring and the offset trade off), while physical
+combinations are: the natural frequency and damping ratio of the oscillating pair of poles,
+another real pole's time constant, the stiffness seen at the observed output. The model
+says what they are (:meth:`pumpid.Model.derived_info`); this module gives each its value,
+its standard error by the delta method on the fit's covariance (the white-noise one and the
+autocorrelation-robust one), and whether the data determine it.
+
+The gradient is taken by central differences in the scaled coordinates the covariance is
+expressed in (``ln`` of the positive values), over the coordinates analysed at the optimum (a
+parameter at a boundary is held at its limit, as in the covariance). A quantity that moves
+along a structurally undetermined direction has an infinite error; it is *determined* when
+its relative standard error is below :data:`~pumpid.inference.uncertainty.PRACTICAL_REL_SE`
+(and, where the residuals are serially correlated, its robust error too), the rule the
+parameters follow.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..models import Model
+from .uncertainty import PRACTICAL_REL_SE, STRUCTURAL_TOL, Numbers
+
+__all__ = ["Derived", "derived_of"]
+
+Array = NDArray[np.float64]
+
+#: Central-difference step in the log of a parameter.
+_STEP = 1e-6
+
+
+@dataclass(frozen=True)
+class Derived:
+    """One derived quantity of a fit."""
+
+    name: str
+    value: float
+    unit: str
+    stderr: float
+    stderr_hac: float
+    determined: bool
+    meaning: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form."""
+        return {"value": self.value, "unit": self.unit, "stderr": self.stderr,
+                "stderr_hac": self.stderr_hac, "determined": self.determined,
+                "meaning": self.meaning}
+
+
+def _gradient(cls: type[Model], theta: Array, observe: str, scale: float,
+              coords: Sequence[str]) -> Array:
+    """d(values)/d(scaled coordinate) for each of ``coords`` (k, len(coords))."""
+    names = cls.param_names()
+    k = len(cls.derived_info())
+    grad = np.zeros((k, len(coords)))
+    for a, name in enumerate(coords):
+        if name in names:
+            i = names.index(name)
+            up, down = theta.copy(), theta.copy()
+            up[i] *= math.exp(_STEP)
+            down[i] *= math.exp(-_STEP)
+            hi = cls.derived_values(up, observe, scale)
+            lo = cls.derived_values(down, observe, scale)
+        elif name in ("C", "D"):
+            hi = cls.derived_values(theta, observe, scale * math.exp(_STEP))
+            lo = cls.derived_values(theta, observe, scale * math.exp(-_STEP))
+        else:  # the offset moves no derived quantity
+            continue
+        grad[:, a] = (hi - lo) / (2 * _STEP)
+    return grad
+
+
+def derived_of(
+    cls: type[Model],
+    theta: Array,
+    *,
+    observe: str,
+    scale: float,
+    nums: Numbers | None,
+    units: tuple[str, str],
+    serial: bool = False,
+) -> Mapping[str, Derived]:
+    """The derived quantities of one fit.
+
+    Parameters
+    ----------
+    cls : Model class
+    theta : (p,) fitted parameters; observe : the observed output; scale : C.
+    nums : the analysis at the optimum (None: values only, errors NaN).
+    units : (load unit, position unit) of the data.
+    serial : the residuals failed the whiteness check (the robust error then counts too).
+    """
+    infos = cls.derived_info()
+    values = cls.derived_values(theta, observe, scale)
+    se = np.full(len(infos), math.nan)
+    se_hac = np.full(len(infos), math.nan)
+    if nums is not None and nums.usable and nums.dof > 0:
+        inner = list(nums.inner)
+        qi = len(inner)
+        coords = [nums.names[i] for i in inner]
+        grad = _gradient(cls, theta, observe, scale, coords)
+        cov = nums.cov_scaled[:qi, :qi]
+        hac = nums.hac_scaled[:qi, :qi]
+        s = nums.singular[:qi]
+        vt = nums.vt[:qi, :qi]
+        weak = [r for r in range(qi) if not (s[r] > STRUCTURAL_TOL * s[0])]
+        for k in range(len(infos)):
+            g = grad[k]
+            if not np.all(np.isfinite(g)):
+                continue
+            size = float(np.linalg.norm(g))
+            if any(abs(float(vt[r] @ g)) > 1e-6 * size for r in weak):
+                se[k] = se_hac[k] = math.inf
+                continue
+            with np.errstate(invalid="ignore", over="ignore"):
+                var = float(g @ cov @ g)
+                var_hac = float(g @ hac @ g)
+            se[k] = math.sqrt(var) if var >= 0 else math.nan
+            se_hac[k] = math.sqrt(var_hac) if var_hac >= 0 else math.nan
+    out: dict[str, Derived] = {}
+    load, position = units
+    for k, info in enumerate(infos):
+        value = float(values[k])
+        bound = PRACTICAL_REL_SE * abs(value)
+        determined = bool(math.isfinite(value) and se[k] < bound
+                          and (not serial or not se_hac[k] >= bound))
+        out[info.name] = Derived(info.name, value, info.unit_for(load, position),
+                                 float(se[k]), float(se_hac[k]), determined, info.meaning)
+    return out
