@@ -5,7 +5,10 @@ synthetic problems (every model and observed output, from rest, periodic with an
 from equilibrium, automatic start and a guess 30 % off, 1 % noise) and on 23 real cards
 (read from ``../shared/data``; skipped when absent). A rebuilt engine passes when, on each
 problem, it reaches the same optimum (cost within 1e-7 relative, the same status, the same
-parameters where the data determine them) or a strictly better one. A case may carry an
+parameters where the data determine them: within 1 % of their standard error, far inside
+their uncertainty; the solver stops once a further step could gain less than 1e-6 of the
+residual variance, about 0.14 % of a standard error from the exact optimum) or a strictly
+better one. A case may carry an
 ``accepted_gap``: a reviewed, explained miss, with the cost the new engine must not exceed.
 """
 
@@ -28,8 +31,8 @@ from .conftest import SHARED_RAW, well_load
 PINNED = json.loads((Path(__file__).parent / "data" / "pinned" / "answers.json").read_text())
 #: Relative cost difference within which two fits are the same optimum.
 SAME_COST = 1e-7
-#: Relative agreement of a determined parameter at the same optimum.
-SAME_PARAM = 1e-5
+#: Agreement of a determined parameter at the same optimum, in its standard errors.
+SAME_PARAM_SE = 0.01
 
 
 def _synthetic(case: dict[str, Any]) -> tuple[Any, ...]:
@@ -70,7 +73,8 @@ def _compare(res: Any, pinned: dict[str, Any]) -> None:
     for name, value in pinned["params"].items():
         se = pinned["stderr"].get(name)
         if se is not None and se < value:  # determined: relative error below 100 %
-            assert res.params[name] == pytest.approx(value, rel=SAME_PARAM), name
+            assert abs(res.params[name] - value) <= SAME_PARAM_SE * se, (name, res.params[name],
+                                                                         value, se)
 
 
 @pytest.mark.parametrize(
@@ -91,7 +95,8 @@ def test_real_card_answers_are_kept(case: dict[str, Any]) -> None:
     if not path.is_file():
         pytest.skip("third-party cards (../shared/data/raw) are not available")
     cards = {c.card_id: c for c in read_cards(path, **case["options"])}
-    res = fit_card(cards[case["card"]], "kelvin")
+    # The answers were taken when the paper's u2 was the default observed output.
+    res = fit_card(cards[case["card"]], "kelvin", observe="u2")
     gap = case.get("accepted_gap")
     if gap is not None:
         assert gap["why"]

@@ -305,8 +305,22 @@ def _check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[_Ca
                 continue
             excess = 2.0 * (red.cost - card.cost)
             if excess < -_LR_95 * sigma2 - 1e-12 * sst and lim.from_reduced:
-                # The reduced model fits clearly better: the full fit is stuck, not at a
-                # boundary. Restart the full model next to the reduced solution.
+                # The reduced model fits clearly better: the full fit has not reached the
+                # limit it crawls toward, or it is stuck elsewhere. The limit itself first
+                # (the parameter at the window's edge, the others refitted) ...
+                if lim.param in known or _limit_reaches(problem, k, card, lim, red.cost,
+                                                        options):
+                    if lim.param not in known:
+                        f = list(problem.free_idx).index(problem.model.param_names().index(
+                            lim.param))
+                        found[j].append(Limiting(lim.param, lim.direction,
+                                                 float(math.exp(card.z[f])), lim.description,
+                                                 "nested"))
+                        known.add(lim.param)
+                    if best_red is None or red.cost < best_red[0]:
+                        best_red = (red.cost, red, lim)
+                    continue
+                # ... else a restart of the full model next to the reduced solution.
                 point = lim.full_point(dict(red.params))
                 if point is not None and red.cost < restart_cost:
                     restart_cost = red.cost
@@ -347,6 +361,21 @@ def _check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[_Ca
                 f"reduced model {red.model_name} ({lim.description.split(':')[0]}) fitted: "
                 f"R^2 = {red.r2:.6g}, RMSE = {red.rmse:.4g} {{position}}")
     return restarts
+
+
+def _limit_reaches(problem: Problem, k: int, card: _Card, lim: Any, target: float,
+                   options: JobOptions) -> bool:
+    """Move card k to the limit ``lim`` (parameter at the window's edge, the others refitted);
+    True, with the card moved there, when that reaches the reduced model's cost ``target``."""
+    trial = _Card(z=card.z.copy(), cost=card.cost)
+    _to_the_limit(problem, k, trial, [Limiting(lim.param, lim.direction, math.nan,
+                                               lim.description, "nested")], options)
+    if not trial.cost <= target * (1 + 1e-6) + 1e-300:
+        return False
+    card.evaluations += trial.evaluations
+    card.accepted += trial.accepted
+    card.z, card.cost = trial.z, trial.cost
+    return True
 
 
 def _to_the_limit(problem: Problem, k: int, card: _Card, limits: Sequence[Limiting],
@@ -563,6 +592,10 @@ def run(problem: Problem, cards: NDArray[np.int64], *, guess: Array | None,
     if options.boundaries and todo:
         restarts = _check_boundaries(problem, cards[todo], [fits[i] for i in todo], options,
                                      depth)
+        # Cards moved to a limit have a new point: their quality figures follow it.
+        moved = [i for i in todo if fits[i].limits]
+        if moved:
+            _summarize(problem, cards[moved], [fits[i] for i in moved])
         if restarts and allow_restart:
             again_cards = np.array(sorted(restarts), dtype=np.int64)
             again = run(problem, again_cards,

@@ -77,19 +77,20 @@ def test_candidates_are_ranked_with_their_best_scale_and_offset() -> None:
 
 
 def test_a_poor_guess_joins_the_multistart_and_loses() -> None:
-    data = simulate(KELVIN, T, LOAD)
+    # A case built on the paper's observed output u2.
+    data = simulate(KELVIN, T, LOAD, observe="u2")
     # A guess far away (factors 0.005 to 1.4): plain lm from it ends in another minimum,
     # not at the truth.
     guess = KELVIN.values * np.array([0.0052, 1.3856, 0.6288, 0.0068])
-    plain = fit(Kelvin.from_values(guess), T, LOAD, data, multistart=False)
+    plain = fit(Kelvin.from_values(guess), T, LOAD, data, observe="u2", multistart=False)
     assert _err(plain.params, KELVIN) > 1e-3
-    starts = find_starts(_problem(Kelvin, T, LOAD, data), ONE, guess=guess[None])
+    starts = find_starts(_problem(Kelvin, T, LOAD, data, observe="u2"), ONE, guess=guess[None])
     assert not starts.from_guess[0]
-    guarded = fit(Kelvin.from_values(guess), T, LOAD, data, multistart=True)
+    guarded = fit(Kelvin.from_values(guess), T, LOAD, data, observe="u2", multistart=True)
     assert _err(guarded.params, KELVIN) < 1e-7
     assert "automatic" in guarded.start.note
     # The default ("auto") sees the first fit's poor quality and falls back to the same.
-    auto = fit(Kelvin.from_values(guess), T, LOAD, data)
+    auto = fit(Kelvin.from_values(guess), T, LOAD, data, observe="u2")
     assert _err(auto.params, KELVIN) < 1e-7
 
 

@@ -45,7 +45,8 @@ def test_model_lookup_by_name() -> None:
 
 
 def test_observed_output_is_selectable() -> None:
-    assert Kelvin.output_index(None) == Kelvin.states.index("u2")
+    assert Kelvin.output_index(None) == Kelvin.states.index("u")
+    assert Kelvin.output_index("u2") == 2
     assert Kelvin.output_index("u") == 0
     with pytest.raises(ValueError, match="cannot observe 'F0'"):
         Kelvin.output_index("F0")

@@ -121,18 +121,67 @@ def evaluate(z, k, data, model, settings, rows, r_out, c_out):
 
 
 @jit
-def _solve(z0, lo, hi, tol, max_evals, n_capped, k, data, model, settings, history):
+def residual_vector(z, k, data, model, settings, out):
+    """The residual of card k at z (no sensitivities) into ``out``; False if not finite."""
+    n_samples = out.size
+    y = np.empty(n_samples)
+    ok, scale, offset = simulate_at(z, k, data, model, settings, y, np.empty((0, n_samples)))
+    if not ok:
+        return False
+    d = _card(data, k)[2]
+    if settings[2]:
+        log_c = math.log(scale)
+        for s in range(n_samples):
+            if not (y[s] > 0.0):
+                return False
+            out[s] = log_c + math.log(y[s]) - math.log(d[s])
+    else:
+        for s in range(n_samples):
+            out[s] = scale * y[s] + offset - d[s]
+    for s in range(n_samples):
+        if not math.isfinite(out[s]):
+            return False
+    return True
+
+
+@jit
+def _scaling(q, k, data, settings):
+    """The solver's fixed scaling: 1 for the log-coordinates (relative changes already), and
+    1 / range of the data for an offset (a unit step moves it by the data's range)."""
+    out = np.ones(q)
+    if settings[5]:
+        d = _card(data, k)[2]
+        span = np.max(d) - np.min(d)
+        out[q - 1] = 1.0 / span if span > 0.0 and math.isfinite(span) else 1.0
+    return out
+
+
+@jit
+def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, k, data, model, settings,
+           history):
     """Levenberg-Marquardt from z0 for card k. Returns (z, cost, evaluations, accepted,
     code, test, history rows). ``history`` (H, q + 1) receives the accepted points and their
     costs (pass an array with no rows to skip)."""
     q = z0.size
     bounds = data[3]
     n_samples = bounds[k + 1] - bounds[k]
+    # The current point's reflections are kept for the acceleration's projection; a trial
+    # point is factored into the other buffer and the two swap when it is accepted.
     rows = np.empty((q + 1, n_samples))
+    spare = np.empty((q + 1, n_samples))
+    v0, beta = np.empty(q), np.empty(q)
+    v0_s, beta_s = np.empty(q), np.empty(q)
     r = np.zeros((q, q))
     c = np.zeros(q)
-    cost = evaluate(z0, k, data, model, settings, rows, r, c)
-    state = lm.start(z0, cost, r, c, lo, hi, tol, n_capped, max_evals)
+    probe = np.empty(n_samples)
+    c_probe = np.empty(q)
+    cost = math.nan
+    if residual_rows(z0, k, data, model, settings, rows):
+        cost = lm.householder_keep(rows, q, r, c, v0, beta)
+    dof = n_samples - q
+    noise = noise_tol * 2.0 / dof if dof > 0 else 0.0
+    state = lm.start(z0, cost, r, c, lo, hi, tol, n_capped, max_evals, True, noise,
+                     _scaling(q, k, data, settings))
     n_hist = 0
     if history.shape[0] > 0 and math.isfinite(cost):
         history[0, :q] = z0
@@ -141,20 +190,32 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, k, data, model, settings, histo
     z_try = state[6]
     ints = state[8]
     while lm.propose(state):
-        cost_try = evaluate(z_try, k, data, model, settings, rows, r, c)
+        if lm.probing(state):
+            ok = residual_vector(z_try, k, data, model, settings, probe)
+            if ok:
+                lm.project(rows, q, v0, beta, probe, c_probe)
+            lm.accelerate(state, c_probe, ok)
+        cost_try = math.nan
+        if residual_rows(z_try, k, data, model, settings, spare):
+            cost_try = lm.householder_keep(spare, q, r, c, v0_s, beta_s)
         accepted_before = ints[1]
         going = lm.update(state, cost_try, r, c)
-        if ints[1] > accepted_before and n_hist < history.shape[0]:
-            history[n_hist, :q] = state[0]
-            history[n_hist, q] = state[7][0]
-            n_hist += 1
+        if ints[1] > accepted_before:
+            rows, spare = spare, rows
+            v0, v0_s = v0_s, v0
+            beta, beta_s = beta_s, beta
+            if n_hist < history.shape[0]:
+                history[n_hist, :q] = state[0]
+                history[n_hist, q] = state[7][0]
+                n_hist += 1
         if not going:
             break
     return (state[0], state[7][0], ints[0] + 1, ints[1], ints[4], ints[5], n_hist)
 
 
 @jit
-def solve_items(cards, z0, lo, hi, tol, max_evals, n_capped, data, model, settings):
+def solve_items(cards, z0, lo, hi, tol, max_evals, n_capped, noise_tol, data, model,
+                settings):
     """Solve many (card, start) items, one after the other.
 
     Returns z (m, q), cost (m,), evaluations, accepted, code, test (m,) arrays.
@@ -168,8 +229,8 @@ def solve_items(cards, z0, lo, hi, tol, max_evals, n_capped, data, model, settin
     test = np.zeros(m, np.int64)
     no_history = np.empty((0, q + 1))
     for i in range(m):
-        out = _solve(z0[i], lo[i], hi[i], tol, max_evals[i], n_capped, cards[i], data, model,
-                     settings, no_history)
+        out = _solve(z0[i], lo[i], hi[i], tol, max_evals[i], n_capped, noise_tol, cards[i],
+                     data, model, settings, no_history)
         z[i] = out[0]
         cost[i] = out[1]
         evals[i] = out[2]
@@ -180,43 +241,29 @@ def solve_items(cards, z0, lo, hi, tol, max_evals, n_capped, data, model, settin
 
 
 @jit
-def solve_one(z0, lo, hi, tol, max_evals, n_capped, card, data, model, settings, history):
+def solve_one(z0, lo, hi, tol, max_evals, n_capped, noise_tol, card, data, model, settings,
+              history):
     """:func:`solve_items` for one item, with the history of accepted points."""
-    return _solve(z0, lo, hi, tol, max_evals, n_capped, card, data, model, settings, history)
+    return _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, card, data, model,
+                  settings, history)
 
 
 @jit
 def cost_items(cards, z, data, model, settings):
     """Cost ``0.5 |r|^2`` of many (card, point) items (no sensitivities); inf when not finite."""
-    m, _q = z.shape
-    nf = settings[0].size
+    m = z.shape[0]
+    bounds = data[3]
     out = np.empty(m)
     for i in range(m):
         k = cards[i]
-        bounds = data[3]
-        n_samples = bounds[k + 1] - bounds[k]
-        y = np.empty(n_samples)
-        ok, scale, offset = simulate_at(z[i], k, data, model, settings, y,
-                                        np.empty((0, n_samples)))
-        d = _card(data, k)[2]
-        total = 0.0
-        if ok:
-            if settings[2]:
-                log_c = math.log(scale)
-                for s in range(n_samples):
-                    if y[s] > 0.0:
-                        e = log_c + math.log(y[s]) - math.log(d[s])
-                        total += e * e
-                    else:
-                        total = math.inf
-            else:
-                for s in range(n_samples):
-                    e = scale * y[s] + offset - d[s]
-                    total += e * e
+        r = np.empty(bounds[k + 1] - bounds[k])
+        if residual_vector(z[i], k, data, model, settings, r):
+            total = 0.0
+            for s in range(r.size):
+                total += r[s] * r[s]
+            out[i] = 0.5 * total if math.isfinite(total) else math.inf
         else:
-            total = math.inf
-        out[i] = 0.5 * total if math.isfinite(total) else math.inf
-    _ = nf
+            out[i] = math.inf
     return out
 
 

@@ -40,6 +40,9 @@ class Stop(enum.Enum):
             "below ftol = {tol:g}")
     XTOL = ("xtol", True, "converged: the relative step fell below xtol = {tol:g}")
     ZERO = ("zero", True, "converged: the residual is exactly zero")
+    NOISE = ("noise", True, "converged: a full Gauss-Newton step would gain less than "
+             "{noise_tol:g} of the residual variance (the answer is within {within:.2g} "
+             "standard errors of the exact optimum)")
     STEP = ("step", True, "converged: relative step ||dx||/||x0|| = {eps:.3g} <= eps0 = "
             "{eps0:g} (eq. 21)")
     BUDGET = ("budget", False, "stopped: the maximum number of model evaluations "
@@ -63,7 +66,7 @@ class Stop(enum.Enum):
             return self.template
 
 
-_LM_TESTS = (Stop.GTOL, Stop.FTOL, Stop.XTOL, Stop.ZERO)
+_LM_TESTS = (Stop.GTOL, Stop.FTOL, Stop.XTOL, Stop.ZERO, Stop.NOISE)
 
 
 @dataclass(frozen=True)
@@ -121,14 +124,21 @@ class LevenbergMarquardt:
     max_evaluations : int, optional
         Model evaluations per item (the start's included); default 100 per solver
         coordinate.
+    noise_tol : float
+        Also stop when a full Gauss-Newton step would gain less than this fraction of the
+        residual variance: the answer is then within ``sqrt(2 noise_tol)`` standard errors
+        of the exact optimum (0 turns the test off).
     """
 
     tol: float = 1e-12
     max_evaluations: int | None = None
+    noise_tol: float = 1e-6
 
     def __post_init__(self) -> None:
         if not (isinstance(self.tol, float | int) and math.isfinite(self.tol) and self.tol > 0):
             raise ValueError(f"tol must be positive, got {self.tol!r}")
+        if not (isinstance(self.noise_tol, float | int) and self.noise_tol >= 0):
+            raise ValueError(f"noise_tol must be >= 0, got {self.noise_tol!r}")
         if self.max_evaluations is not None and not (
                 isinstance(self.max_evaluations, int | np.integer) and self.max_evaluations >= 1):
             raise ValueError(
@@ -171,7 +181,8 @@ class LevenbergMarquardt:
         if history and m == 1:
             rows = np.zeros((int(trials[0]) + 1, q + 1))
             out = drive.solve_one(z0[0], lo[0], hi[0], float(self.tol), int(trials[0]), n_cap,
-                                  int(cards[0]), data, model, settings, rows)
+                                  float(self.noise_tol), int(cards[0]), data, model, settings,
+                                  rows)
             z, cost = out[0][None], np.array([out[1]])
             evals, acc = np.array([out[2]]), np.array([out[3]])
             codes, tests = np.array([out[4]]), np.array([out[5]])
@@ -186,14 +197,16 @@ class LevenbergMarquardt:
 
             def work(a: int, b: int) -> None:
                 res = drive.solve_items(cards[a:b], z0[a:b], lo[a:b], hi[a:b],
-                                        float(self.tol), trials[a:b], n_cap, data, model,
-                                        settings)
+                                        float(self.tol), trials[a:b], n_cap,
+                                        float(self.noise_tol), data, model, settings)
                 z[a:b], cost[a:b], evals[a:b], acc[a:b], codes[a:b], tests[a:b] = res
 
             run_chunks(work, m, workers=workers, chunk=16)
             hist = np.zeros((0, q + 1))
         stops = tuple(_lm_stop(int(c), int(t)) for c, t in zip(codes, tests, strict=True))
-        messages = tuple(s.message(tol=self.tol, budget=int(lim))
+        within = math.sqrt(2.0 * self.noise_tol)
+        messages = tuple(s.message(tol=self.tol, budget=int(lim), noise_tol=self.noise_tol,
+                                   within=within)
                          for s, lim in zip(stops, np.broadcast_to(trials + 1, (m,)),
                                            strict=True))
         cost = np.where(codes == lm.FAILED, math.nan, cost)
@@ -218,7 +231,7 @@ def run_python(
     cost, r, c = evaluate(z0)
     state = lm.start(np.asarray(z0, dtype=float), float(cost), r, c, np.asarray(lo, float),
                      np.asarray(hi, float), float(tol), int(n_capped),
-                     max(int(max_evaluations) - 1, 1))
+                     max(int(max_evaluations) - 1, 1), False, 0.0, np.zeros(0))
     history = [np.append(z0, cost)] if math.isfinite(cost) else []
     while lm.propose(state):
         cost_try, r_try, c_try = evaluate(state[6].copy())

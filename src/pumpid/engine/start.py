@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -658,11 +658,19 @@ def complete(problem: Problem, cards: NDArray[np.int64], theta: Array,
 
 @dataclass(frozen=True)
 class StartPlan:
-    """How the automatic start searches: candidates polished and their budget."""
+    """How the automatic start searches: candidates polished and their budget.
+
+    The best ``polish`` distinct candidates of each card and the best of each other kind
+    get ``first_evaluations``; the best ``keep`` distinct points of a card that are still
+    improving then go on to ``polish_evaluations`` in all (successive halving: most
+    candidates show within a few steps whether they lead anywhere).
+    """
 
     polish: int = 3
     polish_evaluations: int = 30
     polish_tol: float = 1e-6
+    first_evaluations: int = 10
+    keep: int = 2
 
 
 @dataclass(frozen=True)
@@ -737,7 +745,8 @@ def find_starts(
         is_guess = np.concatenate([is_guess, np.ones(m, dtype=bool)])
     solver = LevenbergMarquardt(tol=plan.polish_tol)
     polished: SolverOutcome = solver.solve(problem, item_card, z_pol,
-                                           budget=plan.polish_evaluations, workers=workers)
+                                           budget=plan.first_evaluations, workers=workers)
+    polished = _continue_best(problem, item_card, polished, plan, solver, workers)
     best_z = np.full((m, problem.q), math.nan)
     best_cost = np.full(m, math.inf)
     early = np.zeros(m, dtype=bool)
@@ -769,6 +778,41 @@ def find_starts(
             from_guess[i] = True
     return Starts(z=best_z, cost=best_cost, stopped_early=early, n_candidates=n_cand,
                   n_polished=n_pol, kinds=tuple(kinds), from_guess=from_guess)
+
+
+def _continue_best(problem: Problem, item_card: NDArray[np.int64], polished: SolverOutcome,
+                   plan: StartPlan, solver: LevenbergMarquardt,
+                   workers: int | None) -> SolverOutcome:
+    """Second round of the polish: the best ``plan.keep`` distinct points of each card that
+    ran out of evaluations go on to ``plan.polish_evaluations``; the outcome of both."""
+    more = plan.polish_evaluations - plan.first_evaluations
+    if more <= 0 or item_card.size == 0:
+        return polished
+    p = problem.n_free
+    chosen: list[int] = []
+    for k in np.unique(item_card):
+        mine = np.flatnonzero((item_card == k) & np.isfinite(polished.cost))
+        picked: list[int] = []
+        for j in mine[np.argsort(polished.cost[mine])]:
+            if len(picked) >= plan.keep:
+                break
+            if all(np.max(np.abs(polished.z[j, :p] - polished.z[i, :p])) > 0.05
+                   for i in picked):
+                picked.append(int(j))
+        chosen.extend(j for j in picked if polished.stops[j].key == "budget")
+    if not chosen:
+        return polished
+    idx = np.array(chosen, dtype=np.int64)
+    out = solver.solve(problem, item_card[idx], polished.z[idx], budget=more + 1,
+                       workers=workers)
+    z, cost = polished.z.copy(), polished.cost.copy()
+    evaluations = polished.evaluations.copy()
+    stops = list(polished.stops)
+    for j, i in enumerate(idx):
+        z[i], cost[i] = out.z[j], out.cost[j]
+        evaluations[i] += out.evaluations[j] - 1
+        stops[i] = out.stops[j]
+    return replace(polished, z=z, cost=cost, evaluations=evaluations, stops=tuple(stops))
 
 
 def walk_valley(problem: Problem, k: int, z: Array, cost: float,

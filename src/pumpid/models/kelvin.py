@@ -90,7 +90,8 @@ class Kelvin(Model):
         m v'   = F - k0 (u - u2)
         c1 u2' = k0 (u - u2) - k1 u2
 
-    The paper fits ``u2`` (default); physically the polished rod moves with the mass, ``u``.
+    The paper fits ``u2``; the polished rod, where the load is measured, moves with the
+    mass: ``u`` is the default (see README, "Which output a card observes").
     """
 
     k0: float = param("{load}/{position}", "series spring stiffness")
@@ -100,10 +101,10 @@ class Kelvin(Model):
 
     states: ClassVar[tuple[str, ...]] = ("u", "v", "u2")
     outputs: ClassVar[Mapping[str, str]] = {
+        "u": "displacement of the mass, where the load acts (the polished rod; default)",
         "u2": "displacement of the Kelvin element (the paper's fitted output)",
-        "u": "displacement of the mass",
     }
-    default_output: ClassVar[str] = "u2"
+    default_output: ClassVar[str] = "u"
     scale_symmetric: ClassVar[bool] = True
     key: ClassVar[str] = "kelvin"
     title: ClassVar[str] = "mass + spring k0 in series with Kelvin element k1 || c1 (eqs. 8-9)"
