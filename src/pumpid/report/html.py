@@ -20,16 +20,20 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from ..cards import printable
 from ..models import Model, ParamInfo, model_class
 from ..result import FitResult, Prediction
+from .output import OutputError, atomic_write, safe_name
 from .plots import (
     DEFAULT_DPI,
     figure_to_png,
+    has_history_figure,
     history_columns,
     make_figures,
     plot_prediction,
     prediction_stats,
     status_text,
+    unit_text,
 )
 
 __all__ = ["render_html", "write_outputs", "write_report"]
@@ -199,8 +203,17 @@ def _scalar_text(value: Any) -> str:
 
 
 def _short(value: Any, limit: int = 300) -> str:
+    """Text of a nested value of unknown shape, shortened at a word boundary if long.
+
+    Only the catch-all rendering of deep structures uses this; findings, warnings, notes
+    and reasons are always shown in full.
+    """
     text = str(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    if len(text) <= limit:
+        return text
+    cut = text.rfind(" ", 0, limit)
+    cut = cut if cut > limit // 2 else limit
+    return f"{text[:cut].rstrip(' ,;:')} ... ({len(text) - cut} more characters)"
 
 
 # --------------------------------------------------------------------------- result facts
@@ -290,8 +303,8 @@ def _summary_html(result: FitResult) -> str:
         ("initial state", str(result.initial_state)),
         ("fitted values", ", ".join(result.free) or "none"),
         ("data", f"{t.size} samples over {_num(duration)} {result.units.time}"),
-        ("units", f"load {result.units.load}, position {result.units.position}, "
-                  f"time {result.units.time}"),
+        ("units", f"load {unit_text(result.units.load)}, position "
+                  f"{unit_text(result.units.position)}, time {result.units.time}"),
     ]
     if result.extra.get("gauge"):
         rows.append(("gauge fixed", str(result.extra["gauge"])))
@@ -409,9 +422,22 @@ def _correlation_html(result: FitResult, value: Any) -> str:
     return _value_html(value)
 
 
+def _identifiability_html(result: FitResult) -> str:
+    """Every finding in full (they are sentences), or that everything is determined."""
+    if not result.identifiability:
+        return "<p>Every fitted value is determined by the data.</p>"
+    return _list(result.identifiability)
+
+
 def _history_html(result: FitResult) -> str:
     if not result.history:
-        return "<p>No iterations recorded.</p>"
+        return ("<p>No iterations recorded (a fit of many cards in one batch keeps no "
+                "per-iteration history; fit the card alone to see it).</p>")
+    intro = ""
+    if not has_history_figure(result):
+        steps = sum(1 for row in result.history if (row.get("iteration") or 0) > 0)
+        intro = (f"<p>The solver made {steps} iteration{'s' if steps != 1 else ''}: its "
+                 "start was already at the optimum, so there is no convergence figure.</p>\n")
     infos = _param_infos(result)
     cols = history_columns(result.history)
     headers = [c if c == "iteration" else f"{c} [{_param_unit(result, infos, c) or '-'}]"
@@ -426,7 +452,7 @@ def _history_html(result: FitResult) -> str:
             else:
                 cells.append(_num(v, 8))
         rows.append(cells)
-    return _table(headers, rows, cls="history")
+    return intro + _table(headers, rows, cls="history")
 
 
 def _figures_html(pngs: Mapping[str, bytes]) -> str:
@@ -607,7 +633,7 @@ def render_html(
     body: list[str] = [f"<h1>{_e(page_title)}</h1>"]
     body.append(
         f"<p>{_e(result.model_name)} model, {_e(result.method)} fit: "
-        f"{_e(status_text(result))}; RMSE = {_e(_num(result.rmse))} {_e(pos)}, "
+        f"{_e(status_text(result))}; RMSE = {_e(_num(result.rmse))} {_e(unit_text(pos))}, "
         f"R² = {_e(_num(result.r2, 8))}.</p>"
     )
     body.append(_section("Summary", _summary_html(result), sid="summary"))
@@ -627,8 +653,8 @@ def render_html(
     boundary_html = _boundary_html(result)
     if boundary_html:
         body.append(_section("Boundary solution", boundary_html, sid="boundary"))
-    if "identifiability" in result.extra:
-        body.append(_section("Identifiability", _value_html(result.extra["identifiability"]),
+    if result.model is not None or result.identifiability:
+        body.append(_section("Identifiability", _identifiability_html(result),
                              sid="identifiability"))
     if "correlation" in result.extra:
         body.append(_section("Parameter correlation",
@@ -666,6 +692,17 @@ def render_html(
     ])
 
 
+def _folder(out_dir: str | Path) -> Path:
+    """The output folder, created if missing; OutputError when that is impossible."""
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{printable(str(out))}: cannot create the folder "
+                          f"({exc.strerror or exc})") from None
+    return out
+
+
 def write_report(
     result: FitResult,
     out_dir: str | Path,
@@ -684,13 +721,10 @@ def write_report(
     Path
         The written file.
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / name
+    out = _folder(out_dir)
     text = render_html(result, title=title, figures=figures, extra_sections=extra_sections,
                        notes=notes, prediction=prediction)
-    path.write_text(text, encoding="utf-8")
-    return path
+    return atomic_write(out / name, text)
 
 
 def write_outputs(
@@ -733,18 +767,13 @@ def write_outputs(
         ``history``, and ``prediction`` when there is one with arrays), ``json`` and
         ``report``.
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = _folder(out_dir)
     chosen = _default_figures(result, prediction) if figures is None else figures
     pngs = _to_pngs(chosen, dpi)
     paths: dict[str, Path] = {}
     for name, png in pngs.items():
-        path = out / f"{name}.png"
-        path.write_bytes(png)
-        paths[name] = path
-    json_path = out / "result.json"
-    json_path.write_text(result.to_json(indent=2) + "\n", encoding="utf-8")
-    paths["json"] = json_path
+        paths[name] = atomic_write(out / f"{safe_name(name)}.png", png)
+    paths["json"] = atomic_write(out / "result.json", result.to_json(indent=2) + "\n")
     paths["report"] = write_report(result, out, title=title, figures=pngs, notes=notes,
                                    prediction=prediction, extra_sections=extra_sections)
     return paths
