@@ -403,21 +403,30 @@ def _quality_html(result: FitResult) -> str:
     return _table(("quantity", "value", "unit"), rows, num_cols=(1,))
 
 
+def _corr(value: Any) -> str:
+    """A correlation with three decimals: 0.9996 must not read as a perfect 1."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return "n/a"
+    return f"{x:.3f}" if math.isfinite(x) else "n/a"
+
+
 def _correlation_html(result: FitResult, value: Any) -> str:
     """A correlation matrix as a table, when its labels can be known; else generic."""
     if isinstance(value, Mapping) and "names" in value and "matrix" in value:
         names = [str(n) for n in value["names"]]
-        rows = [[a, *(_num(x, 3) for x in row)]
+        rows = [[a, *(_corr(x) for x in row)]
                 for a, row in zip(names, value["matrix"], strict=True)]
         return _table(["", *names], rows, num_cols=range(1, len(names) + 1))
     if isinstance(value, Mapping) and all(isinstance(v, Mapping) for v in value.values()):
         names = list(value)
-        rows = [[str(a), *(_num(value[a].get(b), 3) for b in names)] for a in names]
+        rows = [[str(a), *(_corr(value[a].get(b)) for b in names)] for a in names]
         return _table(["", *map(str, names)], rows, num_cols=range(1, len(names) + 1))
     arr = np.asarray(value, dtype=object)
     if arr.ndim == 2 and arr.shape[0] == arr.shape[1] == len(result.free):
         names = list(result.free)
-        rows = [[a, *(_num(x, 3) for x in arr[i])] for i, a in enumerate(names)]
+        rows = [[a, *(_corr(x) for x in arr[i])] for i, a in enumerate(names)]
         return _table(["", *names], rows, num_cols=range(1, len(names) + 1))
     return _value_html(value)
 
@@ -624,7 +633,10 @@ def render_html(
     str
         The HTML document (UTF-8 text, no scripts, no external resources).
     """
-    page_title = title if title is not None else f"pumpid fit: {result.model_name} model"
+    card_id = result.card.id if result.card is not None else None
+    default_title = (f"pumpid fit: card {card_id}, {result.model_name} model" if card_id
+                     else f"pumpid fit: {result.model_name} model")
+    page_title = title if title is not None else default_title
     if figures is None:
         figures = _default_figures(result, prediction)
     pngs = _to_pngs(figures, dpi)

@@ -67,8 +67,11 @@ def _umask() -> int:
     return mask
 
 
-# Read once: files are created by mkstemp with mode 0600 and get the usual mode on rename.
-_FILE_MODE = 0o666 & ~_umask()
+# Read once: mkstemp and mkdtemp create private files and folders (0600, 0700); what is
+# put in place gets the modes the user's umask gives ordinary files and folders.
+_MASK = _umask()
+FILE_MODE = 0o666 & ~_MASK
+DIR_MODE = 0o777 & ~_MASK
 
 
 def _reason(exc: OSError) -> str:
@@ -178,7 +181,7 @@ def atomic_write(path: str | os.PathLike[str], data: bytes | str) -> Path:
             fh.write(raw)
             fh.flush()
             os.fsync(fh.fileno())
-        os.chmod(tmp, _FILE_MODE)
+        os.chmod(tmp, FILE_MODE)
         os.replace(tmp, target)
     except BaseException as exc:
         with contextlib.suppress(OSError):
@@ -267,6 +270,7 @@ class OutputFolder:
         """
         try:
             stage = Path(tempfile.mkdtemp(prefix=f"{_TMP}partial-", dir=self.path))
+            os.chmod(stage, DIR_MODE)
         except OSError as exc:
             raise OutputError(f"{_where(self.path)}: cannot write into the output folder "
                               f"({_reason(exc)})") from None
