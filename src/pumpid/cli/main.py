@@ -60,6 +60,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
+    except SystemExit as exc:
+        # argparse has printed the usage and the problem (or the help, or the version).
+        return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     except KeyboardInterrupt:
         err("interrupted (Ctrl-C)")
         return EXIT_INTERRUPTED

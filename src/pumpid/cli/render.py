@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from typing import Any, TextIO
 
 from ..cards import Card, printable
-from ..report.plots import unit_text
+from ..report.plots import model_param_units, unit_text
 from ..result import FitResult, Prediction, jsonable
 from .common import fmt
 
@@ -80,8 +80,8 @@ class RunInfo:
 def first_sentence(text: str) -> str:
     """The first sentence of a warning (the rest is in ``--verbose`` and the report)."""
     for i, ch in enumerate(text):
-        if ch in ".;" and i + 1 < len(text) and text[i + 1] == " " and i > 20:
-            return text[: i + 1] if ch == "." else text[:i] + "."
+        if ch == "." and i + 1 < len(text) and text[i + 1] == " " and i > 20:
+            return text[: i + 1]
     return text
 
 
@@ -218,11 +218,16 @@ class TextPrinter:
                 lines += _wrap_items(derived, "derived: ")
         if res.boundary is not None and res.boundary.reduced is not None:
             red = res.boundary.reduced
-            params = ", ".join(f"{n} = {fmt(v, 5)} {unit_text(red.units.get(n, ''))}".rstrip()
-                               for n, v in red.params.items())
-            lines += _wrap(f"limiting model {red.model}: {params}; R^2 = {fmt(red.r2, 6)}")
+            units = model_param_units(red.model, res.units) or dict(red.units)
+            params = [f"{n} = {fmt(v, 5)} {unit_text(units.get(n, ''))}".rstrip()
+                      for n, v in red.params.items()]
+            lines += _wrap_items([*params, f"R^2 = {fmt(red.r2, 6)}"],
+                                 f"limiting model {red.model}: ")
+        said = (f"reduced model {res.boundary.reduced.model}"
+                if res.boundary is not None and res.boundary.reduced is not None else None)
         for w in _card_warnings(row):
-            lines += _wrap(f"warning: {printable(first_sentence(w))}")
+            if said is None or not w.startswith(said):  # the limiting model's line says it
+                lines += _wrap(f"warning: {printable(first_sentence(w))}")
         notes = [n for n in (row.card.notes if row.card is not None else ())
                  if n not in self._file_notes]
         lines += [ln for n in notes for ln in _wrap(f"note: {printable(n)}")]

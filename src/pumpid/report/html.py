@@ -30,6 +30,7 @@ from .plots import (
     has_history_figure,
     history_columns,
     make_figures,
+    model_param_units,
     plot_prediction,
     prediction_stats,
     status_text,
@@ -524,7 +525,8 @@ def _boundary_html(result: FitResult) -> str | None:
                      "and the solution is a limiting model.</p>")
         parts.append(_table(("parameter", "runs to", "limit"), rows))
     if isinstance(reduced, Mapping) and isinstance(reduced.get("params"), Mapping):
-        units = reduced.get("units") if isinstance(reduced.get("units"), Mapping) else {}
+        units = model_param_units(str(reduced.get("model", "")), result.units) or (
+            reduced.get("units") if isinstance(reduced.get("units"), Mapping) else {})
         rows = [(str(n), _num(v, 8), str(units.get(n, ""))) for n, v in reduced["params"].items()]
         rows.append(("C", _num(reduced.get("scale"), 8), "-"))
         if reduced.get("offset") is not None:

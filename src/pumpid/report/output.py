@@ -133,10 +133,10 @@ class UniqueNames:
         name = base
         if name.casefold() in self._taken:
             digest = hashlib.sha256(str(text).encode("utf-8", "surrogatepass")).hexdigest()
-            name = f"{base[: _MAX_NAME - 9]}-{digest[:8]}"
+            name = safe_name(f"{base[: _MAX_NAME - 9]}-{digest[:8]}")
             count = 2
             while name.casefold() in self._taken:
-                name = f"{base[: _MAX_NAME - 9 - 6]}-{digest[:8]}-{count}"
+                name = safe_name(f"{base[: _MAX_NAME - 9 - 6]}-{digest[:8]}-{count}")
                 count += 1
         self._taken.add(name.casefold())
         return name

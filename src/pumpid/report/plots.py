@@ -23,7 +23,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
-from ..result import FitResult
+from ..models import model_class
+from ..result import FitResult, Units
 from .output import atomic_write
 
 __all__ = [
@@ -34,6 +35,7 @@ __all__ = [
     "has_history_figure",
     "history_columns",
     "make_figures",
+    "model_param_units",
     "plot_card",
     "plot_displacement",
     "plot_history",
@@ -65,6 +67,19 @@ UNSTATED_UNITS = ("load-unit", "position-unit")
 def unit_text(unit: str) -> str:
     """A unit for display: the placeholder of a unit the data did not state reads so."""
     return "unit not stated" if unit in UNSTATED_UNITS else unit
+
+
+def model_param_units(model: str, units: Units) -> dict[str, str]:
+    """Units of a model's parameters (by the model's name) in the data's units.
+
+    For the limiting model of a boundary fit, whose stored units may be those of a fit
+    made without the card's units; empty when the name is not a known model.
+    """
+    try:
+        cls = model_class(model)
+    except ValueError:
+        return {}
+    return {p.name: p.unit_for(units.load, units.position) for p in cls.param_info()}
 
 
 def _label(quantity: str, unit: str) -> str:
