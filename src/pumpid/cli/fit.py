@@ -329,6 +329,7 @@ class RunOutputs:
         self.direct: bool | None = None
         self.index: _Index | None = None
         self.failed = 0
+        self.replaced: list[str] = []
 
     def prepare(self) -> None:
         for said in self.folder.prepare():
@@ -363,7 +364,9 @@ class RunOutputs:
                     row.output = str(self.folder.path)
                 else:
                     name = self.names.claim(row.card_id or "card")
-                    said = self.folder.commit_folder(stage, name)
+                    if self.folder.commit_folder(stage, name):
+                        self.replaced.append(name)
+                    said = []
                     row.output = str(self.folder.path / name)
             for s in said:
                 err(s)
@@ -381,6 +384,11 @@ class RunOutputs:
 
     def finish(self) -> str | None:
         """Put the index in place; its path, or None for a one-card run."""
+        if self.replaced:
+            shown = ", ".join(printable(n) for n in self.replaced[:5])
+            more = f" and {len(self.replaced) - 5} more" if len(self.replaced) > 5 else ""
+            err(f"replaced {len(self.replaced)} card folder(s) of an earlier run in "
+                f"{printable(str(self.folder.path))}: {shown}{more}")
         if self.index is None:
             return None
         try:
