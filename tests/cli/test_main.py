@@ -47,7 +47,9 @@ def test_simulate_then_fit_round_trip(tmp_path, capsys) -> None:
     expected = pumpid.simulate(pumpid.Kelvin(k0=4, m=1, c1=2, k1=4), t, load)
     np.testing.assert_allclose(sim["displacement"], expected, rtol=1e-12)
     assert main(["fit", str(out), "--model", "kelvin", "--json"]) == 0
-    res = json.loads(capsys.readouterr().out)
+    doc = json.loads(capsys.readouterr().out)
+    assert set(doc) == {"cards", "summary"} and len(doc["cards"]) == 1
+    res = doc["cards"][0]
     for key in ("model", "method", "params", "scale", "converged", "iterations", "rmse", "r2",
                 "warnings"):
         assert key in res
@@ -55,7 +57,7 @@ def test_simulate_then_fit_round_trip(tmp_path, capsys) -> None:
     assert res["params"]["m"] == pytest.approx(1.0, rel=1e-6)
     assert main(["fit", str(out), "--method", "newton-fd", "--x0", "k0=4.1,m=1.02,c1=1.95,k1=4",
                  "--json"]) == 0
-    res = json.loads(capsys.readouterr().out)
+    res = json.loads(capsys.readouterr().out)["cards"][0]
     assert res["method"] == "newton-fd" and res["converged"]
 
 

@@ -27,16 +27,40 @@ def test_bundled_example_is_fitted_and_the_next_stroke_predicted() -> None:
     assert res.converged, res.reason
     assert res.initial_state == "periodic" and "offset" in res.free
     assert res.units.position == "in" and res.units.load == "lbf"
-    # The generator's truth (scripts/make_example_cards.py) is recovered within the noise.
+    # The generator's truth (scripts/make_example_cards.py) is inside every 95 % interval;
+    # what a nearly sinusoidal stroke determines well (natural frequency, static stiffness)
+    # is recovered within 1 %.
     truth = {"k0": 200.0, "m": 8.8, "c1": 40.0, "k1": 130.0}
     for name, value in truth.items():
-        assert res.params[name] == pytest.approx(value, rel=0.05), name
-    assert res.r2 > 0.999
+        low, high = res.ci95[name]
+        assert low <= value <= high, (name, res.params[name], (low, high))
+    exact = dict(zip((d.name for d in pumpid.Kelvin.derived_info()),
+                     pumpid.Kelvin.derived_values(list(truth.values()), observe="u"),
+                     strict=True))
+    for name in ("natural_frequency", "static_stiffness"):
+        assert res.derived[name].value == pytest.approx(exact[name], rel=0.01), name
+    assert res.r2 > 0.9999
     pred = predict_card(res, second)
-    assert pred["r2"] > 0.999
+    assert pred["r2"] > 0.9999
     assert pred.card == second.card_id
     assert "prediction" not in res.extra  # a prediction does not change the fit
     assert any("SPM" in note for note in res.extra["card"]["notes"])
+
+
+def test_bundled_example_looks_like_a_real_card() -> None:
+    """The polished rod rises once and falls once (a pumping unit's motion), and the loop
+    is a card's: the upstroke carries more load than the downstroke over the whole stroke."""
+    for card in _example_cards():
+        x, f = card.position, card.load
+        above = x > x.min() + 0.5 * np.ptp(x)
+        assert int(np.sum(above[1:] != above[:-1])) == 2, card.card_id
+        top = int(np.argmax(x))
+        up = np.argsort(x[: top + 1])
+        down = np.argsort(x[top:])
+        grid = x.min() + np.ptp(x) * np.linspace(0.05, 0.95, 50)
+        gap = (np.interp(grid, x[: top + 1][up], f[: top + 1][up])
+               - np.interp(grid, x[top:][down], f[top:][down]))
+        assert gap.min() > 0.03 * np.ptp(f), card.card_id
 
 
 def test_card_without_time_needs_spm() -> None:

@@ -344,3 +344,36 @@ def test_reduced_model_status_is_said_once(result: FitResult, tiny_figures) -> N
     body = " ".join(" ".join(v) for v in doc.text.values())
     assert "(converged: the relative step fell below xtol = 1e-12)" in body
     assert "converged: converged" not in body
+
+
+def test_identifiability_findings_are_never_cut(result: FitResult, tiny_figures) -> None:
+    """Findings are sentences: shown whole, however long; none means all is determined."""
+    long = ("The trade-off between k0, m, c1 and k1 (d ln k0 : d ln m : d ln c1 : d ln k1 = "
+            "+1.00 : -0.15 : -0.67 : -0.33) is practically not identifiable: the data "
+            "constrain this direction only to a standard error of 111 % (relative to the "
+            "values; relative singular value 2.0e-04), so the intervals of the parameters "
+            "involved are wide, and this sentence is longer than three hundred characters.")
+    assert len(long) > 300
+    doc = parse(render_html(result.with_parts(identifiability=(long,)), figures=tiny_figures))
+    assert long in doc.text.get("li", [])
+    clean = parse(render_html(result.with_parts(identifiability=()), figures=tiny_figures))
+    body = " ".join(" ".join(v) for v in clean.text.values())
+    assert "Every fitted value is determined by the data." in body
+    assert "[]" not in body
+
+
+def test_unstated_units_are_said_not_shown_as_placeholders(result: FitResult,
+                                                           tiny_figures) -> None:
+    bare = result.with_parts(units=pumpid.Units(load="load-unit", position="position-unit"))
+    doc = parse(render_html(bare, figures=tiny_figures))
+    rows = {r[0]: r[1] for t in doc.tables for r in t if len(r) == 2}
+    assert rows["units"] == "load unit not stated, position unit not stated, time s"
+
+
+def test_one_iteration_fit_has_no_convergence_figure(result: FitResult, tmp_path) -> None:
+    one = result.with_parts(history=result.history[:2])
+    paths = write_outputs(one, tmp_path, dpi=40)
+    assert "history" not in paths and not (tmp_path / "history.png").exists()
+    doc = parse(paths["report"].read_text(encoding="utf-8"))
+    body = " ".join(" ".join(v) for v in doc.text.values())
+    assert "The solver made 1 iteration: its start was already at the optimum" in body

@@ -159,7 +159,9 @@ def test_prediction_figure(result: FitResult) -> None:
 
 def test_failed_fit_still_plots(failed: FitResult) -> None:
     figs = plots.make_figures(failed)
-    assert list(figs) == list(plots.FIGURE_NAMES)
+    # One history row: no convergence figure (it would show only an axis).
+    assert list(figs) == [n for n in plots.FIGURE_NAMES if n != "history"]
+    figs["history"] = plots.plot_history(failed)
     texts = [t.get_text() for f in figs.values() for a in f.axes for t in a.texts]
     assert any("fit failed" in t for t in texts)
     assert "n/a" in _title(figs["displacement"])
@@ -185,3 +187,29 @@ def test_no_pyplot_import() -> None:
     code = ("import sys, pumpid.report.plots, pumpid.report; "
             "sys.exit(1 if 'matplotlib.pyplot' in sys.modules else 0)")
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+
+
+def test_history_figure_only_for_two_or_more_iterations(result: FitResult) -> None:
+    """A fit started at its optimum (one iteration) gets no convergence figure."""
+    assert len(result.history) >= 3 and plots.has_history_figure(result)
+    assert "history" in plots.make_figures(result)
+    one = dataclasses.replace(result, history=result.history[:2])
+    assert not plots.has_history_figure(one)
+    assert list(plots.make_figures(one)) == ["displacement", "card", "residuals"]
+
+
+def test_history_title_reads_without_nested_brackets(result: FitResult) -> None:
+    at_bound = result.with_parts(status=Status.BOUNDARY)
+    title = _title(plots.plot_history(at_bound))
+    assert "boundary (limiting model)" in title and "))" not in title
+    steps = len(result.history) - 1
+    assert f"{steps} iterations" in title
+
+
+def test_unstated_units_are_labelled_as_such(result: FitResult) -> None:
+    """A card whose file states no units: axes say so instead of showing placeholders."""
+    bare = result.with_parts(units=pumpid.Units(load="load-unit", position="position-unit"))
+    ax = plots.plot_card(bare).axes[0]
+    assert ax.get_xlabel() == "position [unit not stated]"
+    assert ax.get_ylabel() == "load [unit not stated]"
+    assert "unit-" not in ax.get_title()

@@ -4,8 +4,10 @@
     pumpid flow fit run.csv [--model first-order|power-law|shear-thinning] [--json] [--out DIR]
     pumpid flow study --K 10 --n 0.4 --rho 1000 --radius 5e-3 --length 1 --dp 1e5 --out DIR
 
-Registered on the main parser by :func:`add_flow_parser`. Errors are raised as ``ValueError``
-(the main entry point prints them without a traceback and exits with status 2).
+Registered on the main parser by :func:`register` (:func:`add_flow_parser`). Errors are raised
+as ``ValueError`` (the main entry point prints them without a traceback and exits with status
+2); output problems as :class:`pumpid.report.output.OutputError` (status 4). Files are
+written whole or not at all, through :mod:`pumpid.report.output`.
 """
 
 from __future__ import annotations
@@ -14,12 +16,17 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["add_flow_parser", "cmd_flow_fit", "cmd_flow_simulate", "cmd_flow_study"]
+from ..cards import printable
+from ..report.output import OutputError, OutputFolder, atomic_write
+
+__all__ = ["add_flow_parser", "cmd_flow_fit", "cmd_flow_simulate", "cmd_flow_study",
+           "register"]
 
 EXIT_OK, EXIT_NOT_CONVERGED = 0, 3
 
@@ -88,13 +95,17 @@ def cmd_flow_simulate(args: argparse.Namespace) -> int:
     else:
         history = _read_dp_history(args)
         t, dp = history
+    if args.output is not None and Path(args.output).is_dir():
+        raise OutputError(f"-o {printable(args.output)}: is a folder; give the name of the "
+                          "CSV file to write")
     rec = simulate_flow_record(t, dp, fluid=fluid, pipe=pipe, n_radial=args.n_radial)
-    text = rec.to_csv(args.output)
+    text = rec.to_csv()
     if args.output is None:
         sys.stdout.write(text)
     else:
-        print(f"wrote {rec.n} samples (t [s], dp [Pa], q [m^3/s]) to {args.output}",
-              file=sys.stderr)
+        atomic_write(args.output, text)
+        print(f"wrote {rec.n} samples (t [s], dp [Pa], q [m^3/s]) to "
+              f"{printable(args.output)}", file=sys.stderr)
     return EXIT_OK
 
 
@@ -134,6 +145,17 @@ def _read_dp_history(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
     if np.any(np.diff(t) <= 0):
         raise CardError("time must be strictly increasing", path=path, field="t")
     return t, dp
+
+
+def _write_into(out: str, write: Callable[[Path], object]) -> None:
+    """Write a command's files into a staging folder, then move them into ``out`` whole."""
+    folder = OutputFolder(out)
+    for said in folder.prepare():
+        print(f"pumpid: {said}", file=sys.stderr)
+    with folder.staging() as stage:
+        write(stage)
+        for said in folder.commit_files(stage):
+            print(f"pumpid: {said}", file=sys.stderr)
 
 
 # --------------------------------------------------------------------------- fit
@@ -190,11 +212,11 @@ def cmd_flow_fit(args: argparse.Namespace) -> int:
     res = fit_flow(rec, args.model, direction=args.direction, method=args.method,
                    initial_state=state, dp_ref=args.dp_ref, fixed=_parse_fixed(args.fix) or None)
     if args.out:
-        write_flow_outputs(res, Path(args.out))
+        _write_into(args.out, lambda stage: write_flow_outputs(res, stage))
     if args.json:
         print(json.dumps(_jsonable(res.to_dict()), indent=2, allow_nan=False))
     else:
-        print(result_table(res))
+        print("\n".join(printable(line) for line in result_table(res).splitlines()))
         if args.history:
             print()
             print(res.history_table())
@@ -215,7 +237,7 @@ def cmd_flow_study(args: argparse.Namespace) -> int:
     study = step_response_study(fluid, pipe, steps, window=args.window, samples=args.samples,
                                 n_radial=args.n_radial)
     if args.out:
-        write_study_outputs(study, Path(args.out))
+        _write_into(args.out, lambda stage: write_study_outputs(study, stage))
     if args.json:
         print(json.dumps(_jsonable(study.to_dict()), indent=2, allow_nan=False))
     else:
@@ -312,3 +334,8 @@ def add_flow_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--out", help="write tau_vs_step.png, study.csv/json and report.html here")
     p.set_defaults(func=cmd_flow_study)
     return flow
+
+
+def register(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``pumpid flow`` (the same as :func:`add_flow_parser`)."""
+    return add_flow_parser(subparsers)

@@ -396,7 +396,8 @@ def read_flow_record(
     if np.any(steps <= 0):
         k = int(np.flatnonzero(steps <= 0)[0])
         raise CardError(
-            f"time must be strictly increasing: {t[k + 1]!r} s follows {t[k]!r} s",
+            f"time must be strictly increasing: {float(t[k + 1]):.10g} s follows "
+            f"{float(t[k]):.10g} s",
             path=where, line=data_lines[k + 1], field=names[j_t])
     if np.ptp(q) == 0.0:
         raise CardError(f"the flow rate is constant ({q[0]:g} m^3/s): nothing to fit",

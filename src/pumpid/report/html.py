@@ -20,16 +20,21 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from ..cards import printable
 from ..models import Model, ParamInfo, model_class
 from ..result import FitResult, Prediction
+from .output import OutputError, atomic_write, safe_name
 from .plots import (
     DEFAULT_DPI,
     figure_to_png,
+    has_history_figure,
     history_columns,
     make_figures,
+    model_param_units,
     plot_prediction,
     prediction_stats,
     status_text,
+    unit_text,
 )
 
 __all__ = ["render_html", "write_outputs", "write_report"]
@@ -199,8 +204,17 @@ def _scalar_text(value: Any) -> str:
 
 
 def _short(value: Any, limit: int = 300) -> str:
+    """Text of a nested value of unknown shape, shortened at a word boundary if long.
+
+    Only the catch-all rendering of deep structures uses this; findings, warnings, notes
+    and reasons are always shown in full.
+    """
     text = str(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    if len(text) <= limit:
+        return text
+    cut = text.rfind(" ", 0, limit)
+    cut = cut if cut > limit // 2 else limit
+    return f"{text[:cut].rstrip(' ,;:')} ... ({len(text) - cut} more characters)"
 
 
 # --------------------------------------------------------------------------- result facts
@@ -290,8 +304,8 @@ def _summary_html(result: FitResult) -> str:
         ("initial state", str(result.initial_state)),
         ("fitted values", ", ".join(result.free) or "none"),
         ("data", f"{t.size} samples over {_num(duration)} {result.units.time}"),
-        ("units", f"load {result.units.load}, position {result.units.position}, "
-                  f"time {result.units.time}"),
+        ("units", f"load {unit_text(result.units.load)}, position "
+                  f"{unit_text(result.units.position)}, time {result.units.time}"),
     ]
     if result.extra.get("gauge"):
         rows.append(("gauge fixed", str(result.extra["gauge"])))
@@ -390,28 +404,50 @@ def _quality_html(result: FitResult) -> str:
     return _table(("quantity", "value", "unit"), rows, num_cols=(1,))
 
 
+def _corr(value: Any) -> str:
+    """A correlation with three decimals: 0.9996 must not read as a perfect 1."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return "n/a"
+    return f"{x:.3f}" if math.isfinite(x) else "n/a"
+
+
 def _correlation_html(result: FitResult, value: Any) -> str:
     """A correlation matrix as a table, when its labels can be known; else generic."""
     if isinstance(value, Mapping) and "names" in value and "matrix" in value:
         names = [str(n) for n in value["names"]]
-        rows = [[a, *(_num(x, 3) for x in row)]
+        rows = [[a, *(_corr(x) for x in row)]
                 for a, row in zip(names, value["matrix"], strict=True)]
         return _table(["", *names], rows, num_cols=range(1, len(names) + 1))
     if isinstance(value, Mapping) and all(isinstance(v, Mapping) for v in value.values()):
         names = list(value)
-        rows = [[str(a), *(_num(value[a].get(b), 3) for b in names)] for a in names]
+        rows = [[str(a), *(_corr(value[a].get(b)) for b in names)] for a in names]
         return _table(["", *map(str, names)], rows, num_cols=range(1, len(names) + 1))
     arr = np.asarray(value, dtype=object)
     if arr.ndim == 2 and arr.shape[0] == arr.shape[1] == len(result.free):
         names = list(result.free)
-        rows = [[a, *(_num(x, 3) for x in arr[i])] for i, a in enumerate(names)]
+        rows = [[a, *(_corr(x) for x in arr[i])] for i, a in enumerate(names)]
         return _table(["", *names], rows, num_cols=range(1, len(names) + 1))
     return _value_html(value)
 
 
+def _identifiability_html(result: FitResult) -> str:
+    """Every finding in full (they are sentences), or that everything is determined."""
+    if not result.identifiability:
+        return "<p>Every fitted value is determined by the data.</p>"
+    return _list(result.identifiability)
+
+
 def _history_html(result: FitResult) -> str:
     if not result.history:
-        return "<p>No iterations recorded.</p>"
+        return ("<p>No iterations recorded (a fit of many cards in one batch keeps no "
+                "per-iteration history; fit the card alone to see it).</p>")
+    intro = ""
+    if not has_history_figure(result):
+        steps = sum(1 for row in result.history if (row.get("iteration") or 0) > 0)
+        intro = (f"<p>The solver made {steps} iteration{'s' if steps != 1 else ''}: its "
+                 "start was already at the optimum, so there is no convergence figure.</p>\n")
     infos = _param_infos(result)
     cols = history_columns(result.history)
     headers = [c if c == "iteration" else f"{c} [{_param_unit(result, infos, c) or '-'}]"
@@ -426,7 +462,7 @@ def _history_html(result: FitResult) -> str:
             else:
                 cells.append(_num(v, 8))
         rows.append(cells)
-    return _table(headers, rows, cls="history")
+    return intro + _table(headers, rows, cls="history")
 
 
 def _figures_html(pngs: Mapping[str, bytes]) -> str:
@@ -489,7 +525,8 @@ def _boundary_html(result: FitResult) -> str | None:
                      "and the solution is a limiting model.</p>")
         parts.append(_table(("parameter", "runs to", "limit"), rows))
     if isinstance(reduced, Mapping) and isinstance(reduced.get("params"), Mapping):
-        units = reduced.get("units") if isinstance(reduced.get("units"), Mapping) else {}
+        units = model_param_units(str(reduced.get("model", "")), result.units) or (
+            reduced.get("units") if isinstance(reduced.get("units"), Mapping) else {})
         rows = [(str(n), _num(v, 8), str(units.get(n, ""))) for n, v in reduced["params"].items()]
         rows.append(("C", _num(reduced.get("scale"), 8), "-"))
         if reduced.get("offset") is not None:
@@ -598,7 +635,10 @@ def render_html(
     str
         The HTML document (UTF-8 text, no scripts, no external resources).
     """
-    page_title = title if title is not None else f"pumpid fit: {result.model_name} model"
+    card_id = result.card.id if result.card is not None else None
+    default_title = (f"pumpid fit: card {card_id}, {result.model_name} model" if card_id
+                     else f"pumpid fit: {result.model_name} model")
+    page_title = title if title is not None else default_title
     if figures is None:
         figures = _default_figures(result, prediction)
     pngs = _to_pngs(figures, dpi)
@@ -607,7 +647,7 @@ def render_html(
     body: list[str] = [f"<h1>{_e(page_title)}</h1>"]
     body.append(
         f"<p>{_e(result.model_name)} model, {_e(result.method)} fit: "
-        f"{_e(status_text(result))}; RMSE = {_e(_num(result.rmse))} {_e(pos)}, "
+        f"{_e(status_text(result))}; RMSE = {_e(_num(result.rmse))} {_e(unit_text(pos))}, "
         f"R² = {_e(_num(result.r2, 8))}.</p>"
     )
     body.append(_section("Summary", _summary_html(result), sid="summary"))
@@ -627,8 +667,8 @@ def render_html(
     boundary_html = _boundary_html(result)
     if boundary_html:
         body.append(_section("Boundary solution", boundary_html, sid="boundary"))
-    if "identifiability" in result.extra:
-        body.append(_section("Identifiability", _value_html(result.extra["identifiability"]),
+    if result.model is not None or result.identifiability:
+        body.append(_section("Identifiability", _identifiability_html(result),
                              sid="identifiability"))
     if "correlation" in result.extra:
         body.append(_section("Parameter correlation",
@@ -666,6 +706,17 @@ def render_html(
     ])
 
 
+def _folder(out_dir: str | Path) -> Path:
+    """The output folder, created if missing; OutputError when that is impossible."""
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{printable(str(out))}: cannot create the folder "
+                          f"({exc.strerror or exc})") from None
+    return out
+
+
 def write_report(
     result: FitResult,
     out_dir: str | Path,
@@ -684,13 +735,10 @@ def write_report(
     Path
         The written file.
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / name
+    out = _folder(out_dir)
     text = render_html(result, title=title, figures=figures, extra_sections=extra_sections,
                        notes=notes, prediction=prediction)
-    path.write_text(text, encoding="utf-8")
-    return path
+    return atomic_write(out / name, text)
 
 
 def write_outputs(
@@ -733,18 +781,13 @@ def write_outputs(
         ``history``, and ``prediction`` when there is one with arrays), ``json`` and
         ``report``.
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = _folder(out_dir)
     chosen = _default_figures(result, prediction) if figures is None else figures
     pngs = _to_pngs(chosen, dpi)
     paths: dict[str, Path] = {}
     for name, png in pngs.items():
-        path = out / f"{name}.png"
-        path.write_bytes(png)
-        paths[name] = path
-    json_path = out / "result.json"
-    json_path.write_text(result.to_json(indent=2) + "\n", encoding="utf-8")
-    paths["json"] = json_path
+        paths[name] = atomic_write(out / f"{safe_name(name)}.png", png)
+    paths["json"] = atomic_write(out / "result.json", result.to_json(indent=2) + "\n")
     paths["report"] = write_report(result, out, title=title, figures=pngs, notes=notes,
                                    prediction=prediction, extra_sections=extra_sections)
     return paths

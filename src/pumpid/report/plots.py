@@ -23,14 +23,19 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
-from ..result import FitResult
+from ..models import model_class
+from ..result import FitResult, Units
+from .output import atomic_write
 
 __all__ = [
     "DEFAULT_DPI",
     "FIGURE_NAMES",
+    "UNSTATED_UNITS",
     "figure_to_png",
+    "has_history_figure",
     "history_columns",
     "make_figures",
+    "model_param_units",
     "plot_card",
     "plot_displacement",
     "plot_history",
@@ -40,6 +45,7 @@ __all__ = [
     "save_figures",
     "save_png",
     "status_text",
+    "unit_text",
 ]
 
 #: Resolution of written PNGs: sharp on a normal screen, small enough to embed in a report.
@@ -54,9 +60,42 @@ _MODEL_STYLE = {"color": "tab:red", "linewidth": 1.3}
 
 
 # --------------------------------------------------------------------------- helpers
+#: What :func:`pumpid.pump.fit_card` records as the unit of a card whose file states none.
+UNSTATED_UNITS = ("load-unit", "position-unit")
+
+
+def unit_text(unit: str) -> str:
+    """A unit for display: the placeholder of a unit the data did not state reads so."""
+    return "unit not stated" if unit in UNSTATED_UNITS else unit
+
+
+def model_param_units(model: str, units: Units) -> dict[str, str]:
+    """Units of a model's parameters (by the model's name) in the data's units.
+
+    For the limiting model of a boundary fit, whose stored units may be those of a fit
+    made without the card's units; empty when the name is not a known model.
+    """
+    try:
+        cls = model_class(model)
+    except ValueError:
+        return {}
+    return {p.name: p.unit_for(units.load, units.position) for p in cls.param_info()}
+
+
 def _label(quantity: str, unit: str) -> str:
     """Axis label ``quantity [unit]`` (unit-less quantities get ``[-]``)."""
-    return f"{quantity} [{unit or '-'}]"
+    return f"{quantity} [{unit_text(unit) or '-'}]"
+
+
+def has_history_figure(result: FitResult) -> bool:
+    """Whether the iteration history is worth a figure: two or more solver iterations.
+
+    A fit whose start was already at the optimum makes one iteration (or none): its cost
+    changes in the last digits and its parameters not at all, so a convergence plot would
+    show only an axis; the report's history table says what happened instead.
+    """
+    iterations = [row.get("iteration") for row in result.history]
+    return sum(1 for i in iterations if i is not None and i > 0) >= 2
 
 
 def _fmt(value: float | None, digits: int = 4) -> str:
@@ -200,8 +239,8 @@ def plot_residuals(result: FitResult) -> Figure:
             ax.set_xlim(float(result.t[0]), float(result.t[-1]))
     ax.set_xlabel(_label("time", u.time))
     ax.set_ylabel(_label("residual (fitted - measured)", u.position))
-    ax.set_title(f"{result.model_name}: residuals, RMSE = {_fmt(result.rmse)} {u.position}, "
-                 f"{_r2_text(result.r2)}")
+    ax.set_title(f"{result.model_name}: residuals, RMSE = {_fmt(result.rmse)} "
+                 f"{unit_text(u.position)}, {_r2_text(result.r2)}")
     axh.set_xlabel(_label("count", "samples"))
     axh.set_title("distribution")
     for a in (ax, axh):
@@ -257,8 +296,11 @@ def plot_history(result: FitResult) -> Figure:
     fig = _new_figure(8.0, 6.4)
     ax_cost, ax_step = fig.subplots(2, 1, sharex=True)
     status = status_text(result)
-    fig.suptitle(f"{result.model_name}: convergence ({result.method}, {status}), "
-                 f"{len(hist)} recorded iterations, {_r2_text(result.r2)}")
+    counted = [row.get("iteration") for row in hist if row.get("iteration") is not None]
+    steps = int(max(counted)) if counted else max(len(hist) - 1, 0)
+    fig.suptitle(f"{result.model_name}: convergence of the {result.method} solver, "
+                 f"{steps} iteration{'s' if steps != 1 else ''}, {status}, "
+                 f"{_r2_text(result.r2)}")
     # A compound unit such as m^3/s must be bracketed before squaring.
     plain = u.position.replace("_", "").isalnum()
     cost_unit = (f"{u.position}²" if plain else f"({u.position})²") \
@@ -395,20 +437,25 @@ def plot_prediction(
     for a in (ax_t, ax_c):
         a.grid(True, alpha=0.3)
     fig.suptitle(f"{result.model_name} prediction of {label}: {_r2_text(r2)}, "
-                 f"RMSE = {_fmt(rmse)} {u.position}")
+                 f"RMSE = {_fmt(rmse)} {unit_text(u.position)}")
     return fig
 
 
 # --------------------------------------------------------------------------- output
 def make_figures(result: FitResult) -> dict[str, Figure]:
-    """The standard figures by name (see :data:`FIGURE_NAMES`), in report order."""
+    """The standard figures by name (see :data:`FIGURE_NAMES`), in report order.
+
+    The convergence figure is left out when the solver made fewer than two iterations
+    (:func:`has_history_figure`): it would have nothing to show.
+    """
     makers = {
         "displacement": plot_displacement,
         "card": plot_card,
         "residuals": plot_residuals,
         "history": plot_history,
     }
-    return {name: makers[name](result) for name in FIGURE_NAMES}
+    return {name: makers[name](result) for name in FIGURE_NAMES
+            if name != "history" or has_history_figure(result)}
 
 
 def figure_to_png(fig: Figure, dpi: float = DEFAULT_DPI) -> bytes:
@@ -422,9 +469,7 @@ def figure_to_png(fig: Figure, dpi: float = DEFAULT_DPI) -> bytes:
 
 def save_png(fig: Figure, path: str | Path, dpi: float = DEFAULT_DPI) -> Path:
     """Write a figure as a PNG file and return its path."""
-    path = Path(path)
-    path.write_bytes(figure_to_png(fig, dpi))
-    return path
+    return atomic_write(path, figure_to_png(fig, dpi))
 
 
 def save_figures(
@@ -436,7 +481,7 @@ def save_figures(
     -------
     dict
         ``{"displacement": .../displacement.png, "card": ..., "residuals": ...,
-        "history": ...}``.
+        "history": ...}`` (no ``history`` for a fit of fewer than two iterations).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,618 @@
+"""``pumpid fit``: fit a model to every card of one or more files, streaming.
+
+    pumpid fit CARD_FILE [CARD_FILE ...] [--spm X | --period S] [--model kelvin]
+               [--out DIR] [--json | --brief | --verbose]
+
+Cards are fitted in chunks through the batched API (:func:`pumpid.pump.fit_cards`) and each
+card's result is printed, and its files written, as soon as its chunk is done; nothing is
+kept afterwards, so memory does not grow with the number of cards. A card that cannot be
+fitted is a row with status ``invalid-input`` or ``failed`` and the reason; a file that
+cannot be read is such a row too. Neither stops the others.
+
+Output folder (``--out DIR``): a run of exactly one card writes its files (figures,
+``result.json``, ``report.html``) directly into ``DIR``; otherwise every card gets a folder
+``DIR/<card id, made safe and unique>/`` and ``DIR/results.csv`` lists the folders with the
+cards' ids, sources, statuses and parameters. Every file and folder appears whole or not at
+all (see :mod:`pumpid.report.output`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import contextlib
+import csv
+import os
+import tempfile
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..cards import Card, CardError, printable
+from ..models import MODELS, Model, model_class
+from ..report.output import FILE_MODE, OutputError, OutputFolder, UniqueNames
+from ..result import FitResult
+from .common import (
+    EXIT_INTERRUPTED,
+    EXIT_NOT_FITTED,
+    EXIT_OK,
+    EXIT_OUTPUT,
+    EXIT_USAGE,
+    CliError,
+    columns_option,
+    err,
+    initial_state_option,
+    parse_assignments,
+    rate_option,
+)
+from .render import JsonPrinter, LinePrinter, Row, RunInfo, TextPrinter
+
+__all__ = ["add_fit_arguments", "cmd_fit", "register"]
+
+#: Cards fitted in one call of the batched API, and most samples in one call: output
+#: appears as each chunk completes, and a chunk's memory is bounded.
+CHUNK_CARDS = 64
+CHUNK_SAMPLES = 200_000
+#: Names the run writes itself into an output folder of per-card folders.
+INDEX_NAME = "results.csv"
+
+
+# --------------------------------------------------------------------------- setup
+@dataclass
+class FitSetup:
+    """The command's options, checked once before any card is read."""
+
+    cls: type[Model]
+    model: Model | type[Model]
+    initial_state: Any
+    offset: str
+    options: dict[str, Any]
+    x0_extras: dict[str, float] | None
+    history: bool
+    read: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def one_by_one(self) -> bool:
+        """Options the batched API does not take: each card is fitted alone."""
+        return (self.options.get("method", "lm") != "lm" or self.history
+                or self.x0_extras is not None)
+
+    def offset_for(self, card: Card) -> bool:
+        """Fit a position offset for this card (auto: for single strokes)."""
+        return bool(card.periodic) if self.offset == "auto" else self.offset == "yes"
+
+    def card_options(self) -> dict[str, Any]:
+        """Options for :func:`pumpid.pump.fit_card` (fit one card alone)."""
+        opts = dict(self.options)
+        if self.x0_extras is not None and isinstance(self.model, Model):
+            opts["x0"] = {**self.model.as_dict(), **self.x0_extras}
+        return opts
+
+    def batch_options(self) -> dict[str, Any]:
+        """Options for :func:`pumpid.pump.fit_cards`."""
+        return {k: v for k, v in self.options.items() if k != "method"}
+
+
+def _setup(args: argparse.Namespace) -> FitSetup:
+    cls = model_class(args.model)
+    observe = args.observe
+    if observe is not None and observe not in cls.outputs:
+        raise CliError(f"--observe {printable(observe)!r}: {cls.__name__} can observe "
+                       f"{', '.join(cls.outputs)}")
+    opts: dict[str, Any] = {"method": args.method, "integrator": args.integrator,
+                            "residual": args.residual}
+    if observe:
+        opts["observe"] = observe
+    if args.scale is not None:
+        if args.scale == "free":
+            opts["scale"] = "free"
+        else:
+            try:
+                scale = float(args.scale)
+            except ValueError:
+                raise CliError(f"--scale: {printable(args.scale)!r} is neither a number nor "
+                               "'free'") from None
+            if not (scale > 0 and scale < float("inf")):
+                raise CliError(f"--scale {printable(args.scale)}: the output scale must be a "
+                               "positive number")
+            opts["scale"] = scale
+    model: Model | type[Model] = cls
+    extras: dict[str, float] | None = None
+    if args.x0:
+        x0 = parse_assignments(args.x0, "--x0")
+        names = cls.param_names()
+        missing = [n for n in names if n not in x0]
+        unknown = [n for n in x0 if n not in names and n not in ("C", "D", "offset")]
+        if missing or unknown:
+            raise CliError(f"--x0: give all of {', '.join(names)}"
+                           + (f" (missing {', '.join(missing)})" if missing else "")
+                           + (f" (unknown {', '.join(unknown)})" if unknown else ""))
+        try:
+            model = cls(**{n: x0[n] for n in names})
+        except (TypeError, ValueError) as exc:
+            raise CliError(f"--x0: {exc}") from None
+        extras = {k: v for k, v in x0.items() if k in ("C", "D", "offset")} or None
+    rate_option(args.spm, args.period)
+    columns = columns_option(args.columns, t=args.t_col, load=args.load_col,
+                             position=args.position_col)
+    read = {"format": args.format, "position_unit": args.position_unit,
+            "load_unit": args.load_unit, "spm": args.spm, "period": args.period,
+            "columns": columns, "encoding": args.encoding}
+    return FitSetup(cls=cls, model=model, initial_state=initial_state_option(args.initial_state),
+                    offset=args.offset, options=opts, x0_extras=extras, history=args.history,
+                    read=read)
+
+
+def _run_info(setup: FitSetup, out: str | None) -> RunInfo:
+    cls = setup.cls
+    observe = setup.options.get("observe") or cls.default_output or None
+    state = ("a single-stroke card is one period of a periodic motion"
+             if setup.initial_state is None else
+             f"every card starts from the initial state {setup.initial_state}")
+    offset = {"auto": ", with a fitted position offset (its zero is arbitrary); longer "
+                      "records start from rest" if setup.initial_state is None else "",
+              "yes": "; a position offset is fitted for every card",
+              "no": "; no position offset is fitted"}[setup.offset]
+    assumptions = [f"assumptions: {state}{offset}; ± is one standard error assuming "
+                   "independent residuals (--verbose: robust errors, all diagnostics)"]
+    return RunInfo(model=cls.__name__, title=cls.title, observe=observe,
+                   observe_meaning=cls.outputs.get(observe) if observe else None,
+                   method=setup.options.get("method", "lm"), assumptions=tuple(assumptions),
+                   out=out)
+
+
+# --------------------------------------------------------------------------- reading
+def _read_file(path: str, setup: FitSetup) -> list[Card]:
+    """Every card of a file (CardError when it cannot be read)."""
+    from ..cards import read_cards
+
+    return read_cards(path, **setup.read)
+
+
+def _selected(cards: list[Card], path: str, args: argparse.Namespace) -> tuple[list[Card],
+                                                                               list[Row]]:
+    """The cards to fit (``--card``, ``--split-strokes``) and rows for cards refused there."""
+    rows: list[Row] = []
+    if args.card is not None:
+        chosen = [c for c in cards if c.card_id == args.card]
+        if not chosen:
+            ids = ", ".join(printable(c.card_id) for c in cards[:20])
+            more = f" and {len(cards) - 20} more" if len(cards) > 20 else ""
+            rows.append(Row(card_id=args.card, source=path, status="invalid-input",
+                            reason=f"no card {printable(args.card)!r} in this file; its "
+                                   f"cards are: {ids}{more}"))
+        cards = chosen
+    if args.split_strokes:
+        from ..cards import split_strokes
+
+        strokes: list[Card] = []
+        for card in cards:
+            try:
+                strokes.extend(split_strokes(card))
+            except CardError as exc:
+                rows.append(Row(card_id=card.card_id, source=card.source,
+                                status="invalid-input", reason=str(exc), card=card))
+        cards = strokes
+    return cards, rows
+
+
+# --------------------------------------------------------------------------- fitting
+def _internal(exc: BaseException) -> str:
+    return (f"the fit stopped with an internal error ({type(exc).__name__}: {exc}); this is "
+            "a bug in pumpid, please report it with the card")
+
+
+def _fit_alone(card: Card, setup: FitSetup) -> tuple[FitResult | None, str, str]:
+    from ..pump import fit_card
+
+    try:
+        res = fit_card(card, setup.model, initial_state=setup.initial_state,
+                       offset=setup.offset_for(card), **setup.card_options())
+    except MemoryError:
+        raise
+    except ValueError as exc:
+        return None, "invalid-input", str(exc)
+    except Exception as exc:
+        return None, "failed", _internal(exc)
+    return res, res.status.key, res.reason
+
+
+def fit_chunk(cards: Sequence[Card], setup: FitSetup) -> list[tuple[FitResult | None, str,
+                                                                    str]]:
+    """Fit a chunk of cards: ``(result or None, status, reason)`` per card, in order.
+
+    The batched API fits the chunk in one call; if that call fails for a reason of one card
+    (an error the engine does not catch), every card of the chunk is fitted alone, so that
+    only the culprit fails.
+    """
+    from ..pump import fit_cards
+
+    if setup.one_by_one or len(cards) == 1:
+        return [_fit_alone(c, setup) for c in cards]
+    out: list[tuple[FitResult | None, str, str] | None] = [None] * len(cards)
+    groups: dict[bool, list[int]] = {}
+    for i, card in enumerate(cards):
+        groups.setdefault(setup.offset_for(card), []).append(i)
+    for offset, idx in groups.items():
+        try:
+            batch = fit_cards([cards[i] for i in idx], setup.model,
+                              initial_state=setup.initial_state, offset=offset,
+                              **setup.batch_options())
+        except MemoryError:
+            raise
+        except Exception:
+            for i in idx:
+                out[i] = _fit_alone(cards[i], setup)
+            continue
+        for j, i in enumerate(idx):
+            res = batch.results[j]
+            out[i] = ((None, "invalid-input", batch.invalid[j]) if res is None
+                      else (res, res.status.key, res.reason))
+    return [o for o in out if o is not None]
+
+
+def _chunks(cards: list[Card]) -> Iterator[list[Card]]:
+    """Consume the list in chunks (the list lets go of each chunk's cards)."""
+    cards.reverse()
+    while cards:
+        chunk = [cards.pop()]
+        samples = chunk[0].n
+        while cards and len(chunk) < CHUNK_CARDS and samples + cards[-1].n <= CHUNK_SAMPLES:
+            samples += cards[-1].n
+            chunk.append(cards.pop())
+        yield chunk
+
+
+# --------------------------------------------------------------------------- outputs
+class _Index:
+    """``results.csv`` of a run of per-card folders, written as the cards complete.
+
+    Rows go to a hidden temporary file in the output folder, renamed to ``results.csv`` at
+    the end (also of an interrupted run): the index is never seen half-written.
+    """
+
+    _BASE = ("folder", "card_id", "well_id", "time", "source", "status", "reason")
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        fd, self._tmp = tempfile.mkstemp(prefix=".pumpid-results.", suffix=".tmp", dir=folder)
+        self._fh = os.fdopen(fd, "w", newline="", encoding="utf-8")
+        self._writer: csv.DictWriter[str] | None = None
+        self._waiting: list[dict[str, Any]] = []
+
+    def add(self, row: Row) -> None:
+        rec: dict[str, Any] = {"folder": row.output and Path(row.output).name,
+                               "card_id": row.card_id, "source": row.source,
+                               "status": row.status, "reason": row.reason}
+        if row.result is not None:
+            rec.update({k: v for k, v in row.result.to_row().items() if k not in rec})
+            rec["status"] = row.status
+        if self._writer is None and row.result is None:
+            self._waiting.append(rec)
+            return
+        if self._writer is None:
+            names = list(dict.fromkeys([*self._BASE, *rec]))
+            self._writer = csv.DictWriter(self._fh, fieldnames=names, extrasaction="ignore")
+            self._writer.writeheader()
+            for waiting in self._waiting:
+                self._writer.writerow(waiting)
+            self._waiting.clear()
+        self._writer.writerow(rec)
+        self._fh.flush()
+
+    def close(self) -> Path:
+        if self._writer is None:
+            self._writer = csv.DictWriter(self._fh, fieldnames=list(self._BASE),
+                                          extrasaction="ignore")
+            self._writer.writeheader()
+            for waiting in self._waiting:
+                self._writer.writerow(waiting)
+        self._fh.close()
+        target = self.folder / INDEX_NAME
+        os.chmod(self._tmp, FILE_MODE)
+        os.replace(self._tmp, target)
+        return target
+
+    def discard(self) -> None:
+        with contextlib.suppress(OSError):
+            self._fh.close()
+            os.unlink(self._tmp)
+
+
+class RunOutputs:
+    """The ``--out`` folder of one run: one card's files directly, or a folder per card."""
+
+    def __init__(self, path: str) -> None:
+        self.folder = OutputFolder(path)
+        self.names = UniqueNames(reserved=[INDEX_NAME])
+        self.direct: bool | None = None
+        self.index: _Index | None = None
+        self.failed = 0
+        self.replaced: list[str] = []
+
+    def prepare(self) -> None:
+        for said in self.folder.prepare():
+            err(said)
+
+    def layout(self, direct: bool) -> None:
+        """Decide once: files directly in the folder (one card) or a folder per card."""
+        if self.direct is None:
+            self.direct = direct
+            if not direct:
+                try:
+                    self.index = _Index(self.folder.path)
+                except OSError as exc:
+                    raise OutputError(f"{printable(str(self.folder.path))}: cannot write "
+                                      f"({exc.strerror or exc})") from None
+
+    def write(self, row: Row) -> None:
+        """Write a fitted card's files; on failure the row says so (its result is kept)."""
+        from ..report import write_outputs
+
+        res = row.result
+        if res is None:
+            if self.index is not None:
+                self.index.add(row)
+            return
+        notes = list(row.card.notes) if row.card is not None else []
+        try:
+            with self.folder.staging() as stage:
+                write_outputs(res, stage, notes=notes, prediction=row.prediction)
+                if self.direct:
+                    said = self.folder.commit_files(stage)
+                    row.output = str(self.folder.path)
+                else:
+                    name = self.names.claim(row.card_id or "card")
+                    if self.folder.commit_folder(stage, name):
+                        self.replaced.append(name)
+                    said = []
+                    row.output = str(self.folder.path / name)
+            for s in said:
+                err(s)
+        except MemoryError:
+            raise
+        except OutputError as exc:
+            self.failed += 1
+            row.warnings.append(f"outputs not written: {exc} (the result is printed here)")
+        except Exception as exc:
+            self.failed += 1
+            row.warnings.append(f"outputs not written: making the figures or report failed "
+                                f"({type(exc).__name__}: {exc}); the result is printed here")
+        if self.index is not None:
+            self.index.add(row)
+
+    def finish(self) -> str | None:
+        """Put the index in place; its path, or None for a one-card run."""
+        if self.replaced:
+            shown = ", ".join(printable(n) for n in self.replaced[:5])
+            more = f" and {len(self.replaced) - 5} more" if len(self.replaced) > 5 else ""
+            err(f"replaced {len(self.replaced)} card folder(s) of an earlier run in "
+                f"{printable(str(self.folder.path))}: {shown}{more}")
+        if self.index is None:
+            return None
+        try:
+            return str(self.index.close())
+        except OSError as exc:
+            self.failed += 1
+            err(f"{printable(str(self.folder.path))}: the index {INDEX_NAME} could not be "
+                f"written ({exc.strerror or exc})")
+            self.index.discard()
+            return None
+
+
+# --------------------------------------------------------------------------- prediction
+class _Predictor:
+    """``--predict``: the card to predict with every fit (another file, or an id)."""
+
+    def __init__(self, target: str | None, setup: FitSetup) -> None:
+        self.target = target
+        self.card: Card | None = None
+        if target is not None and Path(target).is_file():
+            from ..cards import read_cards
+
+            try:
+                self.card = read_cards(target, spm=setup.read["spm"],
+                                       period=setup.read["period"],
+                                       encoding=setup.read["encoding"])[0]
+            except CardError as exc:
+                raise CliError(f"--predict: {exc}") from None
+        self.in_file: Card | None = None
+
+    def use_file(self, cards: Sequence[Card]) -> None:
+        """The target among a file's cards (when it is an id)."""
+        if self.target is not None and self.card is None:
+            self.in_file = next((c for c in cards if c.card_id == self.target), None)
+
+    def predict(self, row: Row) -> None:
+        if self.target is None or row.result is None or row.result.model is None:
+            return
+        other = self.card or self.in_file
+        if other is None:
+            row.warnings.append(f"no prediction: no card {printable(self.target)!r} in this "
+                                "file and no such file")
+            return
+        from ..pump import predict_card
+
+        try:
+            row.prediction = predict_card(row.result, other)
+        except MemoryError:
+            raise
+        except Exception as exc:
+            row.warnings.append(f"prediction of card {printable(other.card_id)} failed: {exc}")
+
+
+# --------------------------------------------------------------------------- the command
+def _printer(args: argparse.Namespace) -> TextPrinter | LinePrinter | JsonPrinter:
+    if args.json:
+        return JsonPrinter()
+    if args.brief:
+        return LinePrinter()
+    return TextPrinter(verbose=args.verbose or args.history, history=args.history)
+
+
+def _row(card: Card, outcome: tuple[FitResult | None, str, str]) -> Row:
+    res, status, reason = outcome
+    return Row(card_id=card.card_id, source=card.source, status=status, reason=reason,
+               result=res, card=card)
+
+
+def _inputs(args: argparse.Namespace, setup: FitSetup,
+            predictor: _Predictor) -> Iterator[tuple[str, list[Card] | CardError, list[Row]]]:
+    """Each file with its cards to fit and rows for cards refused before fitting, or the
+    error that made it unreadable. With a single file, its problems are the run's: raised."""
+    single = len(args.files) == 1
+    for path in args.files:
+        try:
+            cards = _read_file(path, setup)
+        except CardError as exc:
+            if single:
+                raise
+            yield path, exc, []
+            continue
+        predictor.use_file(cards)
+        if single and args.predict and predictor.card is None and predictor.in_file is None:
+            raise CliError(f"--predict: no card {printable(args.predict)!r} in "
+                           f"{printable(path)} and no such file")
+        chosen, refused = _selected(cards, path, args)
+        del cards
+        if single and args.card is not None and not chosen and refused:
+            raise CliError(f"{printable(path)}: {refused[0].reason}")
+        yield path, chosen, refused
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    """Fit every card of the files; print each as it is done; say how it went."""
+    setup = _setup(args)
+    predictor = _Predictor(args.predict, setup)
+    outputs = RunOutputs(args.out) if args.out else None
+    if outputs is not None:
+        outputs.prepare()
+    inputs = _inputs(args, setup, predictor)
+    # A single file is read before anything is printed: if it cannot be, that is the error.
+    first = next(inputs, None) if len(args.files) == 1 else None
+    printer = _printer(args)
+    counts: collections.Counter[str] = collections.Counter()
+    interrupted = False
+    index_path: str | None = None
+    printer.start(_run_info(setup, args.out))
+    try:
+        for path, cards, refused in ([first] if first is not None else inputs):
+            if isinstance(cards, CardError):
+                counts["invalid-input"] += 1
+                printer.file_failed(path, str(cards))
+                if outputs is not None:
+                    outputs.layout(False)
+                    outputs.write(Row(card_id=None, source=path, status="invalid-input",
+                                      reason=str(cards)))
+                continue
+            if outputs is not None:
+                outputs.layout(len(args.files) == 1 and len(cards) + len(refused) == 1)
+            printer.file(path, cards)
+            for row in refused:
+                counts[row.status] += 1
+                if outputs is not None:
+                    outputs.write(row)
+                printer.row(row)
+            for chunk in _chunks(cards):
+                outcomes = fit_chunk(chunk, setup)
+                for card, outcome in zip(chunk, outcomes, strict=True):
+                    row = _row(card, outcome)
+                    predictor.predict(row)
+                    if outputs is not None:
+                        outputs.write(row)
+                    counts[row.status] += 1
+                    printer.row(row)
+                    del row
+                del chunk, outcomes
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        if outputs is not None:
+            index_path = outputs.finish()
+        printer.finish(counts, interrupted=interrupted, out=args.out, index=index_path)
+    if interrupted:
+        done = sum(counts.values())
+        err(f"interrupted (Ctrl-C) after {done} card{'s' if done != 1 else ''}; "
+            + ("the results finished so far are above" if done else "no card was finished")
+            + (f" and in {printable(args.out)}" if args.out and done else ""))
+        return EXIT_INTERRUPTED
+    if outputs is not None and outputs.failed:
+        err(f"{outputs.failed} card(s)' outputs could not be written to "
+            f"{printable(args.out)}; their results are printed above")
+        return EXIT_OUTPUT
+    total = sum(counts.values())
+    fitted = counts["converged"] + counts["boundary"]
+    if total and fitted == total:
+        return EXIT_OK
+    if fitted == 0 and counts["failed"] == 0:
+        return EXIT_USAGE  # no card could even be tried: the input is the problem
+    return EXIT_NOT_FITTED
+
+
+# --------------------------------------------------------------------------- parser
+def add_fit_arguments(p: argparse.ArgumentParser) -> None:
+    """The model and solver options shared by commands that fit."""
+    p.add_argument("--model", default="kelvin", choices=sorted(MODELS),
+                   help="model to fit (default kelvin)")
+    p.add_argument("--method", default="lm", choices=["lm", "newton-fd"],
+                   help="lm (default: exact sensitivities) or newton-fd (the paper's method)")
+    p.add_argument("--integrator", default="exact", choices=["exact", "euler"])
+    p.add_argument("--residual", default="linear", choices=["linear", "log"])
+    p.add_argument("--observe", help="observed state (Kelvin: u2, the paper's, or u, the mass "
+                                     "where the polished-rod load acts)")
+    p.add_argument("--scale", help="output scale C: a number (default 1) or 'free'")
+    p.add_argument("--initial-state",
+                   help="rest, equilibrium, periodic, or the state as numbers (default: "
+                        "periodic for a single-stroke card, else rest)")
+    p.add_argument("--offset", default="auto", choices=["auto", "yes", "no"],
+                   help="fit a position offset (auto: yes for single-stroke cards)")
+    p.add_argument("--x0", action="append", metavar="NAME=VALUE[,...]",
+                   help="starting guess (default: automatic start)")
+
+
+def register(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``pumpid fit`` to the command's subparsers."""
+    p = subparsers.add_parser(
+        "fit", help="fit a model to every card of one or more files",
+        description="Fit a model to every card of the files. Each card is printed as soon "
+                    "as it is fitted; a card or file that cannot be fitted is reported and "
+                    "the others go on. Exit status: 0 all fitted, 2 bad options or nothing "
+                    "readable, 3 some cards not fitted, 4 outputs not written, 130 "
+                    "interrupted.")
+    p.add_argument("files", nargs="+", metavar="FILE",
+                   help="card files (CSV/TSV, SCADA export, JSON, table, .ts)")
+    p.add_argument("--spm", type=float, help="strokes per minute (cards without time)")
+    p.add_argument("--period", type=float, help="stroke period in s (cards without time)")
+    p.add_argument("--format", help="force a format: csv, scada, json, whitespace, ts")
+    p.add_argument("--encoding", help="text encoding of the files (default: detected)")
+    p.add_argument("--card", help="fit only this card id")
+    p.add_argument("--split-strokes", action="store_true",
+                   help="split multi-stroke time records at position minima; fit each stroke "
+                        "as one period (ids CARD#0, CARD#1, ...)")
+    p.add_argument("--columns", metavar="ROLE=COL[,...]",
+                   help="column roles, e.g. position=1,load=0 (names or 0-based indices; "
+                        "roles t, position, load, card, well, spm, period)")
+    p.add_argument("--t-col", help="time column (name, or index for tables without header)")
+    p.add_argument("--load-col", help="load column")
+    p.add_argument("--position-col", "--displacement-col", dest="position_col",
+                   help="position/displacement column")
+    p.add_argument("--load-unit", help="load unit of the file: lbf, klbf, N, kN, kgf")
+    p.add_argument("--position-unit", help="position unit of the file: in, ft, m")
+    add_fit_arguments(p)
+    p.add_argument("--predict", metavar="CARD_OR_FILE",
+                   help="predict another card (an id in the same file, or a file) with each fit")
+    p.add_argument("--out", help="write figures, result.json and report.html here (one card), "
+                                 "or a folder per card and results.csv (several)")
+    view = p.add_mutually_exclusive_group()
+    view.add_argument("--json", action="store_true",
+                      help='print {"cards": [...], "summary": {...}} (always this shape)')
+    view.add_argument("--brief", action="store_true",
+                      help="one tab-separated line per card")
+    view.add_argument("--verbose", action="store_true",
+                      help="each card's full report (uncertainty, correlations, diagnostics)")
+    p.add_argument("--history", action="store_true",
+                   help="print each card's full report with its iteration history (fits the "
+                        "cards one by one)")
+    p.set_defaults(func=cmd_fit, verbose=False)
+    return p

@@ -1,0 +1,147 @@
+"""``pumpid simulate``: a model's displacement for a load record (CSV with t and load)."""
+
+from __future__ import annotations
+
+import argparse
+import codecs
+import csv
+import io
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..cards import printable
+from ..models import MODELS, model_class
+from ..report.output import OutputError, atomic_write
+from .common import EXIT_OK, CliError, initial_state_option, parse_assignments
+
+__all__ = ["cmd_simulate", "read_text", "register"]
+
+_BOMS = ((codecs.BOM_UTF32_LE, "utf-32"), (codecs.BOM_UTF32_BE, "utf-32"),
+         (codecs.BOM_UTF8, "utf-8-sig"), (codecs.BOM_UTF16_LE, "utf-16"),
+         (codecs.BOM_UTF16_BE, "utf-16"))
+
+
+def read_text(path: str, encoding: str | None = None) -> str:
+    """A text file's content: ``encoding`` if given, else by its byte-order mark, else UTF-8.
+
+    Raises
+    ------
+    CliError
+        Naming the file: unreadable, an unknown encoding, or bytes that are not text in it.
+    """
+    where = printable(path)
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise CliError(f"{where}: cannot read ({exc.strerror or exc})") from None
+    if encoding is None:
+        encoding = next((name for bom, name in _BOMS if data.startswith(bom)), "utf-8")
+    try:
+        return data.decode(encoding)
+    except LookupError:
+        raise CliError(f"--encoding {printable(encoding)!r}: not a known text encoding") \
+            from None
+    except UnicodeDecodeError as exc:
+        raise CliError(f"{where}: not {encoding} text (byte 0x{data[exc.start]:02x} at byte "
+                       f"{exc.start}); give its encoding with --encoding (e.g. latin-1, "
+                       "utf-16)") from None
+
+
+def _read_table(path: str, names: Sequence[str], encoding: str | None) -> dict[str, np.ndarray]:
+    where = printable(path)
+    text = read_text(path, encoding)
+    rows = [r for r in csv.reader(io.StringIO(text, newline="")) if r and any(c.strip()
+                                                                              for c in r)]
+    if not rows:
+        raise CliError(f"{where}: empty file")
+    header = [h.strip() for h in rows[0]]
+    out: dict[str, np.ndarray] = {}
+    for name in names:
+        if name not in header:
+            raise CliError(f"{where}: no column {printable(name)!r}; columns are "
+                           f"{', '.join(printable(h) for h in header)}")
+        j = header.index(name)
+        values = []
+        for lineno, row in enumerate(rows[1:], start=2):
+            try:
+                values.append(float(row[j]))
+            except (ValueError, IndexError):
+                cell = printable(row[j]) if j < len(row) else "(missing)"
+                raise CliError(f"{where}, line {lineno}, column {printable(name)!r}: "
+                               f"{cell!r} is not a number") from None
+        arr = np.array(values)
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise CliError(f"{where}, line {int(bad[0]) + 2}, column {printable(name)!r}: "
+                           "not a finite number")
+        out[name] = arr
+    return out
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    """Simulate a model's displacement for a load record; CSV t, load, displacement."""
+    from ..engine.simulate import simulate
+
+    cls = model_class(args.model)
+    params = parse_assignments(args.param, "--param")
+    missing = [n for n in cls.param_names() if n not in params]
+    unknown = [n for n in params if n not in cls.param_names()]
+    if missing or unknown:
+        raise CliError(f"--param: {cls.__name__} needs {', '.join(cls.param_names())}"
+                       + (f" (missing {', '.join(missing)})" if missing else "")
+                       + (f" (unknown {', '.join(printable(u) for u in unknown)})"
+                          if unknown else ""))
+    try:
+        model = cls(**{n: params[n] for n in cls.param_names()})
+    except (TypeError, ValueError) as exc:
+        raise CliError(f"--param: {exc}") from None
+    if args.observe is not None and args.observe not in cls.outputs:
+        raise CliError(f"--observe {printable(args.observe)!r}: {cls.__name__} can observe "
+                       f"{', '.join(cls.outputs)}")
+    if args.output and Path(args.output).is_dir():
+        raise OutputError(f"-o {printable(args.output)}: is a folder; give the name of the CSV "
+                          "file to write")
+    t_col, load_col = args.t_col or "t", args.load_col or "load"
+    data = _read_table(args.file, [t_col, load_col], args.encoding)
+    t, load = data[t_col], data[load_col]
+    state = initial_state_option(args.initial_state) or "rest"
+    try:
+        y = simulate(model, t, load, observe=args.observe, initial_state=state,
+                     integrator=args.integrator, scale=args.scale)
+    except ValueError as exc:
+        raise CliError(f"{printable(args.file)}: {exc}") from None
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(["t", "load", "displacement"])
+    for row in zip(t, load, y, strict=True):
+        writer.writerow([repr(float(v)) for v in row])
+    if args.output:
+        atomic_write(args.output, buf.getvalue())
+    else:
+        sys.stdout.write(buf.getvalue())
+    return EXIT_OK
+
+
+def register(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``pumpid simulate``."""
+    p = subparsers.add_parser("simulate", help="simulate a model for a load record (CSV t, load)")
+    p.add_argument("file", help="CSV with a header holding time and load columns")
+    p.add_argument("--model", default="kelvin", choices=sorted(MODELS))
+    p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE",
+                   help="model parameter (repeat, or comma-separate)")
+    p.add_argument("--t-col", help="time column (default t)")
+    p.add_argument("--load-col", help="load column (default load)")
+    p.add_argument("--encoding", help="text encoding of the file (default: UTF-8, or as its "
+                                      "byte-order mark says)")
+    p.add_argument("--observe")
+    p.add_argument("--initial-state", help="rest (default), equilibrium, periodic or numbers")
+    p.add_argument("--integrator", default="exact", choices=["exact", "euler"])
+    p.add_argument("--scale", type=float, default=1.0, help="output scale C (default 1)")
+    p.add_argument("-o", "--output", help="output CSV (default: standard output); written "
+                                          "whole or not at all")
+    p.set_defaults(func=cmd_simulate)
+    return p

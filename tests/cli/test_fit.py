@@ -1,0 +1,139 @@
+"""``pumpid fit``: short output by default, one line or JSON on request, bad cards as rows."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from pumpid.cli import main
+from pumpid.cli.render import first_sentence
+
+from .conftest import write_cards
+
+U = ["--observe", "u"]
+
+
+def test_default_output_is_one_short_block_per_card(two_cards: Path, capsys) -> None:
+    assert main(["fit", str(two_cards), *U]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    # The assumptions are stated once, not per card.
+    assert sum("assumptions:" in ln for ln in lines) == 1
+    assert sum("standard error" in ln for ln in lines) == 1
+    # File-wide notes once, before the cards.
+    assert sum("position unit in taken from column name" in ln for ln in lines) == 1
+    blocks = [ln for ln in lines if ln.startswith(("W-1 ", "W-2 "))]
+    assert len(blocks) == 2
+    for head in blocks:
+        assert "R^2 = " in head and "RMSE = " in head and " in " in head
+    assert "k0 = " in out and "lbf/in" in out and "lbf*s^2/in" in out and "±" in out
+    assert "natural frequency = " in out and " Hz" in out
+    # Each card's block is a few lines (a boundary fit adds its limiting model and why).
+    starts = [i for i, ln in enumerate(lines) if ln.startswith(("W-1 ", "W-2 "))]
+    assert starts[1] - starts[0] <= 10 and len(lines) - starts[1] <= 12
+    assert "correlation" not in out  # the full diagnostics are --verbose's
+    assert lines[-1] == "2 cards: 2 converged" or lines[-1].startswith("2 cards:")
+
+
+def test_verbose_gives_the_full_report(two_cards: Path, capsys) -> None:
+    assert main(["fit", str(two_cards), *U, "--verbose", "--card", "W-1"]) == 0
+    out = capsys.readouterr().out
+    assert "correlation:" in out and "95 % interval" in out and "uncertainty:" in out
+
+
+def test_brief_is_one_line_per_card(two_cards: Path, capsys) -> None:
+    assert main(["fit", str(two_cards), *U, "--brief"]) == 0
+    rows = [ln.split("\t") for ln in capsys.readouterr().out.splitlines()
+            if not ln.startswith("#")]
+    assert [r[0] for r in rows] == ["W-1", "W-2"]
+    for r in rows:
+        assert r[1] in ("converged", "boundary")
+        assert r[2].startswith("R^2=") and r[3].startswith("RMSE=") and r[3].endswith(" in")
+        assert any((f.startswith("k0") and f.endswith("lbf/in")) or "ran to a bound" in f
+                   for f in r)
+
+
+@pytest.mark.parametrize("ids", [["W-1"], ["W-1", "W-2", "W-3"]])
+def test_json_shape_is_the_same_for_one_card_and_many(tmp_path: Path, ids: list[str],
+                                                      capsys) -> None:
+    path = write_cards(tmp_path / "cards.csv", ids)
+    assert main(["fit", str(path), *U, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert set(doc) == {"cards", "summary"}
+    assert [c["card"]["id"] for c in doc["cards"]] == ids
+    for card in doc["cards"]:
+        assert {"status", "reason", "card", "params", "r2", "rmse", "units", "output"} <= set(card)
+        assert card["units"]["position"] == "in"
+    summary = doc["summary"]
+    assert summary["cards"] == len(ids) and summary["interrupted"] is False
+    assert sum(summary["status"].values()) == len(ids)
+
+
+def test_a_bad_card_is_a_row_not_the_end_of_its_file(tmp_path: Path, capsys) -> None:
+    """Cards the readers accept but the fit cannot use fail alone: B has no stroke rate (no
+    time axis), C a stroke rate of 1e300 per minute (the engine raised on it when this was
+    written), D a load of 1e308 lbf; A and E are fitted."""
+    cards = []
+    for i, card_id in enumerate("ABCDE"):
+        src = write_cards(tmp_path / f"{card_id}.csv", [card_id], seed=i)
+        rows = src.read_text().splitlines()[1:]
+        pos = [float(r.split(",")[2]) for r in rows]
+        load = [float(r.split(",")[3]) for r in rows]
+        if card_id == "D":
+            load[5] = 1e308
+        card = {"card_id": card_id, "position": pos, "load": load}
+        if card_id != "B":
+            card["spm"] = 1e300 if card_id == "C" else 8.0
+        cards.append(card)
+    path = tmp_path / "cards.json"
+    path.write_text(json.dumps({"units": {"position": "in", "load": "lbf"}, "cards": cards}))
+    code = main(["fit", str(path), *U, "--json"])
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err
+    doc = json.loads(captured.out)
+    rows = {c["card"]["id"]: c for c in doc["cards"]}
+    assert list(rows) == list("ABCDE")
+    assert rows["B"]["status"] == "invalid-input" and "spm" in rows["B"]["reason"]
+    assert rows["C"]["status"] in ("failed", "invalid-input") and rows["C"]["reason"]
+    assert any("1e+308" in w for w in rows["D"]["data_warnings"])
+    for ok in "AE":
+        assert rows[ok]["status"] in ("converged", "boundary"), rows[ok]["reason"]
+    assert code == 3
+
+
+def test_an_unreadable_file_is_a_row_and_the_other_files_are_fitted(two_cards: Path,
+                                                                     tmp_path: Path,
+                                                                     capsys) -> None:
+    junk = tmp_path / "junk.csv"
+    junk.write_bytes(b"\x00\x8f\xff" * 50)
+    code = main(["fit", str(junk), str(two_cards), *U, "--brief"])
+    out = capsys.readouterr().out
+    rows = [ln.split("\t") for ln in out.splitlines() if not ln.startswith("#")]
+    assert rows[0][0].endswith("junk.csv") and rows[0][1] == "invalid-input"
+    assert [r[0] for r in rows[1:]] == ["W-1", "W-2"]
+    assert code == 3
+
+
+def test_single_unreadable_file_is_exit_2_with_nothing_on_stdout(tmp_path: Path,
+                                                                 capsys) -> None:
+    junk = tmp_path / "junk.csv"
+    junk.write_bytes(b"\x00\x8f\xff" * 50)
+    assert main(["fit", str(junk), "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and "junk.csv" in captured.err
+
+
+def test_prediction_of_another_card(two_cards: Path, capsys) -> None:
+    assert main(["fit", str(two_cards), *U, "--card", "W-1", "--predict", "W-2"]) == 0
+    out = capsys.readouterr().out
+    assert "prediction of card W-2: R^2 = " in out
+
+
+def test_warnings_are_shortened_to_their_first_sentence() -> None:
+    text = ("the residuals are not white noise: their lag-1 autocorrelation is 0.32 (white "
+            "noise stays below 0.26 for 100 samples, 99.5 %). The standard errors are too "
+            "narrow here.")
+    assert first_sentence(text).endswith("99.5 %).")
+    assert first_sentence("short one") == "short one"

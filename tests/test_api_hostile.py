@@ -1,0 +1,106 @@
+"""Hostile input through the Python API: documented exceptions naming the field, or a result
+whose status says what it is worth.
+
+The API's contract (``pumpid.fit``): bad input raises ``ValueError`` (or ``TypeError`` for a
+wrong kind of argument) naming the problem; a fit that fails is a result with status
+``failed``. A usable status (``converged``, ``boundary``) never comes with a NaN quality.
+Cases the engine did not meet when this was written are marked ``xfail(strict=True)`` with
+the reason: they fail the suite the day they start to pass, so the mark comes off then.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import pumpid
+
+T = np.linspace(0.0, 20.0, 401)
+LOAD = 10 + 3 * np.sin(0.9 * T) + np.sin(2.3 * T)
+DISP = pumpid.simulate(pumpid.Kelvin(k0=4, m=1, c1=2, k1=4), T, LOAD, observe="u")
+
+ENGINE_RAISES = pytest.mark.xfail(
+    strict=True, raises=ArithmeticError,
+    reason="the automatic start's shape grid (models/kelvin.py viscoelastic_shapes) "
+           "overflows or divides by zero for time scaled far from seconds")
+NAN_QUALITY = pytest.mark.xfail(
+    strict=True, reason="displacement scaled by 1e-200: the engine returns status boundary "
+                        "with R^2 = NaN instead of refusing the data or failing")
+
+
+def _fit(t: np.ndarray, load: np.ndarray, disp: np.ndarray) -> pumpid.FitResult | None:
+    """The fit, or None when it raised the documented ValueError."""
+    try:
+        return pumpid.fit(pumpid.Kelvin, t, load, disp, observe="u")
+    except ValueError as exc:
+        assert str(exc)  # a message, naming the problem
+        return None
+
+
+def _usable_means_finite(res: pumpid.FitResult | None) -> None:
+    if res is None:
+        return
+    if res.status in (pumpid.Status.CONVERGED, pumpid.Status.BOUNDARY):
+        assert math.isfinite(res.r2) and math.isfinite(res.rmse), (res.status, res.r2)
+    else:
+        assert res.reason
+
+
+@pytest.mark.parametrize(("what", "factor"), [
+    ("t", 1e-100), ("t", 1e100),
+    pytest.param("t", 1e-200, marks=ENGINE_RAISES), pytest.param("t", 1e200, marks=ENGINE_RAISES),
+    ("load", 1e-300), ("load", 1e-200), ("load", 1e200), ("load", 1e300),
+    ("disp", 1e-100), ("disp", 1e100), ("disp", 1e200), ("disp", 1e300),
+    pytest.param("disp", 1e-200, marks=NAN_QUALITY),
+    pytest.param("disp", 1e-300, marks=NAN_QUALITY),
+])
+def test_wrong_scale_is_refused_or_honest(what: str, factor: float) -> None:
+    args = {"t": T, "load": LOAD, "disp": DISP}
+    args[what] = args[what] * factor
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        res = _fit(args["t"], args["load"], args["disp"])
+    _usable_means_finite(res)
+
+
+@pytest.mark.parametrize(("field", "bad", "words"), [
+    ("load", LOAD + 0j, "complex"),
+    ("load", LOAD[:-1], "length"),
+    ("disp", np.where(np.arange(T.size) == 7, np.nan, DISP), "index 7"),
+    ("disp", np.full_like(DISP, np.inf), "non-finite"),
+    ("t", T[::-1], "strictly increasing"),
+    ("load", np.array(["a"] * T.size), ""),
+])
+def test_bad_arrays_raise_value_errors_naming_the_field(field: str, bad: np.ndarray,
+                                                        words: str) -> None:
+    args = {"t": T, "load": LOAD, "disp": DISP}
+    args[field] = bad
+    with pytest.raises(ValueError) as info:
+        pumpid.fit(pumpid.Kelvin, args["t"], args["load"], args["disp"], observe="u")
+    name = {"disp": "displacement"}.get(field, field)
+    assert str(info.value).startswith(name) or name in str(info.value)
+    assert words in str(info.value)
+
+
+def test_fit_many_keeps_going_past_bad_rows() -> None:
+    loads = np.tile(LOAD, (5, 1))
+    disps = np.tile(DISP, (5, 1))
+    loads[1, 3] = np.nan
+    loads[2, :] = 1.0
+    disps[3, 10] = np.inf
+    batch = pumpid.fit_many(pumpid.Kelvin, T, loads, disps, observe="u")
+    assert [s.key for s in batch.status] == ["converged", "invalid-input", "invalid-input",
+                                             "invalid-input", "converged"]
+    assert batch.invalid[1].startswith("load:") and "index 3" in batch.invalid[1]
+    assert batch.invalid[2].startswith("load: constant")
+    assert batch.invalid[3].startswith("displacement:") and "index 10" in batch.invalid[3]
+    with pytest.raises(ValueError, match="card 1 is not valid: load"):
+        batch.result(1)
+
+
+def test_wrong_kind_of_model_is_a_type_error() -> None:
+    with pytest.raises(TypeError, match="model must be"):
+        pumpid.fit("kelvin", T, LOAD, DISP)  # type: ignore[arg-type]
