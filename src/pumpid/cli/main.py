@@ -24,6 +24,8 @@ from .. import __version__
 from ..models import MODELS, model_class
 from ..result import FitResult
 from ..result import jsonable as _jsonable
+from . import batch as batch_cli
+from . import report as report_cli
 from .flow import add_flow_parser
 
 EXIT_OK, EXIT_USAGE, EXIT_NOT_CONVERGED = 0, 2, 3
@@ -398,6 +400,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_simulate)
 
     add_flow_parser(sub)
+    batch_cli.register(sub)
+    report_cli.register(sub)
     return parser
 
 
