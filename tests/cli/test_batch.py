@@ -66,7 +66,7 @@ def _stop_part_way(out: Path, proc: subprocess.Popen[str], sig: int) -> tuple[st
 
 
 def test_summary_csv_and_report(field, reference, capsys, tmp_path: Path) -> None:
-    folder, truth = field
+    _, truth = field
     out, argv = reference
     code, text, err = _run(capsys, argv)
     assert code == 0 and err == ""  # --quiet: no progress lines
@@ -95,7 +95,7 @@ def test_progress_lines_when_not_a_terminal(field, tmp_path: Path) -> None:
     make_field(small, n_wells=2, days=3, broken_fraction=0.0)
     proc = _batch_process([str(small), "--out", str(tmp_path / "out"), *FIT,
                            "--partition-size", "4", "--progress-interval", "0"])
-    out, err = proc.communicate(timeout=120)
+    _, err = proc.communicate(timeout=120)
     assert proc.returncode == 0, err
     lines = err.strip().splitlines()
     assert lines[0].startswith("pumpid batch: fitting on local")

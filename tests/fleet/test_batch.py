@@ -142,10 +142,10 @@ def test_changed_inputs_are_refused(tmp_path: Path) -> None:
         run_batch([field], tmp_path / "elsewhere", fit=FitSpec("msd"))
     victim = next((field / "csv").glob("*.csv"))
     os.utime(victim, ns=(victim.stat().st_atime_ns, victim.stat().st_mtime_ns + 10**9))
-    with pytest.raises(ResultsFolderError, match="1 input file.* changed"):
+    with pytest.raises(ResultsFolderError, match=r"1 input file.* changed"):
         run_batch([field], out, resume=True)
     shutil.copy(victim, field / "csv" / "more.csv")
-    with pytest.raises(ResultsFolderError, match="not in the run: .*more.csv"):
+    with pytest.raises(ResultsFolderError, match=r"not in the run: .*more\.csv"):
         run_batch([field], out, resume=True)
     with pytest.raises(FileNotFoundError):
         run_batch([tmp_path / "nothing"], tmp_path / "out2")
