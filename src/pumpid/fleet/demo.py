@@ -26,7 +26,7 @@ from typing import Any
 
 from pumpid.pump.synthetic import StepChange, synthetic_field
 
-__all__ = ["DEMO_FIELD", "make_demo_field", "main"]
+__all__ = ["DEMO_FIELD", "main", "make_demo_field"]
 
 #: Arguments of :func:`pumpid.pump.synthetic.synthetic_field` for the demo.
 DEMO_FIELD: dict[str, Any] = {
