@@ -149,6 +149,11 @@ def test_changed_inputs_are_refused(tmp_path: Path) -> None:
         run_batch([field], out, resume=True)
     with pytest.raises(FileNotFoundError):
         run_batch([tmp_path / "nothing"], tmp_path / "out2")
+    with pytest.raises(ValueError, match="unknown fit option"):
+        run_batch([field], tmp_path / "out3", fit=FitSpec("msd", options={"obsreve": "u"}))
+    with pytest.raises(ValueError, match="x0: give exactly"):
+        run_batch([field], tmp_path / "out3", fit=FitSpec("msd", x0={"m": 1.0}))
+    assert not (tmp_path / "out3").exists()
 
 
 def test_ids_unique_and_the_same_on_every_run(tmp_path: Path) -> None:

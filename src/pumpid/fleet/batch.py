@@ -49,6 +49,9 @@ __all__ = ["BatchSummary", "FitSpec", "fit_partition", "run_batch"]
 
 #: Cards per partition unless asked otherwise.
 PARTITION_SIZE = 256
+# Options of pumpid.fit_records a spec may carry (x0 is the spec's own field).
+_FIT_OPTIONS = ("observe", "integrator", "scale", "residual", "fixed", "solver", "multistart",
+                "tol", "max_nfev")
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,10 @@ class FitSpec:
 
     def check(self) -> None:
         """Refuse options no card could be fitted with, before any work is done."""
+        unknown = sorted(set(self.options) - set(_FIT_OPTIONS))
+        if unknown:
+            raise ValueError(f"unknown fit option(s) {', '.join(unknown)}; known: "
+                             f"{', '.join(_FIT_OPTIONS)}")
         cls = self.model_class()
         observe = self.options.get("observe")
         cls.output_index(observe)  # ValueError naming the choices
