@@ -1,5 +1,6 @@
 # Set-up contract: on a machine with only python3 and pip,
-#   make demo  -> creates .venv, installs pumpid, runs the main job on the bundled example card
+#   make demo  -> creates .venv, installs pumpid, runs the main job on the bundled example card,
+#                 then pumpid batch and pumpid report on a small synthetic field
 #   make test  -> installs the test environment from the lock file and runs the whole suite
 #
 # The lock (requirements/test.lock) pins the exact version of every package the suite
@@ -35,8 +36,14 @@ $(TSTAMP): $(STAMP)
 
 install: $(STAMP)
 
+# The single-card report, then the fleet job: a small synthetic field (the project's own
+# generator, one well that changes), `pumpid batch` over it, the fleet report beside.
 demo: $(STAMP)
 	$(VENV)/bin/pumpid demo --out demo-output
+	rm -rf demo-output/fleet
+	$(PY) -m pumpid.fleet.demo demo-output/fleet/field
+	$(VENV)/bin/pumpid batch demo-output/fleet/field --out demo-output/fleet/results --observe u
+	$(VENV)/bin/pumpid report demo-output/fleet/results --out demo-output/fleet
 
 lint: $(TSTAMP)
 	$(PY) -m ruff check src tests scripts benchmarks

@@ -8,12 +8,20 @@ loop) -> immutable result -> report::
     print(result.report())
 """
 
+from __future__ import annotations
+
+import os
+from typing import TYPE_CHECKING
+
 from .engine.problem import CardData
 from .engine.simulate import simulate, simulate_sensitivities
 from .engine.solvers import LevenbergMarquardt, PaperNewton, Stop
 from .job import fit, fit_many, fit_records
 from .models import MODELS, FirstOrder, Kelvin, MassSpringDamper, Maxwell, Model, model_class
 from .result import FitBatch, FitResult, Prediction, Status, Units
+
+if TYPE_CHECKING:
+    import pandas
 
 __all__ = [
     "MODELS",
@@ -35,8 +43,19 @@ __all__ = [
     "fit_many",
     "fit_records",
     "model_class",
+    "read_results",
     "simulate",
     "simulate_sensitivities",
 ]
 
 __version__ = "0.1.0"
+
+
+def read_results(path: str | os.PathLike[str]) -> pandas.DataFrame:
+    """Read the results folder of ``pumpid batch`` as one table, in input order.
+
+    See :func:`pumpid.fleet.read_results` (pandas is imported only when this is called).
+    """
+    from .fleet.store import read_results as _read_results
+
+    return _read_results(path)

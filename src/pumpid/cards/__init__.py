@@ -45,6 +45,10 @@ Conventions
 * Time: a time column wins. Otherwise SPM or period (caller first, then the file) rebuilds
   time assuming uniform sampling over ONE stroke: ``t_i = i*T/N`` for the ``N`` distinct
   samples; such cards are marked ``periodic``. Otherwise ``t`` is None.
+* Card time (when the card was recorded): a field named ``timestamp``, ``datetime``,
+  ``card_time``, ``time`` or ``date`` (any case; a SCADA field, a constant table column, a
+  JSON key) holding ISO 8601 text is also given as ``metadata["time"]``, an aware UTC
+  ``datetime`` (a time without a zone is taken as UTC, noted); other text is noted and left.
 * Clean-ups (each noted): rows flagged in a closure column (``is_closure_point``) are
   dropped; for cards without a time column, a last sample equal to the first in both
   position and load (relative tolerance 1e-9) is dropped as a duplicated closing point.

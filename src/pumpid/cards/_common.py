@@ -12,6 +12,7 @@ import math
 import re
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,7 @@ from numpy.typing import NDArray
 
 from ._errors import CardError
 from ._plausible import plausibility_warnings
-from ._text import iter_lines, number_problem, parse_number
+from ._text import iter_lines, normalize_name, number_problem, parse_number
 from ._types import Card
 from ._units import TIME_UNITS, normalize_load_unit, normalize_position_unit, normalize_time_unit
 
@@ -225,6 +226,38 @@ def flat(x: NDArray[np.float64]) -> bool:
     return (hi / 2 - lo / 2) <= 0.5 * FLAT_RTOL * max(abs(hi), abs(lo))
 
 
+# Field names (normalised) that state when a card was recorded, in order of preference.
+_STAMP_NAMES = ("timestamp", "time_stamp", "datetime", "date_time", "card_time", "card_date",
+                "time", "date")
+
+
+def card_time(meta: dict[str, Any], notes: list[str]) -> None:
+    """Put the card's recording time in ``meta["time"]`` (an aware UTC ``datetime``).
+
+    Formats name it differently (a ``timestamp`` column or JSON key, a SCADA ``Timestamp``
+    or ``Date`` field); one key lets every caller find it. ISO 8601 text is understood
+    (``2024-01-01T06:00:00Z``, ``2024-01-01 06:00:00``, ``2024-01-01``); a time without a
+    zone is taken as UTC (noted). Other text is left alone, noted; nothing is raised.
+    """
+    if isinstance(meta.get("time"), datetime):
+        return
+    found = {normalize_name(k): k for k, v in meta.items()
+             if isinstance(k, str) and isinstance(v, str) and v.strip()}
+    key = next((found[n] for n in _STAMP_NAMES if n in found), None)
+    if key is None:
+        return
+    text = meta[key].strip()
+    try:
+        stamp = datetime.fromisoformat(text)
+    except (ValueError, OverflowError):
+        notes.append(f"card time {text!r} ({key!r}) is not an ISO 8601 date and time: not used")
+        return
+    if stamp.tzinfo is None:
+        notes.append(f"card time {text!r} has no time zone: taken as UTC")
+        stamp = stamp.replace(tzinfo=UTC)
+    meta["time"] = stamp.astimezone(UTC)
+
+
 # --------------------------------------------------------------------------- building
 def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     """Check one raw card, apply the documented clean-ups and make the Card.
@@ -397,6 +430,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
         notes.append("no time in the file and no SPM or period given: t is None")
     for name, arr in arrays.items():
         meta.setdefault(name, arr)
+    card_time(meta, notes)
     warnings = [
         *raw.warnings,
         *plausibility_warnings(

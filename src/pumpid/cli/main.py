@@ -22,7 +22,7 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..report.output import OutputError
-from . import demo, fit, flow, reproduce, simulate
+from . import batch, demo, fit, flow, report, reproduce, simulate
 from .common import (
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
@@ -52,6 +52,8 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.register(sub)
     simulate.register(sub)
     flow.register(sub)
+    batch.register(sub)
+    report.register(sub)
     return parser
 
 

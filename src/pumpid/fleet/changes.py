@@ -60,7 +60,8 @@ first ``min_cards`` cards of a segment (the reference) cannot themselves hold a 
 
 Column conventions of the results table
 ---------------------------------------
-``well_id``, ``card_id``, ``status`` (required); ``time`` (datetime, NaT when unknown);
+``well_id``, ``card_id``, ``status`` (required; a row without a well, such as a file that
+could not be read, counts under :data:`UNKNOWN_WELL`); ``time`` (datetime, NaT when unknown);
 per derived quantity ``d_NAME``, ``d_NAME_se``, ``d_NAME_determined``, ``d_NAME_unit``;
 per parameter ``p_NAME``, ``p_NAME_se``, ``p_NAME_se_hac``. Missing optional columns
 are treated as unknown (NaT time, NaN standard error, determined, no unit).
@@ -85,6 +86,7 @@ from pumpid import model_class
 __all__ = [
     "ALERT_COLUMNS",
     "STATUSES",
+    "UNKNOWN_WELL",
     "USABLE_STATUSES",
     "available_quantities",
     "cusum_threshold",
@@ -93,6 +95,8 @@ __all__ = [
     "summarise_wells",
 ]
 
+#: The well of rows whose ``well_id`` is missing (files that could not be read).
+UNKNOWN_WELL = "(unknown well)"
 #: Every status a results row can have.
 STATUSES = ("converged", "boundary", "poor-fit", "failed", "invalid-input")
 #: Statuses whose values are trended (the others are counted only).
@@ -138,6 +142,10 @@ def load_results(results: pd.DataFrame | str | os.PathLike[str]) -> pd.DataFrame
             f"the results table lacks the column(s) {', '.join(missing)}; it has "
             f"{', '.join(map(str, table.columns))}"
         )
+    if table["well_id"].isna().any():
+        # A file that could not be read names no well: its rows are counted, not trended.
+        table = table.assign(well_id=table["well_id"].astype(object).where(
+            table["well_id"].notna(), UNKNOWN_WELL))
     return table
 
 

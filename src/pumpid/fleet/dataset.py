@@ -38,9 +38,31 @@ import pandas as pd
 
 from pumpid.cards import Card, CardError
 
-__all__ = ["iter_parquet_cards", "read_parquet_cards"]
+__all__ = ["ParquetCardError", "iter_parquet_cards", "read_parquet_cards"]
 
 _REQUIRED = ("well_id", "card_id", "position", "load")
+
+
+class ParquetCardError(CardError):
+    """A :class:`~pumpid.cards.CardError` for one card of a file, with the card's ids.
+
+    Attributes
+    ----------
+    card_id : str
+        The card's ``card_id``.
+    well_id : str or None
+        Its ``well_id`` where the rows agree on one, else None.
+    """
+
+    def __init__(self, error: CardError, *, card_id: str, well_id: str | None) -> None:
+        super().__init__(error.reason, path=error.path, line=error.line, field=error.field)
+        self.card_id = card_id
+        self.well_id = well_id
+
+
+def _well_of(frame: pd.DataFrame) -> str | None:
+    wells = frame["well_id"].dropna().astype(str).unique()
+    return str(wells[0]) if len(wells) == 1 and wells[0].strip() else None
 
 
 def _files(path: Path) -> list[Path]:
@@ -202,9 +224,10 @@ def iter_parquet_cards(
     Yields
     ------
     pumpid.cards.Card or pumpid.cards.CardError
-        Cards in order of first appearance in each file; a :class:`CardError` (naming the
-        file, the card and the column) in place of a card that fails a check, or of a
-        whole file that cannot be read or lacks a required column.
+        Cards in order of first appearance in each file; a :class:`ParquetCardError`
+        (naming the file, the card and the column, and carrying the card's ids) in place of
+        a card that fails a check; a :class:`CardError` in place of a whole file that cannot
+        be read or lacks a required column.
 
     Raises
     ------
@@ -242,7 +265,7 @@ def iter_parquet_cards(
                     min_samples=min_samples,
                 )
             except CardError as exc:
-                yield exc
+                yield ParquetCardError(exc, card_id=str(card_id), well_id=_well_of(group))
 
 
 def read_parquet_cards(

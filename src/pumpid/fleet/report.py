@@ -494,7 +494,9 @@ def write_fleet_report(
     # Which wells to draw: the alerted ones by decreasing size, then a random few steady.
     ranked = summary[summary["alerts"] > 0]["well_id"].astype(str).tolist()
     drawn_alerted = ranked[:max_wells_plotted]
-    steady = sorted(set(frame["well_id"].astype(str)) - alerted)
+    # Steady wells worth drawing have at least one usable card.
+    usable_wells = frame.loc[frame["status"].isin(USABLE_STATUSES), "well_id"].astype(str)
+    steady = sorted(set(usable_wells) - alerted)
     rng = np.random.default_rng(seed)
     k = min(steady_sample, len(steady))
     drawn_steady = sorted(rng.choice(steady, size=k, replace=False).tolist()) if k else []

@@ -11,7 +11,8 @@ import pytest
 
 from pumpid.fleet.changes import detect_changes
 from pumpid.fleet.report import write_fleet_report
-from tests.test_fleet_changes import results_table
+
+from .test_changes import results_table
 
 STEPS = {2: ("stiffness", 1.3, 60), 5: ("damping_ratio", 0.7, 80)}
 

@@ -1,0 +1,204 @@
+"""``pumpid batch``: fit every card of files and folders into one results table.
+
+    pumpid batch INPUT... --out RESULTS [--resume] [--csv [PATH]]
+                 [--engine local|dask] [--scheduler ADDRESS] [--workers N]
+                 [--model kelvin] [--observe u] [--spm X] [--load-unit lbf] ... [--quiet]
+
+A thin shell over :func:`pumpid.fleet.batch.run_batch`; the results folder is described
+in :mod:`pumpid.fleet.store`, the inputs in :mod:`pumpid.fleet.inputs`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+from ..models import MODELS
+
+__all__ = ["cmd_batch", "register"]
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+def _numbers(text: str, what: str) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for part in text.split(","):
+        if not part.strip():
+            continue
+        name, eq, value = part.partition("=")
+        if not eq:
+            raise ValueError(f"{what}: expected name=value, got {part!r}")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise ValueError(f"{what}: {name.strip()} = {value!r} is not a number") from None
+    return out
+
+
+def _initial_state(text: str | None) -> str | tuple[float, ...] | None:
+    if text is None or text in ("rest", "equilibrium", "periodic"):
+        return text
+    try:
+        return tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise ValueError(f"--initial-state: {text!r} is neither rest, equilibrium, periodic "
+                         "nor a list of numbers") from None
+
+
+def _column(value: str | None) -> str | int | None:
+    return int(value) if value is not None and value.isdigit() else value
+
+
+def _specs(args: argparse.Namespace) -> tuple[Any, Any]:
+    """The fit and read options: those given, over the resumed run's (or the defaults)."""
+    from ..fleet.batch import FitSpec
+    from ..fleet.inputs import ReadOptions
+    from ..fleet.store import ResultsStore
+
+    earlier = ResultsStore.options_of(args.out) if args.resume else None
+    fit = (FitSpec.from_dict(earlier.get("fit", {})) if earlier else FitSpec()).to_dict()
+    read = (ReadOptions.from_dict(earlier.get("read", {})) if earlier
+            else ReadOptions()).to_dict()
+    columns = {k: _column(getattr(args, f"{k}_col")) for k in ("t", "load", "position")
+               if getattr(args, f"{k}_col") is not None}
+    if columns:
+        read["columns"] = columns
+    for key in ("format", "position_unit", "load_unit", "spm", "period"):
+        if getattr(args, key) is not None:
+            read[key] = getattr(args, key)
+    if args.split_strokes:
+        read["split_strokes"] = True
+    for key in ("model", "offset"):
+        if getattr(args, key) is not None:
+            fit[key] = getattr(args, key)
+    if args.initial_state is not None:
+        state = _initial_state(args.initial_state)
+        fit["initial_state"] = list(state) if isinstance(state, tuple) else state
+    if args.x0:
+        x0: dict[str, float] = {}
+        for item in args.x0:
+            x0.update(_numbers(item, "--x0"))
+        fit["x0"] = x0
+    options = dict(fit["options"])
+    for key in ("observe", "integrator", "residual", "max_nfev"):
+        if getattr(args, key) is not None:
+            options[key] = getattr(args, key)
+    if args.scale is not None:
+        options["scale"] = args.scale if args.scale == "free" else float(args.scale)
+    fit["options"] = options
+    return FitSpec.from_dict(fit), ReadOptions.from_dict(read)
+
+
+def _csv_path(args: argparse.Namespace) -> Path | None:
+    if args.csv is None:
+        return None
+    if args.csv is True:
+        folder = Path(os.path.normpath(args.out))
+        return folder.with_name(folder.name + ".csv")
+    return Path(args.csv)
+
+
+def cmd_batch(args: argparse.Namespace) -> int:
+    """Run ``pumpid batch``; print the summary; exit 0 (complete), 130 (interrupted),
+    1 (the engine failed) or 2 (bad options, a refused results folder)."""
+    from ..fleet.batch import run_batch
+    from ..fleet.engines import EngineError
+    from ..fleet.progress import make_progress
+
+    if not args.input and not args.resume:
+        raise ValueError("give at least one INPUT file or folder (or --resume to continue "
+                         "the run in --out with its own inputs)")
+    fit, read = _specs(args)
+    mode = "quiet" if args.quiet else args.progress
+    progress = make_progress(mode, interval=args.progress_interval)
+    try:
+        summary = run_batch(args.input, args.out, fit=fit, read=read, engine=args.engine,
+                            scheduler=args.scheduler, workers=args.workers, resume=args.resume,
+                            partition_size=args.partition_size, progress=progress,
+                            csv=_csv_path(args))
+    except EngineError as exc:
+        print(f"pumpid: error: {exc}", file=sys.stderr)
+        print("pumpid: the partitions written so far are kept; continue with --resume",
+              file=sys.stderr)
+        return EXIT_FAILED
+    print(summary.text())
+    if summary.interrupted:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        if any(t.name.startswith("pumpid-fit") and t.is_alive() for t in threading.enumerate()):
+            # A fit dropped at a second Ctrl-C cannot be stopped inside its thread; its
+            # results would be discarded anyway, and everything written is complete.
+            os._exit(EXIT_INTERRUPTED)
+        return EXIT_INTERRUPTED
+    return EXIT_OK
+
+
+def register(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``pumpid batch`` to the ``pumpid`` command's subparsers."""
+    from ..fleet.batch import PARTITION_SIZE
+
+    p = subparsers.add_parser(
+        "batch", help="fit every card of files and folders into one results table",
+        description="Fit every card of the inputs (files, or folders searched recursively "
+                    "for card files) and write one row per card into a Parquet results "
+                    "folder, partition by partition; resumable with --resume.")
+    p.add_argument("input", nargs="*", metavar="INPUT",
+                   help="card files (any format pumpid reads, Parquet long layout included) "
+                        "or folders")
+    p.add_argument("--out", required=True, metavar="RESULTS",
+                   help="results folder (new or empty; with --resume the run to continue)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run in RESULTS: only unfinished partitions are fitted "
+                        "(refused if the inputs or options differ; INPUT may be left out)")
+    p.add_argument("--csv", nargs="?", const=True, metavar="PATH",
+                   help="also write the table as CSV (default path: RESULTS.csv beside the "
+                        "folder)")
+    run = p.add_argument_group("engine")
+    run.add_argument("--engine", default="local", choices=["local", "dask"],
+                     help="local: this process on every core (default); dask: "
+                          "dask.distributed (pip install \"pumpid[fleet]\")")
+    run.add_argument("--scheduler", metavar="ADDRESS",
+                     help="with --engine dask: a running scheduler (else a LocalCluster)")
+    run.add_argument("--workers", type=int,
+                     help="local: threads; dask LocalCluster: worker processes (default: "
+                          "one per core)")
+    run.add_argument("--partition-size", type=int, metavar="N",
+                     help=f"cards per partition and results file (default {PARTITION_SIZE})")
+    run.add_argument("--quiet", action="store_true", help="no progress display")
+    run.add_argument("--progress", default="auto", choices=["auto", "bar", "lines"],
+                     help="a bar on a terminal, plain lines otherwise (default auto)")
+    run.add_argument("--progress-interval", type=float, default=10.0, metavar="S",
+                     help="seconds between plain progress lines (default 10)")
+    rd = p.add_argument_group("reading")
+    rd.add_argument("--format", help="force a format for files that are not Parquet: csv, "
+                                     "scada, json, whitespace, ts")
+    rd.add_argument("--spm", type=float, help="strokes per minute (cards without time)")
+    rd.add_argument("--period", type=float, help="stroke period in s (cards without time)")
+    rd.add_argument("--load-unit", help="load unit of the files: lbf, klbf, N, kN, kgf")
+    rd.add_argument("--position-unit", help="position unit of the files: in, ft, m")
+    rd.add_argument("--t-col", help="time column (name, or index for tables without header)")
+    rd.add_argument("--load-col", help="load column")
+    rd.add_argument("--position-col", help="position column")
+    rd.add_argument("--split-strokes", action="store_true",
+                    help="split multi-stroke time records into strokes (ids CARD#0, ...)")
+    ft = p.add_argument_group(
+        "fitting (as pumpid fit; with --resume, options not given are the run's own)")
+    ft.add_argument("--model", choices=sorted(MODELS), help="model to fit (default kelvin)")
+    ft.add_argument("--observe", help="observed state (Kelvin: u or u2; default the model's)")
+    ft.add_argument("--integrator", choices=["exact", "euler"], help="default exact")
+    ft.add_argument("--residual", choices=["linear", "log"], help="default linear")
+    ft.add_argument("--scale", help="output scale C: a number (default 1) or 'free'")
+    ft.add_argument("--initial-state",
+                    help="rest, equilibrium, periodic, or numbers (default: periodic for a "
+                         "single-stroke card, else rest)")
+    ft.add_argument("--offset", choices=["auto", "yes", "no"],
+                    help="fit a position offset (auto: yes for single-stroke cards)")
+    ft.add_argument("--x0", action="append", metavar="NAME=VALUE[,...]",
+                    help="a starting guess shared by every card (default: automatic start)")
+    ft.add_argument("--max-nfev", type=int, help="model evaluations allowed per card")
+    p.set_defaults(func=cmd_batch)
+    return p

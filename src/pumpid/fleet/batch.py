@@ -1,0 +1,610 @@
+"""Fit every card of a dataset into one results table: :func:`run_batch`.
+
+The run reads the inputs in a fixed order (:mod:`pumpid.fleet.inputs`), cuts the stream of
+cards into partitions of ``partition_size`` cards, has an engine fit each partition
+(:mod:`pumpid.fleet.engines`: :func:`fit_partition` with :func:`pumpid.pump.fit_cards`) and
+writes each partition's rows as one Parquet file of the results folder
+(:mod:`pumpid.fleet.store`) as soon as it is back. One row per input card, in input order:
+the columns of :meth:`pumpid.FitResult.to_row` plus ``file``, ``item`` and ``partition``;
+a card that could not be read or validated is a row of status ``invalid-input`` with the
+reason, and a file that could not be read at all is one such row named after the file.
+
+Resuming (``resume=True``) rebuilds the same partitions from the same inputs (the manifest
+checks that they are the same), skips those already written (after checking that each
+holds the cards it should) and fits the others, so no row is lost or written twice. An
+interrupt (Ctrl-C) stops the reading, lets the partitions being fitted finish and be
+written, and ends the run as interrupted; a second one drops them (they are redone on
+resume).
+
+Memory stays flat in the number of cards: only the partitions in flight (two on the local
+engine, twice the worker threads on Dask) and the file being read are held, plus the ids
+seen so far (to keep them unique) and the summary's counts.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import os
+import re
+import time
+from collections import Counter
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import pyarrow as pa
+
+from pumpid import __version__
+from pumpid.models import Model, model_class
+
+from .engines import Engine, EngineError, make_engine
+from .inputs import BadItem, CardItem, InputFile, ReadOptions, find_inputs, iter_items
+from .progress import Progress, QuietProgress
+from .store import ResultsFolderError, ResultsStore, results_schema, to_frame
+
+__all__ = ["BatchSummary", "FitSpec", "fit_partition", "run_batch"]
+
+#: Cards per partition unless asked otherwise.
+PARTITION_SIZE = 256
+# Options of pumpid.fit_records a spec may carry (x0 is the spec's own field).
+_FIT_OPTIONS = ("observe", "integrator", "scale", "residual", "fixed", "solver", "multistart",
+                "tol", "max_nfev")
+
+
+@dataclass(frozen=True)
+class FitSpec:
+    """What to fit to every card: the options of :func:`pumpid.pump.fit_cards`.
+
+    Attributes
+    ----------
+    model : str
+        Model name (``"kelvin"``, ``"maxwell"``, ``"msd"``, ...).
+    x0 : mapping of str to float, optional
+        A shared starting guess (every parameter); default: the automatic start.
+    initial_state : str or tuple of float, optional
+        Default: periodic for single-stroke cards, else rest.
+    offset : {"auto", "yes", "no"}
+        Fit a position offset; ``"auto"``: for single-stroke (periodic) cards, as ``pumpid
+        fit`` does.
+    options : mapping
+        Further options of :func:`pumpid.fit_records` (``observe``, ``integrator``,
+        ``scale``, ``residual``, ``tol``, ``max_nfev``, ...).
+    """
+
+    model: str = "kelvin"
+    x0: Mapping[str, float] | None = None
+    initial_state: str | tuple[float, ...] | None = None
+    offset: str = "auto"
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    def model_class(self) -> type[Model]:
+        """The model class (ValueError for an unknown name)."""
+        return model_class(self.model)
+
+    def check(self) -> None:
+        """Refuse options no card could be fitted with, before any work is done."""
+        unknown = sorted(set(self.options) - set(_FIT_OPTIONS))
+        if unknown:
+            raise ValueError(f"unknown fit option(s) {', '.join(unknown)}; known: "
+                             f"{', '.join(_FIT_OPTIONS)}")
+        cls = self.model_class()
+        observe = self.options.get("observe")
+        cls.output_index(observe)  # ValueError naming the choices
+        if self.offset not in ("auto", "yes", "no"):
+            raise ValueError(f"offset must be auto, yes or no, got {self.offset!r}")
+        if self.x0 is not None:
+            missing = [n for n in cls.param_names() if n not in self.x0]
+            extra = [n for n in self.x0 if n not in cls.param_names()]
+            if missing or extra:
+                raise ValueError(f"x0: give exactly the parameters {list(cls.param_names())} "
+                                 f"(missing {missing}, unknown {extra})")
+            cls(**{n: float(self.x0[n]) for n in cls.param_names()})
+
+    def to_dict(self) -> dict[str, Any]:
+        """The manifest's form."""
+        return {"model": self.model, "x0": None if self.x0 is None else dict(self.x0),
+                "initial_state": (list(self.initial_state)
+                                  if isinstance(self.initial_state, tuple)
+                                  else self.initial_state),
+                "offset": self.offset, "options": dict(self.options)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> FitSpec:
+        """The spec of :meth:`to_dict`'s form (a manifest's)."""
+        state = data.get("initial_state")
+        return cls(model=str(data.get("model", "kelvin")), x0=data.get("x0"),
+                   initial_state=tuple(state) if isinstance(state, list) else state,
+                   offset=str(data.get("offset", "auto")),
+                   options=dict(data.get("options") or {}))
+
+
+# --------------------------------------------------------------------------- the task
+def _utc(value: Any) -> pd.Timestamp | None:
+    """A card time as an aware UTC timestamp (naive: UTC), None when unknown or unreadable."""
+    if value is None:
+        return None
+    try:
+        stamp = pd.Timestamp(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
+    if stamp is pd.NaT:
+        return None
+    return stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
+
+
+def _blank(schema: pa.Schema) -> dict[str, Any]:
+    return dict.fromkeys(schema.names)
+
+
+def _card_row(item: CardItem, result: Any, reason: str, status: str | None,
+              cls: type[Model], spec: FitSpec, schema: pa.Schema) -> dict[str, Any]:
+    card = item.card
+    if result is not None:
+        row = {**_blank(schema), **result.to_row()}
+    else:
+        row = _blank(schema)
+        row.update(model=cls.__name__, observe=spec.options.get("observe") or cls.default_output,
+                   status=status or "invalid-input", reason=reason, warnings="",
+                   n_samples=card.n, position_unit=card.position_unit,
+                   load_unit=card.load_unit)
+    meta = card.metadata
+    stamp = meta.get("time", meta.get("timestamp"))
+    time_value = _utc(stamp)
+    warnings = [w for w in (row.get("warnings") or "").split(" | ") if w]
+    warnings += [w for w in card.warnings if w not in warnings]
+    if stamp is not None and time_value is None:
+        warnings.append(f"card time {stamp!r} is not a date and time: left out")
+    row.update(well_id=card.well_id, card_id=item.card_id, source=item.source,
+               file=item.file, time=time_value, warnings=" | ".join(warnings))
+    return row
+
+
+def _bad_row(item: BadItem, cls: type[Model], spec: FitSpec,
+             schema: pa.Schema) -> dict[str, Any]:
+    row = _blank(schema)
+    row.update(well_id=item.well_id, card_id=item.card_id, source=item.source, file=item.file,
+               model=cls.__name__, observe=spec.options.get("observe") or cls.default_output,
+               status="invalid-input", reason=item.reason, warnings="")
+    return row
+
+
+def _fit_group(cards: list[Any], model: Any, spec: FitSpec, offset: bool,
+               threads: int) -> list[tuple[Any, str, str | None]]:
+    """Fit cards together; (result or None, reason, status for None) per card.
+
+    An engine error in a batch must not cost the other cards: the batch is redone card by
+    card (each card's answer does not depend on its neighbours), and a card that still
+    raises is a ``failed`` row saying what was raised.
+    """
+    from pumpid.pump import fit_cards
+
+    initial = spec.initial_state
+    state = list(initial) if isinstance(initial, tuple) else initial
+    try:
+        batch = fit_cards(cards, model, initial_state=state, offset=offset, workers=threads,
+                          **dict(spec.options))
+        return [(r, why, None) for r, why in zip(batch.results, batch.invalid, strict=True)]
+    except Exception as exc:
+        if len(cards) == 1:
+            return [(None, f"the fit raised {type(exc).__name__}: {exc}", "failed")]
+    out: list[tuple[Any, str, str | None]] = []
+    for card in cards:
+        out.extend(_fit_group([card], model, spec, offset, threads))
+    return out
+
+
+def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: int,
+                  partition: int, first_item: int) -> list[dict[str, Any]]:
+    """Rows of one partition: its cards fitted in one batch, its unreadable items as
+    ``invalid-input`` rows; the task an engine runs.
+
+    Parameters
+    ----------
+    items : sequence of CardItem or BadItem
+        The partition, in input order.
+    spec : FitSpec
+        What to fit.
+    threads : int
+        Threads for :func:`pumpid.pump.fit_cards`.
+    partition, first_item : int
+        The partition's index and the run-wide index of its first item.
+
+    Returns
+    -------
+    list of dict
+        One row per item, in order, with the columns of :func:`results_schema`.
+    """
+    cls = spec.model_class()
+    schema = results_schema(cls)
+    model: Any = cls
+    if spec.x0 is not None:
+        model = cls(**{n: float(spec.x0[n]) for n in cls.param_names()})
+    rows: list[dict[str, Any] | None] = [None] * len(items)
+    groups: dict[bool, list[int]] = {}
+    for i, item in enumerate(items):
+        if isinstance(item, CardItem):
+            off = item.card.periodic if spec.offset == "auto" else spec.offset == "yes"
+            groups.setdefault(bool(off), []).append(i)
+        else:
+            rows[i] = _bad_row(item, cls, spec, schema)
+    for off, idx in groups.items():
+        cards = [items[i].card for i in idx]  # type: ignore[union-attr]
+        for i, (res, why, status) in zip(idx, _fit_group(cards, model, spec, off, threads),
+                                         strict=True):
+            rows[i] = _card_row(items[i], res, why, status, cls, spec, schema)  # type: ignore[arg-type]
+    out: list[dict[str, Any]] = []
+    for i, row in enumerate(rows):
+        assert row is not None
+        row["item"] = first_item + i
+        row["partition"] = partition
+        out.append(row)
+    return out
+
+
+# --------------------------------------------------------------------------- summary
+_QUOTED = re.compile(r"'[^']*'|\"[^\"]*\"")
+_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
+
+
+def reason_kind(reason: str) -> str:
+    """A reason with its particulars (quoted names, numbers) blanked, to count alike ones."""
+    return _NUMBER.sub("N", _QUOTED.sub("'…'", reason or "(no reason given)")).strip()
+
+
+@dataclass
+class BatchSummary:
+    """What a run did: counts, what could not be read, the costliest cards, failures.
+
+    Attributes
+    ----------
+    results : Path
+        The results folder.
+    engine : str
+        Where the partitions were fitted, in words.
+    cards, partitions : int
+        Rows and partitions in the results (this run's and any earlier run's).
+    fitted, skipped : int
+        Cards fitted in this run; cards of partitions an earlier run had written.
+    statuses : Counter
+        Rows per status.
+    unreadable : list of (str, str)
+        Files that could not be read at all: name and reason.
+    costliest : list of (str, int, int)
+        The cards with the most model evaluations (card id, evaluations, samples): a fit's
+        time is about proportional to both.
+    failures : list of (str, int, str)
+        Failed and invalid cards grouped by kind of reason: reason, cards, an example card.
+    elapsed : float
+        Seconds of this run, reading and writing included.
+    interrupted : bool
+        The run was stopped before the end; ``discarded`` partitions were dropped.
+    """
+
+    results: Path
+    engine: str = ""
+    cards: int = 0
+    partitions: int = 0
+    fitted: int = 0
+    skipped: int = 0
+    statuses: Counter[str] = field(default_factory=Counter)
+    unreadable: list[tuple[str, str]] = field(default_factory=list)
+    costliest: list[tuple[str, int, int]] = field(default_factory=list)
+    failures: list[tuple[str, int, str]] = field(default_factory=list)
+    elapsed: float = 0.0
+    interrupted: bool = False
+    discarded: int = 0
+    _heap: list[tuple[int, int, str]] = field(default_factory=list, repr=False)
+    _reasons: dict[str, list[Any]] = field(default_factory=dict, repr=False)
+
+    def add(self, table: pa.Table) -> None:
+        """Count one partition's rows."""
+        cols = table.select(["card_id", "status", "reason", "nfev", "n_samples"]).to_pydict()
+        self.partitions += 1
+        self.cards += table.num_rows
+        self.statuses.update(cols["status"])
+        for cid, status, reason, nfev, n in zip(cols["card_id"], cols["status"], cols["reason"],
+                                                cols["nfev"], cols["n_samples"], strict=True):
+            if nfev is not None:
+                entry = (int(nfev), int(n or 0), str(cid))
+                if len(self._heap) < 5:
+                    heapq.heappush(self._heap, entry)
+                else:
+                    heapq.heappushpop(self._heap, entry)
+            if status in ("failed", "invalid-input"):
+                kind = f"{status}: {reason_kind(reason)}"
+                slot = self._reasons.setdefault(kind, [0, str(cid)])
+                slot[0] += 1
+
+    def close(self) -> None:
+        """Fix the lists from the counts."""
+        self.costliest = [(cid, nfev, n) for nfev, n, cid in sorted(self._heap, reverse=True)]
+        self.failures = sorted(((k, v[0], v[1]) for k, v in self._reasons.items()),
+                               key=lambda x: (-x[1], x[0]))
+
+    def rate(self) -> float:
+        """Cards fitted per second in this run, end to end."""
+        return self.fitted / self.elapsed if self.elapsed > 0 else math.nan
+
+    def text(self) -> str:
+        """The summary in words, as printed at the end of ``pumpid batch``."""
+        state = "interrupted" if self.interrupted else "complete"
+        lines = [f"pumpid batch: {state}; results in {self.results}",
+                 f"  engine: {self.engine}",
+                 f"  cards: {self.cards} in {self.partitions} partitions "
+                 f"({self.fitted} fitted in this run in {self.elapsed:.1f} s, "
+                 f"{self.rate():.1f} cards/s end to end; {self.skipped} from an earlier run)"]
+        if self.interrupted:
+            lines.append(f"  partitions dropped at the interrupt: {self.discarded}; "
+                         "continue with: pumpid batch --resume --out RESULTS")
+        lines.append("  cards per status: " + (", ".join(
+            f"{s} {n}" for s, n in sorted(self.statuses.items(), key=lambda x: -x[1]))
+            or "none"))
+        lines.append(f"  unreadable files: {len(self.unreadable)}")
+        for name, why in self.unreadable[:20]:
+            lines.append(f"    {name}: {why}")
+        if len(self.unreadable) > 20:
+            lines.append(f"    ... and {len(self.unreadable) - 20} more (status invalid-input "
+                         "in the results)")
+        if self.failures:
+            lines.append("  failed or invalid cards by reason:")
+            for kind, n, example in self.failures[:10]:
+                lines.append(f"    {n} card{'s' if n != 1 else ''}: {kind} (e.g. {example})")
+            if len(self.failures) > 10:
+                lines.append(f"    ... and {len(self.failures) - 10} more kinds of reason")
+        if self.costliest:
+            lines.append("  costliest cards (model evaluations; a fit's time grows with them "
+                         "and the samples):")
+            for cid, nfev, n in self.costliest:
+                lines.append(f"    {cid}: {nfev} evaluations of {n} samples")
+        return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- the run
+def _partitions(items: Iterator[CardItem | BadItem],
+                size: int) -> Iterator[tuple[int, int, list[CardItem | BadItem]]]:
+    """(index, first item's index, items) of consecutive partitions of ``size`` items."""
+    chunk: list[CardItem | BadItem] = []
+    k = start = 0
+    for item in items:
+        chunk.append(item)
+        if len(chunk) == size:
+            yield k, start, chunk
+            k, start, chunk = k + 1, start + size, []
+    if chunk:
+        yield k, start, chunk
+
+
+def _files_for(inputs: Sequence[str | os.PathLike[str]], out: Path, resume: bool,
+               exclude: Sequence[str | os.PathLike[str]]) -> list[InputFile]:
+    if inputs:
+        files = find_inputs(inputs, exclude=[out, *exclude])
+        if resume and (out / "_manifest.json").exists():
+            # The names of the first run stay (the inputs may be typed differently now).
+            names = {f["path"]: f["name"] for f in ResultsStore.files_of(out)}
+            files = [InputFile(names.get(f.path, f.name), f.path, f.size, f.mtime_ns)
+                     for f in files]
+        return files
+    if not resume:
+        raise ValueError("no inputs given")
+    out_files = []
+    for f in ResultsStore.files_of(out):
+        try:
+            now = InputFile.of(f["name"], Path(f["path"]))
+        except OSError:
+            now = InputFile(f["name"], f["path"], -1, -1)
+        out_files.append(now)
+    return out_files
+
+
+def run_batch(
+    inputs: Sequence[str | os.PathLike[str]],
+    out: str | os.PathLike[str],
+    *,
+    fit: FitSpec | None = None,
+    read: ReadOptions | None = None,
+    engine: str = "local",
+    scheduler: str | None = None,
+    workers: int | None = None,
+    resume: bool = False,
+    partition_size: int | None = None,
+    progress: Progress | None = None,
+    csv: str | os.PathLike[str] | None = None,
+) -> BatchSummary:
+    """Fit every card of ``inputs`` into the results folder ``out`` (see the module doc).
+
+    Parameters
+    ----------
+    inputs : sequence of path
+        Files and folders (searched recursively, see :func:`~pumpid.fleet.inputs.find_inputs`).
+        May be empty with ``resume``: the inputs are then the manifest's.
+    out : path
+        The results folder: new or empty, or (``resume``) a run to continue.
+    fit : FitSpec, optional
+        Model and fit options (default: Kelvin with the automatic start; when resuming,
+        the run's own).
+    read : ReadOptions, optional
+        Reader options (units, SPM, format, columns, ...; default: none, or when resuming
+        the run's own).
+    engine : {"local", "dask"}
+        See :mod:`pumpid.fleet.engines`; ``scheduler`` and ``workers`` go to it.
+    resume : bool
+        Continue the run in ``out`` (refused if its inputs or options differ).
+    partition_size : int, optional
+        Cards per partition (and per results file); default 256, or the run's own when
+        resuming.
+    progress : Progress, optional
+        A display from :func:`~pumpid.fleet.progress.make_progress` (default: none).
+    csv : path, optional
+        Also write the whole table as CSV here, when the run completes.
+
+    Returns
+    -------
+    BatchSummary
+        ``interrupted`` is true when a Ctrl-C stopped the run.
+
+    Raises
+    ------
+    ResultsFolderError
+        If ``out`` holds another run (or anything else), or its inputs/options differ.
+    ValueError
+        For unknown options, a model that cannot observe what is asked, no inputs.
+    FileNotFoundError
+        For an input that does not exist.
+    EngineError
+        If the engine cannot start or loses a task.
+    """
+    folder = Path(os.fspath(out))
+    earlier = ResultsStore.options_of(folder) if resume else None
+    if earlier is not None:
+        fit = fit or FitSpec.from_dict(earlier.get("fit", {}))
+        read = read or ReadOptions.from_dict(earlier.get("read", {}))
+        partition_size = partition_size or earlier.get("partition_size")
+    fit = fit or FitSpec()
+    read = read or ReadOptions()
+    partition_size = PARTITION_SIZE if partition_size is None else partition_size
+    progress = progress or QuietProgress()
+    fit.check()
+    if isinstance(partition_size, bool) or not isinstance(partition_size, int) \
+            or partition_size < 1:
+        raise ValueError(f"partition_size must be a whole number >= 1, got {partition_size!r}")
+    files = _files_for(inputs, folder, resume, [csv] if csv else [])
+    manifest = {"pumpid": __version__, "inputs": [os.fspath(i) for i in inputs],
+                "files": [f.to_dict() for f in files],
+                "options": {"read": read.to_dict(), "fit": fit.to_dict(),
+                            "partition_size": partition_size}}
+    # Refuse a folder before starting an engine, and start the engine before writing.
+    ResultsStore.check(folder, manifest, resume=resume)
+    runner = make_engine(engine, scheduler=scheduler, workers=workers)
+    try:
+        store = (ResultsStore.resume if resume else ResultsStore.create)(folder, manifest)
+    except BaseException:
+        runner.close()
+        raise
+    cls = fit.model_class()
+    schema = results_schema(cls)
+    summary = BatchSummary(results=folder)
+    summary.engine = runner.description
+    started = time.monotonic()
+    progress.start(sum(max(f.size, 0) for f in files), runner.description)
+
+    def on_file(file: InputFile, items: list[CardItem | BadItem]) -> None:
+        progress.file_read(max(file.size, 0), len(items))
+        if len(items) == 1 and isinstance(items[0], BadItem) and items[0].whole_file:
+            summary.unreadable.append((file.name, items[0].reason))
+
+    pending: dict[Any, tuple[int, int]] = {}
+    n_parts = 0
+    try:
+        try:
+            stream = iter_items(files, read, on_file=on_file)
+            for k, first, items in _partitions(stream, partition_size):
+                n_parts = k + 1
+                if _already_written(store, k, items, summary, progress):
+                    continue
+                while len(pending) >= runner.capacity:
+                    _collect(runner, pending, store, schema, summary, progress, 0.5)
+                handle = runner.submit(fit_partition, items, fit, runner.threads, k, first)
+                pending[handle] = (k, len(items))
+                del items
+            progress.all_read()
+            while pending:
+                _collect(runner, pending, store, schema, summary, progress, 0.5)
+        except KeyboardInterrupt:
+            summary.interrupted = True
+            _wind_down(runner, pending, store, schema, summary, progress)
+    finally:
+        runner.close()
+        summary.elapsed = time.monotonic() - started
+        summary.close()
+        progress.close()
+    if summary.interrupted:
+        store.write_summary(summary.text())
+        return summary
+    store.finish(partitions=n_parts, rows=summary.cards, summary=summary.text())
+    if csv:
+        write_csv(store, n_parts, Path(os.fspath(csv)))
+    return summary
+
+
+def _already_written(store: ResultsStore, k: int, items: list[CardItem | BadItem],
+                     summary: BatchSummary, progress: Progress) -> bool:
+    """Whether partition ``k`` was written by an earlier run (checked to hold these cards)."""
+    info = store.part_info(k)
+    if info is None:
+        return False
+    want = (len(items), items[0].card_id, items[-1].card_id)
+    if (info.rows, info.first, info.last) != want:
+        raise ResultsFolderError(
+            f"{store.part_path(k)} holds {info.rows} rows from {info.first!r} to {info.last!r}, "
+            f"but the inputs give partition {k} as {want[0]} cards from {want[1]!r} to "
+            f"{want[2]!r}; the folder is not from these inputs")
+    summary.add(store.read_part(k, ["card_id", "status", "reason", "nfev", "n_samples"]))
+    summary.skipped += info.rows
+    progress.advance(info.rows, skipped=True)
+    return True
+
+
+def _collect(runner: Engine, pending: dict[Any, tuple[int, int]], store: ResultsStore,
+             schema: pa.Schema, summary: BatchSummary, progress: Progress,
+             timeout: float) -> None:
+    """Write the partitions that have come back (waiting up to ``timeout`` s for one)."""
+    for handle in runner.wait(list(pending), timeout):
+        k, n = pending.pop(handle)
+        rows = runner.result(handle)
+        table = store.write_part(k, rows, schema)
+        summary.add(table)
+        summary.fitted += n
+        progress.advance(n)
+    progress.tick()
+
+
+def _wind_down(runner: Engine, pending: dict[Any, tuple[int, int]], store: ResultsStore,
+               schema: pa.Schema, summary: BatchSummary, progress: Progress) -> None:
+    """After a Ctrl-C: drop what has not started, finish and write what is being fitted;
+    a second Ctrl-C drops those too."""
+    waiting = [h for h in pending if not _running(h)]
+    runner.cancel(waiting)
+    for h in waiting:
+        pending.pop(h, None)
+        summary.discarded += 1
+    if pending:
+        progress.note(f"stopping: finishing the {len(pending)} partition(s) being fitted "
+                      "(Ctrl-C again to drop them)")
+    try:
+        while pending:
+            try:
+                _collect(runner, pending, store, schema, summary, progress, 0.5)
+            except EngineError:
+                break  # workers stopped by the same Ctrl-C: what they had is dropped
+    except KeyboardInterrupt:
+        pass
+    runner.cancel(list(pending))
+    summary.discarded += len(pending)
+    pending.clear()
+
+
+def _running(handle: Any) -> bool:
+    status = getattr(handle, "status", None)  # dask
+    if isinstance(status, str):
+        return status not in ("pending",)
+    running = getattr(handle, "running", None)  # concurrent.futures
+    return bool(running()) if callable(running) else True
+
+
+def write_csv(store: ResultsStore, partitions: int, path: Path) -> Path:
+    """Write the results as one CSV file, part by part (flat memory), atomically."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        with open(tmp, "w", encoding="utf-8", newline="") as fh:
+            for k in range(partitions):
+                frame = to_frame(store.read_part(k))
+                frame.to_csv(fh, index=False, header=(k == 0),
+                             date_format="%Y-%m-%dT%H:%M:%SZ")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path

@@ -1,0 +1,184 @@
+"""pumpid batch and pumpid report on the command line: summary, CSV, refusals, and runs
+stopped by a real SIGKILL or SIGINT, then resumed, equal to an uninterrupted run."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import pumpid
+from pumpid.cli import main
+from pumpid.pump.synthetic import StepChange
+from tests.fleet.fields import make_field
+
+PARTS = ["--partition-size", "20"]
+FIT = ["--model", "msd"]
+
+
+@pytest.fixture(scope="module")
+def field(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, pd.DataFrame]:
+    """2,000 cards of 25 wells in four layouts, 5 % broken (see tests/fleet/fields.py)."""
+    folder = tmp_path_factory.mktemp("field")
+    return folder, make_field(folder)
+
+
+@pytest.fixture(scope="module")
+def reference(field, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """The uninterrupted run, in this process (MSD: the machinery does not depend on the
+    model, and it keeps 2,000 cards to seconds)."""
+    out = tmp_path_factory.mktemp("cli") / "reference"
+    argv = ["batch", str(field[0]), "--out", str(out), *FIT, *PARTS, "--csv", "--quiet"]
+    return out, argv
+
+
+def _run(capsys, argv: list[str]) -> tuple[int, str, str]:
+    code = main(argv)
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def _batch_process(args: list[str]) -> subprocess.Popen[str]:
+    env = dict(os.environ)
+    src = str(Path(pumpid.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = src + os.pathsep + env.get("PYTHONPATH", "")
+    code = "import sys; from pumpid.cli import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.Popen([sys.executable, "-c", code, "batch", *args], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _stop_part_way(out: Path, proc: subprocess.Popen[str], sig: int) -> tuple[str, str]:
+    """Send ``sig`` once a few partitions are written; the run must not be over by then."""
+    deadline = time.monotonic() + 120
+    while len(list(out.glob("part-*.parquet"))) < 3:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "no partition written in 2 minutes"
+        time.sleep(0.01)
+    proc.send_signal(sig)
+    return proc.communicate(timeout=120)
+
+
+def test_summary_csv_and_report(field, reference, capsys, tmp_path: Path) -> None:
+    _, truth = field
+    out, argv = reference
+    code, text, err = _run(capsys, argv)
+    assert code == 0 and err == ""  # --quiet: no progress lines
+    assert f"pumpid batch: complete; results in {out}" in text
+    assert "cards: 2000 in 100 partitions" in text and "cards/s end to end" in text
+    assert "invalid-input 100" in text
+    garbage = truth.loc[truth["broken"] == "unreadable", "path"].iloc[0]
+    assert "unreadable files:" in text and garbage in text
+    assert "failed or invalid cards by reason:" in text and "constant load" in text
+    table = pumpid.read_results(out)
+    csv = pd.read_csv(out.with_name("reference.csv"))
+    assert len(csv) == len(table) == 2000
+    assert csv["card_id"].tolist() == table["card_id"].tolist()
+    assert csv["n_samples"].dropna().eq(60).all()
+    # the fleet report over the real results table
+    code, text, _ = _run(capsys, ["report", str(out), "--out", str(tmp_path / "fleet")])
+    assert code == 0 and "2000 cards of" in text
+    assert (tmp_path / "fleet" / "report.html").is_file()
+    wells = pd.read_csv(tmp_path / "fleet" / "wells.csv")
+    assert set(truth["well_id"]) <= set(wells["well_id"])
+    assert wells["cards"].sum() == 2000
+
+
+def test_progress_lines_when_not_a_terminal(field, tmp_path: Path) -> None:
+    small = tmp_path / "small"
+    make_field(small, n_wells=2, days=3, broken_fraction=0.0)
+    proc = _batch_process([str(small), "--out", str(tmp_path / "out"), *FIT,
+                           "--partition-size", "4", "--progress-interval", "0"])
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    lines = err.strip().splitlines()
+    assert lines[0].startswith("pumpid batch: fitting on local")
+    assert len(lines) >= 3  # the start, at least one line on the way, the end
+    assert "24 of 24 cards (100 %)" in lines[-1] and "cards/s" in lines[-1]
+    assert "\r" not in err  # no bar drawn into a log
+
+
+@pytest.mark.slow
+def test_sigkill_then_resume_equals_uninterrupted(field, reference, capsys,
+                                                  tmp_path: Path) -> None:
+    out = tmp_path / "killed"
+    proc = _batch_process([str(field[0]), "--out", str(out), *FIT, *PARTS, "--quiet"])
+    _stop_part_way(out, proc, signal.SIGKILL)
+    assert proc.returncode == -signal.SIGKILL
+    manifest = json.loads((out / "_manifest.json").read_text())
+    written = len(list(out.glob("part-*.parquet")))
+    assert not manifest["complete"] and 3 <= written < 100
+    code, text, _ = _run(capsys, ["batch", str(field[0]), "--out", str(out), "--resume",
+                                  "--quiet"])
+    assert code == 0
+    assert f"{20 * written} from an earlier run" in text
+    if not (reference[0] / "_manifest.json").exists():
+        assert main(reference[1]) == 0
+    pd.testing.assert_frame_equal(pumpid.read_results(out), pumpid.read_results(reference[0]))
+    assert len(list(out.glob("part-*.parquet"))) == 100 and not list(out.glob(".*"))
+
+
+@pytest.mark.slow
+def test_sigint_finishes_in_flight_then_resume_equals_uninterrupted(field, reference, capsys,
+                                                                    tmp_path: Path) -> None:
+    out = tmp_path / "interrupted"
+    proc = _batch_process([str(field[0]), "--out", str(out), *FIT, *PARTS])
+    stdout, stderr = _stop_part_way(out, proc, signal.SIGINT)
+    assert proc.returncode == 130, stderr
+    assert "pumpid batch: interrupted" in stdout and "--resume" in stdout
+    assert "Traceback" not in stderr
+    with pytest.warns(UserWarning, match="not complete"):
+        partial = pumpid.read_results(out)
+    assert partial["card_id"].is_unique and len(partial) % 20 == 0
+    assert not list(out.glob(".*"))  # nothing half-written left behind
+    # resumed without inputs or options: the run's own are used
+    code, text, _ = _run(capsys, ["batch", "--resume", "--out", str(out), "--quiet"])
+    assert code == 0 and f"{len(partial)} from an earlier run" in text
+    if not (reference[0] / "_manifest.json").exists():
+        assert main(reference[1]) == 0
+    pd.testing.assert_frame_equal(pumpid.read_results(out), pumpid.read_results(reference[0]))
+
+
+def test_other_inputs_or_options_are_refused(field, reference, capsys, tmp_path: Path) -> None:
+    out, argv = reference
+    if not (out / "_manifest.json").exists():
+        assert main(argv) == 0
+        capsys.readouterr()
+    code, _, err = _run(capsys, ["batch", "--resume", "--out", str(out), "--model", "kelvin"])
+    assert code == 2 and "not mixed" in err and '"model": "msd"' in err
+    code, _, err = _run(capsys, ["batch", str(field[0]), "--out", str(out), *FIT, *PARTS])
+    assert code == 2 and "holds a complete batch run" in err and "--resume" in err
+    code, _, err = _run(capsys, ["batch", str(field[0] / "csv"), "--out", str(out), "--resume"])
+    assert code == 2 and "no longer given" in err
+    code, _, err = _run(capsys, ["batch", "--out", str(tmp_path / "new")])
+    assert code == 2 and "give at least one INPUT" in err
+    code, _, err = _run(capsys, ["batch", str(field[0]), "--out", str(tmp_path / "x"),
+                                 "--scheduler", "tcp://127.0.0.1:1"])
+    assert code == 2 and "needs --engine dask" in err
+    code, _, err = _run(capsys, ["batch", str(field[0]), "--out", str(tmp_path / "y"),
+                                 "--observe", "u9"])
+    assert code == 2 and "cannot observe 'u9'" in err
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
+def test_report_names_the_well_that_changed(tmp_path: Path, capsys) -> None:
+    field = tmp_path / "field"
+    make_field(field, n_wells=6, days=12, cards_per_day=4, broken_fraction=0.02, seed=21,
+               change=StepChange(well=3, parameter="k", factor=1.35, at=26))
+    assert main(["batch", str(field), "--out", str(tmp_path / "r"), *FIT, "--quiet"]) == 0
+    capsys.readouterr()
+    code, text, _ = _run(capsys, ["report", str(tmp_path / "r"), "--out",
+                                  str(tmp_path / "fleet")])
+    assert code == 0
+    alerts = pd.read_csv(tmp_path / "fleet" / "alerts.csv")
+    assert set(alerts["well_id"]) == {"W003"}
+    assert "static_stiffness" in set(alerts["quantity"])
+    assert "well W003: static_stiffness" in text and "lbf/in" in text
+    page = (tmp_path / "fleet" / "report.html").read_text()
+    assert "Well W003 (with an alert: " in page

@@ -1,0 +1,309 @@
+"""run_batch: every input card once in the results, with its status; engines agree; resume
+and refusals; ids, times and columns."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import pumpid
+from pumpid.fleet import FitSpec, ReadOptions, detect_changes, read_results, run_batch
+from pumpid.fleet.batch import reason_kind
+from pumpid.fleet.progress import make_progress
+from pumpid.fleet.store import BATCH_COLUMNS, MANIFEST, ResultsFolderError, results_schema
+from pumpid.pump.synthetic import StepChange, synthetic_card, synthetic_field
+
+from .conftest import PARTS
+from .fields import make_field
+
+BROKEN_REASON = {
+    "nan": r"NaN value",
+    "truncated": r"values but|expected \d+ fields|only 5 samples",
+    "constant-load": r"constant load",
+    "unreadable": r"binary content|cannot read",
+}
+
+
+def test_every_card_once_with_its_status(field, local_run) -> None:
+    folder, truth = field
+    out, summary, table = local_run
+    assert len(truth) == 2000 and truth["well_id"].nunique() == 25
+    assert truth["broken"].notna().sum() == 100  # 5 %, each kind present
+    assert set(truth["broken"].dropna()) == set(BROKEN_REASON)
+    # one row per input card, ids unique, rows in input order
+    assert len(table) == 2000
+    assert table["card_id"].is_unique
+    assert table["item"].tolist() == list(range(2000))
+    assert not table["file"].str.endswith(("README.md", ".partial.csv")).any()
+
+    good = truth[truth["broken"].isna()].merge(table, on="card_id", how="left",
+                                               suffixes=("_truth", ""))
+    assert good["status"].notna().all(), "a readable card has no row"
+    assert set(good["status"]) <= {"converged", "boundary", "failed"}
+    assert (good["status"].isin(["converged", "boundary"])).mean() > 0.98
+    assert (good["well_id"] == good["well_id_truth"]).all()
+    assert (good["time"] == good["time_truth"]).all()  # every layout states the card time
+    assert (good["file"] == good["path"]).all()
+    assert (good["n_samples"] == 60).all() and set(good["position_unit"]) == {"in"}
+    assert set(good["model"]) == {"MassSpringDamper"}
+    assert good["r2"].min() > 0.99
+    for col in ("p_k", "p_k_se", "d_natural_frequency", "d_natural_frequency_se"):
+        assert good[col].notna().all()
+    assert good["source"].str.match(r".+, (lines? \d|cards\[\d+\]|card W)").all()
+
+    broken = truth[truth["broken"].notna()]
+    rows = table.set_index("file")
+    for _, card in broken.iterrows():
+        row = rows.loc[card["path"]]
+        assert isinstance(row, pd.Series), f"{card['path']}: one row"
+        assert row["status"] == "invalid-input"
+        assert re.search(BROKEN_REASON[card["broken"]], row["reason"]), row["reason"]
+        if card["format"] == "parquet" and card["broken"] != "unreadable":
+            # a bad card in the long layout keeps its ids
+            assert (row["card_id"], row["well_id"]) == (card["card_id"], card["well_id"])
+    # the multi-well export's cards all came from one file
+    export = table[table["file"] == str(folder / "scada" / "export.txt")]
+    assert export["well_id"].nunique() >= 6 and (export["status"] != "invalid-input").all()
+
+    assert sum(summary.statuses.values()) == 2000
+    assert summary.statuses["invalid-input"] == 100
+    assert (summary.cards, summary.partitions, summary.fitted) == (2000, 2000 // PARTS, 2000)
+    unreadable = dict(summary.unreadable)
+    garbage = truth.loc[truth["broken"] == "unreadable", "path"].iloc[0]
+    assert garbage in unreadable
+    text = summary.text()
+    assert "cards per status:" in text and garbage in text and "costliest cards" in text
+    manifest = json.loads((out / MANIFEST).read_text())
+    assert manifest["complete"] and manifest["rows"] == 2000
+    assert len(manifest["files"]) == len({*truth["path"]})
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == []
+    # plain pandas reads the folder too
+    assert len(pd.read_parquet(out)) == 2000
+
+
+@pytest.mark.slow
+def test_dask_engine_gives_the_same_table(field, local_run, tmp_path: Path) -> None:
+    # The same 2,000 cards and partitions on a two-process LocalCluster: dask's start-up
+    # and the workers' imports cost a few seconds, the fits the same as locally.
+    folder, _ = field
+    out = tmp_path / "dask"
+    summary = run_batch([str(folder)], out, fit=FitSpec("msd"), partition_size=PARTS,
+                        engine="dask", workers=2)
+    assert "LocalCluster (2 worker processes)" in summary.engine
+    pd.testing.assert_frame_equal(read_results(out), local_run[2])
+
+
+def test_resume_skips_what_is_written_and_refuses_other_runs(field, local_run,
+                                                             tmp_path: Path) -> None:
+    folder, _ = field
+    out = tmp_path / "partial"
+    shutil.copytree(local_run[0], out)
+    # As if stopped: the manifest not complete, some parts missing, one half-written.
+    manifest = json.loads((out / MANIFEST).read_text())
+    manifest["complete"] = False
+    (out / MANIFEST).write_text(json.dumps(manifest))
+    for k in (3, 40, 99):
+        (out / f"part-{k:06d}.parquet").unlink()
+    (out / ".part-000040.parquet.tmp-1").write_bytes(b"PAR1 half")
+    with pytest.warns(UserWarning, match="not complete"):
+        assert len(read_results(out)) == 2000 - 3 * PARTS
+    with pytest.raises(ResultsFolderError, match="holds an unfinished batch run"):
+        run_batch([str(folder)], out, fit=FitSpec("msd"), partition_size=PARTS)
+    with pytest.raises(ResultsFolderError, match="option fit"):
+        run_batch([str(folder)], out, fit=FitSpec("kelvin"), resume=True)
+    summary = run_batch([], out, resume=True)  # inputs and options: the run's own
+    assert (summary.fitted, summary.skipped) == (3 * PARTS, 2000 - 3 * PARTS)
+    pd.testing.assert_frame_equal(read_results(out), local_run[2])
+    assert not list(out.glob(".part-*"))
+    # A complete run resumed again has nothing to do.
+    again = run_batch([str(folder)], out, resume=True)
+    assert again.fitted == 0 and again.cards == 2000
+
+
+def test_changed_inputs_are_refused(tmp_path: Path) -> None:
+    field = tmp_path / "field"
+    synthetic_field(field, n_wells=2, days=2, formats=("csv",), seed=1, n_samples=40,
+                    hold="none")
+    out = tmp_path / "out"
+    run_batch([field], out, fit=FitSpec("msd"))
+    with pytest.raises(ResultsFolderError, match="holds a complete batch run"):
+        run_batch([field], out, fit=FitSpec("msd"))
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "elsewhere" / "x.txt").write_text("x")
+    with pytest.raises(ResultsFolderError, match="not an empty folder"):
+        run_batch([field], tmp_path / "elsewhere", fit=FitSpec("msd"))
+    victim = next((field / "csv").glob("*.csv"))
+    os.utime(victim, ns=(victim.stat().st_atime_ns, victim.stat().st_mtime_ns + 10**9))
+    with pytest.raises(ResultsFolderError, match=r"1 input file.* changed"):
+        run_batch([field], out, resume=True)
+    shutil.copy(victim, field / "csv" / "more.csv")
+    with pytest.raises(ResultsFolderError, match=r"not in the run: .*more\.csv"):
+        run_batch([field], out, resume=True)
+    with pytest.raises(FileNotFoundError):
+        run_batch([tmp_path / "nothing"], tmp_path / "out2")
+    with pytest.raises(ValueError, match="unknown fit option"):
+        run_batch([field], tmp_path / "out3", fit=FitSpec("msd", options={"obsreve": "u"}))
+    with pytest.raises(ValueError, match="x0: give exactly"):
+        run_batch([field], tmp_path / "out3", fit=FitSpec("msd", x0={"m": 1.0}))
+    assert not (tmp_path / "out3").exists()
+
+
+def test_ids_unique_and_the_same_on_every_run(tmp_path: Path) -> None:
+    field = tmp_path / "field"
+    truth = synthetic_field(field, n_wells=1, days=3, formats=("csv",), seed=2, n_samples=40,
+                            hold="none")
+    shutil.copy(field / "csv" / "W000.csv", field / "csv" / "W000_copy.csv")
+    # a long-layout file with one bad card among good ones: the others are read
+    card = synthetic_card(pumpid.MassSpringDamper(m=8.8, c=25, k=80), n_samples=30,
+                          noise=0.003, seed=2)
+    frame = pd.DataFrame({"well_id": "P1", "card_id": np.repeat(["a", "b", "c"], 30),
+                          "sample": np.tile(np.arange(30), 3),
+                          "position": np.tile(card.position, 3), "load": np.tile(card.load, 3),
+                          "spm": 8.0})
+    frame.loc[frame["card_id"] == "b", "load"] = 5.0
+    frame.to_parquet(field / "cards.pq")
+    ids = []
+    for k in range(2):
+        out = tmp_path / f"run{k}"
+        run_batch([field], out, fit=FitSpec("msd"))
+        table = read_results(out)
+        assert table["card_id"].is_unique and len(table) == 2 * len(truth) + 3
+        ids.append(table["card_id"].tolist())
+    assert ids[0] == ids[1]
+    copies = table[table["file"].str.endswith("W000_copy.csv")]
+    assert all(cid.endswith(")") and "W000_copy.csv, lines" in cid for cid in copies["card_id"])
+    long = table[table["file"].str.endswith("cards.pq")].set_index("card_id")
+    assert long.loc["b", "status"] == "invalid-input" and long.loc["b", "well_id"] == "P1"
+    assert "constant load" in long.loc["b", "reason"]
+    assert set(long.loc[["a", "c"], "status"]) <= {"converged", "boundary"}
+    assert long["time"].isna().all()  # the layout's time column is optional
+
+
+def test_whitespace_cards_need_their_rate_and_columns(tmp_path: Path) -> None:
+    # The whitespace layout has no ids, rate or time: the rate and the columns are given.
+    field = tmp_path / "field"
+    truth = synthetic_field(field, n_wells=1, days=4, formats=("whitespace",), seed=3,
+                            n_samples=50, hold="none")
+    spm = float(truth["spm"].iloc[0])
+    out = tmp_path / "given"
+    run_batch([field], out, fit=FitSpec("msd"),
+              read=ReadOptions(spm=spm, columns={"position": 0, "load": 1}))
+    table = read_results(out)
+    assert set(table["status"]) <= {"converged", "boundary"} and len(table) == 4
+    assert table["card_id"].tolist() == truth["card_id"].tolist()  # the file names
+    bare = tmp_path / "bare"
+    run_batch([field], bare, fit=FitSpec("msd"), read=ReadOptions(spm=spm))
+    assert set(read_results(bare)["status"]) == {"invalid-input"}
+    assert read_results(bare)["reason"].str.contains("columns=").all()
+
+
+def test_schema_is_to_row_and_kelvin_rows(tmp_path: Path) -> None:
+    for name, model in (("kelvin", pumpid.Kelvin(k0=200, m=8.8, c1=40, k1=130)),
+                        ("msd", pumpid.MassSpringDamper(m=8.8, c=25, k=80))):
+        card = synthetic_card(model, observe="u", well_id="W", card_id="c", n_samples=60,
+                              noise=0.003, seed=1)
+        row = pumpid.pump.fit_card(card, name, observe="u").to_row()
+        cols = [c for c in results_schema(type(model)).names if c not in BATCH_COLUMNS]
+        assert cols == list(row), f"{name}: the results layout is FitResult.to_row's"
+    field = tmp_path / "field"
+    synthetic_field(field, n_wells=3, days=3, formats=("json", "parquet", "scada"), seed=4,
+                    observe="u", n_samples=60, hold="none", broken_fraction=0.1)
+    out = tmp_path / "kelvin"
+    run_batch([field], out, fit=FitSpec("kelvin", options={"observe": "u"}))
+    table = read_results(out)
+    assert str(table["time"].dtype) == "datetime64[ns, UTC]"
+    assert str(table["nfev"].dtype) == "Int64"
+    fitted = table[table["status"] != "invalid-input"]
+    assert set(fitted["observe"]) == {"u"} and set(fitted["model"]) == {"Kelvin"}
+    for q in ("natural_frequency", "damping_ratio", "time_constant", "static_stiffness"):
+        assert fitted[f"d_{q}"].notna().all() and fitted[f"d_{q}_unit"].notna().all()
+    assert set(fitted["d_static_stiffness_unit"]) == {"lbf/in"}
+    bad = table[table["status"] == "invalid-input"]
+    assert len(bad) == 1 and bad["p_k0"].isna().all() and bad["reason"].iloc[0]
+
+
+def test_a_card_the_engine_cannot_fit_does_not_cost_the_others(tmp_path: Path,
+                                                               monkeypatch) -> None:
+    field = tmp_path / "field"
+    synthetic_field(field, n_wells=1, days=4, formats=("json",), seed=5, n_samples=40,
+                    hold="none")
+    import pumpid.pump
+
+    real = pumpid.pump.fit_cards
+
+    def flaky(cards, *args, **kwargs):
+        if any(c.card_id.endswith("20240102T0000Z") for c in cards):
+            raise FloatingPointError("a kernel fault")
+        return real(cards, *args, **kwargs)
+
+    monkeypatch.setattr(pumpid.pump, "fit_cards", flaky)
+    out = tmp_path / "out"
+    run_batch([field], out, fit=FitSpec("msd"))
+    table = read_results(out).set_index("card_id")
+    assert table.loc["W000_20240102T0000Z", "status"] == "failed"
+    assert "FloatingPointError: a kernel fault" in table.loc["W000_20240102T0000Z", "reason"]
+    assert (table.drop(index="W000_20240102T0000Z")["status"] == "converged").all()
+
+
+def test_steps_found_and_steady_wells_left_alone(tmp_path: Path) -> None:
+    # Twelve wells of 64 cards fitted by the batch; three get a step of 20-40 % in one
+    # parameter at a known card. The derived quantities of the results table show them.
+    steps = [StepChange(well=1, parameter="k", factor=1.3, at=32),
+             StepChange(well=5, parameter="c", factor=1.4, at=40),
+             StepChange(well=9, parameter="m", factor=0.8, at=35)]
+    field = tmp_path / "field"
+    make_field(field, n_wells=12, days=16, cards_per_day=4, broken_fraction=0.02, seed=8,
+               change=steps)
+    out = tmp_path / "out"
+    run_batch([field], out, fit=FitSpec("msd"))
+    alerts = detect_changes(read_results(out))
+    assert sorted(set(alerts["well_id"])) == ["W001", "W005", "W009"]  # no steady well
+    expected = {"W001": ("static_stiffness", 1.3, 32), "W005": ("damping_ratio", 1.4, 40),
+                "W009": ("natural_frequency", 0.8**-0.5, 35)}
+    for well, (quantity, factor, at) in expected.items():
+        mine = alerts[(alerts["well_id"] == well) & (alerts["quantity"] == quantity)]
+        assert len(mine) == 1, f"{well}: {quantity} flagged once"
+        card = mine.iloc[0]
+        when = pd.Timestamp("2024-01-01", tz="UTC") + pd.Timedelta(hours=6) * at
+        assert abs((card["first_time"] - when) / pd.Timedelta(hours=6)) <= 3
+        assert card["delay_cards"] <= 6
+        assert card["change_rel"] == pytest.approx(factor - 1, abs=0.06)
+
+
+def test_progress_displays() -> None:
+    lines = io.StringIO()
+    progress = make_progress("lines", stream=lines, interval=0.0)
+    progress.start(1000, "local (2 threads)")
+    progress.file_read(500, 40)
+    progress.advance(20)
+    progress.tick()
+    progress.all_read()
+    progress.advance(20, skipped=True)
+    progress.close()
+    text = lines.getvalue()
+    assert "fitting on local (2 threads)" in text
+    assert "20 of about 80 cards (25 %)" in text and "cards/s" in text and "time left" in text
+    assert text.rstrip().splitlines()[-1].startswith("pumpid batch: 40 of 40 cards (100 %)")
+    bar = io.StringIO()
+    progress = make_progress("bar", stream=bar)
+    progress.start(100, "local")
+    progress.file_read(100, 10)
+    progress.all_read()
+    progress.advance(10)
+    progress.close()
+    assert "10/10" in bar.getvalue() and "card/s" in bar.getvalue()
+    assert make_progress("auto", stream=io.StringIO()).__class__.__name__ == "LinesProgress"
+
+
+def test_reasons_are_grouped_by_kind() -> None:
+    a = reason_kind("card 'W1_2024': NaN value in load_lbf (sample 33)")
+    b = reason_kind("card 'W7_2023': NaN value in load_lbf (sample 4)")
+    assert a == b == "card '…': NaN value in load_lbf (sample N)"

@@ -1,0 +1,35 @@
+"""The demo field of make demo shows what the README says: one well that changed."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from pumpid.fleet import FitSpec, read_results, run_batch, write_fleet_report
+from pumpid.fleet.demo import DEMO_FIELD, main
+
+
+@pytest.mark.slow
+def test_demo_field_batch_and_report(tmp_path: Path, capsys) -> None:
+    assert main([str(tmp_path / "field")]) == 0
+    assert "432 cards of 6 wells" in capsys.readouterr().out
+    truth = pd.read_csv(tmp_path / "truth.csv")
+    assert len(truth) == 432 and truth["changed"].sum() == 72 - DEMO_FIELD["change"].at
+    run_batch([tmp_path / "field"], tmp_path / "results",
+              fit=FitSpec("kelvin", options={"observe": "u"}))
+    table = read_results(tmp_path / "results")
+    assert len(table) == 432 and set(table["well_id"].dropna()) == set(truth["well_id"])
+    paths = write_fleet_report(table, tmp_path / "fleet")
+    alerts = pd.read_csv(paths["alerts"])
+    assert set(alerts["well_id"]) == {"W003"}
+    stiffness = alerts[alerts["quantity"] == "static_stiffness"].iloc[0]
+    assert 0.1 < stiffness["change_rel"] < 0.3  # k1 + 30 % moves the stiffness seen at u
+    first = truth.set_index("card_id").loc[stiffness["first_card_id"], "card_index"]
+    assert abs(first - DEMO_FIELD["change"].at) <= 3
+
+
+def test_demo_usage(capsys) -> None:
+    assert main([]) == 2
+    assert "usage" in capsys.readouterr().err
