@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 
+import pumpid
 from pumpid import (
     FirstOrder,
     FitBatch,
@@ -301,3 +302,43 @@ def test_bad_options_of_a_batch_raise() -> None:
         fit_many(Kelvin, T_CARD, loads, disp, observe="F0")
     with pytest.raises(TypeError, match="model"):
         fit_many("kelvin", T_CARD, loads, disp)  # type: ignore[arg-type]
+
+
+# --------------------------------------------------------------------------- quality gate
+def _unrelated_record() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A load record and a 'displacement' that has nothing to do with it (white noise)."""
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 7.5, 300)
+    load = 5000.0 + 2000.0 * np.sin(2 * np.pi * t / 7.5)
+    return t, load, 10.0 + rng.standard_normal(t.size)
+
+
+def test_a_fit_below_the_quality_threshold_is_poor_fit_with_a_warning() -> None:
+    t, load, d = _unrelated_record()
+    res = pumpid.fit(pumpid.Kelvin, t, load, d, offset=True)
+    assert res.status is pumpid.Status.POOR_FIT
+    assert res.r2 < pumpid.job.MIN_R2
+    assert any(w.startswith("poor fit: R^2 = ") and "0.95" in w for w in res.warnings)
+    assert "poor fit" in res.reason and "solver's own verdict" in res.reason
+    assert "poor-fit" in res.report() and res.to_dict()["status"] == "poor-fit"
+    # The numbers are kept: the gate judges the answer, it does not discard it.
+    assert all(np.isfinite(v) for v in res.params.values())
+
+
+def test_the_quality_threshold_is_configurable_and_changes_nothing_else() -> None:
+    t, load, d = _unrelated_record()
+    gated = pumpid.fit(pumpid.Kelvin, t, load, d, offset=True)
+    open_gate = pumpid.fit(pumpid.Kelvin, t, load, d, offset=True, min_r2=-np.inf)
+    assert open_gate.status in (pumpid.Status.CONVERGED, pumpid.Status.BOUNDARY)
+    assert open_gate.params == gated.params and open_gate.cost == gated.cost
+    with pytest.raises(ValueError, match="min_r2"):
+        pumpid.fit(pumpid.Kelvin, t, load, d, min_r2=1.5)
+
+
+def test_a_good_fit_passes_the_quality_gate() -> None:
+    t = np.linspace(0.0, 7.5, 300)
+    load = 5000.0 + 2000.0 * np.sin(2 * np.pi * t / 7.5)
+    truth = pumpid.Kelvin(k0=5200.0, m=20.0, c1=900.0, k1=5200.0)
+    d = pumpid.simulate(truth, t, load, observe="u")
+    res = pumpid.fit(pumpid.Kelvin, t, load, d, observe="u")
+    assert res.status is not pumpid.Status.POOR_FIT and res.r2 > 0.999

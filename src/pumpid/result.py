@@ -61,6 +61,9 @@ class Status(enum.StrEnum):
     CONVERGED = ("converged", "the solver met a convergence test at an interior optimum")
     BOUNDARY = ("boundary", "a parameter ran to 0 or infinity: the data want a limiting "
                 "model, whose parameters are reported beside the full model's")
+    POOR_FIT = ("poor-fit", "the solver found its optimum, but the model explains less of "
+                "the data than the quality threshold asks (R^2 below min_r2): the numbers "
+                "describe a model that does not reproduce this record")
     FAILED = ("failed", "no converged solution: the solver stopped without meeting a "
               "convergence test, or the model could not be simulated")
     INVALID_INPUT = ("invalid-input", "the card could not be read or validated")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pumpid.cli import main
@@ -137,3 +138,20 @@ def test_warnings_are_shortened_to_their_first_sentence() -> None:
             "narrow here.")
     assert first_sentence(text).endswith("99.5 %).")
     assert first_sentence("short one") == "short one"
+
+
+def test_a_poor_fit_is_said_and_has_its_own_exit_status(tmp_path: Path, capsys) -> None:
+    """Position and load that do not belong together: status poor-fit, a warning, exit 5."""
+    path = write_cards(tmp_path / "one.csv", ["W-1"])
+    lines = path.read_text(encoding="utf-8").splitlines()
+    rows = [ln.split(",") for ln in lines[1:]]
+    loads = [r[3] for r in rows]
+    np.random.default_rng(0).shuffle(loads)
+    path.write_text("\n".join([lines[0], *(",".join([*r[:3], f]) for r, f in
+                                          zip(rows, loads, strict=True))]) + "\n",
+                    encoding="utf-8")
+    assert main(["fit", str(path), *U]) == 5
+    out = capsys.readouterr().out
+    assert "poor-fit" in out and "poor fit: R^2 = " in out
+    assert main(["fit", str(path), *U, "--min-r2=-1"]) == 0
+    capsys.readouterr()

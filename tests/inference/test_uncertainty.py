@@ -336,8 +336,10 @@ def test_practical_identifiability_is_judged_on_robust_errors_when_residuals_fol
     rng = np.random.default_rng(0)
     clean = simulate(KELVIN, T, LOAD, observe="u2")
     noise = _ar1(rng, 0.9, T.size)
+    # Noise this large leaves R^2 below the default quality gate, which is not what this
+    # test is about: the gate is opened.
     res = fit(KELVIN, T, LOAD, clean + 0.2 * np.ptp(clean) * noise / noise.std(),
-              observe="u2")
+              observe="u2", min_r2=-np.inf)
     assert res.converged and not res.extra["uncertainty"]["whiteness"]["white"]
     names = list(res.free)
     values = np.array([res.params[n] for n in names])

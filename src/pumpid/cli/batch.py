@@ -84,7 +84,7 @@ def _specs(args: argparse.Namespace) -> tuple[Any, Any]:
             x0.update(_numbers(item, "--x0"))
         fit["x0"] = x0
     options = dict(fit["options"])
-    for key in ("observe", "integrator", "residual", "max_nfev"):
+    for key in ("observe", "integrator", "residual", "max_nfev", "min_r2"):
         if getattr(args, key) is not None:
             options[key] = getattr(args, key)
     if args.scale is not None:
@@ -200,5 +200,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     ft.add_argument("--x0", action="append", metavar="NAME=VALUE[,...]",
                     help="a starting guess shared by every card (default: automatic start)")
     ft.add_argument("--max-nfev", type=int, help="model evaluations allowed per card")
+    ft.add_argument("--min-r2", type=float, metavar="R2",
+                    help="quality gate: a fit with R^2 below this is poor-fit (default 0.95)")
     p.set_defaults(func=cmd_batch)
     return p

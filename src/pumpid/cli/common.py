@@ -33,6 +33,7 @@ __all__ = [
     "EXIT_OK",
     "EXIT_OUTPUT",
     "EXIT_PIPE",
+    "EXIT_POOR_FIT",
     "EXIT_USAGE",
     "CliError",
     "WarningCounter",
@@ -49,6 +50,7 @@ EXIT_INTERNAL = 1
 EXIT_USAGE = 2
 EXIT_NOT_FITTED = 3
 EXIT_OUTPUT = 4
+EXIT_POOR_FIT = 5
 EXIT_INTERRUPTED = 130
 EXIT_PIPE = 141
 

@@ -38,6 +38,7 @@ from .common import (
     EXIT_NOT_FITTED,
     EXIT_OK,
     EXIT_OUTPUT,
+    EXIT_POOR_FIT,
     EXIT_USAGE,
     CliError,
     columns_option,
@@ -104,6 +105,10 @@ def _setup(args: argparse.Namespace) -> FitSetup:
                             "residual": args.residual}
     if observe:
         opts["observe"] = observe
+    if getattr(args, "min_r2", None) is not None:
+        if not (args.min_r2 <= 1):
+            raise CliError(f"--min-r2 {args.min_r2}: R^2 is at most 1")
+        opts["min_r2"] = args.min_r2
     if args.scale is not None:
         if args.scale == "free":
             opts["scale"] = "free"
@@ -384,6 +389,7 @@ class RunOutputs:
 
     def finish(self) -> str | None:
         """Put the index in place; its path, or None for a one-card run."""
+        self.folder.discard_staged()
         if self.replaced:
             shown = ", ".join(printable(n) for n in self.replaced[:5])
             more = f" and {len(self.replaced) - 5} more" if len(self.replaced) > 5 else ""
@@ -545,6 +551,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
     fitted = counts["converged"] + counts["boundary"]
     if total and fitted == total:
         return EXIT_OK
+    if total and fitted + counts["poor-fit"] == total:
+        return EXIT_POOR_FIT
     if fitted == 0 and counts["failed"] == 0:
         return EXIT_USAGE  # no card could even be tried: the input is the problem
     return EXIT_NOT_FITTED
@@ -569,6 +577,9 @@ def add_fit_arguments(p: argparse.ArgumentParser) -> None:
                    help="fit a position offset (auto: yes for single-stroke cards)")
     p.add_argument("--x0", action="append", metavar="NAME=VALUE[,...]",
                    help="starting guess (default: automatic start)")
+    p.add_argument("--min-r2", type=float, metavar="R2",
+                   help="quality gate: a fit with R^2 below this has status poor-fit and "
+                        "the run exits with 5 (default 0.95)")
 
 
 def register(subparsers: Any) -> argparse.ArgumentParser:
@@ -578,8 +589,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
         description="Fit a model to every card of the files. Each card is printed as soon "
                     "as it is fitted; a card or file that cannot be fitted is reported and "
                     "the others go on. Exit status: 0 all fitted, 2 bad options or nothing "
-                    "readable, 3 some cards not fitted, 4 outputs not written, 130 "
-                    "interrupted.")
+                    "readable, 3 some cards not fitted, 4 outputs not written, 5 every card "
+                    "fitted but some poorly (R^2 below --min-r2), 130 interrupted.")
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="card files (CSV/TSV, SCADA export, JSON, table, .ts)")
     p.add_argument("--spm", type=float, help="strokes per minute (cards without time)")

@@ -51,7 +51,7 @@ __all__ = ["BatchSummary", "FitSpec", "fit_partition", "run_batch"]
 PARTITION_SIZE = 256
 # Options of pumpid.fit_records a spec may carry (x0 is the spec's own field).
 _FIT_OPTIONS = ("observe", "integrator", "scale", "residual", "fixed", "solver", "multistart",
-                "tol", "max_nfev")
+                "tol", "max_nfev", "min_r2")
 
 
 @dataclass(frozen=True)

@@ -220,6 +220,10 @@ class OutputFolder:
 
     def __init__(self, path: str | os.PathLike[str]) -> None:
         self.path = Path(path)
+        # Staging folders of this run not yet committed or removed. A Ctrl-C can land
+        # between a folder's creation and the code that would remove it (inside mkdtemp,
+        # say); :meth:`discard_staged` removes what such an interruption left.
+        self._staged: set[Path] = set()
 
     # ------------------------------------------------------------------ setup
     def prepare(self) -> list[str]:
@@ -268,10 +272,12 @@ class OutputFolder:
 
         It is removed on leaving the block unless it was committed (renamed away).
         """
+        stage = self.path / f"{_TMP}partial-{os.urandom(6).hex()}"
+        self._staged.add(stage)
         try:
-            stage = Path(tempfile.mkdtemp(prefix=f"{_TMP}partial-", dir=self.path))
-            os.chmod(stage, DIR_MODE)
+            os.mkdir(stage, DIR_MODE)
         except OSError as exc:
+            self._staged.discard(stage)
             raise OutputError(f"{_where(self.path)}: cannot write into the output folder "
                               f"({_reason(exc)})") from None
         try:
@@ -280,6 +286,17 @@ class OutputFolder:
             if stage.exists():
                 with contextlib.suppress(OSError):
                     _remove(stage)
+            if not stage.exists():
+                self._staged.discard(stage)
+
+    def discard_staged(self) -> None:
+        """Remove this run's staging folders that an interruption left behind."""
+        for stage in list(self._staged):
+            with contextlib.suppress(OSError):
+                if stage.exists():
+                    _remove(stage)
+            if not stage.exists():
+                self._staged.discard(stage)
 
     def commit_folder(self, stage: Path, name: str) -> list[str]:
         """Put a staged folder in place as ``<output folder>/<name>``, replacing any old one.
