@@ -340,6 +340,11 @@ def _unit_size(unit: str, base: dict[str, float]) -> float:
     return size
 
 
+#: Durations of a record the engine accepts (s). Far wider than any physical record; beyond
+#: them the start's natural scales (powers of the stroke frequency) leave floating point.
+TIME_SPAN = (1e-120, 1e120)
+
+
 def _validate_card(
     model: type[Model], card: CardData, residual: str, offset: bool | float
 ) -> tuple[Array, Array, Array, int, Array, float, bool]:
@@ -348,6 +353,10 @@ def _validate_card(
     t, uniform = make_time(card.t, min_samples=1)
     if t.size < MIN_SAMPLES:
         raise ValueError(f"t: {t.size} samples; a fit needs at least {MIN_SAMPLES}")
+    span = float(t[-1] - t[0])
+    if not TIME_SPAN[0] <= span <= TIME_SPAN[1]:
+        raise ValueError(f"t: the record lasts {span:.3g} s; a fit needs a duration between "
+                         f"{TIME_SPAN[0]:g} and {TIME_SPAN[1]:g} s (is the time in seconds?)")
     f = check_signal("load", card.load, t.size)
     d = check_signal("displacement", card.data, t.size)
     x0 = initial_state_vector(model, card.initial_state)
