@@ -63,20 +63,26 @@ def _gradient(cls: type[Model], theta: Array, observe: str, scale: float,
     names = cls.param_names()
     k = len(cls.derived_info())
     grad = np.zeros((k, len(coords)))
+    thetas: list[Array] = []
+    scales: list[float] = []
+    moved: list[int] = []
     for a, name in enumerate(coords):
         if name in names:
             i = names.index(name)
-            up, down = theta.copy(), theta.copy()
-            up[i] *= math.exp(_STEP)
-            down[i] *= math.exp(-_STEP)
-            hi = cls.derived_values(up, observe, scale)
-            lo = cls.derived_values(down, observe, scale)
+            for sign in (1.0, -1.0):
+                th = theta.copy()
+                th[i] *= math.exp(sign * _STEP)
+                thetas.append(th)
+                scales.append(scale)
         elif name in ("C", "D"):
-            hi = cls.derived_values(theta, observe, scale * math.exp(_STEP))
-            lo = cls.derived_values(theta, observe, scale * math.exp(-_STEP))
+            thetas += [theta, theta]
+            scales += [scale * math.exp(_STEP), scale * math.exp(-_STEP)]
         else:  # the offset moves no derived quantity
             continue
-        grad[:, a] = (hi - lo) / (2 * _STEP)
+        moved.append(a)
+    if moved:
+        vals = cls.derived_values(np.array(thetas), observe, np.array(scales))
+        grad[:, moved] = ((vals[0::2] - vals[1::2]) / (2 * _STEP)).T
     return grad
 
 

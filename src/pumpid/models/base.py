@@ -210,6 +210,23 @@ def _pair_and_rest(lam: NDArray[np.complex128]) -> tuple[list[complex], list[com
             [complex(lam[k]) for k in range(lam.size) if k not in (a, b)])
 
 
+def _pole_quantities(lam: NDArray[np.complex128]) -> dict[str, float]:
+    """Natural frequency (Hz), damping ratio and other time constant (s) from the poles."""
+    values: dict[str, float] = {}
+    if lam.size == 1:
+        values["time_constant"] = -1.0 / lam[0].real if lam[0].real < 0 else math.nan
+        return values
+    pair, rest = _pair_and_rest(lam)
+    wn2 = (pair[0] * pair[1]).real
+    if wn2 > 0:
+        wn = math.sqrt(wn2)
+        values["natural_frequency"] = wn / (2 * math.pi)
+        values["damping_ratio"] = -(pair[0] + pair[1]).real / (2 * wn)
+    if rest and rest[0].real < 0:
+        values["time_constant"] = -1.0 / rest[0].real
+    return values
+
+
 @dataclass(frozen=True)
 class Model:
     """Base class of the linear lumped models.
@@ -418,38 +435,39 @@ class Model:
 
     @classmethod
     def derived_values(cls, theta: ArrayLike, observe: str | None = None,
-                       scale: float = 1.0) -> Array:
+                       scale: ArrayLike = 1.0) -> Array:
         """The values of :meth:`derived_info` at parameters ``theta`` (canonical order).
 
-        NaN where a quantity does not exist there (for example no equilibrium).
+        ``theta`` is one parameter vector (p,) or a stack of them (m, p), with ``scale`` a
+        number or one per vector; the result is (k,) or (m, k). NaN where a quantity does
+        not exist there (for example no equilibrium).
         """
-        a, b, _, _ = cls.system_batch(np.asarray(theta, dtype=float))
+        th = np.asarray(theta, dtype=float)
+        single = th.ndim == 1
+        th = np.atleast_2d(th)
+        m = th.shape[0]
+        scales = np.broadcast_to(np.asarray(scale, dtype=float), (m,))
+        a, b, _, _ = cls.system_batch(th)
         infos = cls.derived_info()
-        out = np.full(len(infos), math.nan)
-        if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
-            return out
-        lam = np.linalg.eigvals(a)
-        values: dict[str, float] = {}
-        if lam.size == 1:
-            values["time_constant"] = -1.0 / lam[0].real if lam[0].real < 0 else math.nan
-        else:
-            pair, rest = _pair_and_rest(lam)
-            wn2 = (pair[0] * pair[1]).real
-            if wn2 > 0:
-                wn = math.sqrt(wn2)
-                values["natural_frequency"] = wn / (2 * math.pi)
-                values["damping_ratio"] = -(pair[0] + pair[1]).real / (2 * wn)
-            if rest and rest[0].real < 0:
-                values["time_constant"] = -1.0 / rest[0].real
-        try:
-            gain = float(-np.linalg.solve(a, b)[cls.output_index(observe)])
-        except np.linalg.LinAlgError:
-            gain = math.nan
-        if gain != 0 and math.isfinite(gain):
-            values["static_stiffness"] = 1.0 / (scale * gain)
-        for i, info in enumerate(infos):
-            out[i] = values.get(info.name, math.nan)
-        return out
+        names = [info.name for info in infos]
+        out = np.full((m, len(infos)), math.nan)
+        ok = np.all(np.isfinite(a), axis=(1, 2)) & np.all(np.isfinite(b), axis=1)
+        rows = np.flatnonzero(ok)
+        if rows.size:
+            # One stacked eigenvalue and solve call for all vectors (the derivatives of the
+            # quantities take 2p + 2 of them per fit).
+            lams = np.linalg.eigvals(a[rows])
+            k_obs = cls.output_index(observe)
+            for j, i in enumerate(rows):
+                values = _pole_quantities(lams[j])
+                try:
+                    gain = float(-np.linalg.solve(a[i], b[i])[k_obs])
+                except np.linalg.LinAlgError:
+                    gain = math.nan
+                if gain != 0 and math.isfinite(gain):
+                    values["static_stiffness"] = 1.0 / (float(scales[i]) * gain)
+                out[i] = [values.get(name, math.nan) for name in names]
+        return out[0] if single else out
 
     def describe(self, load_unit: str = "N", position_unit: str = "m") -> str:
         """One line per parameter: name = value unit."""
