@@ -75,7 +75,7 @@ lock:
 	@echo "wrote $(LOCK); now run: rm -f $(TSTAMP) $(STAMP) && make test"
 
 bench: $(STAMP)
-	$(PY) benchmarks/bench_fit.py
+	$(PY) benchmarks/bench_main_job.py
 
 clean:
 	rm -rf $(VENV) $(LATEST) demo-output build *.egg-info src/*.egg-info

@@ -80,7 +80,7 @@ def _peak(cmd: list[str]) -> tuple[int, float, float, str]:
 def bench_long(samples: int) -> None:
     """One record of ``samples`` samples through ``pumpid.fit``."""
     py = [sys.executable, "-c", _LONG_FIT, str(samples)]
-    code0, base, _, _ = _peak([*py, "data"])
+    _code0, base, _, _ = _peak([*py, "data"])
     code, peak, wall, err = _peak([*py, "fit"])
     status = err.splitlines()[-1] if err else "?"
     print(f"one record of {samples:,} samples through pumpid.fit (exit {code}, status "
@@ -106,7 +106,7 @@ def bench_cli(counts: list[int], with_out: bool) -> None:
                    "--brief"]
             if with_out:
                 cmd += ["--out", str(root / f"out{n_cards}")]
-            code, peak, wall, err = _peak(cmd)
+            code, peak, wall, _err = _peak(cmd)
             print(f"pumpid fit over {n_cards:,} cards in {len(files)} files"
                   f"{' with --out (figures and reports)' if with_out else ''} (exit {code}): "
                   f"peak RSS {peak:,.0f} MiB; wall time {wall:,.0f} s "
