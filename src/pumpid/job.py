@@ -49,7 +49,7 @@ from .inference import boundaries as bnd
 from .inference.boundaries import BoundaryInfo, Limiting, ReducedFit
 from .inference.derived import derived_of
 from .inference.identifiability import findings_of, whiteness_warning
-from .inference.uncertainty import numbers, uncertainty_of
+from .inference.uncertainty import Numbers, numbers, uncertainty_of
 from .models import Model, model_class
 from .result import FitBatch, FitResult, StartInfo, Status, Units
 
@@ -134,6 +134,62 @@ def _scale_offset(problem: Problem, z: Array) -> tuple[float, float]:
         scale = float(problem.scale_fixed)
     offset = float(z[j]) if problem.offset_fixed is None else float(problem.offset_fixed)
     return scale, offset
+
+
+def _true_offset(problem: Problem, k: int, z: Array) -> float:
+    """The reported offset of card k at solver point z (the solver's offset less the mean
+    level of the load the engine took off, see :func:`pumpid.engine.problem.load_shift`)."""
+    scale, offset = _scale_offset(problem, z)
+    if problem.offset_fixed is not None or problem.shift_of(k) == 0.0:
+        return offset
+    return offset - float(problem.offset_gap(k, _theta(problem, z), scale))
+
+
+def _gap_gradient(problem: Problem, k: int, z: Array) -> tuple[float, Array]:
+    """The gap between the solver's and the reported offset at z, and its derivatives
+    with respect to the free log-parameters (forward differences)."""
+    p = problem.n_free
+    scale = _scale_offset(problem, z)[0]
+    step = 1e-6
+    rows = np.repeat(z[None], p, axis=0)
+    rows[np.arange(p), np.arange(p)] += step
+    gap0 = float(problem.offset_gap(k, _theta(problem, z), scale))
+    grads = (problem.offset_gap(k, _theta(problem, rows), scale) - gap0) / step
+    return gap0, grads
+
+
+def _numbers_for_true_offset(problem: Problem, k: int, z: Array, num: Numbers) -> Numbers:
+    """The analysis with the offset coordinate turned into the reported offset.
+
+    The reported offset is o' - g(theta, C) with g = C x static gain x load shift; in the
+    analysis' scaled coordinates (log parameters, log C, offset / data range) that is a
+    linear map that leaves every other coordinate alone, so only the offset's row and
+    column of the covariances change (parameter errors and derived quantities do not).
+    """
+    if problem.offset_fixed is not None or problem.shift_of(k) == 0.0:
+        return num
+    names = problem.free_names
+    off = len(names) - 1
+    inner = list(num.inner)
+    if off not in inner:
+        return num
+    p = problem.n_free
+    gap0, grads = _gap_gradient(problem, k, z)
+    span = float(num.scales[off])
+    t_map = np.eye(len(inner))
+    for a, coord in enumerate(inner):
+        if coord < p:
+            t_map[inner.index(off), a] = -grads[coord] / span
+        elif coord != off:  # log C: the gap is proportional to C
+            t_map[inner.index(off), a] = -gap0 / span
+    qi = len(inner)
+    cov = num.cov_scaled.copy()
+    hac = num.hac_scaled.copy()
+    cov[:qi, :qi] = t_map @ num.cov_scaled[:qi, :qi] @ t_map.T
+    hac[:qi, :qi] = t_map @ num.hac_scaled[:qi, :qi] @ t_map.T
+    values = num.values.copy()
+    values[off] = values[off] - gap0
+    return dataclasses.replace(num, values=values, cov_scaled=cov, hac_scaled=hac)
 
 
 def _apply(card: _Card, out: SolverOutcome, j: int, problem: Problem) -> None:
@@ -441,7 +497,7 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
     nums = numbers(problem, cards[idx], np.array([fits[i].z for i in idx]), inner)
     for j, i in enumerate(idx):
         card = fits[i]
-        num = nums[j]
+        num = _numbers_for_true_offset(problem, int(cards[i]), card.z, nums[j])
         unit = ("(ln of position)^2, dimensionless" if problem.residual == "log"
                 else f"{units[int(cards[i])].position}^2")
         serial = not num.exact and not (num.rho <= 2.576 / math.sqrt(max(num.n, 1)))
@@ -511,8 +567,12 @@ def run(problem: Problem, cards: NDArray[np.int64], *, guess: Array | None,
                 z0[given, j] = np.log(c_start[given])
             j += 1
         if problem.offset_fixed is None and offset_start is not None:
-            given = np.isfinite(offset_start)
-            z0[given, j] = offset_start[given]
+            # The user's offset is the reported one; the solver's exceeds it by the gap.
+            for i in np.flatnonzero(np.isfinite(offset_start)):
+                k = int(cards[i])
+                gap = problem.offset_gap(k, _theta(problem, z0[i]),
+                                         _scale_offset(problem, z0[i])[0])
+                z0[i, j] = offset_start[i] + float(gap)
         z0[~np.all(np.isfinite(z0), axis=1)] = to_z(
             problem, np.asarray(guess, dtype=float))[~np.all(np.isfinite(z0), axis=1)]
         z0 = np.where(np.isfinite(z0), z0, 0.0)
@@ -691,8 +751,16 @@ def build_result(problem: Problem, k: int, card: _Card, options: JobOptions, uni
     rmse, r2 = card.rmse, card.r2
     jac = None
     if model is not None:
-        scale, offset = _scale_offset(problem, z)
+        scale = _scale_offset(problem, z)[0]
+        offset = _true_offset(problem, k, z)
         fitted, jac = _at_optimum(problem, k, z)
+        if jac is not None and problem.offset_fixed is None and problem.shift_of(k) != 0.0:
+            # In the reported coordinates each parameter also moves the offset's meaning.
+            gap0, grads = _gap_gradient(problem, k, z)
+            p = problem.n_free
+            jac[:, :p] += grads / np.exp(z[:p])
+            if problem.scale_fixed is None:
+                jac[:, p] += gap0 / scale
         if not np.all(np.isfinite(fitted)):
             status = Status.FAILED
             reason = f"{reason}; the fitted response is not finite"
@@ -703,7 +771,7 @@ def build_result(problem: Problem, k: int, card: _Card, options: JobOptions, uni
             status = Status.FAILED
     params = model.as_dict() if model is not None else dict.fromkeys(cls.param_names(),
                                                                       math.nan)
-    history = _history(problem, card)
+    history = _history(problem, card, k)
     text = tuple(w.replace("{position}", units.position) for w in (*warnings, *card.warnings))
     boundary = (BoundaryInfo(card.limits, card.reduced) if card.limits else None)
     state = problem.initial_states[k]
@@ -744,7 +812,7 @@ def _at_optimum(problem: Problem, k: int, z: Array) -> tuple[Array, Array | None
     return fitted, jac
 
 
-def _history(problem: Problem, card: _Card) -> tuple[Mapping[str, float], ...]:
+def _history(problem: Problem, card: _Card, k: int) -> tuple[Mapping[str, float], ...]:
     if card.newton_history is not None:
         return tuple(card.newton_history)
     if card.history is None or card.history.size == 0:
@@ -763,7 +831,9 @@ def _history(problem: Problem, card: _Card) -> tuple[Mapping[str, float], ...]:
             h[:, j] if problem.residual == "log" else np.exp(h[:, j]))
         j += 1
     if problem.offset_fixed is None:
-        columns["offset"] = h[:, j]
+        scale = (np.exp(h[:, p]) if problem.scale_fixed is None
+                 else np.full(h.shape[0], float(problem.scale_fixed)))
+        columns["offset"] = h[:, j] - problem.offset_gap(k, theta, scale)
     columns["cost"] = h[:, -1]
     keys = list(columns)
     values = np.column_stack([columns[k] for k in keys]).tolist()

@@ -119,7 +119,8 @@ def _floor_point(problem, truth, jump):
     from the truth, dropped back to the floor by a short polish that runs out there."""
     from pumpid.engine import drive, lm
 
-    z_truth = np.r_[np.log(truth.values), 12.0]
+    # The solver's offset is the offset of the response to the load less its mean.
+    z_truth = np.r_[np.log(truth.values), 12.0 + float(problem.offset_gap(0, truth.values, 1.0))]
     data, model, settings = problem.arrays
     rows = np.empty((problem.q + 1, problem.n_samples(0)))
     assert drive.residual_rows(z_truth, 0, data, model, settings, rows)
@@ -154,6 +155,7 @@ def test_valley_walk_stays_put_on_noisy_data() -> None:
     truth, t, load, data, opts = _weak_arm_card(noise=0.01)
     problem = _problem(Maxwell, t, load, data, **opts)
     res = fit(truth, t, load, data, **opts)
-    z = np.r_[np.log(res.model.values), res.offset]
+    z = np.r_[np.log(res.model.values),
+              res.offset + float(problem.offset_gap(0, res.model.values, 1.0))]
     _zw, cw = walk_valley(problem, 0, z, res.cost)
     assert cw >= 0.95 * res.cost * (1 - 1e-9) or math.isclose(cw, res.cost)
