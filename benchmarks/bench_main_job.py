@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import argparse
 import collections
-import math
 import os
 import platform
 import resource
@@ -83,14 +82,7 @@ def peak_rss_mib() -> float:
 
 # --------------------------------------------------------------------------- families
 def determined(res: pumpid.FitResult) -> list[str]:
-    if res.uncertainty is None:
-        return []
-    out = []
-    for name, value in res.params.items():
-        se = res.uncertainty.stderr.get(name, math.nan)
-        if math.isfinite(se) and value != 0 and se / abs(value) < 1:
-            out.append(name)
-    return out
+    return [p for p in res.determined.get("parameters", ()) if p in res.params]
 
 
 def compare(alone: list[pumpid.FitResult], together: list[pumpid.FitResult | None]

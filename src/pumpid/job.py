@@ -94,9 +94,9 @@ class _Card:
 
 #: The default quality gate: a fit that explains less than 95 % of its record's variance is
 #: reported as ``poor-fit``. A card the model describes leaves noise and small model errors
-#: (measured R^2 of 0.98-0.9999 on the project's synthetic and real cards); swapped columns,
-#: a wrong model or a broken record give far less (0.5-0.72 on two public card sets read
-#: with position and load exchanged).
+#: (389 public real cards, Kelvin observing u: median R^2 0.99986, 1st percentile 0.960, 4
+#: below 0.95); swapped columns, a wrong model or a broken record give far less (0.5-0.72 on
+#: two public card sets read with position and load exchanged).
 MIN_R2 = 0.95
 
 
@@ -516,7 +516,7 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
             card.derived = derived_of(
                 problem.model, _theta(problem, z), observe=problem.observe, scale=scale,
                 nums=num, units=(units[int(cards[i])].load, units[int(cards[i])].position),
-                serial=serial)
+                serial=serial, limits=[(b.name, b.direction) for b in card.limits])
         if unc is not None and unc.whiteness is not None and not unc.whiteness["white"]:
             card.warnings.append(whiteness_warning(dict(unc.whiteness), num.n, len(names)))
 

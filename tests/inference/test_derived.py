@@ -85,3 +85,19 @@ def test_quantities_stay_determined_where_parameters_are_not() -> None:
         math.sqrt(5000.0 / 20.0) / (2 * math.pi), rel=0.02)
     assert d["static_stiffness"].determined
     assert d["static_stiffness"].value == pytest.approx(5000.0, rel=0.02)
+
+
+def test_a_quantity_that_follows_a_boundary_parameter_is_not_determined() -> None:
+    """k0 -> infinity: the third pole's time constant only says where k0 stopped."""
+    from pumpid.pump import fit_card
+    from pumpid.pump.synthetic import synthetic_card
+
+    rigid = pumpid.Kelvin(k0=1e9, m=20.0, c1=900.0, k1=5200.0)
+    card = synthetic_card(rigid, spm=8.0, n_samples=400, observe="u", noise=0.0005, seed=4)
+    res = fit_card(card)
+    assert res.boundary is not None
+    assert ("k0", "infinity") in {(b.name, b.direction) for b in res.boundary.limits}
+    tau = res.derived["time_constant"]
+    assert tau.stderr == math.inf and not tau.determined
+    stiff = res.derived["static_stiffness"]
+    assert stiff.determined and stiff.value == pytest.approx(5200.0, rel=0.02)

@@ -15,6 +15,12 @@ along a structurally undetermined direction has an infinite error; it is *determ
 its relative standard error is below :data:`~pumpid.inference.uncertainty.PRACTICAL_REL_SE`
 (and, where the residuals are serially correlated, its robust error too), the rule the
 parameters follow.
+
+At a boundary solution a quantity that still moves when the limiting parameter goes further
+toward its limit (the Kelvin model's third pole when k0 -> infinity: its time constant
+shrinks with 1/k0) only says where the solver stopped on the window's edge: its error is
+infinite and it is not determined. Quantities the limit leaves in place (the oscillating
+pair's frequency and damping, the static stiffness) keep their errors.
 """
 
 from __future__ import annotations
@@ -86,6 +92,22 @@ def _gradient(cls: type[Model], theta: Array, observe: str, scale: float,
     return grad
 
 
+def _moved_by_limits(cls: type[Model], theta: Array, observe: str, scale: float,
+                     values: Array, limits: Sequence[tuple[str, str]]) -> NDArray[np.bool_]:
+    """The quantities that change when a boundary parameter goes a factor e further."""
+    moved = np.zeros(values.size, dtype=bool)
+    names = cls.param_names()
+    for name, direction in limits:
+        if name not in names:
+            continue
+        further = np.array(theta, dtype=float)
+        further[names.index(name)] *= math.e if direction == "infinity" else 1 / math.e
+        with np.errstate(all="ignore"):
+            changed = np.abs(cls.derived_values(further, observe, scale) - values)
+            moved |= ~(changed <= 1e-3 * np.abs(values))
+    return moved & np.isfinite(values)
+
+
 def derived_of(
     cls: type[Model],
     theta: Array,
@@ -95,6 +117,7 @@ def derived_of(
     nums: Numbers | None,
     units: tuple[str, str],
     serial: bool = False,
+    limits: Sequence[tuple[str, str]] = (),
 ) -> Mapping[str, Derived]:
     """The derived quantities of one fit.
 
@@ -105,6 +128,7 @@ def derived_of(
     nums : the analysis at the optimum (None: values only, errors NaN).
     units : (load unit, position unit) of the data.
     serial : the residuals failed the whiteness check (the robust error then counts too).
+    limits : (parameter, "zero" or "infinity") of each parameter at a boundary.
     """
     infos = cls.derived_info()
     values = cls.derived_values(theta, observe, scale)
@@ -133,6 +157,9 @@ def derived_of(
                 var_hac = float(g @ hac @ g)
             se[k] = math.sqrt(var) if var >= 0 else math.nan
             se_hac[k] = math.sqrt(var_hac) if var_hac >= 0 else math.nan
+    moved = _moved_by_limits(cls, theta, observe, scale, values, limits)
+    se[moved] = math.inf
+    se_hac[moved] = math.inf
     out: dict[str, Derived] = {}
     load, position = units
     for k, info in enumerate(infos):
