@@ -139,7 +139,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
 def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``pumpid batch`` to the ``pumpid`` command's subparsers."""
-    from ..fleet.batch import PARTITION_SIZE
+    from ..fleet.defaults import PARTITION_SIZE
 
     p = subparsers.add_parser(
         "batch", help="fit every card of files and folders into one results table",

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from typing import Any, TextIO
 
 from ..cards import Card, printable
-from ..report.plots import model_param_units, unit_text
+from ..report.units import model_param_units, unit_text
 from ..result import FitResult, Prediction, jsonable
 from .common import fmt
 

@@ -14,12 +14,10 @@
     :func:`read_results` reads it back.
 """
 
-from .batch import BatchSummary, FitSpec, run_batch
-from .changes import detect_changes, summarise_wells
-from .dataset import iter_parquet_cards, read_parquet_cards
-from .inputs import ReadOptions
-from .report import write_fleet_report
-from .store import read_results
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 __all__ = [
     "BatchSummary",
@@ -33,3 +31,19 @@ __all__ = [
     "summarise_wells",
     "write_fleet_report",
 ]
+
+# pandas, pyarrow and matplotlib load with the modules that need them, on first use of a
+# name: ``pumpid fit`` and ``import pumpid`` do not pay for the fleet.
+_WHERE = {
+    "BatchSummary": "batch", "FitSpec": "batch", "run_batch": "batch",
+    "detect_changes": "changes", "summarise_wells": "changes",
+    "iter_parquet_cards": "dataset", "read_parquet_cards": "dataset",
+    "ReadOptions": "inputs", "write_fleet_report": "report", "read_results": "store",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        module = importlib.import_module(f".{_WHERE[name]}", __name__)
+        return getattr(module, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -40,6 +40,7 @@ import pyarrow as pa
 from pumpid import __version__
 from pumpid.models import Model, model_class
 
+from .defaults import PARTITION_SIZE
 from .engines import Engine, EngineError, make_engine
 from .inputs import BadItem, CardItem, InputFile, ReadOptions, find_inputs, iter_items
 from .progress import Progress, QuietProgress
@@ -47,8 +48,6 @@ from .store import ResultsFolderError, ResultsStore, results_schema, to_frame
 
 __all__ = ["BatchSummary", "FitSpec", "fit_partition", "run_batch"]
 
-#: Cards per partition unless asked otherwise.
-PARTITION_SIZE = 256
 # Options of pumpid.fit_records a spec may carry (x0 is the spec's own field).
 _FIT_OPTIONS = ("observe", "integrator", "scale", "residual", "fixed", "solver", "multistart",
                 "tol", "max_nfev", "min_r2")

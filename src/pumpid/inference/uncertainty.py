@@ -27,7 +27,7 @@ from types import MappingProxyType
 from typing import Any
 
 import numpy as np
-import scipy.stats
+import scipy.special
 from numpy.typing import NDArray
 
 from ..engine import drive, lm
@@ -235,7 +235,8 @@ def diagnose_items(cards, z, inner, span, data, model, settings):
 @functools.lru_cache(maxsize=1024)
 def t_quantile(q: float, dof: int) -> float:
     """Student-t quantile, cached: scipy's ppf costs ~0.2 ms."""
-    return float(scipy.stats.t.ppf(q, dof))
+    # scipy.special's inverse t distribution: scipy.stats costs 0.35 s to import.
+    return float(scipy.special.stdtrit(dof, q))
 
 
 def residual_whiteness(residual: Sequence[float] | Array) -> dict[str, Any]:

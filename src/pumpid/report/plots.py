@@ -23,9 +23,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
-from ..models import model_class
-from ..result import FitResult, Units
+from ..result import FitResult
 from .output import atomic_write
+from .units import UNSTATED_UNITS, model_param_units, unit_text
 
 __all__ = [
     "DEFAULT_DPI",
@@ -60,28 +60,6 @@ _MODEL_STYLE = {"color": "tab:red", "linewidth": 1.3}
 
 
 # --------------------------------------------------------------------------- helpers
-#: What :func:`pumpid.pump.fit_card` records as the unit of a card whose file states none.
-UNSTATED_UNITS = ("load-unit", "position-unit")
-
-
-def unit_text(unit: str) -> str:
-    """A unit for display: the placeholder of a unit the data did not state reads so."""
-    return "unit not stated" if unit in UNSTATED_UNITS else unit
-
-
-def model_param_units(model: str, units: Units) -> dict[str, str]:
-    """Units of a model's parameters (by the model's name) in the data's units.
-
-    For the limiting model of a boundary fit, whose stored units may be those of a fit
-    made without the card's units; empty when the name is not a known model.
-    """
-    try:
-        cls = model_class(model)
-    except ValueError:
-        return {}
-    return {p.name: p.unit_for(units.load, units.position) for p in cls.param_info()}
-
-
 def _label(quantity: str, unit: str) -> str:
     """Axis label ``quantity [unit]`` (unit-less quantities get ``[-]``)."""
     return f"{quantity} [{unit_text(unit) or '-'}]"
