@@ -46,6 +46,7 @@ __all__ = [
     "StartInfo",
     "Status",
     "Units",
+    "model_choice_text",
 ]
 
 Array = NDArray[np.float64]
@@ -603,6 +604,9 @@ def format_report(result: FitResult, history: bool = False) -> str:
     if result.warnings:
         lines += ["", "  warnings:"]
         lines += [f"  - {w}" for w in result.warnings]
+    choice = result.application.get("model_choice")
+    if choice:
+        lines += ["", *("  " + ln for ln in model_choice_text(choice).splitlines())]
     if history:
         lines += ["", "  history:", result.history_table()]
     return "\n".join(lines)
@@ -732,3 +736,21 @@ class FitBatch:
         r2 = self.r2
         med = float(np.nanmedian(r2)) if np.any(np.isfinite(r2)) else math.nan
         return f"{self.model_name}: {len(self)} cards ({counts}); median R^2 = {med:.6g}"
+
+
+def model_choice_text(choice: Mapping[str, Any]) -> str:
+    """A model choice's ranking (``application["model_choice"]``) as text."""
+    crit = str(choice["criterion"]).upper()
+    lines = [f"Model choice by {crit} on the effective sample size (n = {choice['n']}, "
+             f"residual lag-1 autocorrelation {choice['rho']:.3f}, n_eff = "
+             f"{choice['n_eff']:.1f}); chosen: {choice['chosen']}",
+             f"  {'structure':<18}{'k':>3}{'R^2':>11}{'BIC':>12}{'AICc':>12}"
+             f"{'delta':>9}{'weight':>8}  status"]
+    for c in choice["candidates"]:
+        lines.append(f"  {c['name']:<18}{c['k']:>3}{c['r2']:>11.6f}{c['bic']:>12.2f}"
+                     f"{c['aicc']:>12.2f}{c['delta']:>9.2f}{c['weight']:>8.3f}  {c['status']}")
+    for t in choice["nested_tests"]:
+        lines.append(f"  likelihood ratio {t['big']} against {t['small']} ({t['limit']}): "
+                     f"statistic {t['statistic']:.3g} on {t['dof']} dof, p = "
+                     f"{t['p_value']:.3g}")
+    return "\n".join(lines)

@@ -22,6 +22,7 @@ import argparse
 import collections
 import contextlib
 import csv
+import dataclasses
 import os
 import tempfile
 from collections.abc import Iterator, Sequence
@@ -66,6 +67,8 @@ class FitSetup:
 
     cls: type[Model]
     model: Model | type[Model]
+    #: --model auto: each card's structure chosen by evidence (pumpid.pump.choose_model).
+    auto: bool
     initial_state: Any
     offset: str
     options: dict[str, Any]
@@ -77,7 +80,7 @@ class FitSetup:
     def one_by_one(self) -> bool:
         """Options the batched API does not take: each card is fitted alone."""
         return (self.options.get("method", "lm") != "lm" or self.history
-                or self.x0_extras is not None)
+                or self.x0_extras is not None or self.auto)
 
     def offset_for(self, card: Card) -> bool:
         """Fit a position offset for this card (auto: for single strokes)."""
@@ -96,7 +99,13 @@ class FitSetup:
 
 
 def _setup(args: argparse.Namespace) -> FitSetup:
-    cls = model_class(args.model)
+    auto = args.model == "auto"
+    if auto and (args.observe or args.x0):
+        raise CliError("--model auto compares the structures and their observed outputs "
+                       "itself: give neither --observe nor --x0")
+    if auto and args.method != "lm":
+        raise CliError("--model auto uses the lm method")
+    cls = model_class("kelvin" if auto else args.model)
     observe = args.observe
     if observe is not None and observe not in cls.outputs:
         raise CliError(f"--observe {printable(observe)!r}: {cls.__name__} can observe "
@@ -144,13 +153,22 @@ def _setup(args: argparse.Namespace) -> FitSetup:
     read = {"format": args.format, "position_unit": args.position_unit,
             "load_unit": args.load_unit, "spm": args.spm, "period": args.period,
             "columns": columns, "encoding": args.encoding}
-    return FitSetup(cls=cls, model=model, initial_state=initial_state_option(args.initial_state),
+    return FitSetup(cls=cls, model=model, auto=auto,
+                    initial_state=initial_state_option(args.initial_state),
                     offset=args.offset, options=opts, x0_extras=extras, history=args.history,
                     read=read)
 
 
 def _run_info(setup: FitSetup, out: str | None) -> RunInfo:
     cls = setup.cls
+    if setup.auto:
+        from ..pump.choose import CANDIDATES
+
+        names = ", ".join(f"{m} ({o})" for m, o in CANDIDATES)
+        base = _run_info(dataclasses.replace(setup, auto=False), out)
+        return dataclasses.replace(
+            base, model="auto", title=f"chosen per card by BIC among {names}", observe=None,
+            observe_meaning=None)
     observe = setup.options.get("observe") or cls.default_output or None
     state = ("a single-stroke card is one period of a periodic motion"
              if setup.initial_state is None else
@@ -209,11 +227,15 @@ def _internal(exc: BaseException) -> str:
 
 
 def _fit_alone(card: Card, setup: FitSetup) -> tuple[FitResult | None, str, str]:
-    from ..pump import fit_card
+    from ..pump import choose_model, fit_card
 
     try:
-        res = fit_card(card, setup.model, initial_state=setup.initial_state,
-                       offset=setup.offset_for(card), **setup.card_options())
+        if setup.auto:
+            res = choose_model(card, initial_state=setup.initial_state,
+                               offset=setup.offset_for(card), **setup.card_options()).chosen
+        else:
+            res = fit_card(card, setup.model, initial_state=setup.initial_state,
+                           offset=setup.offset_for(card), **setup.card_options())
     except MemoryError:
         raise
     except ValueError as exc:
@@ -561,8 +583,10 @@ def cmd_fit(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- parser
 def add_fit_arguments(p: argparse.ArgumentParser) -> None:
     """The model and solver options shared by commands that fit."""
-    p.add_argument("--model", default="kelvin", choices=sorted(MODELS),
-                   help="model to fit (default kelvin)")
+    p.add_argument("--model", default="kelvin", choices=[*sorted(MODELS), "auto"],
+                   help="model to fit (default kelvin); auto: fit mass-spring-dashpot, "
+                        "Kelvin observing u and u2 and Maxwell, choose by BIC on the "
+                        "residuals' effective sample size, show the ranking")
     p.add_argument("--method", default="lm", choices=["lm", "newton-fd"],
                    help="lm (default: exact sensitivities) or newton-fd (the paper's method)")
     p.add_argument("--integrator", default="exact", choices=["exact", "euler"])

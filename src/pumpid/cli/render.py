@@ -32,7 +32,7 @@ from typing import Any, TextIO
 
 from ..cards import Card, printable
 from ..report.units import model_param_units, unit_text
-from ..result import FitResult, Prediction, jsonable
+from ..result import FitResult, Prediction, jsonable, model_choice_text
 from .common import fmt
 
 __all__ = ["JsonPrinter", "LinePrinter", "Row", "RunInfo", "TextPrinter", "first_sentence"]
@@ -235,6 +235,9 @@ class TextPrinter:
             lines += _wrap(f"prediction of card {printable(row.prediction.card)}: R^2 = "
                            f"{fmt(row.prediction.r2, 6)}, RMSE = {fmt(row.prediction.rmse, 4)} "
                            f"{unit_text(res.units.position)}")
+        choice = res.application.get("model_choice")
+        if choice:
+            lines += ["  " + ln for ln in model_choice_text(choice).splitlines()]
         if row.output:
             lines.append(f"  outputs: {printable(row.output)}")
         self._print(*lines)
@@ -316,6 +319,8 @@ class LinePrinter:
         if res is not None:
             fields += [f"R^2={fmt(res.r2, 6)}",
                        f"RMSE={fmt(res.rmse, 4)} {unit_text(res.units.position)}"]
+            if res.application.get("model_choice"):
+                fields.append(f"model={res.model_name}/{res.observe}")
             if res.model is not None:
                 fields += [p.replace(" = ", "=", 1) for p in _params(res, errors=False)]
             fields.append(f"warnings={len(_card_warnings(row))}")

@@ -6,6 +6,8 @@ card's own defaults (a fitted position offset; a single stroke is one period of 
 motion).
 """
 
+from .choose import CANDIDATES, Candidate, ModelChoice, NestedTest, choose_model
 from .fit import evaluate_prediction, fit_card, fit_cards, predict, predict_card
 
-__all__ = ["evaluate_prediction", "fit_card", "fit_cards", "predict", "predict_card"]
+__all__ = ["CANDIDATES", "Candidate", "ModelChoice", "NestedTest", "choose_model",
+           "evaluate_prediction", "fit_card", "fit_cards", "predict", "predict_card"]
