@@ -48,7 +48,7 @@ from .common import (
     parse_assignments,
     rate_option,
 )
-from .render import JsonPrinter, LinePrinter, Row, RunInfo, TextPrinter
+from .render import JsonPrinter, LinePrinter, Row, RunInfo, TextPrinter, printable_block
 
 __all__ = ["add_fit_arguments", "cmd_fit", "register"]
 
@@ -509,9 +509,36 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
         yield path, chosen, refused
 
 
+def _cmd_joint(args: argparse.Namespace, setup: FitSetup) -> int:
+    """--joint: one parameter set for every card of the files (pumpid.pump.fit_joint)."""
+    from ..pump import fit_joint
+
+    if setup.auto or setup.x0_extras is not None or args.out or args.predict:
+        raise CliError("--joint takes one model (not auto), no --x0, --out or --predict")
+    cards: list[Card] = []
+    for path, read, refused in _inputs(args, setup, _Predictor(None, setup)):
+        if isinstance(read, CardError):
+            raise CliError(str(read))
+        if refused:
+            raise CliError(f"{printable(path)}: {refused[0].reason}")
+        cards.extend(read)
+    joint = fit_joint(cards, setup.cls, observe=setup.options.get("observe"))
+    if args.json:
+        import json
+
+        from ..result import jsonable
+
+        print(json.dumps(jsonable(joint.to_dict()), indent=2, allow_nan=False))
+    else:
+        print(printable_block(joint.report()))
+    return EXIT_OK if joint.status in ("converged", "boundary") else EXIT_NOT_FITTED
+
+
 def cmd_fit(args: argparse.Namespace) -> int:
     """Fit every card of the files; print each as it is done; say how it went."""
     setup = _setup(args)
+    if args.joint:
+        return _cmd_joint(args, setup)
     predictor = _Predictor(args.predict, setup)
     outputs = RunOutputs(args.out) if args.out else None
     if outputs is not None:
@@ -622,6 +649,9 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--format", help="force a format: csv, scada, json, whitespace, ts")
     p.add_argument("--encoding", help="text encoding of the files (default: detected)")
     p.add_argument("--card", help="fit only this card id")
+    p.add_argument("--joint", action="store_true",
+                   help="one parameter set for all the cards (strokes of one well), each "
+                        "card with its own offset; prints the joint fit")
     p.add_argument("--split-strokes", action="store_true",
                    help="split multi-stroke time records at position minima; fit each stroke "
                         "as one period (ids CARD#0, CARD#1, ...)")

@@ -8,6 +8,19 @@ motion).
 
 from .choose import CANDIDATES, Candidate, ModelChoice, NestedTest, choose_model
 from .fit import evaluate_prediction, fit_card, fit_cards, predict, predict_card
+from .joint import JointFit, fit_joint
 
-__all__ = ["CANDIDATES", "Candidate", "ModelChoice", "NestedTest", "choose_model",
-           "evaluate_prediction", "fit_card", "fit_cards", "predict", "predict_card"]
+__all__ = [
+           "CANDIDATES",
+           "Candidate",
+           "JointFit",
+           "ModelChoice",
+           "NestedTest",
+           "choose_model",
+           "evaluate_prediction",
+           "fit_card",
+           "fit_cards",
+           "fit_joint",
+           "predict",
+           "predict_card",
+]
