@@ -46,8 +46,8 @@ CAPTIONS: dict[str, str] = {
             "the model's fitted position.",
     "residuals": "Residual (fitted minus measured) over time with the ±RMSE band, and its "
                  "distribution.",
-    "history": "Convergence: cost per iteration on a log scale, and the relative change of "
-               "each fitted value per iteration.",
+    "history": "Convergence: cost per iteration (a log scale when it falls by more than a "
+               "factor of 10), and the relative change of each fitted value per iteration.",
     "prediction": "Prediction of a record the model was not fitted on.",
     "flow": "Measured and fitted flow rate over time, with the pressure drop that drives it.",
     "characteristic": "Flow rate against pressure drop: record and surrogate.",
