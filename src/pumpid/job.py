@@ -381,8 +381,8 @@ def _check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[_Ca
                         f = list(problem.free_idx).index(problem.model.param_names().index(
                             lim.param))
                         found[j].append(Limiting(lim.param, lim.direction,
-                                                 float(math.exp(card.z[f])), lim.description,
-                                                 "nested"))
+                                                 float(np.exp(min(card.z[f], 709.0))),
+                                                 lim.description, "nested"))
                         known.add(lim.param)
                     if best_red is None or red.cost < best_red[0]:
                         best_red = (red.cost, red, lim)
@@ -398,7 +398,7 @@ def _check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[_Ca
                     f = list(problem.free_idx).index(problem.model.param_names().index(
                         lim.param))
                     found[j].append(Limiting(lim.param, lim.direction,
-                                             float(math.exp(card.z[f])), lim.description,
+                                             float(np.exp(min(card.z[f], 709.0))), lim.description,
                                              "nested"))
                     known.add(lim.param)
                 if best_red is None or red.cost < best_red[0]:

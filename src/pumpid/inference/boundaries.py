@@ -150,7 +150,7 @@ def push_test(problem: Problem, cards: NDArray[np.int64], z: Array, cost: Array,
                 hits = [edges[j][i]]
             if len(hits) == 1:
                 lim = problem.model.limit(name, hits[0])
-                found.append(Limiting(name, hits[0], float(math.exp(z[j, i])),
+                found.append(Limiting(name, hits[0], _exp(float(z[j, i])),
                                       lim.description, "push"))
         out.append(found)
     return out
@@ -175,9 +175,14 @@ def nested_candidates(problem: Problem, k: int, z: Array, log_sens: Array,
         if i not in free:
             continue
         f = free.index(i)
-        theta_i = math.exp(z[f])
-        heading = "infinity" if theta_i > ref[i] else "zero"
+        # In logs: a parameter far out (a scale of 1e300 on the data) overflows exp.
+        heading = "infinity" if z[f] > math.log(ref[i]) else "zero"
         weak = log_sens[f] < SUSPICION and heading == lim.direction
         if weak or edges.get(f) == lim.direction or stopped_early:
             out.append(lim)
     return out
+
+
+def _exp(x: float) -> float:
+    """exp that saturates to infinity instead of raising for a parameter far out."""
+    return math.exp(x) if x < 709.0 else math.inf
