@@ -270,8 +270,9 @@ def fit_joint(
         status = "boundary"
     else:
         status = "converged"
-    message = str(best.message) + (f"; {', '.join(names_at)} at the window's edge: held at "
-                                   "its limit" if names_at else "")
+    held = (f"; {', '.join(names_at)} at the window's edge: held at its limit"
+            if names_at else "")
+    message = str(best.message).rstrip(".") + held
     return JointFit(
         model_name=cls.__name__, observe=problem.observe, params=params, stderr=stderr,
         stderr_ar1={n: v * inflate for n, v in stderr.items()}, derived=derived,
