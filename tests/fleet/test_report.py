@@ -93,3 +93,17 @@ def test_parameters_shown_with_their_units(table: pd.DataFrame, tmp_path: Path) 
     page = files["report"].read_text(encoding="utf-8")
     assert "p_k0 [lbf/in]" in page and "stiffness [lbf/in]" in page
     assert "distribution_p_k0" in files
+
+
+def test_rows_without_a_well_are_not_a_well_and_counts_agree(tmp_path: Path) -> None:
+    frame = results_table(3, 90, cv=0.03, seed=5, steps={1: ("stiffness", 1.4, 45)})
+    lost = frame.index[[5, 100, 200]]
+    frame.loc[lost, "well_id"] = None
+    frame.loc[lost, "status"] = "invalid-input"
+    alerts = detect_changes(frame, ["stiffness"])
+    assert len(alerts) == 1
+    files = write_fleet_report(frame, tmp_path, alerts=alerts, quantities=["stiffness"])
+    page = files["report"].read_text(encoding="utf-8")
+    assert "3 wells, 270 cards, 1 alert." in page
+    assert "<td>wells</td><td>3 wells</td>" in page
+    assert "<td>cards without a well (unreadable input)</td><td>3 cards</td>" in page

@@ -35,6 +35,7 @@ from matplotlib.figure import Figure
 
 from .changes import (
     STATUSES,
+    UNKNOWN_WELL,
     USABLE_STATUSES,
     available_quantities,
     detect_changes,
@@ -103,6 +104,13 @@ def _count(n: Any, word: str) -> str:
     """``"1 card"``, ``"3 cards"``."""
     k = int(n)
     return f"{k} {word}" if k == 1 else f"{k} {word}s"
+
+
+def _n_wells(frame: pd.DataFrame) -> int:
+    """Wells named in the table: rows of unreadable files belong to no well, so the
+    placeholder they are filed under must not count as one."""
+    wells = frame["well_id"].dropna().astype(str)
+    return int(wells[wells != UNKNOWN_WELL].nunique())
 
 
 def _when(value: Any) -> str:
@@ -306,9 +314,14 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
     span = "no card times in the table"
     if times is not None and times.notna().any():
         span = f"{_when(times.min())} to {_when(times.max())}"
+    no_well = int(
+        (frame["well_id"].isna() | (frame["well_id"].astype(str) == UNKNOWN_WELL)).sum()
+    )
     rows = [
-        ("wells", _count(frame["well_id"].nunique(), "well")),
+        ("wells", _count(_n_wells(frame), "well")),
         ("cards", _count(n, "card")),
+        *((("cards without a well (unreadable input)", _count(no_well, "card")),)
+          if no_well else ()),
         ("cards used for trends (converged, boundary, poor-fit)",
          _count(counts[list(USABLE_STATUSES)].sum(), "card")),
         *((f"status {st}", f"{_count(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
@@ -521,6 +534,8 @@ def write_fleet_report(
     parts.append("</section>")
 
     body = "\n".join(parts)
+    headline = (f"{_count(_n_wells(frame), 'well')}, {_count(len(frame), 'card')}, "
+                f"{_count(len(alerts), 'alert')}")
     page = f"""<!DOCTYPE html>
 <html lang="en">
 <head>
@@ -531,8 +546,7 @@ def write_fleet_report(
 </head>
 <body>
 <h1>pumpid fleet report</h1>
-<p class="muted">Which wells changed, when, and how: {frame['well_id'].nunique()} wells,
-{len(frame)} cards, {len(alerts)} alerts.</p>
+<p class="muted">Which wells changed, when, and how: {headline}.</p>
 {body}
 <footer>Made by pumpid {_e(_version())}. Change detection: see
 pumpid.fleet.changes for the method and its assumptions.</footer>
