@@ -107,3 +107,22 @@ def test_rows_without_a_well_are_not_a_well_and_counts_agree(tmp_path: Path) -> 
     assert "3 wells, 270 cards, 1 alert." in page
     assert "<td>wells</td><td>3 wells</td>" in page
     assert "<td>cards without a well (unreadable input)</td><td>3 cards</td>" in page
+
+
+def test_failed_and_invalid_cards_of_a_well_are_drawn(tmp_path: Path) -> None:
+    from PIL import Image
+
+    frame = results_table(2, 60, cv=0.03, seed=6)
+    hit = frame.index[(frame["well_id"] == "W0001") & frame.index.isin([70, 80, 95])]
+    frame.loc[hit, "status"] = "invalid-input"
+    frame.loc[hit, ["d_stiffness", "d_stiffness_se"]] = np.nan
+    empty = detect_changes(frame.iloc[:0])
+    files = write_fleet_report(frame, tmp_path, alerts=empty, quantities=["stiffness"],
+                               steady_sample=2)
+    red = {}
+    for well in ("W0000", "W0001"):
+        rgb = np.asarray(Image.open(files[f"well_{well}"]).convert("RGB")).astype(int)
+        # the crosses' colour; with no alert nothing else on the figure has it
+        red[well] = int((np.abs(rgb - (176, 0, 32)).sum(axis=2) < 60).sum())
+    assert red["W0000"] == 0 and red["W0001"] > 20
+

@@ -227,27 +227,61 @@ def _distribution_figure(frame: pd.DataFrame, quantity: str, unit: str,
     return fig
 
 
+def _segments(x: pd.Series) -> np.ndarray:
+    """A run number per point that changes across gaps far longer than the usual spacing,
+    so that bands and lines do not pretend to know the quantity where no card was read."""
+    if len(x) < 3:
+        return np.zeros(len(x), dtype=int)
+    step = np.diff(x.to_numpy()).astype("timedelta64[ns]").astype(float) \
+        if np.issubdtype(x.dtype, np.datetime64) else np.diff(x.to_numpy(dtype=float))
+    typical = float(np.median(step[step > 0])) if np.any(step > 0) else 0.0
+    if typical <= 0:
+        return np.zeros(len(x), dtype=int)
+    return np.concatenate([[0], np.cumsum(step > 3.0 * typical)])
+
+
+def _band(v: pd.Series, s: pd.Series) -> tuple[np.ndarray, np.ndarray]:
+    """Limits of value +- 2 SE. A positive quantity gets them on the log scale (as the
+    change detector judges it), so the band never crosses zero."""
+    vv = v.to_numpy(dtype=float)
+    ss = np.where(np.isfinite(s.to_numpy(dtype=float)), s.to_numpy(dtype=float), 0.0)
+    if len(vv) and np.all(vv > 0):
+        factor = np.exp(2.0 * ss / vv)
+        return vv / factor, vv * factor
+    return vv - 2.0 * ss, vv + 2.0 * ss
+
+
 def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
                  alerts: pd.DataFrame, well: str) -> Figure:
     rows = len(quantities)
     fig = Figure(figsize=(8.0, 1.9 * rows + 0.6))
     axes = np.atleast_1d(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0])
-    timed = "time" in group.columns and group["time"].notna().all() and len(group) > 0
-    ordered = group.sort_values("time", kind="stable") if timed else group
+    # The time axis as the change detector orders the well: by time when every usable card
+    # has one; a failed or invalid card without a time then cannot be placed and is left out.
+    timed = ("time" in group.columns and group["time"].notna().any()
+             and group.loc[group["status"].isin(USABLE_STATUSES), "time"].notna().all())
+    ordered = (group[group["time"].notna()].sort_values("time", kind="stable") if timed
+               else group)
     x_all = (pd.to_datetime(ordered["time"], utc=True).dt.tz_localize(None) if timed
              else pd.Series(np.arange(len(ordered)), index=ordered.index))
-    bad = ~ordered["status"].isin(USABLE_STATUSES)
+    bad = ordered["status"].isin(("failed", "invalid-input")).to_numpy()
     for ax, q in zip(axes, quantities, strict=True):
         value, se, ok = _values(ordered, q)
         x, v, s = x_all[ok], value[ok], se[ok]
         if len(v):
-            band = np.where(np.isfinite(s), 2.0 * s, 0.0)
-            ax.fill_between(x, v - band, v + band, color="#c6dbef", linewidth=0,
-                            label="value ± 2 SE")
-            ax.plot(x, v, ".-", color="#08519c", ms=3, lw=0.6, label="value of a card")
+            lo, hi = _band(v, s)
+            run = _segments(x)
+            for k in np.unique(run):
+                on = run == k
+                ax.fill_between(x[on], lo[on], hi[on], color="#c6dbef", linewidth=0,
+                                label="value ± 2 SE")
+                ax.plot(x[on], v[on], ".-", color="#08519c", ms=3, lw=0.6,
+                        label="value of a card")
         if bad.any():
-            ax.plot(x_all[bad], np.full(int(bad.sum()), np.nanmin(v) if len(v) else 0.0), "x",
-                    color="#b00020", ms=4, label="failed / invalid card")
+            # at the foot of the panel, whatever the quantity's range
+            ax.plot(x_all[bad], np.full(int(bad.sum()), 0.02), "x", color="#b00020", ms=5,
+                    transform=ax.get_xaxis_transform(), clip_on=False,
+                    label="failed / invalid card")
         mine = alerts[(alerts["well_id"].astype(str) == well) & (alerts["quantity"] == q)]
         ids = ordered["card_id"].astype(str)
         for _, a in mine.iterrows():
