@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from .changes import (
     STATUSES,
@@ -210,17 +211,21 @@ def _distribution_figure(frame: pd.DataFrame, quantity: str, unit: str,
     fig = Figure(figsize=(6.4, 3.2))
     ax = fig.subplots()
     values = med.to_numpy(dtype=float)
-    positive = bool(np.all(values > 0)) and values.max() > 3 * values.min()
-    bins: Any = 30
+    # A log axis only pays when the values span an order of magnitude; below that it only
+    # squeezes the ticks.
+    positive = bool(np.all(values > 0)) and values.max() >= 10 * values.min()
+    bins: Any = int(np.clip(np.ceil(2 * np.sqrt(len(values))), 5, 30))
     if positive:
-        bins = np.geomspace(values.min(), values.max(), 31)
+        bins = np.geomspace(values.min(), values.max(), bins + 1)
         ax.set_xscale("log")
     ax.hist(values, bins=bins, color="#8fb3d9", edgecolor="#4a6f96")
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     marked = med[med.index.isin(alerted)]
     if len(marked):
         ax.plot(marked.to_numpy(), np.zeros(len(marked)), "v", color="#b00020", ms=8,
                 clip_on=False, label=f"wells with an alert ({len(marked)})")
-        ax.legend(loc="upper right", fontsize=8)
+        # beside the axes, where it cannot hide a bar
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     ax.set_xlabel(f"{quantity}: median over each well's cards [{_unit_text(unit)}]")
     ax.set_ylabel("wells")
     ax.set_title(f"{quantity} across {len(med)} wells", fontsize=10)
