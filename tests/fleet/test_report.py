@@ -126,3 +126,12 @@ def test_failed_and_invalid_cards_of_a_well_are_drawn(tmp_path: Path) -> None:
         red[well] = int((np.abs(rgb - (176, 0, 32)).sum(axis=2) < 60).sum())
     assert red["W0000"] == 0 and red["W0001"] > 20
 
+
+def test_tables_state_units_once_and_fit_a_window(table: pd.DataFrame, tmp_path: Path) -> None:
+    files = write_fleet_report(table, tmp_path, quantities=["stiffness"], steady_sample=0)
+    page = files["report"].read_text(encoding="utf-8")
+    alerts_table = page[page.index('<section id="alerts">'):page.index('<section id="wells">')]
+    wells_table = page[page.index('<section id="wells">'):page.index('id="distributions"')]
+    assert alerts_table.count("<th>") <= 9
+    assert "<th>latest stiffness [lbf/in]</th>" in wells_table
+    assert "lbf/in</td>" not in wells_table  # the unit is in the header, not in every row

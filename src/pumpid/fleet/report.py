@@ -52,11 +52,11 @@ body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; ma
 h1 { font-size: 1.6em; margin-bottom: 0.2em; }
 h2 { font-size: 1.25em; border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.6em; }
 h3 { font-size: 1.05em; margin-bottom: 0.2em; }
-table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.92em; }
-th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
-th { background: #f2f2f2; }
-td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace;
-         white-space: nowrap; }
+table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.85em; }
+th, td { border: 1px solid #ccc; padding: 0.2em 0.45em; text-align: left; vertical-align: top;
+         overflow-wrap: break-word; }
+th { background: #f2f2f2; font-size: 0.95em; }
+td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace; }
 tr.alert td:first-child { border-left: 4px solid #b00020; }
 .up { color: #b00020; font-weight: bold; }
 .down { color: #1f4fa0; font-weight: bold; }
@@ -386,35 +386,40 @@ def _alerts_section(alerts: pd.DataFrame) -> str:
     for _, a in order.iterrows():
         unit = a["unit"]
         rows.append([
-            str(a["well_id"]), str(a["quantity"]), str(a["first_card_id"]),
-            _when(a["first_time"]),
+            str(a["well_id"]), str(a["quantity"]),
+            f"{a['first_card_id']} ({_when(a['first_time'])})",
             f"{a['alarm_card_id']} ({_count(a['delay_cards'], 'card')} later)",
-            _with_unit(a["before"], unit), _with_unit(a["after"], unit),
-            _with_unit(a["change"], unit), f"{float(a['change_rel']):+.1%}",
-            f"{_num(a['change_se'], 3)} standard errors", str(a["direction"]),
-            f"{int(a['n_before'])} / {_count(a['n_after'], 'card')}",
+            f"{_with_unit(a['before'], unit)} → {_with_unit(a['after'], unit)}",
+            f"{_with_unit(a['change'], unit)} ({float(a['change_rel']):+.1%})",
+            _num(a["change_se"], 3), str(a["direction"]),
+            f"{int(a['n_before'])} / {int(a['n_after'])}",
         ])  # fmt: skip
         classes.append("alert")
-    headers = ("well", "quantity", "first changed card", "its time", "alarm card",
-               "before (median)", "after (median)", "change (after - before)",
-               "relative change", "size of change", "direction", "cards before / after")
-    return _table(headers, rows, num_cols=(5, 6, 7, 8, 9), row_classes=classes)
+    headers = ("well", "quantity", "first changed card (its time)", "alarm card",
+               "median before → after", "change (relative)", "size (standard errors)",
+               "direction", "cards before / after")
+    return _table(headers, rows, num_cols=(4, 5, 6), row_classes=classes)
 
 
-def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], limit: int) -> str:
+def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
+                   limit: int) -> str:
     shown = summary.head(limit)
-    headers = ["well", "cards", *(f"{st}" for st in STATUSES), "alerts", "largest change",
-               *(f"latest {q}" for q in quantities)]  # fmt: skip
+    # Counts and units go in the headers, so that every column fits a normal window.
+    headers = ["well", "cards", *STATUSES, "alerts", "largest change",
+               *(f"latest {q} [{_unit_text(units.get(q, ''))}]" for q in quantities)]
     rows, classes = [], []
     for _, w in shown.iterrows():
-        cells = [str(w["well_id"]), _count(w["cards"], "card")]
-        cells += [_count(w["n_" + st.replace("-", "_")], "card") for st in STATUSES]
-        cells.append(_count(w["alerts"], "alert"))
+        cells = [str(w["well_id"]), str(int(w["cards"]))]
+        cells += [str(int(w["n_" + st.replace("-", "_")])) for st in STATUSES]
+        cells.append(str(int(w["alerts"])))
         size = w["max_abs_change_se"]
         cells.append(f"{w['largest_change']} [{_num(size, 3)} standard errors]"
                      if w["alerts"] else "none")
         for q in quantities:
-            cells.append(_with_unit(w.get(f"latest_{q}"), w.get(f"latest_{q}_unit", "")))
+            unit = w.get(f"latest_{q}_unit", "")
+            same = _unit_text(unit) == _unit_text(units.get(q, ""))
+            value = w.get(f"latest_{q}")
+            cells.append(_num(value) if same else _with_unit(value, unit))
         rows.append(cells)
         classes.append("alert" if w["alerts"] else "")
     note = ""
@@ -523,9 +528,9 @@ def write_fleet_report(
 
     parts.append("<section id=\"wells\"><h2>Wells</h2>")
     parts.append("<p>Wells with alerts first (largest change in standard errors first), "
-                 "then the others by name; card counts per fit status and the latest "
-                 "usable value of each quantity.</p>")
-    parts.append(_wells_section(summary, names, max_wells_listed))
+                 "then the others by name; the number of cards of each fit status, the "
+                 "alerts, and the latest usable value of each quantity.</p>")
+    parts.append(_wells_section(summary, names, units, max_wells_listed))
     parts.append("</section>")
 
     alerted = set(alerts["well_id"].astype(str))
