@@ -232,17 +232,21 @@ def _distribution_figure(frame: pd.DataFrame, quantity: str, unit: str,
     return fig
 
 
-def _segments(x: pd.Series) -> np.ndarray:
-    """A run number per point that changes across gaps far longer than the usual spacing,
-    so that bands and lines do not pretend to know the quantity where no card was read."""
-    if len(x) < 3:
-        return np.zeros(len(x), dtype=int)
-    step = np.diff(x.to_numpy()).astype("timedelta64[ns]").astype(float) \
-        if np.issubdtype(x.dtype, np.datetime64) else np.diff(x.to_numpy(dtype=float))
+def _as_float(x: pd.Series) -> np.ndarray:
+    if np.issubdtype(x.dtype, np.datetime64):
+        return x.to_numpy().astype("datetime64[ns]").astype(np.int64).astype(float)
+    return x.to_numpy(dtype=float)
+
+
+def _segments(x: pd.Series, every: pd.Series) -> np.ndarray:
+    """A run number per point of ``x`` that changes across gaps far longer than the usual
+    spacing of the well's cards (``every``), so that bands and lines do not pretend to know
+    the quantity where no card was read or where the cards left it undetermined."""
+    step = np.diff(np.sort(_as_float(every)))
     typical = float(np.median(step[step > 0])) if np.any(step > 0) else 0.0
-    if typical <= 0:
+    if len(x) < 2 or typical <= 0:
         return np.zeros(len(x), dtype=int)
-    return np.concatenate([[0], np.cumsum(step > 3.0 * typical)])
+    return np.concatenate([[0], np.cumsum(np.diff(_as_float(x)) > 3.0 * typical)])
 
 
 def _band(v: pd.Series, s: pd.Series) -> tuple[np.ndarray, np.ndarray]:
@@ -275,11 +279,15 @@ def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str
         x, v, s = x_all[ok], value[ok], se[ok]
         if len(v):
             lo, hi = _band(v, s)
-            run = _segments(x)
+            run = _segments(x, x_all)
             for k in np.unique(run):
                 on = run == k
-                ax.fill_between(x[on], lo[on], hi[on], color="#c6dbef", linewidth=0,
-                                label="value ± 2 SE")
+                if on.sum() > 1:
+                    ax.fill_between(x[on], lo[on], hi[on], color="#c6dbef", linewidth=0,
+                                    label="value ± 2 SE")
+                else:  # a band needs two cards; a lone card gets its interval as a bar
+                    ax.vlines(x[on], lo[on], hi[on], color="#c6dbef", lw=3,
+                              label="value ± 2 SE")
                 ax.plot(x[on], v[on], ".-", color="#08519c", ms=3, lw=0.6,
                         label="value of a card")
         if bad.any():
