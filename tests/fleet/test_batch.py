@@ -69,6 +69,12 @@ def test_every_card_once_with_its_status(field, local_run) -> None:
         if card["format"] == "parquet" and card["broken"] != "unreadable":
             # a bad card in the long layout keeps its ids
             assert (row["card_id"], row["well_id"]) == (card["card_id"], card["well_id"])
+        elif card["broken"] != "unreadable":
+            # a file refused for its one bad card still says whose card and when
+            assert row["well_id"] == card["well_id"], (card["path"], row["well_id"])
+            assert row["time"] == pd.Timestamp(card["time"]), (card["path"], row["time"])
+        else:
+            assert pd.isna(row["well_id"])  # nothing to read it from
     # the multi-well export's cards all came from one file
     export = table[table["file"] == str(folder / "scada" / "export.txt")]
     assert export["well_id"].nunique() >= 6 and (export["status"] != "invalid-input").all()

@@ -33,3 +33,13 @@ def test_demo_field_batch_and_report(tmp_path: Path, capsys) -> None:
 def test_demo_usage(capsys) -> None:
     assert main([]) == 2
     assert "usage" in capsys.readouterr().err
+
+
+def test_demo_words_agree_with_its_truth_table(tmp_path: Path, capsys) -> None:
+    assert main([str(tmp_path / "field")]) == 0
+    out = capsys.readouterr().out
+    truth = pd.read_csv(tmp_path / "truth.csv")
+    first = truth[truth["changed"]].sort_values("card_index").iloc[0]
+    assert first["card_index"] == DEMO_FIELD["change"].at
+    assert (f"well {first['well_id']}'s k1 rises by 30% from card_index "
+            f"{first['card_index']} of the truth table (card {first['card_id']}") in out

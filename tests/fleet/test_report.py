@@ -93,3 +93,45 @@ def test_parameters_shown_with_their_units(table: pd.DataFrame, tmp_path: Path) 
     page = files["report"].read_text(encoding="utf-8")
     assert "p_k0 [lbf/in]" in page and "stiffness [lbf/in]" in page
     assert "distribution_p_k0" in files
+
+
+def test_rows_without_a_well_are_not_a_well_and_counts_agree(tmp_path: Path) -> None:
+    frame = results_table(3, 90, cv=0.03, seed=5, steps={1: ("stiffness", 1.4, 45)})
+    lost = frame.index[[5, 100, 200]]
+    frame.loc[lost, "well_id"] = None
+    frame.loc[lost, "status"] = "invalid-input"
+    alerts = detect_changes(frame, ["stiffness"])
+    assert len(alerts) == 1
+    files = write_fleet_report(frame, tmp_path, alerts=alerts, quantities=["stiffness"])
+    page = files["report"].read_text(encoding="utf-8")
+    assert "3 wells, 270 cards, 1 alert." in page
+    assert "<td>wells</td><td>3 wells</td>" in page
+    assert "<td>cards without a well (unreadable input)</td><td>3 cards</td>" in page
+
+
+def test_failed_and_invalid_cards_of_a_well_are_drawn(tmp_path: Path) -> None:
+    from PIL import Image
+
+    frame = results_table(2, 60, cv=0.03, seed=6)
+    hit = frame.index[(frame["well_id"] == "W0001") & frame.index.isin([70, 80, 95])]
+    frame.loc[hit, "status"] = "invalid-input"
+    frame.loc[hit, ["d_stiffness", "d_stiffness_se"]] = np.nan
+    empty = detect_changes(frame.iloc[:0])
+    files = write_fleet_report(frame, tmp_path, alerts=empty, quantities=["stiffness"],
+                               steady_sample=2)
+    red = {}
+    for well in ("W0000", "W0001"):
+        rgb = np.asarray(Image.open(files[f"well_{well}"]).convert("RGB")).astype(int)
+        # the crosses' colour; with no alert nothing else on the figure has it
+        red[well] = int((np.abs(rgb - (176, 0, 32)).sum(axis=2) < 60).sum())
+    assert red["W0000"] == 0 and red["W0001"] > 20
+
+
+def test_tables_state_units_once_and_fit_a_window(table: pd.DataFrame, tmp_path: Path) -> None:
+    files = write_fleet_report(table, tmp_path, quantities=["stiffness"], steady_sample=0)
+    page = files["report"].read_text(encoding="utf-8")
+    alerts_table = page[page.index('<section id="alerts">'):page.index('<section id="wells">')]
+    wells_table = page[page.index('<section id="wells">'):page.index('id="distributions"')]
+    assert alerts_table.count("<th>") <= 9
+    assert "<th>latest stiffness [lbf/in]</th>" in wells_table
+    assert "lbf/in</td>" not in wells_table  # the unit is in the header, not in every row

@@ -7,7 +7,8 @@ writes each partition's rows as one Parquet file of the results folder
 (:mod:`pumpid.fleet.store`) as soon as it is back. One row per input card, in input order:
 the columns of :meth:`pumpid.FitResult.to_row` plus ``file``, ``item`` and ``partition``;
 a card that could not be read or validated is a row of status ``invalid-input`` with the
-reason, and a file that could not be read at all is one such row named after the file.
+reason, and a file that could not be read at all is one such row named after the file,
+with the well and card time the file states (:mod:`pumpid.fleet.inputs`), if it states them.
 
 Resuming (``resume=True``) rebuilds the same partitions from the same inputs (the manifest
 checks that they are the same), skips those already written (after checking that each
@@ -165,7 +166,8 @@ def _bad_row(item: BadItem, cls: type[Model], spec: FitSpec,
              schema: pa.Schema) -> dict[str, Any]:
     row = _blank(schema)
     row.update(well_id=item.well_id, card_id=item.card_id, source=item.source, file=item.file,
-               model=cls.__name__, observe=spec.options.get("observe") or cls.default_output,
+               time=_utc(item.time), model=cls.__name__,
+               observe=spec.options.get("observe") or cls.default_output,
                status="invalid-input", reason=item.reason, warnings="")
     return row
 

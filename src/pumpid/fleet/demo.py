@@ -9,7 +9,8 @@ The field (:data:`DEMO_FIELD`): six wells, a card every hour for three days (432
 in four file layouts (CSV, a SCADA export, JSON, the Parquet long layout), about 1 % of the
 cards broken (an unreadable file, a NaN, a truncated list, a constant load), Kelvin wells
 whose mass displacement ``u`` follows the polished rod, and one step change: well W003's
-Kelvin spring ``k1`` rises by 30 % from its 41st card on.
+Kelvin spring ``k1`` rises by 30 % from ``card_index`` 40 of ``truth.csv`` on (0-based: the
+well's 41st card, W003_20240102T1600Z).
 
 The seed is one whose steady wells all fit away from Kelvin's rigid limit for ``k0``. On
 wells whose cards sit at that limit on some cards and not on others, the time constant of
@@ -23,6 +24,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
+
+import pandas as pd
 
 from pumpid.pump.synthetic import StepChange, synthetic_field
 
@@ -62,8 +65,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     truth = make_demo_field(args[0])
     field = DEMO_FIELD
     n = field["n_wells"] * field["days"] * field["cards_per_day"]
+    # Named from the truth table itself, so that the words cannot drift from it.
+    table = pd.read_csv(truth)
+    first = table[table["changed"]].sort_values("card_index").iloc[0]
+    change = field["change"]
     print(f"demo field: {n} cards of {field['n_wells']} wells over {field['days']} days in "
-          f"{args[0]} (truth: {truth}); well W003's k1 rises by 30 % from card 41")
+          f"{args[0]} (truth: {truth}); well {first['well_id']}'s {change.parameter} rises by "
+          f"{change.factor - 1:.0%} from card_index {first['card_index']} of the truth table "
+          f"(card {first['card_id']})")
     return 0
 
 

@@ -11,12 +11,17 @@ are Parquet's magic number or its name ends in ``.parquet``/``.pq``; otherwise w
 (:class:`CardItem`) and, in place of what could not be read, a :class:`BadItem` (a whole
 file, or one card of a Parquet file). A card's id in the run is the reader's id when no
 earlier item of the stream has it, else the id followed by its source in brackets, so ids
-are unique in the run and the same on every run over the same inputs.
+are unique in the run and the same on every run over the same inputs. A text file the
+reader refuses as a whole (one card with a NaN, a truncated list, a constant load) keeps
+the well and card time it states in a well or timestamp column or key, when it states a
+single one; an unreadable file (binary, a broken Parquet file) names no well.
 """
 
 from __future__ import annotations
 
+import json
 import os
+import re
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -124,6 +129,7 @@ class BadItem:
     reason: str
     well_id: str | None = None
     whole_file: bool = False
+    time: str | None = None
 
 
 def _hidden(rel: Path) -> bool:
@@ -215,12 +221,90 @@ def _cards_of(file: InputFile, options: ReadOptions) -> Iterator[Card | CardErro
                           spm=options.spm, period=options.period, columns=options.columns)
 
 
+# Column and key names (lower case, units and punctuation dropped) under which the text
+# layouts state a card's well and its time; "time" alone is a sample's time in a table.
+_WELL_NAMES = frozenset({"well", "well_id", "wellid", "well_name"})
+_TIME_NAMES = frozenset({"timestamp", "card_time", "datetime", "date_time"})
+# Enough of a file for its header and first rows; a broken card is rarely larger.
+_PEEK_BYTES = 1 << 20
+
+
+def _key(name: str) -> str:
+    name = re.sub(r"[\(\[].*?[\)\]]", "", name).strip().lower()
+    return re.sub(r"[\s.\-]+", "_", name).strip("_")
+
+
+def _only(values: Sequence[Any]) -> str | None:
+    seen = {str(v).strip() for v in values if v is not None and str(v).strip()}
+    return seen.pop() if len(seen) == 1 else None
+
+
+def _stated_identity(path: str) -> tuple[str | None, str | None]:
+    """The well and card time a text file states in its own columns or keys, when it
+    states one of each; (None, None) when it cannot tell.
+
+    A reader refuses a whole file for one bad card (a NaN, a truncated list, a constant
+    load) and so names no card; the file may still say plainly whose card it held, and a
+    row filed under no well is lost to that well's history.
+    """
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read(_PEEK_BYTES)
+    except OSError:
+        return None, None
+    if b"\0" in raw:
+        return None, None
+    text = raw.decode("utf-8", errors="replace").lstrip("\ufeff")
+    if text.lstrip().startswith(("{", "[")):
+        return _json_identity(text)
+    return _table_identity(text)
+
+
+def _json_identity(text: str) -> tuple[str | None, str | None]:
+    try:
+        doc = json.loads(text)
+    except ValueError:
+        return None, None
+    cards = doc if isinstance(doc, list) else doc.get("cards", [doc]) \
+        if isinstance(doc, dict) else []
+    cards = [c for c in cards if isinstance(c, dict)] if isinstance(cards, list) else []
+    top = {_key(k): v for k, v in doc.items()} if isinstance(doc, dict) else {}
+    wells, times = [], []
+    for card in cards or [top]:
+        keyed = {**top, **{_key(k): v for k, v in card.items()}}
+        wells += [v for k, v in keyed.items() if k in _WELL_NAMES and isinstance(v, str)]
+        times += [v for k, v in keyed.items() if k in _TIME_NAMES and isinstance(v, str)]
+    # a time only when the file held one card: with several, which one failed is unknown
+    return _only(wells), (_only(times) if len(cards) <= 1 else None)
+
+
+def _table_identity(text: str) -> tuple[str | None, str | None]:
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if len(lines) < 2:
+        return None, None
+    delimiter = max(",;\t|", key=lines[0].count)
+    header = [_key(h) for h in lines[0].split(delimiter)]
+    well = [i for i, h in enumerate(header) if h in _WELL_NAMES]
+    when = [i for i, h in enumerate(header) if h in _TIME_NAMES]
+    if not well and not when:
+        return None, None
+    rows = [ln.split(delimiter) for ln in lines[1:]]
+
+    def column(found: list[int]) -> str | None:
+        if len(found) != 1:
+            return None
+        return _only([r[found[0]].strip().strip('"') for r in rows if len(r) > found[0]])
+
+    return column(well), column(when)
+
+
 def _bad_file(file: InputFile, error: Exception) -> BadItem:
     if isinstance(error, CardError):
         where = _where(error)
         source = f"{file.name}, {where}" if where else file.name
+        well, when = (None, None) if _is_parquet(file.path) else _stated_identity(file.path)
         return BadItem(card_id=file.name, source=source, file=file.name, reason=error.reason,
-                       whole_file=True)
+                       whole_file=True, well_id=well, time=when)
     # A reader must raise nothing else; if one does, the run still goes on and says so.
     return BadItem(card_id=file.name, source=file.name, file=file.name,
                    reason=f"the reader failed ({type(error).__name__}: {error})",
@@ -312,4 +396,5 @@ def _bad_card(error: CardError, file: InputFile,
 
 def _renamed(bad: BadItem, unique: Callable[[str, str], str]) -> BadItem:
     return BadItem(card_id=unique(bad.card_id, bad.source), source=bad.source, file=bad.file,
-                   reason=bad.reason, well_id=bad.well_id, whole_file=bad.whole_file)
+                   reason=bad.reason, well_id=bad.well_id, whole_file=bad.whole_file,
+                   time=bad.time)

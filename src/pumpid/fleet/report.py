@@ -32,9 +32,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from .changes import (
     STATUSES,
+    UNKNOWN_WELL,
     USABLE_STATUSES,
     available_quantities,
     detect_changes,
@@ -50,11 +52,11 @@ body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; ma
 h1 { font-size: 1.6em; margin-bottom: 0.2em; }
 h2 { font-size: 1.25em; border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.6em; }
 h3 { font-size: 1.05em; margin-bottom: 0.2em; }
-table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.92em; }
-th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
-th { background: #f2f2f2; }
-td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace;
-         white-space: nowrap; }
+table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.85em; }
+th, td { border: 1px solid #ccc; padding: 0.2em 0.45em; text-align: left; vertical-align: top;
+         overflow-wrap: break-word; }
+th { background: #f2f2f2; font-size: 0.95em; }
+td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace; }
 tr.alert td:first-child { border-left: 4px solid #b00020; }
 .up { color: #b00020; font-weight: bold; }
 .down { color: #1f4fa0; font-weight: bold; }
@@ -103,6 +105,13 @@ def _count(n: Any, word: str) -> str:
     """``"1 card"``, ``"3 cards"``."""
     k = int(n)
     return f"{k} {word}" if k == 1 else f"{k} {word}s"
+
+
+def _n_wells(frame: pd.DataFrame) -> int:
+    """Wells named in the table: rows of unreadable files belong to no well, so the
+    placeholder they are filed under must not count as one."""
+    wells = frame["well_id"].dropna().astype(str)
+    return int(wells[wells != UNKNOWN_WELL].nunique())
 
 
 def _when(value: Any) -> str:
@@ -202,21 +211,53 @@ def _distribution_figure(frame: pd.DataFrame, quantity: str, unit: str,
     fig = Figure(figsize=(6.4, 3.2))
     ax = fig.subplots()
     values = med.to_numpy(dtype=float)
-    positive = bool(np.all(values > 0)) and values.max() > 3 * values.min()
-    bins: Any = 30
+    # A log axis only pays when the values span an order of magnitude; below that it only
+    # squeezes the ticks.
+    positive = bool(np.all(values > 0)) and values.max() >= 10 * values.min()
+    bins: Any = int(np.clip(np.ceil(2 * np.sqrt(len(values))), 5, 30))
     if positive:
-        bins = np.geomspace(values.min(), values.max(), 31)
+        bins = np.geomspace(values.min(), values.max(), bins + 1)
         ax.set_xscale("log")
     ax.hist(values, bins=bins, color="#8fb3d9", edgecolor="#4a6f96")
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     marked = med[med.index.isin(alerted)]
     if len(marked):
         ax.plot(marked.to_numpy(), np.zeros(len(marked)), "v", color="#b00020", ms=8,
                 clip_on=False, label=f"wells with an alert ({len(marked)})")
-        ax.legend(loc="upper right", fontsize=8)
+        # beside the axes, where it cannot hide a bar
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     ax.set_xlabel(f"{quantity}: median over each well's cards [{_unit_text(unit)}]")
     ax.set_ylabel("wells")
     ax.set_title(f"{quantity} across {len(med)} wells", fontsize=10)
     return fig
+
+
+def _as_float(x: pd.Series) -> np.ndarray:
+    if np.issubdtype(x.dtype, np.datetime64):
+        return x.to_numpy().astype("datetime64[ns]").astype(np.int64).astype(float)
+    return x.to_numpy(dtype=float)
+
+
+def _segments(x: pd.Series, every: pd.Series) -> np.ndarray:
+    """A run number per point of ``x`` that changes across gaps far longer than the usual
+    spacing of the well's cards (``every``), so that bands and lines do not pretend to know
+    the quantity where no card was read or where the cards left it undetermined."""
+    step = np.diff(np.sort(_as_float(every)))
+    typical = float(np.median(step[step > 0])) if np.any(step > 0) else 0.0
+    if len(x) < 2 or typical <= 0:
+        return np.zeros(len(x), dtype=int)
+    return np.concatenate([[0], np.cumsum(np.diff(_as_float(x)) > 3.0 * typical)])
+
+
+def _band(v: pd.Series, s: pd.Series) -> tuple[np.ndarray, np.ndarray]:
+    """Limits of value +- 2 SE. A positive quantity gets them on the log scale (as the
+    change detector judges it), so the band never crosses zero."""
+    vv = v.to_numpy(dtype=float)
+    ss = np.where(np.isfinite(s.to_numpy(dtype=float)), s.to_numpy(dtype=float), 0.0)
+    if len(vv) and np.all(vv > 0):
+        factor = np.exp(2.0 * ss / vv)
+        return vv / factor, vv * factor
+    return vv - 2.0 * ss, vv + 2.0 * ss
 
 
 def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
@@ -224,22 +265,36 @@ def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str
     rows = len(quantities)
     fig = Figure(figsize=(8.0, 1.9 * rows + 0.6))
     axes = np.atleast_1d(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0])
-    timed = "time" in group.columns and group["time"].notna().all() and len(group) > 0
-    ordered = group.sort_values("time", kind="stable") if timed else group
+    # The time axis as the change detector orders the well: by time when every usable card
+    # has one; a failed or invalid card without a time then cannot be placed and is left out.
+    timed = ("time" in group.columns and group["time"].notna().any()
+             and group.loc[group["status"].isin(USABLE_STATUSES), "time"].notna().all())
+    ordered = (group[group["time"].notna()].sort_values("time", kind="stable") if timed
+               else group)
     x_all = (pd.to_datetime(ordered["time"], utc=True).dt.tz_localize(None) if timed
              else pd.Series(np.arange(len(ordered)), index=ordered.index))
-    bad = ~ordered["status"].isin(USABLE_STATUSES)
+    bad = ordered["status"].isin(("failed", "invalid-input")).to_numpy()
     for ax, q in zip(axes, quantities, strict=True):
         value, se, ok = _values(ordered, q)
         x, v, s = x_all[ok], value[ok], se[ok]
         if len(v):
-            band = np.where(np.isfinite(s), 2.0 * s, 0.0)
-            ax.fill_between(x, v - band, v + band, color="#c6dbef", linewidth=0,
-                            label="value ± 2 SE")
-            ax.plot(x, v, ".-", color="#08519c", ms=3, lw=0.6, label="value of a card")
+            lo, hi = _band(v, s)
+            run = _segments(x, x_all)
+            for k in np.unique(run):
+                on = run == k
+                if on.sum() > 1:
+                    ax.fill_between(x[on], lo[on], hi[on], color="#c6dbef", linewidth=0,
+                                    label="value ± 2 SE")
+                else:  # a band needs two cards; a lone card gets its interval as a bar
+                    ax.vlines(x[on], lo[on], hi[on], color="#c6dbef", lw=3,
+                              label="value ± 2 SE")
+                ax.plot(x[on], v[on], ".-", color="#08519c", ms=3, lw=0.6,
+                        label="value of a card")
         if bad.any():
-            ax.plot(x_all[bad], np.full(int(bad.sum()), np.nanmin(v) if len(v) else 0.0), "x",
-                    color="#b00020", ms=4, label="failed / invalid card")
+            # at the foot of the panel, whatever the quantity's range
+            ax.plot(x_all[bad], np.full(int(bad.sum()), 0.02), "x", color="#b00020", ms=5,
+                    transform=ax.get_xaxis_transform(), clip_on=False,
+                    label="failed / invalid card")
         mine = alerts[(alerts["well_id"].astype(str) == well) & (alerts["quantity"] == q)]
         ids = ordered["card_id"].astype(str)
         for _, a in mine.iterrows():
@@ -306,9 +361,14 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
     span = "no card times in the table"
     if times is not None and times.notna().any():
         span = f"{_when(times.min())} to {_when(times.max())}"
+    no_well = int(
+        (frame["well_id"].isna() | (frame["well_id"].astype(str) == UNKNOWN_WELL)).sum()
+    )
     rows = [
-        ("wells", _count(frame["well_id"].nunique(), "well")),
+        ("wells", _count(_n_wells(frame), "well")),
         ("cards", _count(n, "card")),
+        *((("cards without a well (unreadable input)", _count(no_well, "card")),)
+          if no_well else ()),
         ("cards used for trends (converged, boundary, poor-fit)",
          _count(counts[list(USABLE_STATUSES)].sum(), "card")),
         *((f"status {st}", f"{_count(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
@@ -334,35 +394,40 @@ def _alerts_section(alerts: pd.DataFrame) -> str:
     for _, a in order.iterrows():
         unit = a["unit"]
         rows.append([
-            str(a["well_id"]), str(a["quantity"]), str(a["first_card_id"]),
-            _when(a["first_time"]),
+            str(a["well_id"]), str(a["quantity"]),
+            f"{a['first_card_id']} ({_when(a['first_time'])})",
             f"{a['alarm_card_id']} ({_count(a['delay_cards'], 'card')} later)",
-            _with_unit(a["before"], unit), _with_unit(a["after"], unit),
-            _with_unit(a["change"], unit), f"{float(a['change_rel']):+.1%}",
-            f"{_num(a['change_se'], 3)} standard errors", str(a["direction"]),
-            f"{int(a['n_before'])} / {_count(a['n_after'], 'card')}",
+            f"{_with_unit(a['before'], unit)} → {_with_unit(a['after'], unit)}",
+            f"{_with_unit(a['change'], unit)} ({float(a['change_rel']):+.1%})",
+            _num(a["change_se"], 3), str(a["direction"]),
+            f"{int(a['n_before'])} / {int(a['n_after'])}",
         ])  # fmt: skip
         classes.append("alert")
-    headers = ("well", "quantity", "first changed card", "its time", "alarm card",
-               "before (median)", "after (median)", "change (after - before)",
-               "relative change", "size of change", "direction", "cards before / after")
-    return _table(headers, rows, num_cols=(5, 6, 7, 8, 9), row_classes=classes)
+    headers = ("well", "quantity", "first changed card (its time)", "alarm card",
+               "median before → after", "change (relative)", "size (standard errors)",
+               "direction", "cards before / after")
+    return _table(headers, rows, num_cols=(4, 5, 6), row_classes=classes)
 
 
-def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], limit: int) -> str:
+def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
+                   limit: int) -> str:
     shown = summary.head(limit)
-    headers = ["well", "cards", *(f"{st}" for st in STATUSES), "alerts", "largest change",
-               *(f"latest {q}" for q in quantities)]  # fmt: skip
+    # Counts and units go in the headers, so that every column fits a normal window.
+    headers = ["well", "cards", *STATUSES, "alerts", "largest change",
+               *(f"latest {q} [{_unit_text(units.get(q, ''))}]" for q in quantities)]
     rows, classes = [], []
     for _, w in shown.iterrows():
-        cells = [str(w["well_id"]), _count(w["cards"], "card")]
-        cells += [_count(w["n_" + st.replace("-", "_")], "card") for st in STATUSES]
-        cells.append(_count(w["alerts"], "alert"))
+        cells = [str(w["well_id"]), str(int(w["cards"]))]
+        cells += [str(int(w["n_" + st.replace("-", "_")])) for st in STATUSES]
+        cells.append(str(int(w["alerts"])))
         size = w["max_abs_change_se"]
         cells.append(f"{w['largest_change']} [{_num(size, 3)} standard errors]"
                      if w["alerts"] else "none")
         for q in quantities:
-            cells.append(_with_unit(w.get(f"latest_{q}"), w.get(f"latest_{q}_unit", "")))
+            unit = w.get(f"latest_{q}_unit", "")
+            same = _unit_text(unit) == _unit_text(units.get(q, ""))
+            value = w.get(f"latest_{q}")
+            cells.append(_num(value) if same else _with_unit(value, unit))
         rows.append(cells)
         classes.append("alert" if w["alerts"] else "")
     note = ""
@@ -471,9 +536,9 @@ def write_fleet_report(
 
     parts.append("<section id=\"wells\"><h2>Wells</h2>")
     parts.append("<p>Wells with alerts first (largest change in standard errors first), "
-                 "then the others by name; card counts per fit status and the latest "
-                 "usable value of each quantity.</p>")
-    parts.append(_wells_section(summary, names, max_wells_listed))
+                 "then the others by name; the number of cards of each fit status, the "
+                 "alerts, and the latest usable value of each quantity.</p>")
+    parts.append(_wells_section(summary, names, units, max_wells_listed))
     parts.append("</section>")
 
     alerted = set(alerts["well_id"].astype(str))
@@ -521,6 +586,8 @@ def write_fleet_report(
     parts.append("</section>")
 
     body = "\n".join(parts)
+    headline = (f"{_count(_n_wells(frame), 'well')}, {_count(len(frame), 'card')}, "
+                f"{_count(len(alerts), 'alert')}")
     page = f"""<!DOCTYPE html>
 <html lang="en">
 <head>
@@ -531,8 +598,7 @@ def write_fleet_report(
 </head>
 <body>
 <h1>pumpid fleet report</h1>
-<p class="muted">Which wells changed, when, and how: {frame['well_id'].nunique()} wells,
-{len(frame)} cards, {len(alerts)} alerts.</p>
+<p class="muted">Which wells changed, when, and how: {headline}.</p>
 {body}
 <footer>Made by pumpid {_e(_version())}. Change detection: see
 pumpid.fleet.changes for the method and its assumptions.</footer>
