@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..engine import lm
 from ..engine.simulate import simulate, simulate_sensitivities
-from ..engine.solvers import run_python
+from ..engine.solvers import LevenbergMarquardt, run_python
 from ..inference.identifiability import findings_of, whiteness_warning
 from ..inference.uncertainty import Numbers, analyse_rows, uncertainty_of
 from ..job import fit
@@ -300,7 +300,8 @@ def _fit_records(
         return cost, r_fac, c
 
     z0 = np.log(theta0[free])
-    budget = max_nfev if max_nfev is not None else 100 * q
+    # The same default budget as every other fit (the solver's own rule).
+    budget = max_nfev if max_nfev is not None else LevenbergMarquardt().budget(q)
     out = run_python(evaluate, z0, np.full(q, -700.0), np.full(q, 700.0), tol=tol,
                      max_evaluations=budget, n_capped=q)
     stop = out.stops[0]
