@@ -274,9 +274,7 @@ class Problem:
         shift = self.shift_of(k)
         if shift == 0.0:
             return np.zeros(th.shape[:-1])
-        a, b, _, _ = self.model.system_batch(th)
-        with np.errstate(all="ignore"):
-            gain = -np.linalg.solve(a, b[..., None])[..., self.out_index, 0]
+        gain = self.model.static_gains(th, self.observe)
         return np.asarray(scale, dtype=float) * gain * shift
 
     # ------------------------------------------------------------------ kernel arrays

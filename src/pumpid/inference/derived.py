@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from ..models import Model
 from .uncertainty import PRACTICAL_REL_SE, STRUCTURAL_TOL, Numbers
 
-__all__ = ["Derived", "derived_of"]
+__all__ = ["Derived", "derived_gradient", "derived_of", "moved_by_limits"]
 
 Array = NDArray[np.float64]
 
@@ -63,9 +63,13 @@ class Derived:
                 "meaning": self.meaning}
 
 
-def _gradient(cls: type[Model], theta: Array, observe: str, scale: float,
+def derived_gradient(cls: type[Model], theta: Array, observe: str, scale: float,
               coords: Sequence[str]) -> Array:
-    """d(values)/d(scaled coordinate) for each of ``coords`` (k, len(coords))."""
+    """d(derived values)/d(scaled coordinate) for each of ``coords`` (k, len(coords)).
+
+    Coordinates: parameter names (their logarithms), ``C``/``D`` (the log of the scale) and
+    ``offset`` (which moves none of them).
+    """
     names = cls.param_names()
     k = len(cls.derived_info())
     grad = np.zeros((k, len(coords)))
@@ -92,7 +96,7 @@ def _gradient(cls: type[Model], theta: Array, observe: str, scale: float,
     return grad
 
 
-def _moved_by_limits(cls: type[Model], theta: Array, observe: str, scale: float,
+def moved_by_limits(cls: type[Model], theta: Array, observe: str, scale: float,
                      values: Array, limits: Sequence[tuple[str, str]]) -> NDArray[np.bool_]:
     """The quantities that change when a boundary parameter goes a factor e further."""
     moved = np.zeros(values.size, dtype=bool)
@@ -138,7 +142,7 @@ def derived_of(
         inner = list(nums.inner)
         qi = len(inner)
         coords = [nums.names[i] for i in inner]
-        grad = _gradient(cls, theta, observe, scale, coords)
+        grad = derived_gradient(cls, theta, observe, scale, coords)
         cov = nums.cov_scaled[:qi, :qi]
         hac = nums.hac_scaled[:qi, :qi]
         s = nums.singular[:qi]
@@ -157,7 +161,7 @@ def derived_of(
                 var_hac = float(g @ hac @ g)
             se[k] = math.sqrt(var) if var >= 0 else math.nan
             se_hac[k] = math.sqrt(var_hac) if var_hac >= 0 else math.nan
-    moved = _moved_by_limits(cls, theta, observe, scale, values, limits)
+    moved = moved_by_limits(cls, theta, observe, scale, values, limits)
     se[moved] = math.inf
     se_hac[moved] = math.inf
     out: dict[str, Derived] = {}

@@ -23,6 +23,7 @@ along ``ln theta_j`` is ``e_j`` times the monomial) and the compiled kernel's in
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import math
@@ -403,8 +404,25 @@ class Model:
 
     def static_gain(self, observe: str | None = None) -> float:
         """Static displacement of the observed state per unit constant input."""
-        a, b = self.matrices()
-        return float(-np.linalg.solve(a, b)[self.output_index(observe)])
+        return float(self.static_gains(self.values, observe))
+
+    @classmethod
+    def static_gains(cls, theta: ArrayLike, observe: str | None = None) -> Array:
+        """:meth:`static_gain` for parameter vectors ``theta`` (..., p); NaN where there is
+        no equilibrium (a singular state matrix)."""
+        a, b, _, _ = cls.system_batch(theta)
+        k = cls.output_index(observe)
+        with np.errstate(all="ignore"):
+            try:
+                return -np.linalg.solve(a, b[..., None])[..., k, 0]
+            except np.linalg.LinAlgError:
+                # One singular matrix fails the stacked solve: the rows one at a time.
+                flat_a, flat_b = a.reshape(-1, *a.shape[-2:]), b.reshape(-1, b.shape[-1])
+                out = np.full(flat_b.shape[0], math.nan)
+                for i in range(out.size):
+                    with contextlib.suppress(np.linalg.LinAlgError):
+                        out[i] = -np.linalg.solve(flat_a[i], flat_b[i])[k]
+                return out.reshape(b.shape[:-1])
 
     def poles(self) -> NDArray[np.complex128]:
         """Eigenvalues of A (1/s), sorted by decreasing real part."""
@@ -457,13 +475,10 @@ class Model:
             # One stacked eigenvalue and solve call for all vectors (the derivatives of the
             # quantities take 2p + 2 of them per fit).
             lams = np.linalg.eigvals(a[rows])
-            k_obs = cls.output_index(observe)
+            gains = cls.static_gains(th[rows], observe)
             for j, i in enumerate(rows):
                 values = _pole_quantities(lams[j])
-                try:
-                    gain = float(-np.linalg.solve(a[i], b[i])[k_obs])
-                except np.linalg.LinAlgError:
-                    gain = math.nan
+                gain = float(gains[j])
                 if gain != 0 and math.isfinite(gain):
                     values["static_stiffness"] = 1.0 / (float(scales[i]) * gain)
                 out[i] = [values.get(name, math.nan) for name in names]

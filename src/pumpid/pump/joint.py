@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from ..cards import Card
 from ..engine import drive
+from ..inference.derived import derived_gradient, moved_by_limits
 from ..models import Kelvin, Model, model_class
 from ..result import Units
 from .fit import fit_cards
@@ -254,8 +255,8 @@ def fit_joint(
     params = {n: float(theta[i]) for i, n in enumerate(names)}
     stderr = {n: float(theta[i] * se_log[i]) for i, n in enumerate(names)}
     derived = _derived(cls, theta, problem.observe, cov[:p, :p], inflate, first.units,
-                       [(names[int(problem.free_idx[i])], x[i] >= hi[i] - 1e-3)
-                        for i in at_limit])
+                       [(names[int(problem.free_idx[i])],
+                         "infinity" if x[i] >= hi[i] - 1e-3 else "zero") for i in at_limit])
     offsets, r2s, rmses = [], [], []
     for i, k in enumerate(ks):
         d = problem.card(k)[2]
@@ -284,32 +285,20 @@ def fit_joint(
 
 
 def _derived(cls: type[Model], theta: Array, observe: str, cov: Array, inflate: float,
-             units: Units, limits: Sequence[tuple[str, bool]]
+             units: Units, limits: Sequence[tuple[str, str]]
              ) -> dict[str, tuple[float, float, float, str]]:
-    """Derived quantities with delta-method errors (central differences in log theta);
-    a quantity that still moves when a parameter at its limit goes further has none."""
+    """Derived quantities with delta-method errors over the log-parameters; a quantity that
+    still moves when a parameter at its limit goes further has none."""
     infos = cls.derived_info()
     values = cls.derived_values(theta, observe)
     cov = np.where(np.isfinite(cov), cov, 0.0)
-    moved = np.zeros(len(infos), dtype=bool)
-    names = cls.param_names()
-    for name, upward in limits:
-        further = theta.copy()
-        further[names.index(name)] *= math.e if upward else 1 / math.e
-        moved |= ~(np.abs(cls.derived_values(further, observe) - values)
-                   <= 1e-3 * np.abs(values))
-    step = 1e-6
-    p = theta.size
-    up = np.repeat(theta[None], p, axis=0) * np.exp(step * np.eye(p))
-    down = np.repeat(theta[None], p, axis=0) * np.exp(-step * np.eye(p))
-    grad = (cls.derived_values(up, observe) - cls.derived_values(down, observe)).T / (2 * step)
+    moved = moved_by_limits(cls, theta, observe, 1.0, values, limits)
+    grad = derived_gradient(cls, theta, observe, 1.0, cls.param_names())
     out = {}
     for j, info in enumerate(infos):
         g = grad[j]
         var = float(g @ cov @ g) if np.all(np.isfinite(g)) else math.nan
-        se = math.sqrt(var) if var >= 0 else math.nan
-        if moved[j]:
-            se = math.inf
+        se = math.inf if moved[j] else (math.sqrt(var) if var >= 0 else math.nan)
         out[info.name] = (float(values[j]), se, se * inflate,
                           info.unit_for(units.load, units.position))
     return out
