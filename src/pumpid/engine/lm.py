@@ -376,14 +376,7 @@ def propose(state):
     dz = np.empty(q)
     for j in range(q):
         dz[j] = step[j] / diag[j]
-    n_cap = ints[_NCAP]
-    if n_cap > 0:
-        big = 0.0
-        for j in range(n_cap):
-            big = max(big, abs(dz[j]))
-        if big > MAX_LOG_STEP:
-            for j in range(q):
-                dz[j] *= MAX_LOG_STEP / big
+    _cap_log_step(dz, ints[_NCAP])
     for j in range(q):
         z_try[j] = min(max(z[j] + dz[j], lo[j]), hi[j])
         dz[j] = z_try[j] - z[j]
@@ -492,16 +485,22 @@ def accelerate(state, c_probe, ok):
     dz = np.empty(q)
     for j in range(q):
         dz[j] = (vel[j] + (0.5 * accel[j] if use else 0.0)) / diag[j]
-    n_cap = ints[_NCAP]
-    if use and n_cap > 0:
-        big = 0.0
-        for j in range(n_cap):
-            big = max(big, abs(dz[j]))
-        if big > MAX_LOG_STEP:
-            for j in range(q):
-                dz[j] *= MAX_LOG_STEP / big
+    if use:
+        _cap_log_step(dz, ints[_NCAP])
     for j in range(q):
         z_try[j] = min(max(z[j] + dz[j], lo[j]), hi[j])
+
+
+@jit
+def _cap_log_step(dz, n_cap):
+    """Scale the whole step down so that no capped log-coordinate (the first n_cap) moves
+    by more than MAX_LOG_STEP."""
+    big = 0.0
+    for j in range(n_cap):
+        big = max(big, abs(dz[j]))
+    if big > MAX_LOG_STEP:
+        for j in range(dz.size):
+            dz[j] *= MAX_LOG_STEP / big
 
 
 @jit

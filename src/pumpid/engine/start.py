@@ -281,13 +281,20 @@ def _refine_time(t, y, f, coef, form, uniform, offset_free, iterations):
         new = _lstsq(mat, target)[:ncoef]
         if not np.all(np.isfinite(new)):
             break
-        change = 0.0
-        for j in range(ncoef):
-            change = max(change, abs(new[j] - best[j]) / max(abs(best[j]), 1e-300))
+        change = _largest_relative_change(new, best, ncoef)
         best = new
         if change < 1e-8:
             break
     return best
+
+
+@jit
+def _largest_relative_change(new, old, n):
+    """max_j |new_j - old_j| / |old_j| over the first n coefficients."""
+    change = 0.0
+    for j in range(n):
+        change = max(change, abs(new[j] - old[j]) / max(abs(old[j]), 1e-300))
+    return change
 
 
 @jit
@@ -325,9 +332,7 @@ def _refine_harmonic(yk, fk, period, coef, form, first, iterations):
         new = _lstsq(mat, target)
         if not np.all(np.isfinite(new)):
             break
-        change = 0.0
-        for j in range(ncoef):
-            change = max(change, abs(new[j] - best[j]) / max(abs(best[j]), 1e-300))
+        change = _largest_relative_change(new, best, ncoef)
         best = new
         if change < 1e-8:
             break
