@@ -292,14 +292,7 @@ def start(z0, cost, r, c, lo, hi, tol, n_capped, max_evals, accel, noise, scalin
     else:
         znorm = 0.0
         for j in range(q):
-            if fixed:
-                diag[j] = scaling[j]
-            else:
-                col = 0.0
-                for i in range(q):
-                    col += r[i, j] * r[i, j]
-                col = math.sqrt(col)
-                diag[j] = col if col > 0.0 else 1.0
+            diag[j] = scaling[j] if fixed else _column_norm(r, j, q)
             znorm += (diag[j] * z[j]) ** 2
         fs[_DELTA] = FACTOR * math.sqrt(znorm)
         if not fs[_DELTA] > 0.0:
@@ -492,6 +485,16 @@ def accelerate(state, c_probe, ok):
 
 
 @jit
+def _column_norm(r, j, q):
+    """MINPACK's scaling of coordinate j: the norm of its column of R (1 when zero)."""
+    col = 0.0
+    for i in range(q):
+        col += r[i, j] * r[i, j]
+    col = math.sqrt(col)
+    return col if col > 0.0 else 1.0
+
+
+@jit
 def _cap_log_step(dz, n_cap):
     """Scale the whole step down so that no capped log-coordinate (the first n_cap) moves
     by more than MAX_LOG_STEP."""
@@ -560,11 +563,7 @@ def update(state, cost_try, r_try, c_try):
             znorm = 0.0
             for j in range(q):
                 if ints[_FIXED] == 0:
-                    col = 0.0
-                    for i in range(q):
-                        col += r[i, j] * r[i, j]
-                    col = math.sqrt(col)
-                    diag[j] = col if col > 0.0 else 1.0
+                    diag[j] = _column_norm(r, j, q)
                 znorm += (diag[j] * z[j]) ** 2
             fs[_DELTA] = FACTOR * math.sqrt(znorm) if znorm > 0.0 else FACTOR
         fs[_SEGCOST] = fs[_COST]

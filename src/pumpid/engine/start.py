@@ -158,9 +158,10 @@ def _dft(x, kmax):
 
 
 @jit
-def _harmonic_coefs(yk, fk, period, lam, form, first):
-    """Equation error over the harmonics ``yk``, ``fk`` (k = 0..K) at bandwidth ``lam``."""
-    target_f, target_order, y_orders, f_orders, order = form
+def _harmonic_rows(yk, fk, period, weights, form, first):
+    """The equation-error system over harmonics first..K, each weighted by ``weights[k]``:
+    real and imaginary parts stacked (2 rows, K + 1 - first); the matrix and the target."""
+    target_f, target_order, y_orders, f_orders, _order = form
     kmax = yk.size - 1
     ncoef = y_orders.size + f_orders.size
     rows = kmax + 1 - first
@@ -169,7 +170,7 @@ def _harmonic_coefs(yk, fk, period, lam, form, first):
     for i in range(rows):
         k = first + i
         s = 2j * math.pi * k / period
-        weight = (lam / (s + lam)) ** order
+        weight = weights[k]
         for j in range(y_orders.size):
             v = weight * s ** y_orders[j] * yk[k]
             mat[i, j] = v.real
@@ -181,6 +182,18 @@ def _harmonic_coefs(yk, fk, period, lam, form, first):
         tv = (fk[k] if target_f else yk[k]) * s**target_order * weight
         target[i] = tv.real
         target[rows + i] = tv.imag
+    return mat, target
+
+
+@jit
+def _harmonic_coefs(yk, fk, period, lam, form, first):
+    """Equation error over the harmonics ``yk``, ``fk`` (k = 0..K) at bandwidth ``lam``."""
+    order = form[4]
+    weights = np.ones(yk.size, np.complex128)
+    for k in range(first, yk.size):
+        s = 2j * math.pi * k / period
+        weights[k] = (lam / (s + lam)) ** order
+    mat, target = _harmonic_rows(yk, fk, period, weights, form, first)
     return _lstsq(mat, target)
 
 
@@ -300,35 +313,21 @@ def _largest_relative_change(new, old, n):
 @jit
 def _refine_harmonic(yk, fk, period, coef, form, first, iterations):
     """:func:`_refine_time` over a periodic card's harmonics (weights 1 / D(i k w))."""
-    target_f, target_order, y_orders, f_orders, order = form
-    ncoef = y_orders.size + f_orders.size
-    kmax = yk.size - 1
-    rows = kmax + 1 - first
+    order = form[4]
+    ncoef = form[2].size + form[3].size
     best = coef.copy()
+    weights = np.ones(yk.size, np.complex128)
     for _ in range(iterations):
         poly = _denominator(best, form)
         if not _stable(poly):
             break
-        mat = np.empty((2 * rows, ncoef))
-        target = np.empty(2 * rows)
-        for i in range(rows):
-            k = first + i
+        for k in range(first, yk.size):
             s = 2j * math.pi * k / period
             den = 0.0 + 0.0j
             for j in range(order, -1, -1):
                 den = den * s + poly[j]
-            weight = 1.0 / den
-            for j in range(y_orders.size):
-                v = weight * s ** y_orders[j] * yk[k]
-                mat[i, j] = v.real
-                mat[rows + i, j] = v.imag
-            for j in range(f_orders.size):
-                v = weight * s ** f_orders[j] * fk[k]
-                mat[i, y_orders.size + j] = v.real
-                mat[rows + i, y_orders.size + j] = v.imag
-            tv = (fk[k] if target_f else yk[k]) * s**target_order * weight
-            target[i] = tv.real
-            target[rows + i] = tv.imag
+            weights[k] = 1.0 / den
+        mat, target = _harmonic_rows(yk, fk, period, weights, form, first)
         new = _lstsq(mat, target)
         if not np.all(np.isfinite(new)):
             break
