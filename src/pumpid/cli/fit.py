@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .. import interrupts
 from ..cards import Card, CardError, printable
 from ..models import MODELS, Model, model_class
 from ..report.output import FILE_MODE, OutputError, OutputFolder, UniqueNames
@@ -570,8 +571,10 @@ def cmd_fit(args: argparse.Namespace) -> int:
                     outputs.write(row)
                 printer.row(row)
             for chunk in _chunks(cards):
+                interrupts.check()
                 outcomes = fit_chunk(chunk, setup)
                 for card, outcome in zip(chunk, outcomes, strict=True):
+                    interrupts.check()
                     row = _row(card, outcome)
                     predictor.predict(row)
                     if outputs is not None:

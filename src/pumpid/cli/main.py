@@ -20,7 +20,7 @@ import os
 import sys
 from collections.abc import Sequence
 
-from .. import __version__
+from .. import __version__, interrupts
 from ..report.output import OutputError
 from . import batch, demo, fit, flow, report, reproduce, simulate
 from .common import (
@@ -71,7 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     counter = WarningCounter()
     try:
-        with counter.active():
+        with counter.active(), interrupts.recorded():
             code = int(args.func(args))
     except OutputError as exc:
         err(f"error: {exc}")

@@ -38,7 +38,7 @@ from typing import Any
 import pandas as pd
 import pyarrow as pa
 
-from pumpid import __version__
+from pumpid import __version__, interrupts
 from pumpid.models import Model, model_class
 
 from .defaults import PARTITION_SIZE
@@ -503,15 +503,18 @@ def run_batch(
             stream = iter_items(files, read, on_file=on_file)
             for k, first, items in _partitions(stream, partition_size):
                 n_parts = k + 1
+                interrupts.check()
                 if _already_written(store, k, items, summary, progress):
                     continue
                 while len(pending) >= runner.capacity:
+                    interrupts.check()
                     _collect(runner, pending, store, schema, summary, progress, 0.5)
                 handle = runner.submit(fit_partition, items, fit, runner.threads, k, first)
                 pending[handle] = (k, len(items))
                 del items
             progress.all_read()
             while pending:
+                interrupts.check()
                 _collect(runner, pending, store, schema, summary, progress, 0.5)
         except KeyboardInterrupt:
             summary.interrupted = True
