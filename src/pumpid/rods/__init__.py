@@ -1,7 +1,8 @@
 """The rod string: downhole (pump) cards from surface cards by the damped wave equation.
 
-A layer above :mod:`pumpid.cards` and below the command line and the fleet. Everything
-inside works in SI units.
+A layer above :mod:`pumpid.cards` (it reads :class:`~pumpid.cards.Card`) and below the
+command line and the fleet. Everything inside works in SI units; cards are converted on the
+way in and results given back in the card's units.
 
 Public names
 ------------
@@ -9,10 +10,59 @@ Well, Taper, Pump, Tubing, Fluid, WellError, MATERIALS
     The well description (frozen, checked dataclasses, SI units).
 read_well_file, wells_from_dict, WellFile
     The JSON well file (see the README for its schema).
+diagnose_cards, diagnose_card, DownholeResult, DEFAULT_DAMPING, loop_work
+    Surface cards -> downhole cards and pump quantities, batched.
+fourier_diagnostic, fd_diagnostic, fourier_predict, StringArrays
+    The solvers on arrays: Gibbs' Fourier method, the finite-difference march, and the
+    exact frequency-domain predictive solution for a pump load given in time.
+PumpModel, predict_surface, Prediction
+    The predictive solver with a valve pump model (surface position -> surface load).
+measure_pump_card, PumpMeasure
+    Pump quantities of a pump card.
 """
 
+from .diagnose import (
+    CONVENTIONS,
+    DEFAULT_DAMPING,
+    METHODS,
+    DownholeResult,
+    diagnose_card,
+    diagnose_cards,
+    loop_work,
+)
+from .fd import fd_diagnostic
+from .fourier import StringArrays, fourier_diagnostic, fourier_predict, harmonic_count
+from .predict import Prediction, PumpModel, predict_surface
+from .quantities import PumpMeasure, measure_pump_card
 from .well import MATERIALS, Fluid, Pump, Taper, Tubing, Well, WellError
 from .wellfile import WellFile, read_well_file, wells_from_dict
 
-__all__ = ["MATERIALS", "Fluid", "Pump", "Taper", "Tubing", "Well", "WellError", "WellFile",
-           "read_well_file", "wells_from_dict"]
+__all__ = [
+    "CONVENTIONS",
+    "DEFAULT_DAMPING",
+    "MATERIALS",
+    "METHODS",
+    "DownholeResult",
+    "Fluid",
+    "Prediction",
+    "Pump",
+    "PumpMeasure",
+    "PumpModel",
+    "StringArrays",
+    "Taper",
+    "Tubing",
+    "Well",
+    "WellError",
+    "WellFile",
+    "diagnose_card",
+    "diagnose_cards",
+    "fd_diagnostic",
+    "fourier_diagnostic",
+    "fourier_predict",
+    "harmonic_count",
+    "loop_work",
+    "measure_pump_card",
+    "predict_surface",
+    "read_well_file",
+    "wells_from_dict",
+]

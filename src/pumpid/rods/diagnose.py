@@ -1,0 +1,427 @@
+"""Surface cards in, downhole cards and pump quantities out: one card or a batch.
+
+:func:`diagnose_cards` is the entry point: it checks each card (time, units, loop sense),
+converts it to SI, subtracts the string's buoyant weight, solves the damped wave equation
+for every card of the batch at once (cards with the same sample count share one
+vectorised call), adds the static loads back in the chosen convention, measures the pump
+card, and returns one :class:`DownholeResult` per card, a card that cannot be computed
+included (its ``status`` and ``reason`` say why). ``DownholeResult.to_row`` is a flat dict
+of the pump quantities with their units, for tables.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..cards import LOAD_UNITS, POSITION_UNITS, Card
+from .fd import fd_diagnostic
+from .fourier import StringArrays, fourier_diagnostic, harmonic_count
+from .quantities import PumpMeasure, measure_pump_cards
+from .well import GRAVITY, Well
+from .wellfile import WellFile
+
+__all__ = ["CONVENTIONS", "DEFAULT_DAMPING", "METHODS", "DownholeResult", "diagnose_card",
+           "diagnose_cards", "loop_work"]
+
+Array = NDArray[np.float64]
+
+#: The damping rule of this release when none is given: Gibbs' dimensionless factor 0.05
+#: for every well (light viscous damping, the low end of the range in use for diagnostics).
+DEFAULT_DAMPING = 0.05
+METHODS = ("fourier", "fd")
+CONVENTIONS = ("effective", "true")
+_BBL = 0.158987294928
+_PSI = 6894.757293168361
+# Units of the pump quantities that have no card unit, by the well file's system.
+_FLOW_UNITS = {"us": ("bbl/d", _BBL), "metric": ("m3/d", 1.0)}
+_PRESSURE_UNITS = {"us": ("psi", _PSI), "metric": ("kPa", 1000.0)}
+# A loop that does not close by more than this fraction of the stroke is flagged.
+_OPEN_LOOP = 0.05
+
+
+@dataclass(frozen=True, eq=False)
+class DownholeResult:
+    """The downhole card of one surface card, with its pump quantities.
+
+    Arrays are in the card's units, at the card's samples in the order stored in the file
+    (also when the card was stored in reverse time order: see :attr:`reversed`).
+
+    Attributes
+    ----------
+    card : Card
+        The surface card as given.
+    status : {"computed", "invalid-input", "failed"}
+    reason : str
+        Why a card was not computed ("" when it was).
+    well : Well or None
+    method : str
+        ``"fourier"`` or ``"fd"``.
+    damping : float
+        Gibbs' dimensionless damping factor used.
+    damping_rule : str
+        Where it came from (given, or the default rule).
+    harmonics : int or None
+        Highest harmonic used by the Fourier method.
+    convention : str
+        ``"effective"`` (rod tension plus the fluid pressure on the rod's section: the pump
+        card's downstroke line sits near zero) or ``"true"`` (the rod's real axial force,
+        compressed by the fluid pressure at the pump).
+    reversed : bool
+        True when the card was stored in reverse time order (its loop turned the wrong way)
+        and was used reversed.
+    depths : ndarray, shape (T,)
+        Depth (m) of the bottom of each taper.
+    position, load : ndarray, shape (T, N)
+        Position (card unit, upwards, the pump's lowest point at 0) and load (card unit,
+        :attr:`convention`) at the bottom of each taper; the last row is the pump card.
+    pump : PumpMeasure or None
+        Pump quantities (SI).
+    notes : tuple of str
+        Everything assumed, converted or noticed.
+    """
+
+    card: Card
+    status: str
+    reason: str = ""
+    well: Well | None = None
+    method: str = "fourier"
+    damping: float = DEFAULT_DAMPING
+    damping_rule: str = ""
+    harmonics: int | None = None
+    convention: str = "effective"
+    reversed: bool = False
+    depths: Array | None = None
+    position: Array | None = None
+    load: Array | None = None
+    pump: PumpMeasure | None = None
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def ok(self) -> bool:
+        """True when the downhole card was computed."""
+        return self.status == "computed"
+
+    @property
+    def pump_position(self) -> Array | None:
+        """The pump card's positions (card unit), or None."""
+        return None if self.position is None else self.position[-1]
+
+    @property
+    def pump_load(self) -> Array | None:
+        """The pump card's loads (card unit), or None."""
+        return None if self.load is None else self.load[-1]
+
+    def quantities(self) -> dict[str, dict[str, Any]]:
+        """Each pump quantity as ``{"value", "unit"}`` (empty when not computed)."""
+        if self.pump is None or self.well is None:
+            return {}
+        pu, lu = self.card.position_unit or "m", self.card.load_unit or "N"
+        kp, kl = POSITION_UNITS[pu], LOAD_UNITS[lu]
+        flow_unit, kf = _FLOW_UNITS[self.well.system]
+        p_unit, kpr = _PRESSURE_UNITS[self.well.system]
+        m = self.pump
+
+        def q(value: float | None, unit: str, k: float = 1.0) -> dict[str, Any]:
+            return {"value": None if value is None else float(value) / k, "unit": unit}
+
+        return {
+            "gross_stroke": q(m.gross_stroke, pu, kp),
+            "net_stroke": q(m.net_stroke, pu, kp),
+            "fluid_load": q(m.fluid_load, lu, kl),
+            "fillage": q(m.fillage, "fraction"),
+            "upper_load_line": q(m.upper_load, lu, kl),
+            "lower_load_line": q(m.lower_load, lu, kl),
+            "displacement": q(m.displacement, flow_unit, kf),
+            "intake_pressure": q(m.intake_pressure, p_unit, kpr),
+        }
+
+    def to_row(self) -> dict[str, Any]:
+        """A flat dict for tables: status, reason, method, damping, and each pump quantity
+        as ``pump_<name>`` with its unit in ``pump_<name>_unit``."""
+        row: dict[str, Any] = {"downhole_status": self.status, "downhole_reason": self.reason,
+                               "downhole_method": self.method, "downhole_damping": self.damping,
+                               "downhole_reversed": self.reversed}
+        for name, entry in self.quantities().items():
+            row[f"pump_{name}"] = entry["value"]
+            row[f"pump_{name}_unit"] = entry["unit"]
+        return row
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON element of ``pumpid downhole --json``."""
+        card = self.card
+        out: dict[str, Any] = {
+            "status": self.status, "reason": self.reason,
+            "card": {"id": card.card_id, "well": card.well_id, "source": card.source},
+        }
+        if not self.ok or self.position is None or self.load is None:
+            out["downhole"] = None
+            out["pump"] = None
+            out["notes"] = list(self.notes)
+            return out
+        units = {"position": card.position_unit, "load": card.load_unit}
+        out["downhole"] = {
+            "position": self.position[-1].tolist(), "load": self.load[-1].tolist(),
+            "units": units, "convention": self.convention, "method": self.method,
+            "damping": {"value": self.damping, "unit": "dimensionless (Gibbs' nu)",
+                        "rule": self.damping_rule},
+            "harmonics": self.harmonics, "reversed": self.reversed,
+            "tapers": [{"depth": {"value": float(d) / POSITION_UNITS["m"], "unit": "m"},
+                        "position": p.tolist(), "load": f.tolist()}
+                       for d, p, f in zip(self.depths if self.depths is not None else [],
+                                          self.position[:-1], self.load[:-1], strict=False)],
+        }
+        out["pump"] = self.quantities()
+        out["notes"] = list(self.notes)
+        return out
+
+
+def loop_work(position: Array, load: Array) -> Any:
+    """Signed area of the closed card loop (last axis), load times position step summed.
+
+    Positive when the loop turns as a pumping card does in time: higher loads while the
+    position rises. A float for one card, an array for a batch (units' product).
+    """
+    p = np.asarray(position, dtype=float)
+    f = np.asarray(load, dtype=float)
+    dp = np.roll(p, -1, axis=-1) - p
+    work = np.sum(0.5 * (f + np.roll(f, -1, axis=-1)) * dp, axis=-1)
+    return float(work) if np.ndim(work) == 0 else work
+
+
+def _prepare(card: Card) -> tuple[Array, Array, float, list[str]]:
+    """SI position and load, the period, notes (ValueError when the card cannot be used)."""
+    notes: list[str] = []
+    if card.position_unit is None or card.load_unit is None:
+        missing = " and ".join(k for k, u in (("position", card.position_unit),
+                                               ("load", card.load_unit)) if u is None)
+        raise ValueError(f"the card's {missing} unit is unknown; the wave equation needs "
+                         "physical units (give --position-unit / --load-unit)")
+    if card.t is None:
+        raise ValueError("the card has no time: give the pumping speed (--spm) or the stroke "
+                         "period (--period)")
+    dt = card.dt
+    if dt is None:
+        raise ValueError("the card's sample times are not uniform; the downhole solvers need "
+                         "one stroke sampled uniformly in time")
+    period = dt * card.n
+    if not card.periodic:
+        notes.append(f"the card is taken as one stroke of period {period:.6g} s "
+                     f"(its {card.n} samples, {dt:.6g} s apart)")
+    if card.n < 8:
+        raise ValueError(f"the card has {card.n} samples; at least 8 are needed")
+    y = card.position * POSITION_UNITS[card.position_unit]
+    f = card.load * LOAD_UNITS[card.load_unit]
+    gap = abs(y[-1] - y[0]) - np.max(np.abs(np.diff(y)))
+    if gap > _OPEN_LOOP * np.ptp(y):
+        notes.append("the card's last sample is far from its first: the loop does not close, "
+                     "and the periodic solution will ring at the join")
+    return y, f, period, notes
+
+
+def _wells_for(cards: Sequence[Card],
+               wells: Well | WellFile | Sequence[Well]) -> list[Well | Exception]:
+    if isinstance(wells, Well):
+        return [wells] * len(cards)
+    if isinstance(wells, WellFile):
+        out: list[Well | Exception] = []
+        for card in cards:
+            try:
+                out.append(wells.for_card(card.well_id, card.card_id))
+            except ValueError as exc:
+                out.append(exc)
+        return out
+    listed = list(wells)
+    if len(listed) != len(cards):
+        raise ValueError(f"{len(cards)} cards but {len(listed)} wells")
+    return list(listed)
+
+
+def diagnose_cards(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well], *,
+                   damping: float | None = None, harmonics: int | None = None,
+                   method: str = "fourier", convention: str = "effective",
+                   refine: int | None = None) -> list[DownholeResult]:
+    """Downhole cards and pump quantities of a batch of surface cards.
+
+    Parameters
+    ----------
+    cards : sequence of Card
+        Surface cards with units and time (one stroke each, uniform in time).
+    wells : Well, WellFile or sequence of Well
+        One well for every card, a well file (matched by well id), or one well per card.
+    damping : float, optional
+        Gibbs' dimensionless damping factor ``nu`` (``c = pi nu / (2 sum L_i/a_i)``; 0 is
+        undamped). Default: :data:`DEFAULT_DAMPING` for every well.
+    harmonics : int, optional
+        Highest harmonic of the Fourier method (default: all the samples resolve).
+    method : {"fourier", "fd"}
+        Gibbs' Fourier solution (default) or the finite-difference march.
+    convention : {"effective", "true"}
+        Load convention of the downhole loads (the pump quantities use the effective card).
+    refine : int, optional
+        Time refinement of the finite-difference method.
+
+    Returns
+    -------
+    list of DownholeResult
+        One per card, in order; cards that cannot be computed have status
+        ``invalid-input`` and the reason.
+    """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    if convention not in CONVENTIONS:
+        raise ValueError(f"convention must be effective or true, got {convention!r}")
+    if damping is not None and not (math.isfinite(damping) and damping >= 0):
+        raise ValueError(f"damping must be a non-negative number, got {damping}")
+    if harmonics is not None and harmonics < 1:
+        raise ValueError(f"harmonics must be at least 1, got {harmonics}")
+    nu = DEFAULT_DAMPING if damping is None else float(damping)
+    rule = ("given" if damping is not None else
+            f"default rule: nu = {DEFAULT_DAMPING:g} for every well")
+    matched = _wells_for(cards, wells)
+    results: list[DownholeResult | None] = [None] * len(cards)
+    ready: dict[int, list[tuple[int, Array, Array, float, list[str], Well]]] = {}
+    for i, (card, well) in enumerate(zip(cards, matched, strict=True)):
+        if isinstance(well, Exception):
+            results[i] = DownholeResult(card=card, status="invalid-input", reason=str(well))
+            continue
+        try:
+            y, f, period, notes = _prepare(card)
+        except ValueError as exc:
+            results[i] = DownholeResult(card=card, status="invalid-input", reason=str(exc),
+                                        well=well)
+            continue
+        ready.setdefault(card.n, []).append((i, y, f, period, notes, well))
+    setup = _Options(nu=nu, rule=rule, method=method, harmonics=harmonics,
+                     convention=convention, refine=refine)
+    statics: dict[int, _Static] = {}
+    for n, group in ready.items():
+        for i, result in _solve_group(n, group, cards, setup, statics):
+            results[i] = result
+    return [r for r in results if r is not None]
+
+
+@dataclass(frozen=True)
+class _Options:
+    nu: float
+    rule: str
+    method: str
+    harmonics: int | None
+    convention: str
+    refine: int | None
+
+
+@dataclass(frozen=True)
+class _Static:
+    """A well's per-taper constants, computed once per batch."""
+
+    depths: Array
+    below: Array       # buoyant weight hanging below each taper's bottom, N
+    pressure_force: Array  # fluid pressure at each taper's bottom times its area, N
+    weight: float
+
+    @classmethod
+    def of(cls, well: Well) -> _Static:
+        per_taper = np.array([(t.density - well.fluid_density) * GRAVITY * t.area * t.length
+                              for t in well.tapers])
+        depths = np.cumsum([t.length for t in well.tapers])
+        area = np.array([t.area for t in well.tapers])
+        return cls(depths=depths, below=per_taper[::-1].cumsum()[::-1] - per_taper,
+                   pressure_force=well.hydrostatic_pressure(depths) * area,
+                   weight=well.buoyant_weight())
+
+
+def _solve_group(n: int, group: list[tuple[int, Array, Array, float, list[str], Well]],
+                 cards: Sequence[Card], opt: _Options,
+                 statics: dict[int, _Static]) -> list[tuple[int, DownholeResult]]:
+    """Solve the cards of one sample count together; one result per card."""
+    wells = [g[5] for g in group]
+    for w in wells:
+        if id(w) not in statics:
+            statics[id(w)] = _Static.of(w)
+    static = [statics[id(w)] for w in wells]
+    y = np.stack([g[1] for g in group])
+    load = np.stack([g[2] for g in group])
+    period = np.array([g[3] for g in group])
+    # A loop turning the wrong way was stored in reverse time order: solve it reversed.
+    rev = loop_work(y, load) < 0
+    y[rev], load[rev] = y[rev, ::-1], load[rev, ::-1]
+    weight = np.array([s.weight for s in static])
+    strings = StringArrays.of(wells)
+    if opt.method == "fourier":
+        pos, ten = fourier_diagnostic(y, load - weight[:, None], period, strings, opt.nu,
+                                      opt.harmonics)
+        used: int | None = harmonic_count(n, opt.harmonics)
+    else:
+        pos, ten = fd_diagnostic(y, load - weight[:, None], period, strings, opt.nu,
+                                 opt.refine)
+        used = None
+    rows = np.arange(len(group))
+    last = strings.count - 1
+    pump_pos = pos[rows, last]
+    pump_load = ten[rows, last] + np.array([s.below[-1] for s in static])[:, None]
+    out: list[tuple[int, DownholeResult]] = []
+    try:
+        measures = measure_pump_cards(pump_pos, pump_load, wells, list(60.0 / period))
+    except ValueError:
+        # One card's plunger does not move: measure the cards one by one to name it.
+        measures = []
+        for k in range(len(group)):
+            try:
+                measures.append(measure_pump_cards(pump_pos[k:k + 1], pump_load[k:k + 1],
+                                                   wells[k:k + 1], [60.0 / period[k]])[0])
+            except ValueError as exc:
+                measures.append(exc)  # type: ignore[arg-type]
+    for k, (i, _y, _f, _per, notes, well) in enumerate(group):
+        m = measures[k]
+        if isinstance(m, Exception):
+            out.append((i, DownholeResult(card=cards[i], status="failed", reason=str(m),
+                                          well=well, notes=tuple(notes))))
+            continue
+        out.append((i, _result(cards[i], well, static[k], pos[k], ten[k], bool(rev[k]),
+                               notes, m, opt, used)))
+    return out
+
+
+def _result(card: Card, well: Well, static: _Static, pos: Array, ten: Array, rev: bool,
+            notes: list[str], measure: PumpMeasure, opt: _Options,
+            used: int | None) -> DownholeResult:
+    count = len(well.tapers)
+    notes = [*well.notes, *notes]
+    if rev:
+        notes.append("the card's loop turns the wrong way for time order (higher loads on the "
+                     "falling half: stored in reverse time order); it was used reversed, and "
+                     "the downhole arrays are given back in the file's order")
+    if opt.harmonics is not None and used is not None and used < opt.harmonics:
+        notes.append(f"{opt.harmonics} harmonics asked, the card's {card.n} samples resolve "
+                     f"{used}")
+    shown = ten[:count] + static.below[:, None]
+    if opt.convention == "true":
+        shown = shown - static.pressure_force[:, None]
+    pos = pos[:count] - pos[count - 1].min()
+    if rev:
+        pos, shown = pos[:, ::-1], shown[:, ::-1]
+    kp = POSITION_UNITS[card.position_unit or "m"]
+    kl = LOAD_UNITS[card.load_unit or "N"]
+    if well.system == "us" and card.position_unit in ("m", "cm", "mm"):
+        notes.append(f"the card is in {card.position_unit}/{card.load_unit} and the well file "
+                     "in US units: converted, results in the card's units")
+    elif well.system == "metric" and card.position_unit in ("in", "ft"):
+        notes.append(f"the card is in {card.position_unit}/{card.load_unit} and the well file "
+                     "in metric units: converted, results in the card's units")
+    notes.extend(measure.notes)
+    return DownholeResult(
+        card=card, status="computed", well=well, method=opt.method, damping=opt.nu,
+        damping_rule=opt.rule, harmonics=used, convention=opt.convention, reversed=rev,
+        depths=static.depths, position=pos / kp, load=shown / kl, pump=measure,
+        notes=tuple(dict.fromkeys(notes)))
+
+
+def diagnose_card(card: Card, well: Well | WellFile, **options: Any) -> DownholeResult:
+    """The downhole card of one surface card (see :func:`diagnose_cards` for the options)."""
+    return diagnose_cards([card], well, **options)[0]

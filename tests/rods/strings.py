@@ -1,0 +1,43 @@
+"""Wells and cards the rod tests share (not a test module)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pumpid.cards import Card
+from pumpid.rods import MATERIALS, Fluid, Pump, Taper, Well
+
+FT, INCH, LBF = 0.3048, 0.0254, 4.4482216152605
+STEEL = MATERIALS["steel"]
+
+
+def three_tapers(fluid: float | None = 1000.0) -> Well:
+    """A 4,900 ft string of 1, 7/8 and 3/4 in steel rods over a 1.75 in pump."""
+    e, rho = STEEL
+    return Well("three", (Taper(1500 * FT, 1.0 * INCH, e, rho),
+                          Taper(1600 * FT, 0.875 * INCH, e, rho),
+                          Taper(1800 * FT, 0.75 * INCH, e, rho)),
+                Pump(4900 * FT, 1.75 * INCH), fluid=None if fluid is None else Fluid(fluid),
+                system="us")
+
+
+def uniform(length: float = 1500.0, diameter: float = 0.0222) -> Well:
+    e, rho = STEEL
+    return Well("uniform", (Taper(length, diameter, e, rho),), Pump(length, 0.044),
+                fluid=Fluid(1000.0), system="metric")
+
+
+def surface_motion(n: int = 200, period: float = 7.5, stroke: float = 100 * INCH) -> np.ndarray:
+    """A polished-rod position over one stroke (m): a crank-like motion."""
+    w = 2 * np.pi * np.arange(n) / n
+    return stroke / 2 * (1 - np.cos(w)) + 0.05 * stroke * np.sin(2 * w)
+
+
+def card(position_m: np.ndarray, load_n: np.ndarray, spm: float, card_id: str = "c",
+         metric: bool = False) -> Card:
+    """A surface card in in/lbf (or m/kN) with time from the pumping speed."""
+    if metric:
+        return Card(position=position_m, load=load_n / 1000.0, position_unit="m",
+                    load_unit="kN", card_id=card_id).with_spm(spm)
+    return Card(position=position_m / INCH, load=load_n / LBF, position_unit="in",
+                load_unit="lbf", card_id=card_id).with_spm(spm)
