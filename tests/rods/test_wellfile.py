@@ -134,3 +134,13 @@ def test_dataclasses_are_frozen_and_checked() -> None:
         taper.length = 5.0  # type: ignore[misc]
     with pytest.raises(WellError):
         Taper(float("nan"), 0.02, e, rho)
+
+
+def test_a_unit_the_file_does_not_name_is_said_when_used() -> None:
+    doc = json.loads(json.dumps(US))
+    plain = wells_from_dict(doc)["W-1"]
+    assert not any("read in psi" in n for n in plain.notes)
+    doc["wells"]["W-1"]["rods"][0].update(modulus=30.0e6)
+    well = wells_from_dict(doc)["W-1"]
+    assert any("modulus values are read in psi" in n for n in well.notes)
+    assert well.tapers[0].modulus == pytest.approx(30.0e6 * 6894.757293168361)

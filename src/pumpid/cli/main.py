@@ -6,6 +6,7 @@
     pumpid reproduce [--json]
     pumpid simulate --model kelvin -p k0=4 -p m=1 -p c1=0.2 -p k1=4 LOAD.csv [-o OUT.csv]
     pumpid flow simulate|fit|study ...
+    pumpid downhole FILE [FILE ...] --well WELL.json [--json] [--out DIR]
 
 Each command lives in its own module with a ``register(subparsers)`` function; adding a
 command is one line in :func:`build_parser`. :func:`main` turns every failure into one line
@@ -22,7 +23,7 @@ from collections.abc import Sequence
 
 from .. import __version__, interrupts
 from ..report.output import OutputError
-from . import batch, demo, fit, flow, report, reproduce, simulate
+from . import batch, demo, downhole, fit, flow, report, reproduce, simulate
 from .common import (
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
@@ -55,6 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
     flow.register(sub)
     batch.register(sub)
     report.register(sub)
+    downhole.register(sub)
     return parser
 
 

@@ -129,14 +129,14 @@ def wells_from_dict(data: Any, source: str = "") -> dict[str, Well]:
     if not isinstance(data, dict):
         raise WellError("the top level must be an object with 'units' and 'wells'", path=src)
     _check_keys(data, _TOP_KEYS, src, None, "")
-    units, system, notes = _units(data.get("units"), src)
+    units, system, defaulted = _units(data.get("units"), src)
     wells = data.get("wells")
     if not isinstance(wells, dict) or not wells:
         raise WellError("'wells' must be an object of at least one well by id", path=src,
                         field="wells")
     out: dict[str, Well] = {}
     for well_id, spec in wells.items():
-        out[str(well_id)] = _Reader(src, str(well_id), units, system, list(notes)).well(spec)
+        out[str(well_id)] = _Reader(src, str(well_id), units, system, defaulted).well(spec)
     return out
 
 
@@ -149,7 +149,7 @@ def _check_keys(obj: dict[str, Any], allowed: set[str], src: str | None, well: s
                         well=well, field=f"{where}{unknown[0]}")
 
 
-def _units(spec: Any, src: str | None) -> tuple[dict[str, float], str, list[str]]:
+def _units(spec: Any, src: str | None) -> tuple[dict[str, float], str, dict[str, str]]:
     if not isinstance(spec, dict):
         raise WellError("'units' must be an object naming at least the length and diameter "
                         "units, e.g. {\"length\": \"ft\", \"diameter\": \"in\"}", path=src,
@@ -169,22 +169,30 @@ def _units(spec: Any, src: str | None) -> tuple[dict[str, float], str, list[str]
                             path=src, field=f"units.{quantity}")
         names[quantity], factors[quantity] = table[key]
     system = "us" if names["length"] == "ft" else "metric"
-    notes: list[str] = []
+    defaulted: dict[str, str] = {}
     for quantity, unit in _SYSTEM_DEFAULTS[system].items():
         if quantity not in factors:
             factors[quantity] = UNITS[quantity][unit]
-            notes.append(f"{quantity} values, if any, are read in {unit} (the well file names "
-                         f"no {quantity} unit; {names['length']} lengths imply {system} units)")
-    return factors, system, notes
+            defaulted[quantity] = (f"{quantity} values are read in {unit} (the well file "
+                                   f"names no {quantity} unit; {names['length']} lengths "
+                                   f"imply {system} units)")
+    return factors, system, defaulted
 
 
 class _Reader:
     """Reads one well's entries, each problem named by file, well and field."""
 
     def __init__(self, src: str | None, well: str, units: dict[str, float], system: str,
-                 notes: list[str]) -> None:
-        self.src, self.well_id, self.units, self.system, self.notes = (
-            src, well, units, system, notes)
+                 defaulted: dict[str, str]) -> None:
+        self.src, self.well_id, self.units, self.system = src, well, units, system
+        # Notes on the units a file did not name, said once each when a value uses them.
+        self.defaulted = dict(defaulted)
+        self.notes: list[str] = []
+
+    def scale(self, unit: str) -> float:
+        if unit in self.defaulted:
+            self.notes.append(self.defaulted.pop(unit))
+        return self.units[unit]
 
     def fail(self, message: str, where: str) -> WellError:
         return WellError(message, path=self.src, well=self.well_id, field=where)
@@ -207,7 +215,7 @@ class _Reader:
         x = float(value)
         if not math.isfinite(x) or x < 0 or (x == 0 and not allow_zero):
             raise self.fail(f"must be a positive finite number, got {value!r}", f"{where}.{key}")
-        return x * self.units[unit]
+        return x * self.scale(unit)
 
     def well(self, spec: Any) -> Well:
         spec = self.obj(spec, _WELL_KEYS, "well")
@@ -288,7 +296,7 @@ class _Reader:
                     math.isfinite(value)):
                 raise self.fail(f"must be a finite number, got {value!r}",
                                 "tubing.head_pressure")
-            head = float(value) * self.units["pressure"]
+            head = float(value) * self.scale("pressure")
         od = self.number(t, "outer_diameter", "tubing", "diameter", required=False)
         idia = self.number(t, "inner_diameter", "tubing", "diameter", required=False)
         if not t["anchored"] and (od is None or idia is None):

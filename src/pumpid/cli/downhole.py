@@ -1,0 +1,349 @@
+"""``pumpid downhole``: the pump card and pump quantities of every surface card.
+
+    pumpid downhole CARD_FILE [CARD_FILE ...] --well WELL.json [--spm X | --period S]
+                    [--damping NU] [--harmonics N] [--method fourier|fd]
+                    [--convention effective|true] [--json] [--out DIR]
+
+The card options are those of ``pumpid fit``. Cards are computed in chunks through the
+batched API (:func:`pumpid.rods.diagnose_cards`) and printed as each chunk is done. A card
+that cannot be computed is a row with its status and reason; it does not stop the others.
+
+Output folder (``--out DIR``): one card writes ``downhole.json``, ``pump_card.csv`` and
+``cards.png`` (surface card beside pump card) directly into ``DIR``; several cards get a
+folder each and ``DIR/downhole.csv`` lists them with their pump quantities.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import csv
+import io
+import json
+import math
+import sys
+from collections.abc import Iterator
+from typing import Any, TextIO
+
+from .. import interrupts
+from ..cards import Card, CardError, printable
+from ..report.output import OutputError, OutputFolder, UniqueNames, atomic_write
+from ..result import jsonable
+from ..rods import DEFAULT_DAMPING, DownholeResult, WellFile, diagnose_cards, read_well_file
+from ..rods.figure import draw_cards
+from .common import (
+    EXIT_INTERRUPTED,
+    EXIT_NOT_FITTED,
+    EXIT_OK,
+    EXIT_OUTPUT,
+    EXIT_USAGE,
+    CliError,
+    columns_option,
+    err,
+    fmt,
+    rate_option,
+)
+
+__all__ = ["cmd_downhole", "register"]
+
+#: Cards computed in one call of the batched API.
+CHUNK_CARDS = 256
+INDEX_NAME = "downhole.csv"
+_QUANTITIES = ("gross_stroke", "net_stroke", "fluid_load", "fillage", "displacement",
+               "intake_pressure")
+
+
+def _options(args: argparse.Namespace) -> dict[str, Any]:
+    if args.damping is not None and not (math.isfinite(args.damping) and args.damping >= 0):
+        raise CliError(f"--damping {args.damping:g}: Gibbs' damping factor is a number >= 0 "
+                       "(0: undamped)")
+    if args.harmonics is not None and args.harmonics < 1:
+        raise CliError(f"--harmonics {args.harmonics}: give at least 1")
+    if args.harmonics is not None and args.method != "fourier":
+        raise CliError("--harmonics applies to --method fourier only")
+    return {"damping": args.damping, "harmonics": args.harmonics, "method": args.method,
+            "convention": args.convention}
+
+
+def _read(path: str, args: argparse.Namespace) -> list[Card]:
+    from ..cards import read_cards
+
+    columns = columns_option(args.columns, t=args.t_col, load=args.load_col,
+                             position=args.position_col)
+    cards = read_cards(path, format=args.format, position_unit=args.position_unit,
+                       load_unit=args.load_unit, spm=args.spm, period=args.period,
+                       columns=columns, encoding=args.encoding)
+    if args.card is not None:
+        cards = [c for c in cards if c.card_id == args.card]
+    return cards
+
+
+def _chunks(cards: list[Card]) -> Iterator[list[Card]]:
+    for start in range(0, len(cards), CHUNK_CARDS):
+        yield cards[start:start + CHUNK_CARDS]
+
+
+# --------------------------------------------------------------------------- printing
+class _Text:
+    """One block per card: its pump quantities with units, and its notes."""
+
+    def __init__(self, stream: TextIO | None = None, verbose: bool = False) -> None:
+        self.stream = stream or sys.stdout
+        self.verbose = verbose
+
+    def start(self, info: dict[str, Any]) -> None:
+        print(f"downhole cards: {info['method']} method, damping nu = {fmt(info['damping'])} "
+              f"({info['damping_rule']}), harmonics {info['harmonics']}, "
+              f"{info['convention']} loads; wells from {printable(info['well_file'])}",
+              file=self.stream)
+
+    def row(self, res: DownholeResult) -> None:
+        card = res.card
+        head = f"{printable(card.card_id)} [{printable(card.source)}]: {res.status}"
+        if not res.ok:
+            print(f"{head}: {printable(res.reason)}", file=self.stream)
+            return
+        q = res.quantities()
+        parts = []
+        for name in _QUANTITIES:
+            entry = q[name]
+            if entry["value"] is None:
+                continue
+            unit = "" if entry["unit"] == "fraction" else f" {entry['unit']}"
+            parts.append(f"{name.replace('_', ' ')} {fmt(entry['value'])}{unit}")
+        well = res.well.well_id if res.well is not None else "?"
+        print(f"{head} (well {printable(well)}{', reversed' if res.reversed else ''}): "
+              + ", ".join(parts), file=self.stream)
+        notes = res.notes if self.verbose else [n for n in res.notes if "reverse" in n]
+        for note in notes:
+            print(f"  note: {printable(note)}", file=self.stream)
+
+    def file_failed(self, path: str, reason: str) -> None:
+        print(f"{printable(path)}: invalid-input: {printable(reason)}", file=self.stream)
+
+    def finish(self, counts: collections.Counter[str], summary: dict[str, Any]) -> None:
+        done = ", ".join(f"{n} {k}" for k, n in sorted(counts.items()))
+        print(f"{sum(counts.values())} card(s): {done}", file=self.stream)
+
+
+class _Json:
+    """``{"cards": [...], "summary": {...}}`` written element by element."""
+
+    def __init__(self, stream: TextIO | None = None) -> None:
+        self.stream = stream or sys.stdout
+        self.count = 0
+
+    def start(self, info: dict[str, Any]) -> None:
+        self.stream.write('{"cards": [')
+
+    def _element(self, obj: dict[str, Any]) -> None:
+        text = json.dumps(jsonable(obj), allow_nan=False)
+        self.stream.write(("," if self.count else "") + "\n  " + text)
+        self.stream.flush()
+        self.count += 1
+
+    def row(self, res: DownholeResult) -> None:
+        self._element(res.to_dict())
+
+    def file_failed(self, path: str, reason: str) -> None:
+        self._element({"status": "invalid-input", "reason": reason,
+                       "card": {"id": None, "well": None, "source": path},
+                       "downhole": None, "pump": None})
+
+    def finish(self, counts: collections.Counter[str], summary: dict[str, Any]) -> None:
+        text = json.dumps(jsonable(summary), indent=2, allow_nan=False)
+        self.stream.write(("\n" if self.count else "") + '], "summary": ' + text + "}\n")
+        self.stream.flush()
+
+
+# --------------------------------------------------------------------------- outputs
+def _pump_csv(res: DownholeResult) -> str:
+    card = res.card
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    pu, lu = card.position_unit, card.load_unit
+    w.writerow([f"surface_position_{pu}", f"surface_load_{lu}", f"pump_position_{pu}",
+                f"pump_load_{lu}"])
+    assert res.pump_position is not None and res.pump_load is not None
+    for row in zip(card.position, card.load, res.pump_position, res.pump_load, strict=True):
+        w.writerow([f"{v:.10g}" for v in row])
+    return buf.getvalue()
+
+
+class _Outputs:
+    """The ``--out`` folder: one card's files directly, or a folder per card and an index."""
+
+    def __init__(self, path: str) -> None:
+        self.folder = OutputFolder(path)
+        self.names = UniqueNames(reserved=[INDEX_NAME])
+        self.rows: list[dict[str, Any]] = []
+        self.direct = False
+        self.failed = 0
+
+    def prepare(self, direct: bool) -> None:
+        self.direct = direct
+        for said in self.folder.prepare():
+            err(said)
+
+    def write(self, res: DownholeResult) -> None:
+        record: dict[str, Any] = {"folder": None, "card_id": res.card.card_id,
+                                  "well_id": res.well.well_id if res.well else None,
+                                  "source": res.card.source, **res.to_row()}
+        if res.ok:
+            try:
+                with self.folder.staging() as stage:
+                    (stage / "downhole.json").write_text(
+                        json.dumps(jsonable(res.to_dict()), indent=1, allow_nan=False) + "\n",
+                        encoding="utf-8")
+                    (stage / "pump_card.csv").write_text(_pump_csv(res), encoding="utf-8")
+                    draw_cards(res, stage / "cards.png")
+                    if self.direct:
+                        said = self.folder.commit_files(stage)
+                    else:
+                        name = self.names.claim(res.card.card_id or "card")
+                        said = self.folder.commit_folder(stage, name)
+                        record["folder"] = name
+                for s in said:
+                    err(s)
+            except MemoryError:
+                raise
+            except (OutputError, OSError, ValueError) as exc:
+                self.failed += 1
+                err(f"card {printable(res.card.card_id)}: outputs not written ({exc})")
+        self.rows.append(record)
+
+    def finish(self) -> None:
+        self.folder.discard_staged()
+        if self.direct:
+            return
+        names = list(dict.fromkeys(k for r in self.rows for k in r))
+        buf = io.StringIO()
+        w = csv.DictWriter(buf, fieldnames=names, lineterminator="\n")
+        w.writeheader()
+        w.writerows(self.rows)
+        try:
+            atomic_write(self.folder.path / INDEX_NAME, buf.getvalue())
+        except (OutputError, OSError) as exc:
+            self.failed += 1
+            err(f"{INDEX_NAME} not written ({exc})")
+
+
+# --------------------------------------------------------------------------- the command
+def _inputs(args: argparse.Namespace) -> Iterator[tuple[str, list[Card] | CardError]]:
+    single = len(args.files) == 1
+    for path in args.files:
+        try:
+            cards = _read(path, args)
+        except CardError as exc:
+            if single:
+                raise
+            yield path, exc
+            continue
+        if single and not cards and args.card is not None:
+            raise CliError(f"{printable(path)}: no card {printable(args.card)!r}")
+        yield path, cards
+
+
+def cmd_downhole(args: argparse.Namespace) -> int:
+    """Compute every card's downhole card; print each; say how it went."""
+    opts = _options(args)
+    rate_option(args.spm, args.period)
+    wells: WellFile = read_well_file(args.well)
+    inputs = list(_inputs(args))
+    total = sum(len(c) for _p, c in inputs if isinstance(c, list))
+    outputs = _Outputs(args.out) if args.out else None
+    if outputs is not None:
+        outputs.prepare(direct=total == 1 and len(inputs) == 1)
+    printer: _Text | _Json = _Json() if args.json else _Text(verbose=args.verbose)
+    damping = DEFAULT_DAMPING if args.damping is None else args.damping
+    info = {"method": args.method, "damping": damping,
+            "damping_rule": "given" if args.damping is not None else
+            f"default rule: nu = {DEFAULT_DAMPING:g} for every well",
+            "harmonics": (args.harmonics or "all the samples resolve")
+            if args.method == "fourier" else "n/a",
+            "convention": args.convention, "well_file": args.well}
+    printer.start(info)
+    counts: collections.Counter[str] = collections.Counter()
+    interrupted = False
+    try:
+        for path, cards in inputs:
+            if isinstance(cards, CardError):
+                counts["invalid-input"] += 1
+                printer.file_failed(path, str(cards))
+                continue
+            for chunk in _chunks(cards):
+                interrupts.check()
+                for res in diagnose_cards(chunk, wells, **opts):
+                    counts[res.status] += 1
+                    if outputs is not None:
+                        outputs.write(res)
+                    printer.row(res)
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        if outputs is not None:
+            outputs.finish()
+        summary = {"cards": sum(counts.values()), "status": dict(sorted(counts.items())),
+                   "interrupted": interrupted, "output": args.out, **info,
+                   "load_convention": args.convention}
+        printer.finish(counts, summary)
+    if interrupted:
+        err("interrupted (Ctrl-C); the cards finished so far are above")
+        return EXIT_INTERRUPTED
+    if outputs is not None and outputs.failed:
+        return EXIT_OUTPUT
+    done = counts["computed"]
+    if done and done == sum(counts.values()):
+        return EXIT_OK
+    if done == 0 and counts["failed"] == 0:
+        return EXIT_USAGE
+    return EXIT_NOT_FITTED
+
+
+def register(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``pumpid downhole`` to the command's subparsers."""
+    p = subparsers.add_parser(
+        "downhole", help="pump cards and pump quantities from surface cards (wave equation)",
+        description="Compute the downhole (pump) card of every surface card with the damped "
+                    "wave equation of the tapered rod string, and its pump quantities "
+                    "(gross and net stroke, fluid load, fillage, displacement, intake "
+                    "pressure). Exit status: 0 all computed, 2 bad options or nothing "
+                    "computable, 3 some cards not computed, 4 outputs not written, 130 "
+                    "interrupted.")
+    p.add_argument("files", nargs="+", metavar="FILE",
+                   help="card files (CSV/TSV, SCADA export, JSON, table, .ts)")
+    p.add_argument("--well", required=True, metavar="WELL.json",
+                   help="well file: rod tapers, pump, tubing, fluid (see README); one well "
+                        "applies to every card, several are matched by the cards' well ids")
+    p.add_argument("--damping", type=float, metavar="NU",
+                   help="Gibbs' dimensionless damping factor, c = pi NU / (2 sum L_i/a_i); 0 "
+                        f"is undamped (default {DEFAULT_DAMPING:g} for every well)")
+    p.add_argument("--harmonics", type=int, metavar="N",
+                   help="highest harmonic of the Fourier method (default: all the card's "
+                        "samples resolve; 10-25 smooth the pump card as vendors do)")
+    p.add_argument("--method", choices=["fourier", "fd"], default="fourier",
+                   help="fourier (Gibbs, default) or fd (finite differences)")
+    p.add_argument("--convention", choices=["effective", "true"], default="effective",
+                   help="load convention of the downhole loads (default effective)")
+    p.add_argument("--spm", type=float, help="strokes per minute (cards without time)")
+    p.add_argument("--period", type=float, help="stroke period in s (cards without time)")
+    p.add_argument("--format", help="force a format: csv, scada, json, whitespace, ts")
+    p.add_argument("--encoding", help="text encoding of the files (default: detected)")
+    p.add_argument("--card", help="only this card id")
+    p.add_argument("--columns", metavar="ROLE=COL[,...]",
+                   help="column roles, e.g. position=1,load=0 (names or 0-based indices)")
+    p.add_argument("--t-col", help="time column")
+    p.add_argument("--load-col", help="load column")
+    p.add_argument("--position-col", "--displacement-col", dest="position_col",
+                   help="position/displacement column")
+    p.add_argument("--load-unit", help="load unit of the file: lbf, klbf, N, kN, kgf")
+    p.add_argument("--position-unit", help="position unit of the file: in, ft, m")
+    p.add_argument("--out", help="write downhole.json, pump_card.csv and cards.png here (one "
+                                 "card), or a folder per card and downhole.csv (several)")
+    view = p.add_mutually_exclusive_group()
+    view.add_argument("--json", action="store_true",
+                      help='print {"cards": [...], "summary": {...}}')
+    view.add_argument("--verbose", action="store_true", help="print every card's notes")
+    p.set_defaults(func=cmd_downhole, verbose=False)
+    return p
+

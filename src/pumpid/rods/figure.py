@@ -1,0 +1,54 @@
+"""The surface card beside the pump card, as a PNG (matplotlib, no display needed)."""
+
+from __future__ import annotations
+
+import os
+
+from .diagnose import DownholeResult
+
+__all__ = ["draw_cards"]
+
+
+def draw_cards(result: DownholeResult, path: str | os.PathLike[str]) -> None:
+    """Draw the surface card and the pump card side by side and save the figure.
+
+    Parameters
+    ----------
+    result : DownholeResult
+        A computed result (``result.ok``).
+    path : str or path-like
+        Where to write the PNG.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure
+
+    if result.position is None or result.load is None or result.pump is None:
+        raise ValueError("the card was not computed: nothing to draw")
+    card = result.card
+    pu, lu = card.position_unit, card.load_unit
+    fig = Figure(figsize=(10, 4.2), dpi=100)
+    left, right = fig.subplots(1, 2, sharey=False)
+    left.plot([*card.position, card.position[0]], [*card.load, card.load[0]], color="black")
+    left.set_title("surface card (polished rod)")
+    pos, load = result.position[-1], result.load[-1]
+    right.plot([*pos, pos[0]], [*load, load[0]], color="tab:blue")
+    q = result.quantities()
+    for name in ("upper_load_line", "lower_load_line"):
+        right.axhline(q[name]["value"], color="gray", lw=0.7, ls="--")
+    # Positions are shown from the plunger's lowest point: the transfer point sits at
+    # fillage times the gross stroke.
+    right.axvline(q["fillage"]["value"] * q["gross_stroke"]["value"], color="tab:red",
+                  lw=0.7)
+    right.set_title(f"pump card ({result.convention} load, {result.method}, "
+                    f"damping {result.damping:g})")
+    for ax in (left, right):
+        ax.set_xlabel(f"position ({pu})")
+        ax.set_ylabel(f"load ({lu})")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"card {card.card_id}: fillage {q['fillage']['value']:.2f}, fluid load "
+                 f"{q['fluid_load']['value']:.4g} {lu}, gross stroke "
+                 f"{q['gross_stroke']['value']:.4g} {pu}", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path)
