@@ -161,5 +161,26 @@ def test_cards_that_cannot_be_computed_say_why() -> None:
     assert [r.status for r in out] == ["invalid-input", "invalid-input"]
     assert "--spm" in out[0].reason and "unit is unknown" in out[1].reason
     assert out[0].to_dict()["downhole"] is None
+    uneven = Card(position=s / INCH, load=1 + s, position_unit="in", load_unit="lbf",
+                  t=np.cumsum(np.linspace(1, 2, s.size)))
+    short = Card(position=s[:5] / INCH, load=1 + s[:5], position_unit="in",
+                 load_unit="lbf").with_spm(8)
+    out = diagnose_cards([uneven, short], well)
+    assert "not uniform" in out[0].reason and "at least 8" in out[1].reason
     with pytest.raises(ValueError, match="damping"):
         diagnose_cards([no_time], well, damping=-1)
+
+
+def test_string_transfer_is_unimodular_and_matches_one_rod() -> None:
+    from pumpid.rods import string_transfer
+
+    tapered = StringArrays.of([three_tapers()])
+    m11, m12, m21, m22 = string_transfer(64, 7.5, tapered, 0.2)
+    assert np.allclose(m11 * m22 - m12 * m21, 1.0, atol=1e-9)
+    well = uniform()
+    t = well.tapers[0]
+    m11, m12, m21, m22 = string_transfer(64, 7.5, StringArrays.of([well]), 0.0)
+    k = 2 * np.pi * 3 / 7.5 / t.wave_speed
+    assert m11[0, 3] == pytest.approx(np.cos(k * t.length))
+    assert m12[0, 3] == pytest.approx(-np.sin(k * t.length) / (t.stiffness * k))
+    assert m21[0, 3] == pytest.approx(t.stiffness * k * np.sin(k * t.length))

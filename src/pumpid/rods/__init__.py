@@ -12,9 +12,10 @@ read_well_file, wells_from_dict, WellFile
     The JSON well file (see the README for its schema).
 diagnose_cards, diagnose_card, DownholeResult, DEFAULT_DAMPING, loop_work
     Surface cards -> downhole cards and pump quantities, batched.
-fourier_diagnostic, fd_diagnostic, fourier_predict, StringArrays
-    The solvers on arrays: Gibbs' Fourier method, the finite-difference march, and the
-    exact frequency-domain predictive solution for a pump load given in time.
+fourier_diagnostic, fd_diagnostic, fourier_predict, string_transfer, StringArrays
+    The solvers on arrays: Gibbs' Fourier method, the finite-difference march, the exact
+    frequency-domain predictive solution for a pump load given in time, and the string's
+    transfer matrix per harmonic.
 PumpModel, predict_surface, Prediction
     The predictive solver with a valve pump model (surface position -> surface load).
 measure_pump_card, PumpMeasure
@@ -31,7 +32,13 @@ from .diagnose import (
     loop_work,
 )
 from .fd import fd_diagnostic
-from .fourier import StringArrays, fourier_diagnostic, fourier_predict, harmonic_count
+from .fourier import (
+    StringArrays,
+    fourier_diagnostic,
+    fourier_predict,
+    harmonic_count,
+    string_transfer,
+)
 from .predict import Prediction, PumpModel, predict_surface
 from .quantities import PumpMeasure, measure_pump_card
 from .well import MATERIALS, Fluid, Pump, Taper, Tubing, Well, WellError
@@ -64,5 +71,6 @@ __all__ = [
     "measure_pump_card",
     "predict_surface",
     "read_well_file",
+    "string_transfer",
     "wells_from_dict",
 ]

@@ -171,7 +171,7 @@ class DownholeResult:
             "damping": {"value": self.damping, "unit": "dimensionless (Gibbs' nu)",
                         "rule": self.damping_rule},
             "harmonics": self.harmonics, "reversed": self.reversed,
-            "tapers": [{"depth": {"value": float(d) / POSITION_UNITS["m"], "unit": "m"},
+            "tapers": [{"depth": {"value": float(d), "unit": "m"},
                         "position": p.tolist(), "load": f.tolist()}
                        for d, p, f in zip(self.depths if self.depths is not None else [],
                                           self.position[:-1], self.load[:-1], strict=False)],

@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 from .well import Well
 
 __all__ = ["StringArrays", "fourier_diagnostic", "fourier_predict", "harmonic_count",
-           "trig_refine"]
+           "string_transfer", "trig_refine"]
 
 Array = NDArray[np.float64]
 CArray = NDArray[np.complex128]
@@ -216,6 +216,30 @@ def fourier_diagnostic(position: ArrayLike, load: ArrayLike, period: ArrayLike,
     return pos, ten
 
 
+def string_transfer(n: int, period: ArrayLike, strings: StringArrays,
+                    nu: ArrayLike) -> tuple[CArray, CArray, CArray, CArray]:
+    """The whole string's transfer matrix per card and harmonic, ``(m11, m12, m21, m22)``.
+
+    ``[U, F]`` at the pump is ``[[m11, m12], [m21, m22]] @ [U, F]`` at the polished rod for
+    each harmonic ``0 .. n // 2`` of a card of ``n`` samples; each array has shape
+    ``(B, n // 2 + 1)``. A model fitted to surface cards (damping, pump parameters) can
+    build its predictions, and their sensitivities, on these.
+    """
+    count = strings.length.shape[0]
+    per = np.broadcast_to(np.asarray(period, dtype=float), (count,)).copy()
+    damp = np.broadcast_to(np.asarray(nu, dtype=float), (count,)).copy()
+    _hmax, (cos, s_over, k_sin) = _setup(n, per, strings, damp, None)
+    shape = (count, n // 2 + 1)
+    m11, m21 = np.ones(shape, dtype=complex), np.zeros(shape, dtype=complex)
+    m12, m22 = np.zeros(shape, dtype=complex), np.ones(shape, dtype=complex)
+    # Columns of the matrix: the bottom state for a unit surface displacement and for a
+    # unit surface force, carried through every taper.
+    for j in range(strings.length.shape[1]):
+        m11, m21 = cos[:, j] * m11 - s_over[:, j] * m21, k_sin[:, j] * m11 + cos[:, j] * m21
+        m12, m22 = cos[:, j] * m12 - s_over[:, j] * m22, k_sin[:, j] * m12 + cos[:, j] * m22
+    return m11, m12, m21, m22
+
+
 def fourier_predict(position: ArrayLike, pump_load: ArrayLike, period: ArrayLike,
                     strings: StringArrays, nu: ArrayLike,
                     harmonics: int | None = None) -> tuple[Array, Array]:
@@ -244,15 +268,9 @@ def fourier_predict(position: ArrayLike, pump_load: ArrayLike, period: ArrayLike
     """
     u, p, per, damp = _batch(position, pump_load, period, nu, strings.length.shape[0])
     n = u.shape[1]
-    hmax, (cos, s_over, k_sin) = _setup(n, per, strings, damp, harmonics)
+    hmax = harmonic_count(n, harmonics)
     uh, ph = _spectra(u, hmax), _spectra(p, hmax)
-    # Columns of the string's transfer matrix: the bottom state for a unit surface
-    # displacement and for a unit surface force.
-    m11, m21 = np.ones_like(uh), np.zeros_like(uh)
-    m12, m22 = np.zeros_like(uh), np.ones_like(uh)
-    for j in range(strings.length.shape[1]):
-        m11, m21 = cos[:, j] * m11 - s_over[:, j] * m21, k_sin[:, j] * m11 + cos[:, j] * m21
-        m12, m22 = cos[:, j] * m12 - s_over[:, j] * m22, k_sin[:, j] * m12 + cos[:, j] * m22
+    m11, m12, m21, m22 = string_transfer(n, per, strings, damp)
     live = np.zeros(uh.shape, dtype=bool)
     live[:, : hmax + 1] = True
     safe = np.where(live & (np.abs(m22) > 0), m22, 1.0)

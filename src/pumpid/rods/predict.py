@@ -127,11 +127,15 @@ class _PumpState:
             # Both valves closed: solve excess(p) = 0; it is convex and decreasing in p, so
             # Newton converges from either side; bounded to the valves' pressures.
             q = np.clip(self.p, self.ri, 1.0)
-            for _ in range(8):
+            for _ in range(12):
                 f = self._excess(q, volume)
                 slope = (-self.gas * self.inv * (self.ri / q) ** self.inv / q
                          - self.delta / self.span)
-                q = np.clip(q - f / slope, self.ri, 1.0)
+                step = np.clip(q - f / slope, self.ri, 1.0)
+                done = np.max(np.abs(step - q)) < 1e-13
+                q = step
+                if done:
+                    break
             p = np.where(shut, q, p)
         self.p = p
         return np.asarray(self.fo * (1.0 - p) / self.span, dtype=float)
