@@ -144,3 +144,11 @@ def test_a_unit_the_file_does_not_name_is_said_when_used() -> None:
     well = wells_from_dict(doc)["W-1"]
     assert any("modulus values are read in psi" in n for n in well.notes)
     assert well.tapers[0].modulus == pytest.approx(30.0e6 * 6894.757293168361)
+
+
+@pytest.mark.parametrize("depth,where", [(4580, "below"), (4700, "above")])
+def test_a_string_slightly_off_the_pump_depth_is_noted(depth: float, where: str) -> None:
+    doc = json.loads(json.dumps(US))
+    doc["wells"]["W-1"]["pump"]["depth"] = depth   # the string is 4,625 ft
+    well = wells_from_dict(doc)["W-1"]
+    assert any(f"m {where} the pump depth" in n for n in well.notes)

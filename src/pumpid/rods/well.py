@@ -39,8 +39,9 @@ MATERIALS: dict[str, tuple[float, float]] = {
 # How far the rod string's bottom may sit above the pump depth (fraction of the depth)
 # before it is an error: the pump's own length and a pull tube take a few metres.
 _GAP_TOLERANCE = 0.02
-# How far the rods may reach below the stated pump depth: rounding of the depths only.
-_OVERSHOOT_TOLERANCE = 0.001
+# How far the rods may reach below the stated pump depth (a depth given to the seating
+# nipple while the rods and plunger reach into the barrel) before it is an error.
+_OVERSHOOT_TOLERANCE = 0.02
 
 
 class WellError(ValueError):
@@ -239,8 +240,8 @@ class Well:
     Raises
     ------
     WellError
-        When the string is empty, reaches below the pump, or ends more than 2 % of the
-        pump depth above it.
+        When the string is empty, or its length differs from the pump depth by more than
+        2 % of it.
     """
 
     well_id: str
@@ -265,7 +266,9 @@ class Well:
         total, depth = self.rod_length, self.pump.depth
         if total > depth * (1 + _OVERSHOOT_TOLERANCE):
             raise WellError(f"the rod string ({total:.6g} m) reaches below the pump depth "
-                            f"({depth:.6g} m)", path=src, well=self.well_id, field="pump.depth")
+                            f"({depth:.6g} m) by more than {100 * _OVERSHOOT_TOLERANCE:g} % "
+                            "of it: a length is wrong", path=src, well=self.well_id,
+                            field="pump.depth")
         if total < depth * (1 - _GAP_TOLERANCE):
             raise WellError(f"the rod string ({total:.6g} m) ends {depth - total:.6g} m above "
                             f"the pump depth ({depth:.6g} m), more than "

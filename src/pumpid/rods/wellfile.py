@@ -237,10 +237,11 @@ class _Reader:
         tubing = self.tubing(spec.get("tubing"))
         fluid = self.fluid(spec.get("fluid"))
         total = sum(t.length for t in tapers)
-        if total < pump.depth * (1 - 1e-9):
-            self.notes.append(f"the rod string ends {pump.depth - total:.4g} m above the pump "
-                              "depth: the pump card is computed at the bottom of the rods; "
-                              "the fluid load's pressures use the pump depth")
+        if abs(total - pump.depth) > 1e-9 * pump.depth:
+            where = "above" if total < pump.depth else "below"
+            self.notes.append(f"the rod string ends {abs(pump.depth - total):.4g} m {where} "
+                              "the pump depth: the pump card is computed at the bottom of the "
+                              "rods; the fluid load's pressures use the pump depth")
         try:
             return Well(well_id=self.well_id, tapers=tuple(tapers), pump=pump, tubing=tubing,
                         fluid=fluid, system=self.system, notes=tuple(self.notes),
