@@ -164,3 +164,20 @@ def test_card_without_time_is_refused_with_the_fix(tmp_path: Path, surface, caps
                          str(write_well(tmp_path / "w.json")))
     assert code == 2
     assert all("--spm" in c["reason"] for c in out["cards"])
+
+
+def test_split_strokes_of_a_time_record(tmp_path: Path, surface, capsys) -> None:
+    s, loads = surface
+    path = tmp_path / "record.csv"
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(["t_s", "position_in", "load_lbf"])
+        for k in range(3 * s.size):
+            w.writerow([f"{k * 60 / SPM / s.size:.6f}", f"{s[k % s.size] / INCH:.6f}",
+                        f"{loads[1][k % s.size] / LBF:.4f}"])
+    well = str(write_well(tmp_path / "w.json"))
+    code, whole = run_json(capsys, str(path), "--well", well)
+    assert code == 2 and "several strokes" in whole["cards"][0]["reason"]
+    code, split = run_json(capsys, str(path), "--well", well, "--split-strokes")
+    assert code == 0 and len(split["cards"]) >= 2
+    assert all(c["pump"]["fillage"]["value"] < 0.85 for c in split["cards"])

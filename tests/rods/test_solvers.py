@@ -184,3 +184,17 @@ def test_string_transfer_is_unimodular_and_matches_one_rod() -> None:
     assert m11[0, 3] == pytest.approx(np.cos(k * t.length))
     assert m12[0, 3] == pytest.approx(-np.sin(k * t.length) / (t.stiffness * k))
     assert m21[0, 3] == pytest.approx(t.stiffness * k * np.sin(k * t.length))
+
+
+def test_a_multi_stroke_record_is_refused_and_its_strokes_computed() -> None:
+    from pumpid.cards import Card, split_strokes
+
+    well = three_tapers()
+    s = np.tile(surface_motion(n=100), 3)
+    load = 30000 + 8000 * np.sin(2 * np.pi * np.arange(300) / 100)
+    record = Card(position=s / INCH, load=load / LBF, position_unit="in", load_unit="lbf",
+                  t=np.arange(300) * 0.075, time_source="file")
+    refused = diagnose_card(record, well)
+    assert refused.status == "invalid-input" and "several strokes" in refused.reason
+    strokes = diagnose_cards(split_strokes(record), well)
+    assert len(strokes) >= 2 and all(r.ok for r in strokes)

@@ -75,6 +75,10 @@ def _read(path: str, args: argparse.Namespace) -> list[Card]:
                        columns=columns, encoding=args.encoding)
     if args.card is not None:
         cards = [c for c in cards if c.card_id == args.card]
+    if args.split_strokes:
+        from ..cards import split_strokes
+
+        cards = [stroke for c in cards for stroke in split_strokes(c)]
     return cards
 
 
@@ -330,6 +334,9 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--format", help="force a format: csv, scada, json, whitespace, ts")
     p.add_argument("--encoding", help="text encoding of the files (default: detected)")
     p.add_argument("--card", help="only this card id")
+    p.add_argument("--split-strokes", action="store_true",
+                   help="split multi-stroke time records at position minima; each stroke "
+                        "is a card (ids CARD#0, CARD#1, ...)")
     p.add_argument("--columns", metavar="ROLE=COL[,...]",
                    help="column roles, e.g. position=1,load=0 (names or 0-based indices)")
     p.add_argument("--t-col", help="time column")

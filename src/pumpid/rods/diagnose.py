@@ -194,6 +194,19 @@ def loop_work(position: Array, load: Array) -> Any:
     return float(work) if np.ndim(work) == 0 else work
 
 
+def _upward_passes(position: Array) -> int:
+    """How often the position rises from below 35 % to above 65 % of its range."""
+    low, high = float(np.min(position)), float(np.max(position))
+    h = (np.asarray(position) - low) / (high - low) if high > low else np.zeros(1)
+    passes, below = 0, False
+    for value in h:
+        if value < 0.35:
+            below = True
+        elif value > 0.65 and below:
+            passes, below = passes + 1, False
+    return passes
+
+
 def _prepare(card: Card) -> tuple[Array, Array, float, list[str]]:
     """SI position and load, the period, notes (ValueError when the card cannot be used)."""
     notes: list[str] = []
@@ -210,6 +223,11 @@ def _prepare(card: Card) -> tuple[Array, Array, float, list[str]]:
         raise ValueError("the card's sample times are not uniform; the downhole solvers need "
                          "one stroke sampled uniformly in time")
     period = dt * card.n
+    passes = _upward_passes(card.position)
+    if not card.periodic and passes > 1:
+        raise ValueError(f"the card holds several strokes ({passes} upward passes through "
+                         "mid-stroke); split it into strokes first (pumpid.cards."
+                         "split_strokes, or --split-strokes)")
     if not card.periodic:
         notes.append(f"the card is taken as one stroke of period {period:.6g} s "
                      f"(its {card.n} samples, {dt:.6g} s apart)")
