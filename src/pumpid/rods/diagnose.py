@@ -197,14 +197,12 @@ def loop_work(position: Array, load: Array) -> Any:
 def _upward_passes(position: Array) -> int:
     """How often the position rises from below 35 % to above 65 % of its range."""
     low, high = float(np.min(position)), float(np.max(position))
-    h = (np.asarray(position) - low) / (high - low) if high > low else np.zeros(1)
-    passes, below = 0, False
-    for value in h:
-        if value < 0.35:
-            below = True
-        elif value > 0.65 and below:
-            passes, below = passes + 1, False
-    return passes
+    if not high > low:
+        return 0
+    h = (np.asarray(position) - low) / (high - low)
+    band = np.where(h < 0.35, -1, np.where(h > 0.65, 1, 0))
+    band = band[band != 0]
+    return int(np.count_nonzero((band[1:] == 1) & (band[:-1] == -1)))
 
 
 def _prepare(card: Card) -> tuple[Array, Array, float, list[str]]:
