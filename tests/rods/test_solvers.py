@@ -198,3 +198,14 @@ def test_a_multi_stroke_record_is_refused_and_its_strokes_computed() -> None:
     assert refused.status == "invalid-input" and "several strokes" in refused.reason
     strokes = diagnose_cards(split_strokes(record), well)
     assert len(strokes) >= 2 and all(r.ok for r in strokes)
+
+
+def test_a_loop_that_does_not_close_is_said() -> None:
+    well = three_tapers()
+    s = surface_motion()[:150]          # three quarters of a stroke
+    load = 30000 + 8000 * np.sin(2 * np.pi * np.arange(150) / 200)
+    res = diagnose_card(card(s, load, 8.0), well)
+    assert res.ok and any("does not close" in n for n in res.notes)
+    closed = diagnose_card(card(surface_motion(), 30000 + 8000 * np.sin(
+        2 * np.pi * np.arange(200) / 200), 8.0), well)
+    assert not any("does not close" in n for n in closed.notes)

@@ -216,27 +216,28 @@ def _prepare(card: Card) -> tuple[Array, Array, float, list[str]]:
     if card.t is None:
         raise ValueError("the card has no time: give the pumping speed (--spm) or the stroke "
                          "period (--period)")
-    dt = card.dt
-    if dt is None:
-        raise ValueError("the card's sample times are not uniform; the downhole solvers need "
-                         "one stroke sampled uniformly in time")
-    period = dt * card.n
-    passes = _upward_passes(card.position)
-    if not card.periodic and passes > 1:
-        raise ValueError(f"the card holds several strokes ({passes} upward passes through "
-                         "mid-stroke); split it into strokes first (pumpid.cards."
-                         "split_strokes, or --split-strokes)")
-    if not card.periodic:
-        notes.append(f"the card is taken as one stroke of period {period:.6g} s "
-                     f"(its {card.n} samples, {dt:.6g} s apart)")
     if card.n < 8:
         raise ValueError(f"the card has {card.n} samples; at least 8 are needed")
+    if card.periodic and card.period is not None and card.time_source in ("spm", "period",
+                                                                          "dt"):
+        # Time rebuilt from the speed: one stroke, uniform by construction.
+        period = float(card.period)
+    else:
+        dt = card.dt
+        if dt is None:
+            raise ValueError("the card's sample times are not uniform; the downhole solvers "
+                             "need one stroke sampled uniformly in time")
+        period = dt * card.n
+        passes = _upward_passes(card.position)
+        if not card.periodic and passes > 1:
+            raise ValueError(f"the card holds several strokes ({passes} upward passes through "
+                             "mid-stroke); split it into strokes first (pumpid.cards."
+                             "split_strokes, or --split-strokes)")
+        if not card.periodic:
+            notes.append(f"the card is taken as one stroke of period {period:.6g} s "
+                         f"(its {card.n} samples, {dt:.6g} s apart)")
     y = card.position * POSITION_UNITS[card.position_unit]
     f = card.load * LOAD_UNITS[card.load_unit]
-    gap = abs(y[-1] - y[0]) - np.max(np.abs(np.diff(y)))
-    if gap > _OPEN_LOOP * np.ptp(y):
-        notes.append("the card's last sample is far from its first: the loop does not close, "
-                     "and the periodic solution will ring at the join")
     return y, f, period, notes
 
 
@@ -364,6 +365,11 @@ def _solve_group(n: int, group: list[tuple[int, Array, Array, float, list[str], 
     y = np.stack([g[1] for g in group])
     load = np.stack([g[2] for g in group])
     period = np.array([g[3] for g in group])
+    # A loop that does not close rings at the join of the periodic solution: said.
+    jump = np.abs(y[:, -1] - y[:, 0]) - np.max(np.abs(np.diff(y, axis=1)), axis=1)
+    for k in np.flatnonzero(jump > _OPEN_LOOP * np.ptp(y, axis=1)):
+        group[k][4].append("the card's last sample is far from its first: the loop does not "
+                           "close, and the periodic solution will ring at the join")
     # A loop turning the wrong way was stored in reverse time order: solve it reversed.
     rev = loop_work(y, load) < 0
     y[rev], load[rev] = y[rev, ::-1], load[rev, ::-1]
