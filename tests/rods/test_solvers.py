@@ -169,6 +169,8 @@ def test_cards_that_cannot_be_computed_say_why() -> None:
     assert "not uniform" in out[0].reason and "at least 8" in out[1].reason
     with pytest.raises(ValueError, match="damping"):
         diagnose_cards([no_time], well, damping=-1)
+    with pytest.raises(ValueError, match="Fourier method only"):
+        diagnose_cards([no_time], well, method="fd", harmonics=10)
 
 
 def test_string_transfer_is_unimodular_and_matches_one_rod() -> None:

@@ -297,6 +297,8 @@ def diagnose_cards(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well
         raise ValueError(f"damping must be a non-negative number, got {damping}")
     if harmonics is not None and harmonics < 1:
         raise ValueError(f"harmonics must be at least 1, got {harmonics}")
+    if harmonics is not None and method != "fourier":
+        raise ValueError("harmonics applies to the Fourier method only")
     nu = DEFAULT_DAMPING if damping is None else float(damping)
     rule = ("given" if damping is not None else
             f"default rule: nu = {DEFAULT_DAMPING:g} for every well")
