@@ -83,6 +83,18 @@ def test_json_shape_and_units(tmp_path: Path, surface, capsys) -> None:
     assert doc["summary"]["damping"] == 0.05 and "default" in doc["summary"]["damping_rule"]
 
 
+def test_a_single_well_applies_to_every_card_and_says_so(tmp_path: Path, surface,
+                                                         capsys) -> None:
+    cards = write_cards(tmp_path / "cards.csv", surface, ids=("W-1", "OTHER"))
+    code, doc = run_json(capsys, str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                         "--spm", str(SPM))
+    assert code == 0
+    first, second = doc["cards"]
+    assert not any("differs" in n for n in first["notes"])
+    assert any("'OTHER' differs from the well file's only well 'W-1'" in n
+               for n in second["notes"])
+
+
 def test_metric_card_with_us_well_file_is_converted(tmp_path: Path, surface, capsys) -> None:
     well = write_well(tmp_path / "well.json")
     _c, us = run_json(capsys, str(write_cards(tmp_path / "us.csv", surface)), "--well",

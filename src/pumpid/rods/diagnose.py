@@ -157,7 +157,11 @@ class DownholeResult:
         card = self.card
         out: dict[str, Any] = {
             "status": self.status, "reason": self.reason,
-            "card": {"id": card.card_id, "well": card.well_id, "source": card.source},
+            # The card's own well id, else the id of the well it was computed with.
+            "card": {"id": card.card_id,
+                     "well": card.well_id if card.well_id is not None else (
+                         self.well.well_id if self.well is not None else None),
+                     "source": card.source},
         }
         if not self.ok or self.position is None or self.load is None:
             out["downhole"] = None
@@ -417,6 +421,9 @@ def _result(card: Card, well: Well, static: _Static, pos: Array, ten: Array, rev
             used: int | None) -> DownholeResult:
     count = len(well.tapers)
     notes = [*well.notes, *notes]
+    if card.well_id is not None and card.well_id != well.well_id:
+        notes.append(f"the card's well id {card.well_id!r} differs from the well file's only "
+                     f"well {well.well_id!r}, which applies to every card")
     if rev:
         notes.append("the card's loop turns the wrong way for time order (higher loads on the "
                      "falling half: stored in reverse time order); it was used reversed, and "
