@@ -211,3 +211,27 @@ def test_a_loop_that_does_not_close_is_said() -> None:
     closed = diagnose_card(card(surface_motion(), 30000 + 8000 * np.sin(
         2 * np.pi * np.arange(200) / 200), 8.0), well)
     assert not any("does not close" in n for n in closed.notes)
+
+
+def test_a_card_that_breaks_the_solver_fails_alone(monkeypatch) -> None:
+    import pumpid.rods.diagnose as diagnose
+
+    well = three_tapers()
+    s = surface_motion()
+    cards = [card(s, 30000 + 8000 * np.sin(2 * np.pi * np.arange(200) / 200 + k), 8.0,
+                  f"c{k}") for k in range(3)]
+    real = diagnose.fourier_diagnostic
+
+    calls = {"n": 0}
+
+    def flaky(position, *args, **kwargs):
+        # The batch call and the second card alone fail; the others go through.
+        calls["n"] += 1
+        if np.asarray(position).shape[0] > 1 or calls["n"] == 3:
+            raise FloatingPointError("boom")
+        return real(position, *args, **kwargs)
+
+    monkeypatch.setattr(diagnose, "fourier_diagnostic", flaky)
+    out = diagnose_cards(cards, well)
+    assert [r.status for r in out] == ["computed", "failed", "computed"]
+    assert "FloatingPointError: boom" in out[1].reason

@@ -324,7 +324,25 @@ def diagnose_cards(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well
                      convention=convention, refine=refine)
     statics: dict[int, _Static] = {}
     for n, group in ready.items():
-        for i, result in _solve_group(n, group, cards, setup, statics):
+        try:
+            solved = _solve_group(n, group, cards, setup, statics)
+        except MemoryError:
+            raise
+        except Exception:
+            # Something in one card broke the batch: each card alone, so only it fails.
+            solved = []
+            for member in group:
+                try:
+                    solved += _solve_group(n, [member], cards, setup, statics)
+                except MemoryError:
+                    raise
+                except Exception as exc:
+                    solved.append((member[0], DownholeResult(
+                        card=cards[member[0]], status="failed", well=member[5],
+                        reason=f"the solver stopped with an internal error "
+                               f"({type(exc).__name__}: {exc}); a bug in pumpid, please "
+                               "report it with the card")))
+        for i, result in solved:
             results[i] = result
     return [r for r in results if r is not None]
 
