@@ -10,7 +10,8 @@ that cannot be computed is a row with its status and reason; it does not stop th
 
 Output folder (``--out DIR``): one card writes ``downhole.json``, ``pump_card.csv`` and
 ``cards.png`` (surface card beside pump card) directly into ``DIR``; several cards get a
-folder each and ``DIR/downhole.csv`` lists them with their pump quantities.
+folder each and ``DIR/downhole.csv`` lists them with their pump quantities. ``DIR/report.html``
+is one self-contained page for the run (:class:`pumpid.rods.report.DownholeReport`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from ..report.output import OutputError, OutputFolder, UniqueNames, atomic_write
 from ..result import jsonable
 from ..rods import DEFAULT_DAMPING, DownholeResult, WellFile, diagnose_cards, read_well_file
 from ..rods.figure import draw_cards
+from ..rods.report import DownholeReport
 from .common import (
     EXIT_INTERRUPTED,
     EXIT_NOT_FITTED,
@@ -49,6 +51,7 @@ __all__ = ["cmd_downhole", "register"]
 #: Cards computed in one call of the batched API.
 CHUNK_CARDS = 256
 INDEX_NAME = "downhole.csv"
+REPORT_NAME = "report.html"
 _QUANTITIES = ("gross_stroke", "net_stroke", "fluid_load", "fillage", "displacement",
                "intake_pressure")
 
@@ -177,9 +180,10 @@ def _pump_csv(res: DownholeResult) -> str:
 class _Outputs:
     """The ``--out`` folder: one card's files directly, or a folder per card and an index."""
 
-    def __init__(self, path: str) -> None:
+    def __init__(self, path: str, info: dict[str, Any]) -> None:
         self.folder = OutputFolder(path)
-        self.names = UniqueNames(reserved=[INDEX_NAME])
+        self.names = UniqueNames(reserved=[INDEX_NAME, REPORT_NAME])
+        self.report = DownholeReport({k.replace("_", " "): v for k, v in info.items()})
         self.rows: list[dict[str, Any]] = []
         self.direct = False
         self.failed = 0
@@ -215,9 +219,15 @@ class _Outputs:
                 self.failed += 1
                 err(f"card {printable(res.card.card_id)}: outputs not written ({exc})")
         self.rows.append(record)
+        self.report.add(res)
 
     def finish(self) -> None:
         self.folder.discard_staged()
+        try:  # one page for the run: surface and pump cards, quantities, notes
+            atomic_write(self.folder.path / REPORT_NAME, self.report.html())
+        except (OutputError, OSError) as exc:
+            self.failed += 1
+            err(f"{REPORT_NAME} not written ({exc})")
         if self.direct:
             return
         names = list(dict.fromkeys(k for r in self.rows for k in r))
@@ -255,9 +265,6 @@ def cmd_downhole(args: argparse.Namespace) -> int:
     wells: WellFile = read_well_file(args.well)
     inputs = list(_inputs(args))
     total = sum(len(c) for _p, c in inputs if isinstance(c, list))
-    outputs = _Outputs(args.out) if args.out else None
-    if outputs is not None:
-        outputs.prepare(direct=total == 1 and len(inputs) == 1)
     printer: _Text | _Json = _Json() if args.json else _Text(verbose=args.verbose)
     damping = DEFAULT_DAMPING if args.damping is None else args.damping
     info = {"method": args.method, "damping": damping,
@@ -266,6 +273,9 @@ def cmd_downhole(args: argparse.Namespace) -> int:
             "harmonics": (args.harmonics or "all the samples resolve")
             if args.method == "fourier" else "n/a",
             "convention": args.convention, "well_file": args.well}
+    outputs = _Outputs(args.out, info) if args.out else None
+    if outputs is not None:
+        outputs.prepare(direct=total == 1 and len(inputs) == 1)
     printer.start(info)
     counts: collections.Counter[str] = collections.Counter()
     interrupted = False

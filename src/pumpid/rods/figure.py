@@ -3,20 +3,21 @@
 from __future__ import annotations
 
 import os
+from typing import BinaryIO
 
 from .diagnose import DownholeResult
 
 __all__ = ["draw_cards"]
 
 
-def draw_cards(result: DownholeResult, path: str | os.PathLike[str]) -> None:
+def draw_cards(result: DownholeResult, path: str | os.PathLike[str] | BinaryIO) -> None:
     """Draw the surface card and the pump card side by side and save the figure.
 
     Parameters
     ----------
     result : DownholeResult
         A computed result (``result.ok``).
-    path : str or path-like
+    path : str, path-like or binary file
         Where to write the PNG.
     """
     import matplotlib
