@@ -116,8 +116,11 @@ class DownholeReport:
         parts = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
                  "<title>pumpid downhole report</title>", f"<style>{_CSS}</style>",
                  "</head><body>", "<h1>pumpid downhole: pump cards and pump quantities</h1>"]
+        # Gibbs' factor has no unit: said, so the bare number is not taken for one.
+        shown = {k: (f"{v} (Gibbs' dimensionless factor nu)" if k == "damping" else v)
+                 for k, v in self.info.items()}
         parts.append("<table>" + "".join(
-            f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in self.info.items())
+            f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in shown.items())
             + f"<tr><th>cards</th><td>{len(self.entries)} (" + ", ".join(
                 f"{_e(s)} {n}" for s, n in sorted(counts.items())) + ")</td></tr></table>")
         parts.append("<h2>All cards</h2>")
