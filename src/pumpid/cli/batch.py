@@ -102,6 +102,16 @@ def _csv_path(args: argparse.Namespace) -> Path | None:
     return Path(args.csv)
 
 
+def _downhole(args: argparse.Namespace) -> Any:
+    """The pump quantities' options (pumpid.fleet.downhole), or None."""
+    if args.well_file is None:
+        if args.damping is not None or args.harmonics is not None:
+            raise ValueError("--damping and --harmonics need --well-file")
+        return None
+    from ..fleet.downhole import DownholeSpec
+    return DownholeSpec.load(args.well_file, damping=args.damping, harmonics=args.harmonics)
+
+
 def cmd_batch(args: argparse.Namespace) -> int:
     """Run ``pumpid batch``; print the summary; exit 0 (complete), 130 (interrupted),
     1 (the engine failed) or 2 (bad options, a refused results folder)."""
@@ -113,13 +123,14 @@ def cmd_batch(args: argparse.Namespace) -> int:
         raise ValueError("give at least one INPUT file or folder (or --resume to continue "
                          "the run in --out with its own inputs)")
     fit, read = _specs(args)
+    downhole = _downhole(args)
     mode = "quiet" if args.quiet else args.progress
     progress = make_progress(mode, interval=args.progress_interval)
     try:
         summary = run_batch(args.input, args.out, fit=fit, read=read, engine=args.engine,
                             scheduler=args.scheduler, workers=args.workers, resume=args.resume,
                             partition_size=args.partition_size, progress=progress,
-                            csv=_csv_path(args))
+                            csv=_csv_path(args), downhole=downhole)
     except EngineError as exc:
         print(f"pumpid: error: {exc}", file=sys.stderr)
         print("pumpid: the partitions written so far are kept; continue with --resume",
@@ -202,5 +213,15 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     ft.add_argument("--max-nfev", type=int, help="model evaluations allowed per card")
     ft.add_argument("--min-r2", type=float, metavar="R2",
                     help="quality gate: a fit with R^2 below this is poor-fit (default 0.95)")
+    dh = p.add_argument_group("pump quantities (the downhole card of each card)")
+    dh.add_argument("--well-file", metavar="WELLS.json",
+                    help="well file (as pumpid downhole --well): add the pump quantities as "
+                         "columns; one well applies to every card, several are matched by "
+                         "well id (with --resume: the run's own if not given)")
+    dh.add_argument("--damping", type=float, metavar="NU",
+                    help="Gibbs' dimensionless damping factor (default: pumpid downhole's "
+                         "rule)")
+    dh.add_argument("--harmonics", type=int, metavar="N",
+                    help="highest harmonic of the Fourier method (default: all)")
     p.set_defaults(func=cmd_batch)
     return p

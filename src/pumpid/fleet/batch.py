@@ -42,6 +42,7 @@ from pumpid import __version__, interrupts
 from pumpid.models import Model, model_class
 
 from .defaults import PARTITION_SIZE
+from .downhole import DownholeSpec, add_pump_columns, pump_schema
 from .engines import Engine, EngineError, make_engine
 from .inputs import BadItem, CardItem, InputFile, ReadOptions, find_inputs, iter_items
 from .progress import Progress, QuietProgress
@@ -198,7 +199,8 @@ def _fit_group(cards: list[Any], model: Any, spec: FitSpec, offset: bool,
 
 
 def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: int,
-                  partition: int, first_item: int) -> list[dict[str, Any]]:
+                  partition: int, first_item: int,
+                  downhole: DownholeSpec | None = None) -> list[dict[str, Any]]:
     """Rows of one partition: its cards fitted in one batch, its unreadable items as
     ``invalid-input`` rows; the task an engine runs.
 
@@ -212,6 +214,8 @@ def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: i
         Threads for :func:`pumpid.pump.fit_cards`.
     partition, first_item : int
         The partition's index and the run-wide index of its first item.
+    downhole : DownholeSpec, optional
+        Also add the pump quantities (:mod:`pumpid.fleet.downhole`).
 
     Returns
     -------
@@ -236,6 +240,8 @@ def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: i
         for i, (res, why, status) in zip(idx, _fit_group(cards, model, spec, off, threads),
                                          strict=True):
             rows[i] = _card_row(items[i], res, why, status, cls, spec, schema)  # type: ignore[arg-type]
+    if downhole is not None:  # the pump quantities (pumpid.fleet.downhole)
+        add_pump_columns(items, rows, downhole)
     out: list[dict[str, Any]] = []
     for i, row in enumerate(rows):
         assert row is not None
@@ -413,6 +419,7 @@ def run_batch(
     partition_size: int | None = None,
     progress: Progress | None = None,
     csv: str | os.PathLike[str] | None = None,
+    downhole: DownholeSpec | None = None,
 ) -> BatchSummary:
     """Fit every card of ``inputs`` into the results folder ``out`` (see the module doc).
 
@@ -440,6 +447,9 @@ def run_batch(
         A display from :func:`~pumpid.fleet.progress.make_progress` (default: none).
     csv : path, optional
         Also write the whole table as CSV here, when the run completes.
+    downhole : DownholeSpec, optional
+        Add the pump quantities of each card (:mod:`pumpid.fleet.downhole`); when
+        resuming, the run's own if not given.
 
     Returns
     -------
@@ -463,6 +473,8 @@ def run_batch(
         fit = fit or FitSpec.from_dict(earlier.get("fit", {}))
         read = read or ReadOptions.from_dict(earlier.get("read", {}))
         partition_size = partition_size or earlier.get("partition_size")
+        if downhole is None and earlier.get("downhole"):
+            downhole = DownholeSpec.from_dict(earlier["downhole"])
     fit = fit or FitSpec()
     read = read or ReadOptions()
     partition_size = PARTITION_SIZE if partition_size is None else partition_size
@@ -476,6 +488,8 @@ def run_batch(
                 "files": [f.to_dict() for f in files],
                 "options": {"read": read.to_dict(), "fit": fit.to_dict(),
                             "partition_size": partition_size}}
+    if downhole is not None:
+        manifest["options"]["downhole"] = downhole.to_dict()
     # Refuse a folder before starting an engine, and start the engine before writing.
     ResultsStore.check(folder, manifest, resume=resume)
     runner = make_engine(engine, scheduler=scheduler, workers=workers)
@@ -486,6 +500,8 @@ def run_batch(
         raise
     cls = fit.model_class()
     schema = results_schema(cls)
+    if downhole is not None:
+        schema = pump_schema(schema)
     summary = BatchSummary(results=folder)
     summary.engine = runner.description
     started = time.monotonic()
@@ -509,7 +525,8 @@ def run_batch(
                 while len(pending) >= runner.capacity:
                     interrupts.check()
                     _collect(runner, pending, store, schema, summary, progress, 0.5)
-                handle = runner.submit(fit_partition, items, fit, runner.threads, k, first)
+                handle = runner.submit(fit_partition, items, fit, runner.threads, k, first,
+                                       downhole)
                 pending[handle] = (k, len(items))
                 del items
             progress.all_read()

@@ -83,6 +83,8 @@ from numpy.typing import NDArray
 
 from pumpid import model_class
 
+from .downhole import is_pump_quantity, pump_quantities, pump_usable
+
 __all__ = [
     "ALERT_COLUMNS",
     "STATUSES",
@@ -175,11 +177,13 @@ def available_quantities(table: pd.DataFrame, *, parameters: bool = False) -> li
         c for c in table.columns
         if parameters and isinstance(c, str) and c.startswith("p_") and not c.endswith(suffixes)
     ]  # fmt: skip
-    return derived + params
+    return derived + params + pump_quantities(table)  # pump_NAME: pumpid.fleet.downhole
 
 
 def _columns(quantity: str) -> tuple[str, list[str], str | None, str | None, str]:
     """Value column, standard-error columns, determined column, unit column, kind."""
+    if is_pump_quantity(quantity):  # the pump quantities (pumpid.fleet.downhole)
+        return quantity, [], None, f"{quantity}_unit", "pump"
     if quantity.startswith("p_"):
         return quantity, [f"{quantity}_se", f"{quantity}_se_hac"], None, None, "parameter"
     col = f"d_{quantity}"
@@ -218,7 +222,8 @@ class _Usable:
 def _prepare(frame: pd.DataFrame) -> _Usable:
     """Usable rows, sorted by well, then by time, or by table order for a well with any
     card whose time is unknown (a time order cannot place such a card)."""
-    rows = frame[frame["status"].isin(USABLE_STATUSES)]
+    # A card's pump quantities count when its downhole card was computed, whatever its fit.
+    rows = frame[frame["status"].isin(USABLE_STATUSES) | pump_usable(frame)]
     well = rows["well_id"].astype(str).to_numpy()
     if "time" in rows.columns:
         time = pd.to_datetime(rows["time"], utc=True).dt.tz_localize(None)
@@ -251,6 +256,8 @@ def _quantity(
     col, se_cols, det_col, unit_col, kind = _columns(q)
     values = pd.to_numeric(frame[col], errors="coerce").to_numpy(dtype=float)
     keep = np.isfinite(values)
+    keep &= (pump_usable(frame) if kind == "pump"
+             else frame["status"].isin(USABLE_STATUSES)).to_numpy()
     if det_col is not None and det_col in frame.columns:
         keep &= frame[det_col].fillna(False).astype(bool).to_numpy()
     se = np.full(values.size, np.nan)

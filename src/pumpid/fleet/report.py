@@ -43,6 +43,7 @@ from .changes import (
     load_results,
     summarise_wells,
 )
+from .downhole import PUMP_PREFIX, is_pump_quantity, pump_usable
 
 __all__ = ["write_fleet_report"]
 
@@ -184,13 +185,15 @@ def _column_unit(summary: pd.DataFrame, quantity: str) -> str:
 
 def _values(frame: pd.DataFrame, quantity: str) -> tuple[pd.Series, pd.Series, pd.Series]:
     """Value, standard error and a usable mask of one quantity over rows of ``frame``."""
-    col = quantity if quantity.startswith("p_") else f"d_{quantity}"
+    col = quantity if quantity.startswith(("p_", PUMP_PREFIX)) else f"d_{quantity}"
     value = pd.to_numeric(frame[col], errors="coerce")
     se = pd.Series(np.nan, index=frame.index)
     for c in (f"{col}_se", f"{col}_se_hac"):
         if c in frame.columns:
             se = np.fmax(se, pd.to_numeric(frame[c], errors="coerce"))
     ok = frame["status"].isin(USABLE_STATUSES) & value.notna() & np.isfinite(value)
+    if is_pump_quantity(quantity):  # counts when the pump card was computed
+        ok = pump_usable(frame) & value.notna() & np.isfinite(value)
     det = f"{col}_determined"
     if det in frame.columns:
         ok &= frame[det].fillna(False).astype(bool)
