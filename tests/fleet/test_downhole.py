@@ -131,3 +131,21 @@ def test_batch_cli_well_file_options(tmp_path: Path, pump_run) -> None:
                            "--out", str(tmp_path / "r"), "--damping", "0.1"],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "--well-file" in proc.stderr
+
+
+def test_resume_keeps_the_runs_well_file_and_refuses_another(pump_run, tmp_path: Path) -> None:
+    from pumpid.fleet.store import ResultsFolderError
+
+    root, _, _ = pump_run
+    card = root / "field" / "ELSEWHERE.json"
+    first = write_well_file(tmp_path / "first.json", ["ELSEWHERE"])
+    out = tmp_path / "r"
+    fit = FitSpec("msd", options={"max_nfev": 5})
+    run_batch([card], out, fit=fit, downhole=DownholeSpec.load(first))
+    # resumed without the option: the run's own well file, nothing refused
+    run_batch([card], out, resume=True)
+    assert read_results(out)["downhole_status"].tolist() == ["computed"]
+    # the same path with other wells in it: refused (its checksum is in the manifest)
+    write_well_file(first, ["ELSEWHERE", "OTHER"])
+    with pytest.raises(ResultsFolderError):
+        run_batch([card], out, resume=True, downhole=DownholeSpec.load(first))

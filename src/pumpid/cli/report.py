@@ -54,8 +54,9 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                                                       "Parquet table in its layout)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--quantity", action="append", metavar="NAME",
-                   help="a quantity to trend: a derived one by name (natural_frequency) or a "
-                        "parameter by column (p_k0); repeat (default: every derived one)")
+                   help="a quantity to trend: a derived one by name (natural_frequency), a "
+                        "parameter by column (p_k0) or a pump quantity by column "
+                        "(pump_fillage); repeat (default: every derived and pump one)")
     p.add_argument("--parameters", action="store_true",
                    help="trend the model parameters too")
     p.add_argument("--false-alarm", type=float, default=0.01,
