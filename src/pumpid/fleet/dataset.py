@@ -165,7 +165,7 @@ def _card(
             f"t_i = i*T/N with T = {period:.6g} s, N = {n}"
         )
     else:
-        notes.append("no t column and no SPM: t is None")
+        notes.append("no t column and no spm column: the card has no time axis")
     stamp = None
     if "time" in frame.columns:
         value = _constant(frame, "time", path=path, card=card_id)
