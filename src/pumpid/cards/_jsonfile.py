@@ -103,7 +103,10 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
         raise o.error(f"invalid JSON: {exc.msg} (column {exc.colno})", line=exc.lineno) from exc
-    except (ValueError, RecursionError) as exc:
+    except RecursionError as exc:
+        raise o.error("invalid JSON: nested deeper than the parser can follow (a card file "
+                      "needs a few levels)") from exc
+    except ValueError as exc:
         raise o.error(f"invalid JSON: {exc}") from exc
     del text
     escaped = 0
