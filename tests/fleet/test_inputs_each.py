@@ -9,6 +9,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from pumpid.cards import CardError
 from pumpid.fleet.dataset import iter_parquet_cards
@@ -92,3 +94,33 @@ def test_parquet_datetime_t_is_seconds_from_the_first_sample(tmp_path: Path) -> 
     assert not isinstance(card, CardError)
     np.testing.assert_allclose(card.t, np.arange(30) * 0.25)  # not epoch nanoseconds
     assert any("dates and times: converted to seconds" in n for n in card.notes)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                 HealthCheck.function_scoped_fixture])
+@given(n_cards=st.integers(2, 4), data=st.data())
+def test_parquet_a_mutated_card_costs_only_itself(tmp_path: Path, n_cards: int, data) -> None:
+    ids = [f"c{k}" for k in range(n_cards)]
+    frame = _long(ids)
+    frame.to_parquet(tmp_path / "intact.parquet")
+    intact = {c.card_id: c for c in iter_parquet_cards(tmp_path / "intact.parquet")}
+    k = data.draw(st.integers(0, n_cards - 1), label="card")
+    i = data.draw(st.integers(0, 29), label="sample")
+    column, value = data.draw(st.sampled_from([
+        ("position", np.nan), ("load", np.inf), ("sample", "x"), ("sample", None),
+        ("sample", "0"), ("well_id", None)]), label="mutation")
+    row = k * 30 + i
+    if column == "sample" and value == "0" and i == 0:
+        value = "1"  # a repeated sample number either way
+    frame.loc[row, column] = value
+    frame.to_parquet(tmp_path / "broken.parquet")
+    items = list(iter_items(find_inputs([tmp_path / "broken.parquet"]), ReadOptions()))
+    assert [i.card_id for i in items] == ids
+    for j, item in enumerate(items):
+        if j == k:
+            assert isinstance(item, BadItem) and not item.whole_file
+            assert f"card {ids[k]}" in item.source and item.reason
+            continue
+        assert isinstance(item, CardItem)
+        np.testing.assert_array_equal(item.card.position, intact[item.card_id].position)
+        np.testing.assert_array_equal(item.card.load, intact[item.card_id].load)

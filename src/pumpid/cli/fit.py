@@ -507,8 +507,8 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
     for path in args.files:
         try:
             cards, errors = _read_file(path, setup)
-            if single and not cards and len(errors) == 1:
-                raise errors[0]  # a single card that cannot be read is the run's error
+            if single and not cards and errors:
+                raise errors[0]  # nothing of the only file can be fitted: the run's error
         except CardError as exc:
             if single:
                 raise
