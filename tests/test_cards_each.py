@@ -135,9 +135,9 @@ def test_a_broken_card_costs_only_itself(layout, n_cards, n, seed, data):
         target.insert(i, target[i])
     else:
         token = BAD[kind]
-        if layout == "json" and kind in ("text", "two dots"):
-            token = f'"{token}"'  # a JSON syntax error is the whole file's (see below)
-        target[i] = token.lower() if layout != "json" and kind in ("nan", "inf") else token
+        # JSON: NaN/Infinity are literals, nan/inf/abc/1.2.3 bare tokens (not JSON at all)
+        lower = layout != "json" or data.draw(st.booleans(), label="bare token")
+        target[i] = token.lower() if lower and kind in ("nan", "inf") else token
     broken_text, _, _ = LAYOUTS[layout](src)
 
     read = parse_cards_and_errors(broken_text, name=name)
@@ -196,8 +196,26 @@ def test_a_ragged_row_and_separate_blocks_refuse_their_cards_only():
 def test_whole_file_problems_are_still_raised(tmp_path):
     with pytest.raises(CardError, match="no position"):
         parse_cards_and_errors("card_id,a,b\nx,1,2\n", name="h.csv")
-    with pytest.raises(CardError, match="invalid JSON"):
+    with pytest.raises(CardError, match="invalid JSON: nested deeper"):
         parse_cards_and_errors("[" * 100_000 + "]" * 100_000, name="deep.json")
+    with pytest.raises(CardError, match=r"line 1: invalid JSON: Expecting ',' delimiter"):
+        parse_cards_and_errors('[{"a": 1]', name="s.json")  # structure, not a value
+    with pytest.raises(CardError, match="property name"):
+        parse_cards_and_errors('[{"card_id": "A", position: [1, 2]}]', name="k.json")
+    with pytest.raises(CardError, match="line 2, field 'site': unparsable value 'nowhere'"):
+        parse_cards_and_errors('{"cards": [],\n "site": nowhere}', name="t.json")
+
+
+def test_a_bare_unparsable_json_value_costs_its_card_only():
+    src = cards_of(3, 24, 5)
+    src.pos[1][4] = "nan"
+    text, name, _ = as_json(src)
+    text = text.replace('"card_id": "C2", ', '"card_id": "C2", "operator": J. Doe, ')
+    read = parse_cards_and_errors(text, name=name)
+    assert [c.card_id for c in read.cards] == ["C0"]
+    assert [(e.card_id, e.line, e.field, e.reason) for e in read.errors] == [
+        ("C1", 3, "cards[1].position[4]", "unparsable value 'nan'"),
+        ("C2", 4, "cards[2].operator", "unparsable value 'J. Doe'")]
 
 
 def test_a_lone_surrogate_id_is_escaped_with_a_note(tmp_path):

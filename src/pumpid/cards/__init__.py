@@ -17,7 +17,11 @@ read_cards_and_errors, parse_cards_and_errors, CardsRead
     The same readers, each card on its own: ``.cards`` are the cards that passed their
     checks and ``.errors`` one :class:`CardError` per card that did not (with its
     ``card_id``, file, line and field), so a broken card never costs its neighbours; only a
-    problem of the whole file (unreadable, no position column, invalid JSON ...) is raised.
+    problem of the whole file (unreadable, no position column, broken JSON structure ...) is
+    raised. In JSON, a bare value that is not JSON (``nan``, ``1.2.3``, ``abc``) spoils only
+    the card it is in (named by line and key path); NaN and Infinity literals are read and
+    refused by the card's checks. Dates and times given as ``t`` are refused (never read as
+    epoch counts).
 detect_column_roles, ColumnRoles, ROLE_CONFIDENCE_MIN
     Which column of a headerless table is position and which is load, and how sure.
 printable

@@ -17,6 +17,11 @@ __all__ = ["read_json"]
 
 _SURROGATE = re.compile("[\ud800-\udfff]")
 _SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")
+# Marks a value the parser could not read (see _loads_marking); no JSON text starts so.
+_MARK = "\x00pumpid-unparsable\x00"
+_STOP = frozenset(',[]{}:"\r\n')
+# A file with more unparsable values than this is refused as a whole (each costs a parse).
+_MAX_MARKED = 100
 _JSON_ROLE_EXTRA = {
     "units": "units", "position_unit": "position_unit", "load_unit": "load_unit",
     "time_unit": "time_unit", "t_unit": "time_unit", "name": "card",
@@ -91,6 +96,78 @@ def _escape_surrogates(doc: Any) -> tuple[Any, int]:
     return root[0], count
 
 
+def _loads_marking(text: str) -> tuple[Any, int]:
+    """``json.loads``, with each bare unparsable value (``nan``, ``1.2.3``, ``abc`` where a
+    value belongs) replaced by a marked string naming its line and text, so that it spoils
+    only the card it is in; the number of such values. Structural errors are raised.
+
+    The json module stops at the first error and cannot resume, hence this loop.
+    """
+    marked = 0
+    while True:
+        try:
+            return json.loads(text), marked
+        except json.JSONDecodeError as exc:
+            fixed = None if marked >= _MAX_MARKED else _mark_value(text, exc.pos)
+            if fixed is None:
+                raise
+            text = fixed
+            marked += 1
+
+
+def _mark_value(text: str, pos: int) -> str | None:
+    start = end = pos
+    while start > 0 and text[start - 1] not in _STOP:
+        start -= 1
+    while end < len(text) and text[end] not in _STOP:
+        end += 1
+    # A value may hold spaces ("J. Doe"); the spaces around it are not part of it.
+    while start < end and text[start].isspace():
+        start += 1
+    while end > start and text[end - 1].isspace():
+        end -= 1
+    token = text[start:end]
+    if not token:
+        return None
+    try:
+        json.loads(token)
+        return None  # a valid value: the error is in the structure around it
+    except ValueError:
+        pass
+    before = start - 1
+    while before >= 0 and text[before].isspace():
+        before -= 1
+    after = end
+    while after < len(text) and text[after].isspace():
+        after += 1
+    # Only a value: after '[', ',' or ':', and not a key (followed by ':').
+    if before < 0 or text[before] not in "[,:" or text[after:after + 1] == ":":
+        return None
+    line = text.count("\n", 0, start) + 1
+    return text[:start] + json.dumps(f"{_MARK}{line}\x00{token}") + text[end:]
+
+
+def _raise_marked(o: Opts, value: Any, where: str) -> None:
+    """Raise a CardError for the first marked (unparsable) value in ``value``, if any."""
+    stack: list[tuple[Any, str]] = [(value, where)]
+    while stack:
+        node, path = stack.pop()
+        if isinstance(node, str):
+            if node.startswith(_MARK):
+                line, _, token = node[len(_MARK):].partition("\x00")
+                shown = token if len(token) <= 40 else token[:37] + "..."
+                raise o.error(f"unparsable value {shown!r}", line=int(line),
+                              field=path or None)
+            continue
+        if isinstance(node, dict):
+            children = [(v, f"{path}.{k}" if path else str(k)) for k, v in node.items()]
+        elif isinstance(node, list):
+            children = [(v, f"{path}[{i}]") for i, v in enumerate(node)]
+        else:
+            continue
+        stack.extend(reversed(children))
+
+
 def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
     """Read a JSON document; ``holder`` holds the text and is emptied.
 
@@ -100,7 +177,7 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
     text = holder.pop()
     needs_escape = _SURROGATE_ESCAPE.search(text) is not None
     try:
-        doc = json.loads(text)
+        doc, repaired = _loads_marking(text)
     except json.JSONDecodeError as exc:
         raise o.error(f"invalid JSON: {exc.msg} (column {exc.colno})", line=exc.lineno) from exc
     except RecursionError as exc:
@@ -114,6 +191,8 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
         doc, escaped = _escape_surrogates(doc)
     shared: dict[str, Any] = {}
     prefix = "cards"
+    if repaired and not isinstance(doc, list | dict):
+        _raise_marked(o, doc, "")
     if isinstance(doc, list):
         items: Any = doc
         prefix = ""
@@ -124,6 +203,8 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
             if not isinstance(items, list):
                 raise o.error("'cards' must be a list of card objects", field=cards_key)
             shared = {k: v for k, v in doc.items() if k != cards_key}
+            if repaired:  # a bad value outside the cards is the whole file's
+                _raise_marked(o, shared, "")
         else:
             items, prefix = [doc], ""
     else:
@@ -140,6 +221,8 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
                 raise o.error(
                     f"a card must be an object, got {type(item).__name__}", field=where or None
                 )
+            if repaired:
+                _raise_marked(o, item, where)
             out.append(_json_card(o, obj, where, k, len(items)))
         except CardError as exc:
             out.append(exc.for_card(card_id, well_id))
@@ -159,6 +242,8 @@ def _ids(obj: dict[str, Any], default: str) -> tuple[str, str | None]:
     card_id, well_id = default, None
     for key, value in obj.items():
         role = _JSON_ROLE_EXTRA.get(normalize_name(key)) or interpret_name(key)[0]
+        if isinstance(value, str) and value.startswith(_MARK):
+            continue
         if role == "card" and isinstance(value, str | int) and not isinstance(value, bool):
             card_id = str(value)
         elif role == "well" and isinstance(value, str) and well_id is None:
