@@ -124,3 +124,21 @@ def test_parquet_a_mutated_card_costs_only_itself(tmp_path: Path, n_cards: int, 
         assert isinstance(item, CardItem)
         np.testing.assert_array_equal(item.card.position, intact[item.card_id].position)
         np.testing.assert_array_equal(item.card.load, intact[item.card_id].load)
+
+
+def test_batch_writes_past_a_deep_json_file_and_a_lone_surrogate(tmp_path: Path) -> None:
+    from pumpid.fleet import FitSpec, read_results, run_batch
+
+    field = tmp_path / "field"
+    field.mkdir()
+    (field / "a_deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    doc = [{"card_id": "x\ud800", "well_id": "W\udc00", "spm": 6, "op\ud800": "v\ud800",
+            "position": POS.tolist(), "load": LOAD.tolist()}]
+    (field / "b_surrogate.json").write_text(json.dumps(doc))
+    _csv(field / "c.csv", ["a", "b"], broken="a")
+    run_batch([field], tmp_path / "out", fit=FitSpec("msd"), partition_size=1)
+    table = read_results(tmp_path / "out").set_index("card_id")
+    assert table.loc[str(field / "a_deep.json"), "status"] == "invalid-input"
+    assert table.loc["x\\ud800", "status"] == "converged"
+    assert table.loc["x\\ud800", "well_id"] == "W\\udc00"
+    assert table.loc["a", "status"] == "invalid-input" and table.loc["b", "status"] == "converged"
