@@ -412,6 +412,8 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
     column_roles: dict[str, Any]
     detected = False
     if detect:
+        if broken:  # the columns' shapes decide their roles: a broken row blurs them all
+            raise broken[min(broken)]
         roles_found = _detect(o, values, cols, roles, nrows)
         if roles_found is None:  # too few rows to judge: let the sample count refuse
             candidates = [c for c in range(ncols) if c not in roles.values()]
