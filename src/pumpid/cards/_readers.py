@@ -1,7 +1,10 @@
-"""Format detection and the entry points :func:`read_cards`, :func:`read_card`, :func:`parse_cards`.
+"""Format detection and the entry points :func:`read_cards`, :func:`read_card`, :func:`parse_cards`
+and their each-card-on-its-own forms :func:`read_cards_and_errors`, :func:`parse_cards_and_errors`.
 
 Each format has its own module (``_table``, ``_scada``, ``_jsonfile``, ``_ts``) turning text
-into raw records; ``_common.build`` checks them and makes the cards. The text is handed to
+into raw records, or a :class:`CardError` in place of a card it could not read (a file's
+structure problems are raised); ``_common.build`` checks each record on its own and makes
+the card. :func:`read_cards` raises the first error of either kind. The text is handed to
 a reader in a one-element list that the reader empties, so that the only reference to the
 text (and, for :func:`read_cards`, to the file's bytes) is gone once it has been read: the
 memory of a large file is not held while its cards are built.

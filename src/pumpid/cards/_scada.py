@@ -6,6 +6,10 @@ stroke (or the top position) of the row's positions, a ``Peak Load (lbf)`` / ``M
 (lbf)`` field equal to the row's largest / smallest load, or a unit-system field (``Units =
 English``: inches and pounds-force, the oilfield convention). Each inference is checked on
 the row's own numbers and noted; without one the unit stays unknown, said once per file.
+
+Each row is read on its own: a row with the wrong number of fields or a bad value in any of
+its fields (the downhole lists included, used or not) is an error in place of its card(s),
+named by its line and field; the other rows are read.
 """
 
 from __future__ import annotations
