@@ -174,6 +174,9 @@ def test_a_bad_value_in_an_unused_field_refuses_its_card_only():
     (error,) = read.errors
     assert (error.card_id, error.well_id, error.line) == ("C1", "W1", 3)
     assert error.field == "Downhole Positions[1]"
+    # the caller's well wins on a refused card as on the others
+    read = parse_cards_and_errors("\n".join(lines), name=name, well_id="W9")
+    assert {c.well_id for c in read.cards} == {read.errors[0].well_id} == {"W9"}
 
 
 def test_a_ragged_row_and_separate_blocks_refuse_their_cards_only():

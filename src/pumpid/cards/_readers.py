@@ -320,12 +320,14 @@ def _read(
         while raws:
             raw = raws.pop()
             if isinstance(raw, CardError):
+                if o.well_id is not None:  # the caller's well wins, as on the good cards
+                    raw.well_id = o.well_id
                 items.append(raw)
                 continue
             try:
                 items.append(build(raw, o, said))
             except CardError as exc:
-                items.append(exc.for_card(raw.card_id, raw.well_id))
+                items.append(exc.for_card(raw.card_id, o.well_id or raw.well_id))
     return items
 
 
