@@ -142,3 +142,14 @@ def test_batch_writes_past_a_deep_json_file_and_a_lone_surrogate(tmp_path: Path)
     assert table.loc["x\\ud800", "status"] == "converged"
     assert table.loc["x\\ud800", "well_id"] == "W\\udc00"
     assert table.loc["a", "status"] == "invalid-input" and table.loc["b", "status"] == "converged"
+
+
+def test_a_broken_card_keeps_the_well_and_time_its_file_states(tmp_path: Path) -> None:
+    lines = ["card_id,well_id,timestamp,spm,position_in,load_lbf"]
+    for i, (p, f) in enumerate(zip(POS, LOAD, strict=True)):
+        lines.append(f"a,W-7,2024-05-01T06:00:00Z,6,{'nan' if i == 3 else f'{p:.4f}'},{f:.3f}")
+    (tmp_path / "one.csv").write_text("\n".join(lines) + "\n")
+    (bad,) = _items(tmp_path / "one.csv")
+    assert isinstance(bad, BadItem) and not bad.whole_file
+    assert (bad.card_id, bad.well_id, bad.time) == ("a", "W-7", "2024-05-01T06:00:00Z")
+    assert bad.source.endswith("one.csv, line 5, field 'position_in'")

@@ -385,6 +385,17 @@ def _file_items(file: InputFile, options: ReadOptions,
                 unique: Callable[[str, str], str]) -> Iterator[CardItem | BadItem]:
     """The items of one file (ids made unique with ``unique``)."""
     base = Path(file.path).name
+    identity: list[tuple[str | None, str | None]] = []
+
+    def stated() -> tuple[str | None, str | None]:
+        """The well and time the file states (read once, and only for a broken card)."""
+        if not identity:
+            try:
+                identity.append(_stated_identity(file.path))
+            except Exception:  # best effort: the card's row is written whatever the file holds
+                identity.append((None, None))
+        return identity[0]
+
     try:
         found = list(_cards_of(file, options))
     except Exception as exc:  # one bad file never stops the run
@@ -392,7 +403,7 @@ def _file_items(file: InputFile, options: ReadOptions,
         return
     for item in found:
         if isinstance(item, CardError):
-            yield _bad_card(item, file, unique)
+            yield _bad_card(item, file, unique, stated)
             continue
         cards = [item]
         if options.split_strokes:
@@ -410,19 +421,25 @@ def _file_items(file: InputFile, options: ReadOptions,
                            source=source, file=file.name)
 
 
-def _bad_card(error: CardError, file: InputFile,
-              unique: Callable[[str, str], str]) -> BadItem:
+def _bad_card(error: CardError, file: InputFile, unique: Callable[[str, str], str],
+              stated: Callable[[], tuple[str | None, str | None]]) -> BadItem:
     """A card that failed its checks (the rest of its file is read); an error that names
     no card is the whole file's."""
     if error.card_id is None:
         return _renamed(_bad_file(file, error), unique)
     where = _where(error)
+    well, when = error.well_id, None
     if isinstance(error, ParquetCardError):  # no lines in Parquet: the card names the place
         source = f"{file.name}, card {error.card_id}" + (f", {where}" if where else "")
     else:
         source = f"{file.name}, {where}" if where else file.name
+        # The card's time, when its file states a single one (a file of one card, say): a
+        # row filed under its well and time stays in that well's history.
+        stated_well, stated_time = stated()
+        if well is None or well == stated_well:
+            well, when = well or stated_well, stated_time
     return BadItem(card_id=unique(error.card_id, source), source=source, file=file.name,
-                   reason=error.reason, well_id=error.well_id)
+                   reason=error.reason, well_id=well, time=when)
 
 
 def _renamed(bad: BadItem, unique: Callable[[str, str], str]) -> BadItem:
