@@ -70,8 +70,12 @@ class TestControllerUnits:
             f"W{k}|2020-01-0{k + 1}|7.0|{lists}\n" for k in range(4)
         )
         cards = parse_cards(text, name="x.txt")
-        said = [sum("unit not stated" in n for n in c.notes) for c in cards]
-        assert said == [2, 0, 0, 0]  # position and load, on the first card only
+        said = [[n for n in c.notes if "not stated" in n] for c in cards]
+        assert [len(n) for n in said] == [1, 0, 0, 0]  # one note, on the first card only
+        # ... naming both units and how to give them, once.
+        assert "position and load units" in said[0][0]
+        assert "--position-unit, --load-unit" in said[0][0]
+        assert "position_unit= and load_unit=" in said[0][0]
         assert all(c.position_unit is None and c.load_unit is None for c in cards)
 
     def test_summary_field_unit_that_is_not_a_length_is_ignored(self, tmp_path):

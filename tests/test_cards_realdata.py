@@ -31,6 +31,8 @@ NOT_CARDS = {
     # The repository's own card header table: one row per card with date, stroke length and a
     # placeholder period; it holds no position/load samples at all.
     "orig_dyno-card-headers.csv": "card header table without samples",
+    # The contest's well data (depths, rod diameters ...) beside its two cards: no samples.
+    "wells.json": "well data without samples",
 }
 
 # How each folder must be read, following its SOURCE.md.

@@ -11,7 +11,17 @@ Card, CardError, TIME_SOURCES
     The immutable card type, the one error type (a ``ValueError``), allowed time sources.
 read_cards, read_card, parse_cards, detect_format, FORMATS
     Readers: delimited tables (CSV/TSV/semicolon/pipe, with or without header), pipe-delimited
-    SCADA exports (one card per row), JSON, whitespace tables, sktime ``.ts``.
+    SCADA exports (one card per row), JSON, whitespace tables, sktime ``.ts``. They raise
+    the first problem, of the file or of any one card.
+read_cards_and_errors, parse_cards_and_errors, CardsRead
+    The same readers, each card on its own: ``.cards`` are the cards that passed their
+    checks and ``.errors`` one :class:`CardError` per card that did not (with its
+    ``card_id``, file, line and field), so a broken card never costs its neighbours; only a
+    problem of the whole file (unreadable, no position column, broken JSON structure ...) is
+    raised. In JSON, a bare value that is not JSON (``nan``, ``1.2.3``, ``abc``) spoils only
+    the card it is in (named by line and key path); NaN and Infinity literals are read and
+    refused by the card's checks. Dates and times given as ``t`` are refused (never read as
+    epoch counts).
 detect_column_roles, ColumnRoles, ROLE_CONFIDENCE_MIN
     Which column of a headerless table is position and which is load, and how sure.
 printable
@@ -88,7 +98,16 @@ a value is flagged only when it is implausible in every unit it could be in.
 
 from ._errors import CardError
 from ._printable import printable
-from ._readers import FORMATS, detect_format, parse_cards, read_card, read_cards
+from ._readers import (
+    FORMATS,
+    CardsRead,
+    detect_format,
+    parse_cards,
+    parse_cards_and_errors,
+    read_card,
+    read_cards,
+    read_cards_and_errors,
+)
 from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
 from ._strokes import split_strokes
 from ._types import TIME_SOURCES, Card
@@ -111,6 +130,7 @@ __all__ = [
     "TIME_UNITS",
     "Card",
     "CardError",
+    "CardsRead",
     "ColumnRoles",
     "convert_load",
     "convert_position",
@@ -119,8 +139,10 @@ __all__ = [
     "normalize_load_unit",
     "normalize_position_unit",
     "parse_cards",
+    "parse_cards_and_errors",
     "printable",
     "read_card",
     "read_cards",
+    "read_cards_and_errors",
     "split_strokes",
 ]

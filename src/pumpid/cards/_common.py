@@ -359,6 +359,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
 
     # Units: the caller's declaration wins over what the file says (and a note records it).
     units: dict[str, str | None] = {}
+    unknown: list[str] = []
     for kind, caller, stated, where in (
         ("position", o.position_unit, raw.pos_unit, raw.pos_unit_where),
         ("load", o.load_unit, raw.load_unit, raw.load_unit_where),
@@ -377,11 +378,20 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
             key = f"unknown {kind} unit"
             if key not in said:
                 said.add(key)
-                notes.append(
-                    f"{kind} unit not stated in the file nor given by the caller: left unknown "
-                    "(noted on the first such card of the file only)"
-                )
+                unknown.append(kind)
             units[kind] = None
+    if unknown:
+        # One note with the remedy: every number of such a card reads "unit not stated".
+        what = " and ".join(unknown)
+        them = "it" if len(unknown) == 1 else "them"
+        args = " and ".join(f"{k}_unit=" for k in unknown)
+        flags = ", ".join(f"--{k}-unit" for k in unknown)
+        notes.append(
+            f"{what} unit{'s' if len(unknown) > 1 else ''} not stated in the file nor given "
+            f"by the caller: left unknown, so values and parameters are in the file's units "
+            f"with the unit not stated; give {them} with {args} (command line {flags}) "
+            "(noted on the first such card of the file only)"
+        )
     if raw.t is not None and raw.t_factor != 1.0:
         notes.append(f"time converted to seconds (x {raw.t_factor:g})")
 
@@ -427,7 +437,10 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
         )
     else:
         time_source = "none"
-        notes.append("no time in the file and no SPM or period given: t is None")
+        notes.append(
+            "no time in the file and no SPM or period given: the card has no time axis; give "
+            "the stroke rate (spm= or period=, command line --spm or --period) to rebuild it"
+        )
     for name, arr in arrays.items():
         meta.setdefault(name, arr)
     card_time(meta, notes)

@@ -25,12 +25,18 @@ class CardError(ValueError):
         1-based line number in that file, when the problem has one.
     field : str, optional
         Column, JSON key, dimension or argument name the problem concerns.
+    card_id, well_id : str, optional
+        The card (and its well, when the file states it) the problem concerns, when it
+        concerns one card of a file rather than the whole file (see
+        :func:`pumpid.cards.read_cards_and_errors`).
 
     Attributes
     ----------
     path : str or None
     line : int or None
     field : str or None
+    card_id : str or None
+    well_id : str or None
     reason : str
         The message without the location prefix.
 
@@ -49,12 +55,25 @@ class CardError(ValueError):
         path: str | os.PathLike[str] | None = None,
         line: int | None = None,
         field: str | None = None,
+        card_id: str | None = None,
+        well_id: str | None = None,
     ) -> None:
         self.path = None if path is None else os.fspath(path)
         self.line = line
         self.field = field
         self.reason = message
+        self.card_id = card_id
+        self.well_id = well_id
         super().__init__(self._compose())
+
+    def for_card(self, card_id: str | None, well_id: str | None = None) -> CardError:
+        """The same problem, marked as concerning one card (its id and well)."""
+        if type(self) is not CardError:  # a subclass carries its own ids already
+            return self
+        out = CardError(self.reason, path=self.path, line=self.line, field=self.field,
+                        card_id=card_id, well_id=well_id)
+        out.__cause__ = self.__cause__
+        return out
 
     def _compose(self) -> str:
         where: list[str] = []

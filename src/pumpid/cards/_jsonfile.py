@@ -3,16 +3,25 @@
 from __future__ import annotations
 
 import json
+import re
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ._common import Opts, Raw, file_unit, rate, time_factor
+from ._errors import CardError
 from ._text import interpret_name, normalize_name
 
 __all__ = ["read_json"]
 
+_SURROGATE = re.compile("[\ud800-\udfff]")
+_SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")
+# Marks a value the parser could not read (see _loads_marking); no JSON text starts so.
+_MARK = "\x00pumpid-unparsable\x00"
+_STOP = frozenset(',[]{}:"\r\n')
+# A file with more unparsable values than this is refused as a whole (each costs a parse).
+_MAX_MARKED = 100
 _JSON_ROLE_EXTRA = {
     "units": "units", "position_unit": "position_unit", "load_unit": "load_unit",
     "time_unit": "time_unit", "t_unit": "time_unit", "name": "card",
@@ -51,16 +60,139 @@ def _json_str(o: Opts, value: Any, where: str) -> str:
     return str(value)
 
 
-def read_json(o: Opts, holder: list[str]) -> list[Raw]:
-    """Read a JSON document; ``holder`` holds the text and is emptied."""
+def _escape_surrogates(doc: Any) -> tuple[Any, int]:
+    """``doc`` with lone surrogates in its strings (keys and values) written escaped.
+
+    JSON's ``\\ud800`` escape decodes to a lone surrogate, which no UTF-8 writer (CSV,
+    Parquet, HTML) accepts; escaping at read time keeps every later write valid. The walk
+    uses its own stack: a document deep enough to matter was already refused by the parser.
+    """
+    count = 0
+
+    def fix(text: str) -> str:
+        nonlocal count
+        if _SURROGATE.search(text) is None:
+            return text
+        count += 1
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+
+    def fixed(value: Any) -> Any:
+        if isinstance(value, str):
+            return fix(value)
+        if isinstance(value, dict):
+            return {fix(k): v for k, v in value.items()}
+        return value
+
+    root = [fixed(doc)]
+    stack: list[Any] = [root]
+    while stack:
+        node = stack.pop()
+        keys = range(len(node)) if isinstance(node, list) else list(node)
+        for k in keys:
+            v = fixed(node[k])
+            node[k] = v
+            if isinstance(v, list | dict):
+                stack.append(v)
+    return root[0], count
+
+
+def _loads_marking(text: str) -> tuple[Any, int]:
+    """``json.loads``, with each bare unparsable value (``nan``, ``1.2.3``, ``abc`` where a
+    value belongs) replaced by a marked string naming its line and text, so that it spoils
+    only the card it is in; the number of such values. Structural errors are raised.
+
+    The json module stops at the first error and cannot resume, hence this loop.
+    """
+    marked = 0
+    while True:
+        try:
+            return json.loads(text), marked
+        except json.JSONDecodeError as exc:
+            fixed = None if marked >= _MAX_MARKED else _mark_value(text, exc.pos)
+            if fixed is None:
+                raise
+            text = fixed
+            marked += 1
+
+
+def _mark_value(text: str, pos: int) -> str | None:
+    start = end = pos
+    while start > 0 and text[start - 1] not in _STOP:
+        start -= 1
+    while end < len(text) and text[end] not in _STOP:
+        end += 1
+    # A value may hold spaces ("J. Doe"); the spaces around it are not part of it.
+    while start < end and text[start].isspace():
+        start += 1
+    while end > start and text[end - 1].isspace():
+        end -= 1
+    token = text[start:end]
+    if not token:
+        return None
     try:
-        doc = json.loads(holder.pop())
+        json.loads(token)
+        return None  # a valid value: the error is in the structure around it
+    except ValueError:
+        pass
+    before = start - 1
+    while before >= 0 and text[before].isspace():
+        before -= 1
+    after = end
+    while after < len(text) and text[after].isspace():
+        after += 1
+    # Only a value: after '[', ',' or ':', and not a key (followed by ':').
+    if before < 0 or text[before] not in "[,:" or text[after:after + 1] == ":":
+        return None
+    line = text.count("\n", 0, start) + 1
+    return text[:start] + json.dumps(f"{_MARK}{line}\x00{token}") + text[end:]
+
+
+def _raise_marked(o: Opts, value: Any, where: str) -> None:
+    """Raise a CardError for the first marked (unparsable) value in ``value``, if any."""
+    stack: list[tuple[Any, str]] = [(value, where)]
+    while stack:
+        node, path = stack.pop()
+        if isinstance(node, str):
+            if node.startswith(_MARK):
+                line, _, token = node[len(_MARK):].partition("\x00")
+                shown = token if len(token) <= 40 else token[:37] + "..."
+                raise o.error(f"unparsable value {shown!r}", line=int(line),
+                              field=path or None)
+            continue
+        if isinstance(node, dict):
+            children = [(v, f"{path}.{k}" if path else str(k)) for k, v in node.items()]
+        elif isinstance(node, list):
+            children = [(v, f"{path}[{i}]") for i, v in enumerate(node)]
+        else:
+            continue
+        stack.extend(reversed(children))
+
+
+def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
+    """Read a JSON document; ``holder`` holds the text and is emptied.
+
+    Each card object is read on its own: a broken one is a :class:`CardError` in its place
+    (with its id), and the other cards are still read.
+    """
+    text = holder.pop()
+    needs_escape = _SURROGATE_ESCAPE.search(text) is not None
+    try:
+        doc, repaired = _loads_marking(text)
     except json.JSONDecodeError as exc:
         raise o.error(f"invalid JSON: {exc.msg} (column {exc.colno})", line=exc.lineno) from exc
-    except (ValueError, RecursionError) as exc:
+    except RecursionError as exc:
+        raise o.error("invalid JSON: nested deeper than the parser can follow (a card file "
+                      "needs a few levels)") from exc
+    except ValueError as exc:
         raise o.error(f"invalid JSON: {exc}") from exc
+    del text
+    escaped = 0
+    if needs_escape:
+        doc, escaped = _escape_surrogates(doc)
     shared: dict[str, Any] = {}
     prefix = "cards"
+    if repaired and not isinstance(doc, list | dict):
+        _raise_marked(o, doc, "")
     if isinstance(doc, list):
         items: Any = doc
         prefix = ""
@@ -71,21 +203,52 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw]:
             if not isinstance(items, list):
                 raise o.error("'cards' must be a list of card objects", field=cards_key)
             shared = {k: v for k, v in doc.items() if k != cards_key}
+            if repaired:  # a bad value outside the cards is the whole file's
+                _raise_marked(o, shared, "")
         else:
             items, prefix = [doc], ""
     else:
         raise o.error(f"top level must be an object or a list, got {type(doc).__name__}")
     if not items:
         raise o.error("no cards in the JSON document", field=prefix or None)
-    out = []
+    out: list[Raw | CardError] = []
     for k, item in enumerate(items):
         where = f"{prefix}[{k}]" if (prefix or len(items) > 1 or isinstance(doc, list)) else ""
-        if not isinstance(item, dict):
-            raise o.error(
-                f"a card must be an object, got {type(item).__name__}", field=where or None
-            )
-        out.append(_json_card(o, {**shared, **item}, where, k, len(items)))
+        obj = {**shared, **item} if isinstance(item, dict) else shared
+        card_id, well_id = _ids(obj, o.stem if len(items) == 1 else f"{o.stem}[{k}]")
+        try:  # each card on its own: a broken one is an error in its place
+            if not isinstance(item, dict):
+                raise o.error(
+                    f"a card must be an object, got {type(item).__name__}", field=where or None
+                )
+            if repaired:
+                _raise_marked(o, item, where)
+            out.append(_json_card(o, obj, where, k, len(items)))
+        except CardError as exc:
+            out.append(exc.for_card(card_id, well_id))
+    if escaped:
+        for raw in out:
+            if isinstance(raw, Raw):
+                raw.notes.append(
+                    f"{escaped} text value(s) of the file held a lone surrogate escape (such as "
+                    "\\ud800), which is not text: written escaped (as \\ud800) so that every "
+                    "output can hold it"
+                )
     return out
+
+
+def _ids(obj: dict[str, Any], default: str) -> tuple[str, str | None]:
+    """A card's id and well as its object states them (for naming a broken card)."""
+    card_id, well_id = default, None
+    for key, value in obj.items():
+        role = _JSON_ROLE_EXTRA.get(normalize_name(key)) or interpret_name(key)[0]
+        if isinstance(value, str) and value.startswith(_MARK):
+            continue
+        if role == "card" and isinstance(value, str | int) and not isinstance(value, bool):
+            card_id = str(value)
+        elif role == "well" and isinstance(value, str) and well_id is None:
+            well_id = value
+    return card_id, well_id
 
 
 def _json_card(o: Opts, obj: dict[str, Any], where: str, k: int, count: int) -> Raw:

@@ -1,7 +1,10 @@
-"""Format detection and the entry points :func:`read_cards`, :func:`read_card`, :func:`parse_cards`.
+"""Format detection and the entry points :func:`read_cards`, :func:`read_card`, :func:`parse_cards`
+and their each-card-on-its-own forms :func:`read_cards_and_errors`, :func:`parse_cards_and_errors`.
 
 Each format has its own module (``_table``, ``_scada``, ``_jsonfile``, ``_ts``) turning text
-into raw records; ``_common.build`` checks them and makes the cards. The text is handed to
+into raw records, or a :class:`CardError` in place of a card it could not read (a file's
+structure problems are raised); ``_common.build`` checks each record on its own and makes
+the card. :func:`read_cards` raises the first error of either kind. The text is handed to
 a reader in a one-element list that the reader empties, so that the only reference to the
 text (and, for :func:`read_cards`, to the file's bytes) is gone once it has been read: the
 memory of a large file is not held while its cards are built.
@@ -12,7 +15,9 @@ from __future__ import annotations
 import math
 import os
 import re
+import stat
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from itertools import islice
 from pathlib import Path
 from typing import Any
@@ -29,7 +34,16 @@ from ._ts import read_ts
 from ._types import Card
 from ._units import normalize_load_unit, normalize_position_unit
 
-__all__ = ["FORMATS", "detect_format", "parse_cards", "read_card", "read_cards"]
+__all__ = [
+    "FORMATS",
+    "CardsRead",
+    "detect_format",
+    "parse_cards",
+    "parse_cards_and_errors",
+    "read_card",
+    "read_cards",
+    "read_cards_and_errors",
+]
 
 #: Format names accepted by ``format=`` (aliases: ``tsv`` -> csv with tabs, ``txt``/``table``
 #: -> whitespace, ``pipe`` -> scada, ``sktime`` -> ts).
@@ -70,17 +84,6 @@ def _sniff_delimiter(lines: Sequence[str]) -> str | None:
         if d in sample[0]:
             return d
     return None
-
-
-def _looks_scada(lines: Sequence[str]) -> bool:
-    header = [normalize_name(f) for f in lines[0].strip().strip("|").split("|")]
-    bases = {interpret_name(f)[1] for f in lines[0].strip().strip("|").split("|")}
-    listy = {"surface_positions", "surface_loads", "downhole_positions", "downhole_loads",
-             "positions", "loads", "surface_position", "surface_load"}  # fmt: skip
-    if bases & listy or set(header) & listy:
-        return True
-    # One card per row: fields of a data row hold comma-separated lists.
-    return len(lines) > 1 and any("," in f for f in lines[1].split("|"))
 
 
 def _looks_scada(lines: Sequence[str]) -> bool:
@@ -299,7 +302,7 @@ def _read(
     )
     text_holder = [text]
     del text
-    raws: list[Raw]
+    raws: list[Raw | CardError]
     with np.errstate(all="ignore"):  # every overflow is checked explicitly, with its line
         if canonical in ("csv", "whitespace"):
             raws = read_table(o, text_holder, delimiter)
@@ -309,13 +312,67 @@ def _read(
             raws = read_json(o, text_holder)
         else:
             raws = read_ts(o, text_holder, COLUMN_KEYS)
-        # Build one card at a time and let go of its raw numbers as soon as it is made.
+        # Build one card at a time and let go of its raw numbers as soon as it is made;
+        # each card is checked on its own, so one broken card is an error in its place.
         raws.reverse()
         said: set[str] = set()
-        cards = []
+        items: list[Card | CardError] = []
         while raws:
-            cards.append(build(raws.pop(), o, said))
-    return cards
+            raw = raws.pop()
+            if isinstance(raw, CardError):
+                if o.well_id is not None:  # the caller's well wins, as on the good cards
+                    raw.well_id = o.well_id
+                items.append(raw)
+                continue
+            try:
+                items.append(build(raw, o, said))
+            except CardError as exc:
+                items.append(exc.for_card(raw.card_id, o.well_id or raw.well_id))
+    return items
+
+
+def _not_regular(mode: int) -> str:
+    """What a file that is not a regular file is, in words ('' for a regular file)."""
+    if stat.S_ISREG(mode):
+        return ""
+    for test, words in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
+                        (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                        (stat.S_ISSOCK, "a socket")):  # fmt: skip
+        if test(mode):
+            return words
+    return "a special file"
+
+
+@dataclass(frozen=True)
+class CardsRead:
+    """What :func:`read_cards_and_errors` found in a file: every card, each on its own.
+
+    Attributes
+    ----------
+    items : tuple of Card or CardError
+        In file order: each card that passed its checks, and a :class:`CardError` in place
+        of each card that did not (its ``card_id``, and ``well_id`` when the file states
+        it, are set; ``line`` and ``field`` say where).
+    """
+
+    items: tuple[Card | CardError, ...]
+
+    @property
+    def cards(self) -> list[Card]:
+        """The cards that passed their checks, in file order."""
+        return [c for c in self.items if isinstance(c, Card)]
+
+    @property
+    def errors(self) -> list[CardError]:
+        """One error per refused card, in file order."""
+        return [c for c in self.items if isinstance(c, CardError)]
+
+
+def _first_error(items: list[Card | CardError]) -> list[Card]:
+    for item in items:
+        if isinstance(item, CardError):
+            raise item
+    return items  # type: ignore[return-value]
 
 
 def parse_cards(
@@ -348,11 +405,46 @@ def parse_cards(
     CardError
         For every problem with the content or the options.
     """
+    return _first_error(list(parse_cards_and_errors(data, name=name, **_options(locals())).items))
+
+
+def _options(scope: dict[str, Any]) -> dict[str, Any]:
+    """The reading options among a reader's arguments (all but the data and its name)."""
+    return {k: v for k, v in scope.items() if k not in ("data", "name", "path")}
+
+
+def parse_cards_and_errors(
+    data: bytes | str,
+    *,
+    name: str = "<data>",
+    format: str | None = None,
+    position_unit: str | None = None,
+    load_unit: str | None = None,
+    spm: float | None = None,
+    period: float | None = None,
+    columns: ColumnSpec | None = None,
+    well_id: str | None = None,
+    min_samples: int = 20,
+    drop_closing_point: bool = True,
+    scada_cards: str = "surface",
+    encoding: str | None = None,
+) -> CardsRead:
+    """Read cards from content in memory, each on its own (see :func:`read_cards_and_errors`).
+
+    Returns
+    -------
+    CardsRead
+
+    Raises
+    ------
+    CardError
+        Only for a problem of the whole content or of the options.
+    """
     if not isinstance(data, bytes | bytearray | memoryview | str):
         raise CardError(f"data must be bytes or str, got {type(data).__name__}", path=name)
     if not isinstance(name, str):
         raise CardError(f"name must be a string, got {type(name).__name__}")
-    return _read(
+    return CardsRead(tuple(_read(
         [data],
         name,
         format=format,
@@ -366,7 +458,7 @@ def parse_cards(
         drop_closing_point=drop_closing_point,
         scada_cards=scada_cards,
         encoding=encoding,
-    )
+    )))
 
 
 def read_cards(
@@ -438,7 +530,9 @@ def read_cards(
     Raises
     ------
     CardError
-        For every problem: unreadable, undecodable or empty file, unknown format or unit,
+        For the first problem, of the file or of any one card (use
+        :func:`read_cards_and_errors` to keep the good cards of a file with broken ones):
+        unreadable, undecodable or empty file, unknown format or unit,
         unparsable or complex number, NaN/inf, fewer than ``min_samples`` samples, time not
         strictly increasing, mismatched lengths, constant load or position, a card's rows in
         separate blocks, column roles that cannot be recognised. The message names the
@@ -451,6 +545,56 @@ def read_cards(
     one card per row, JSON (one card object, a list, or ``{"cards": [...]}``), whitespace
     tables (Fortran-style numbers allowed) and sktime ``.ts`` files with two dimensions.
     """
+    return _first_error(list(read_cards_and_errors(path, **_options(locals())).items))
+
+
+def read_cards_and_errors(
+    path: str | os.PathLike[str],
+    *,
+    format: str | None = None,
+    position_unit: str | None = None,
+    load_unit: str | None = None,
+    spm: float | None = None,
+    period: float | None = None,
+    columns: ColumnSpec | None = None,
+    well_id: str | None = None,
+    min_samples: int = 20,
+    drop_closing_point: bool = True,
+    scada_cards: str = "surface",
+    encoding: str | None = None,
+) -> CardsRead:
+    """Read every card of a file, each on its own: a broken card does not cost the others.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    **options
+        As for :func:`read_cards` (the same keywords).
+
+    Returns
+    -------
+    CardsRead
+        ``.cards``: the cards that passed their checks; ``.errors``: a :class:`CardError` per
+        card that did not (a NaN or unparsable value, lists of different lengths, a bad
+        value even in a field not used, too few samples ...), with the file, line and field
+        and the card's ``card_id`` (and ``well_id`` when stated); ``.items``: both in file
+        order.
+
+    Raises
+    ------
+    CardError
+        Only for a problem of the whole file or of the options: unreadable, undecodable or
+        empty file, unknown format or unit in a header, no position or load column, invalid
+        JSON, column roles that cannot be recognised.
+
+    Notes
+    -----
+    A card is a block of rows with one card id (tables), a row (SCADA exports), an object
+    (JSON), a series (``.ts``). A file without a card-id column is one card, so its problem
+    is the file's. A broken row of a table belongs to the card its id names (or, when its id
+    cannot be read, to the card above it).
+    """
     try:
         p = os.fspath(path)
     except TypeError as exc:
@@ -458,12 +602,15 @@ def read_cards(
     if isinstance(p, bytes):
         p = os.fsdecode(p)
     try:
+        kind = _not_regular(os.stat(p).st_mode)
+        if kind:  # reading a pipe or a terminal would wait forever for its end
+            raise CardError(f"not a regular file but {kind}: give a card file", path=p)
         data = Path(p).read_bytes()
     except OSError as exc:
         raise CardError(f"cannot read the file: {exc.strerror or exc}", path=p) from exc
     holder: list[bytes | str] = [data]
     del data  # _read drops the bytes once decoded
-    return _read(
+    return CardsRead(tuple(_read(
         holder,
         str(p),
         format=format,
@@ -477,7 +624,7 @@ def read_cards(
         drop_closing_point=drop_closing_point,
         scada_cards=scada_cards,
         encoding=encoding,
-    )
+    )))
 
 
 def read_card(path: str | os.PathLike[str], **options: Any) -> Card:

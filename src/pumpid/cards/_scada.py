@@ -6,6 +6,10 @@ stroke (or the top position) of the row's positions, a ``Peak Load (lbf)`` / ``M
 (lbf)`` field equal to the row's largest / smallest load, or a unit-system field (``Units =
 English``: inches and pounds-force, the oilfield convention). Each inference is checked on
 the row's own numbers and noted; without one the unit stays unknown, said once per file.
+
+Each row is read on its own: a row with the wrong number of fields or a bad value in any of
+its fields (the downhole lists included, used or not) is an error in place of its card(s),
+named by its line and field; the other rows are read.
 """
 
 from __future__ import annotations
@@ -171,8 +175,14 @@ class _UnitClues:
         return None, ""
 
 
-def read_scada(o: Opts, holder: list[str], column_keys: dict[str, str]) -> list[Raw]:
-    """Read a SCADA export; ``holder`` holds the text and is emptied."""
+def read_scada(
+    o: Opts, holder: list[str], column_keys: dict[str, str]
+) -> list[Raw | CardError]:
+    """Read a SCADA export; ``holder`` holds the text and is emptied.
+
+    Each row is read on its own: a row's problem is a :class:`CardError` in place of its
+    card(s), and the other rows are still read.
+    """
     rows = meaningful(holder.pop())
     first = next(rows, None)
     if first is None:
@@ -228,31 +238,18 @@ def read_scada(o: Opts, holder: list[str], column_keys: dict[str, str]) -> list[
             raise o.error("empty list of values", line=line, field=name)
         return numbers(o, value, line=line, field=name)
 
-    out: list[Raw] = []
-    seen: dict[str, int] = {}
-    for r, (lineno, text_row) in enumerate(rows):
-        fields = _split_pipe(text_row)
-        if len(fields) != len(header):
-            raise o.error(
-                f"expected {len(header)} '|'-separated fields (as in the header), found "
-                f"{len(fields)}",
-                line=lineno,
-            )
+    suffixes = {"surface": ("",), "downhole": ("/downhole",),
+                "both": ("", "/downhole")}[o.scada_cards]  # fmt: skip
+
+    def row_cards(
+        fields: list[str], lineno: int, base_id: str, well: str | None
+    ) -> list[Raw | CardError]:
+        """The card(s) of one row (a CardError for the first problem)."""
         meta: dict[str, Any] = {}
         for k, (name, value) in enumerate(zip(header, fields, strict=True)):
             if k not in list_cols:
                 meta[name] = scalar(value) if value else None
-        well = (fields[roles["well"]] or None) if "well" in roles else None
-        stamp = fields[roles["stamp"]] if "stamp" in roles else ""
-        if "card" in roles and fields[roles["card"]]:
-            base_id = fields[roles["card"]]
-        elif well and stamp:
-            base_id = f"{well}@{stamp}"
-        else:
-            base_id = well or stamp or f"row {r}"
-        seen[base_id] = seen.get(base_id, 0) + 1
-        if seen[base_id] > 1:
-            base_id = f"{base_id} ({seen[base_id]})"  # keep ids unique within the file
+        cards: list[Raw | CardError] = []
         notes: list[str] = []
         spm = period = None
         rate_where = ""
@@ -279,52 +276,90 @@ def read_scada(o: Opts, holder: list[str], column_keys: dict[str, str]) -> list[
         kinds = {"surface": [("sp", "sl", "")], "downhole": [("dp", "dl", "/downhole")],
                  "both": [("sp", "sl", ""), ("dp", "dl", "/downhole")]}[o.scada_cards]  # fmt: skip
         for pr, lr, suffix in kinds:
-            pname, lname = header[roles[pr]], header[roles[lr]]
-            pos = parse_list(fields[roles[pr]], lineno, pname)
-            load = parse_list(fields[roles[lr]], lineno, lname)
-            card_notes = list(notes)
-            pos_unit, pos_where = stated[pr], f"field name {pname!r}"
-            load_unit, load_where = stated[lr], f"field name {lname!r}"
-            if pos_unit is None and o.position_unit is None:
-                if pr == "sp":
-                    pos_unit, pos_where = clues.position(o, fields, lineno, pos, card_notes)
-                else:
-                    pos_unit, pos_where = clues.system(fields, "position")
-            if load_unit is None and o.load_unit is None:
-                if lr == "sl":
-                    load_unit, load_where = clues.load(o, fields, lineno, load, card_notes)
-                else:
-                    load_unit, load_where = clues.system(fields, "load")
-            raw = Raw(
-                position=pos,
-                load=load,
-                card_id=base_id + suffix,
-                source=f"{o.name}, line {lineno}",
+            try:
+                pname, lname = header[roles[pr]], header[roles[lr]]
+                pos = parse_list(fields[roles[pr]], lineno, pname)
+                load = parse_list(fields[roles[lr]], lineno, lname)
+                card_notes = list(notes)
+                pos_unit, pos_where = stated[pr], f"field name {pname!r}"
+                load_unit, load_where = stated[lr], f"field name {lname!r}"
+                if pos_unit is None and o.position_unit is None:
+                    if pr == "sp":
+                        pos_unit, pos_where = clues.position(o, fields, lineno, pos, card_notes)
+                    else:
+                        pos_unit, pos_where = clues.system(fields, "position")
+                if load_unit is None and o.load_unit is None:
+                    if lr == "sl":
+                        load_unit, load_where = clues.load(o, fields, lineno, load, card_notes)
+                    else:
+                        load_unit, load_where = clues.system(fields, "load")
+                raw = Raw(
+                    position=pos,
+                    load=load,
+                    card_id=base_id + suffix,
+                    source=f"{o.name}, line {lineno}",
+                    line=lineno,
+                    lines=None,
+                    pos_field=pname,
+                    load_field=lname,
+                    pos_unit=pos_unit,
+                    pos_unit_where=pos_where,
+                    load_unit=load_unit,
+                    load_unit_where=load_where,
+                    well_id=well,
+                    spm=spm,
+                    period=period,
+                    rate_where=rate_where,
+                    notes=card_notes,
+                    metadata={**meta, "card_type": "surface" if pr == "sp" else "downhole"},
+                )
+                if o.scada_cards == "surface" and "dp" in roles and "dl" in roles:
+                    dpn, dln = header[roles["dp"]], header[roles["dl"]]
+                    if fields[roles["dp"]] or fields[roles["dl"]]:
+                        dp, dl = fields[roles["dp"]], fields[roles["dl"]]
+                        raw.metadata["downhole_position"] = parse_list(dp, lineno, dpn)
+                        raw.metadata["downhole_load"] = parse_list(dl, lineno, dln)
+                        raw.notes.append(
+                            "downhole card kept unchecked in metadata['downhole_position'] and "
+                            "metadata['downhole_load'] (read with scada_cards='both' to check it)"
+                        )
+                cards.append(raw)
+            except CardError as exc:  # this card only (both: the other is kept)
+                cards.append(exc.for_card(base_id + suffix, well))
+        return cards
+
+    out: list[Raw | CardError] = []
+    seen: dict[str, int] = {}
+    for r, (lineno, text_row) in enumerate(rows):
+        fields = _split_pipe(text_row)
+
+        def field(role: str, fields: list[str] = fields) -> str:
+            k = roles.get(role)
+            return fields[k] if k is not None and k < len(fields) else ""
+
+        well = field("well") or None
+        stamp = field("stamp")
+        if field("card"):
+            base_id = field("card")
+        elif well and stamp:
+            base_id = f"{well}@{stamp}"
+        else:
+            base_id = well or stamp or f"row {r}"
+        seen[base_id] = seen.get(base_id, 0) + 1
+        if seen[base_id] > 1:
+            base_id = f"{base_id} ({seen[base_id]})"  # keep ids unique within the file
+        if len(fields) != len(header):
+            problem = o.error(
+                f"expected {len(header)} '|'-separated fields (as in the header), found "
+                f"{len(fields)}",
                 line=lineno,
-                lines=None,
-                pos_field=pname,
-                load_field=lname,
-                pos_unit=pos_unit,
-                pos_unit_where=pos_where,
-                load_unit=load_unit,
-                load_unit_where=load_where,
-                well_id=well,
-                spm=spm,
-                period=period,
-                rate_where=rate_where,
-                notes=card_notes,
-                metadata={**meta, "card_type": "surface" if pr == "sp" else "downhole"},
             )
-            if o.scada_cards == "surface" and "dp" in roles and "dl" in roles:
-                dpn, dln = header[roles["dp"]], header[roles["dl"]]
-                if fields[roles["dp"]] or fields[roles["dl"]]:
-                    raw.metadata["downhole_position"] = parse_list(fields[roles["dp"]], lineno, dpn)
-                    raw.metadata["downhole_load"] = parse_list(fields[roles["dl"]], lineno, dln)
-                    raw.notes.append(
-                        "downhole card kept unchecked in metadata['downhole_position'] and "
-                        "metadata['downhole_load'] (read with scada_cards='both' to check it)"
-                    )
-            out.append(raw)
+            out.extend(problem.for_card(base_id + sfx, well) for sfx in suffixes)
+            continue
+        try:
+            out.extend(row_cards(fields, lineno, base_id, well))
+        except CardError as exc:  # a broken row spoils its own card(s) only
+            out.extend(exc.for_card(base_id + sfx, well) for sfx in suffixes)
     if not out:
         raise o.error("header but no card rows", line=hline)
     return out

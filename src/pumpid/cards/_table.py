@@ -188,8 +188,12 @@ def _looks_like_header(tokens: list[str]) -> bool:
     return any(tok and not is_number(tok) and not is_complex_text(tok) for tok in tokens)
 
 
-def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
-    """Read a delimited or whitespace table; ``holder`` holds the text and is emptied."""
+def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | CardError]:
+    """Read a delimited or whitespace table; ``holder`` holds the text and is emptied.
+
+    Each card is read on its own: a card's problem is a :class:`CardError` in its place
+    (with its id), and the other cards are still read.
+    """
     rows = meaningful(holder.pop())  # the generator holds the only reference to the text
     first = next(rows, None)
     if first is None:
@@ -330,21 +334,9 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
     # first token of every extra column).
     blocks: list[tuple[int, int, int, list[str]]] = []
     block_comma: set[int] = set()
-    finished: dict[int, tuple[int, int]] = {}  # key id -> (first line, last line)
-    split_card: tuple[int, tuple[int, int], int] | None = None
+    # The first problem of each block, by block index: a broken row spoils its own card only.
+    broken: dict[int, CardError] = {}
     key_ids = cols[key_i].ids if key_i is not None else None
-    prev_line = 0
-
-    def separate_blocks_error(key: int, first: tuple[int, int], start: int, end: int) -> CardError:
-        assert key_i is not None
-        card = cols[key_i].names[key]
-        return o.error(
-            f"card {card!r} has rows in two separate blocks, lines {first[0]}-{first[1]} and "
-            f"lines {start}-{end}, with rows of other cards between; a card's rows must be "
-            "contiguous: sort the file by card, or give each block its own id",
-            line=start,
-            field=names[key_i],
-        )
 
     def all_rows() -> Any:
         if pending_row is not None:
@@ -352,32 +344,58 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
         for lineno, line in rows:
             yield lineno, split(line, lineno)
 
+    def pad(r: int, toks: list[str], problem: CardError) -> None:
+        """Bring every column of a broken row ``r`` to ``r + 1`` cells, so the columns stay
+        aligned and the row still belongs to its card (by its key, else the card above)."""
+        for c, col in enumerate(cols):
+            if col.values is None:  # a key column: the row's key, or the one above
+                ids = col.ids
+                assert ids is not None
+                if len(ids) > r:
+                    continue
+                tok = toks[c] if c < len(toks) else ""
+                if tok:
+                    ids.append(col.intern(tok))
+                elif len(ids):
+                    ids.append(ids[-1])
+                elif c == key_i:  # the first row names no card: nothing to attach it to
+                    raise problem
+                else:
+                    ids.append(col.intern(""))
+                continue
+            if len(col.values) <= r:
+                col.values.append(math.nan)
+            if col.ids is not None and len(col.ids) <= r:
+                col.ids.append(-1)
+
     for r, (lineno, toks) in enumerate(all_rows()):
+        problem: CardError | None = None
         if len(toks) != ncols:
-            raise o.error(
+            problem = o.error(
                 f"expected {ncols} fields (as in the {where_cols}), found {len(toks)}", line=lineno
             )
-        for c in range(ncols):
-            readers[c](toks[c], lineno)
+        else:
+            try:
+                for c in range(ncols):
+                    readers[c](toks[c], lineno)
+            except CardError as exc:
+                problem = exc
+        if problem is not None:
+            if key_i is None:  # the file is one card: its problem is the file's
+                raise problem
+            pad(r, toks, problem)
         line_no.append(lineno)
         if key_ids is not None:
             kid = key_ids[-1]
             if not blocks or kid != blocks[-1][0]:
-                if split_card is not None:
-                    raise separate_blocks_error(*split_card, prev_line)
-                if blocks:
-                    finished[blocks[-1][0]] = (blocks[-1][2], prev_line)
-                if kid in finished:
-                    split_card = (kid, finished[kid], lineno)
-                blocks.append((kid, r, lineno, [toks[c] for c in extra]))
+                blocks.append((kid, r, lineno, [toks[c] if c < len(toks) else "" for c in extra]))
         elif not blocks:
             blocks.append((-1, 0, lineno, [toks[c] for c in extra]))
+        if problem is not None:
+            broken.setdefault(len(blocks) - 1, problem)
         if comma_used[0]:
             block_comma.add(len(blocks) - 1)
             comma_used[0] = False
-        prev_line = lineno
-    if split_card is not None:
-        raise separate_blocks_error(*split_card, prev_line)
     nrows = len(line_no)
     if nrows == 0:
         raise o.error("header but no data rows", line=first_line)
@@ -394,6 +412,8 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
     column_roles: dict[str, Any]
     detected = False
     if detect:
+        if broken:  # the columns' shapes decide their roles: a broken row blurs them all
+            raise broken[min(broken)]
         roles_found = _detect(o, values, cols, roles, nrows)
         if roles_found is None:  # too few rows to judge: let the sample count refuse
             candidates = [c for c in range(ncols) if c not in roles.values()]
@@ -454,12 +474,13 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
 
     # ------------------------------------------------------------------ the cards
     used = set(roles.values())
-    out: list[Raw] = []
+    out: list[Raw | CardError] = []
     pos_all, load_all = values[pos_i], values[load_i]
     assert pos_all is not None and load_all is not None
     t_all = values[t_i] if t_i is not None else None
     bounds = [b[1] for b in blocks] + [nrows]
-    for b, (kid, start, _line0, firsts) in enumerate(blocks):
+
+    def make(b: int, kid: int, start: int, firsts: list[str]) -> Raw:
         end = bounds[b + 1]
         lines = lines_all[start:end]
         notes = list(col_notes)
@@ -538,7 +559,47 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw]:
             _keep_extra(raw, names[c], values[c], text_ids[c], start, end, firsts[j], notes)
         if b in block_comma:
             notes.append("decimal commas read as decimal points")
-        out.append(raw)
+        return raw
+
+    def well_of(start: int, end: int) -> str | None:
+        if well_i is None:
+            return None
+        ids = text_ids[well_i]
+        assert ids is not None
+        wells = np.unique(ids[start:end])
+        return (cols[well_i].names[int(wells[0])] or None) if wells.size == 1 else None
+
+    # A card's rows in separate blocks (A, B, A) refuse that card, not its neighbours.
+    skip: set[int] = set()
+    if key_i is not None:
+        by_key: dict[int, list[int]] = {}
+        for b, blk in enumerate(blocks):
+            by_key.setdefault(blk[0], []).append(b)
+        for kid, found in by_key.items():
+            if len(found) < 2:
+                continue
+            spans = [(int(lines_all[bounds[b]]), int(lines_all[bounds[b + 1] - 1]))
+                     for b in found[:2]]
+            broken[found[0]] = o.error(
+                f"card {cols[key_i].names[kid]!r} has rows in two separate blocks, lines "
+                f"{spans[0][0]}-{spans[0][1]} and lines {spans[1][0]}-{spans[1][1]}"
+                + (f" (and {len(found) - 2} more)" if len(found) > 2 else "")
+                + ", with rows of other cards between; a card's rows must be contiguous: "
+                "sort the file by card, or give each block its own id",
+                line=spans[1][0],
+                field=names[key_i],
+            )
+            skip.update(found[1:])
+    for b, (kid, start, _line0, firsts) in enumerate(blocks):
+        if b in skip:
+            continue
+        card_id = cols[key_i].names[kid] if key_i is not None else o.stem
+        try:
+            if b in broken:
+                raise broken[b]
+            out.append(make(b, kid, start, firsts))
+        except CardError as exc:
+            out.append(exc.for_card(card_id, well_of(start, bounds[b + 1])))
     return out
 
 

@@ -7,11 +7,12 @@ from typing import Any
 import numpy as np
 
 from ._common import Opts, Raw, meaningful, num, numbers
+from ._errors import CardError
 
 __all__ = ["read_ts"]
 
 
-def read_ts(o: Opts, holder: list[str], column_keys: dict[str, str]) -> list[Raw]:
+def read_ts(o: Opts, holder: list[str], column_keys: dict[str, str]) -> list[Raw | CardError]:
     """Read an sktime ``.ts`` file; ``holder`` holds the text and is emptied."""
     tags: dict[str, str] = {}
     lines = meaningful(holder.pop())
@@ -50,13 +51,13 @@ def read_ts(o: Opts, holder: list[str], column_keys: dict[str, str]) -> list[Raw
                     field="columns",
                 )
             dims[role] = v
-    out: list[Raw] = []
-    for k, (lineno, line) in enumerate(lines):
-        if univariate or (ndims is not None and ndims < 2):
-            raise o.error(
-                "univariate series: a card needs two dimensions (position and load)",
-                field="@univariate",
-            )
+    if univariate or (ndims is not None and ndims < 2):
+        raise o.error(
+            "univariate series: a card needs two dimensions (position and load)",
+            field="@univariate",
+        )
+
+    def series(k: int, lineno: int, line: str) -> Raw:
         parts = line.strip().split(":")
         label = None
         if has_label:
@@ -102,7 +103,14 @@ def read_ts(o: Opts, holder: list[str], column_keys: dict[str, str]) -> list[Raw
         )
         if (dims["position"], dims["load"]) == (0, 1) and not given:
             raw.notes.append("dimension 0 read as position and dimension 1 as load (default)")
-        out.append(raw)
+        return raw
+
+    out: list[Raw | CardError] = []
+    for k, (lineno, line) in enumerate(lines):
+        try:  # each series on its own: a broken one is an error in its place
+            out.append(series(k, lineno, line))
+        except CardError as exc:
+            out.append(exc.for_card(f"{o.stem}[{k}]"))
     if not out:
         raise o.error("no series after '@data'")
     return out

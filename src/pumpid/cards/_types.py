@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -33,6 +34,12 @@ def _as_vector(values: ArrayLike, name: str) -> NDArray[np.float64]:
         probe = np.asarray(values)
     except (TypeError, ValueError) as exc:
         raise CardError(f"{name} must be numeric: {exc}", field=name) from exc
+    # float() of datetime64 gives epoch counts (ns), never seconds: refuse dates and times.
+    if probe.dtype.kind in "mM" or (probe.dtype == object and probe.size and isinstance(
+            probe.ravel()[0], datetime.date | datetime.timedelta)):
+        raise CardError(
+            f"{name} holds dates, times or durations, not numbers; give seconds from the "
+            "record's start, e.g. (t - t[0]) / np.timedelta64(1, 's')", field=name)
     # float() of a complex array silently drops the imaginary part (numpy only warns).
     if np.iscomplexobj(probe) or (
         probe.dtype == object and any(isinstance(v, complex) for v in probe.ravel().tolist())
@@ -155,16 +162,40 @@ class Card:
             )
         for name in ("spm", "period"):
             value = getattr(self, name)
-            if value is not None and not (math.isfinite(value) and value > 0):
+            if value is None:
+                continue
+            if isinstance(value, bool) or not isinstance(value, int | float | np.integer |
+                                                         np.floating):
+                raise CardError(f"{name} must be a number, got {type(value).__name__} "
+                                f"{value!r}", field=name)
+            if not (math.isfinite(value) and value > 0):
                 raise CardError(f"{name} must be a positive finite number, got {value}", field=name)
+        texts = {}
+        for name in ("notes", "warnings"):
+            value = getattr(self, name)
+            if isinstance(value, str):
+                value = (value,)
+            if not isinstance(value, list | tuple):
+                raise CardError(f"{name} must be a tuple of strings, got {type(value).__name__}",
+                                field=name)
+            texts[name] = tuple(str(n) for n in value)
+        for name in ("source", "card_id"):
+            if not isinstance(getattr(self, name), str):
+                raise CardError(f"{name} must be a string, got "
+                                f"{type(getattr(self, name)).__name__}", field=name)
+        if self.well_id is not None and not isinstance(self.well_id, str):
+            raise CardError(f"well_id must be a string or None, got {type(self.well_id).__name__}",
+                            field="well_id")
+        if not isinstance(self.metadata, dict):
+            raise CardError(f"metadata must be a dict, got {type(self.metadata).__name__}",
+                            field="metadata")
         object.__setattr__(self, "position", pos)
         object.__setattr__(self, "load", load)
         object.__setattr__(self, "t", t)
         object.__setattr__(self, "position_unit", pu)
         object.__setattr__(self, "load_unit", lu)
-        object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
-        warns = (self.warnings,) if isinstance(self.warnings, str) else self.warnings
-        object.__setattr__(self, "warnings", tuple(str(w) for w in warns))
+        object.__setattr__(self, "notes", texts["notes"])
+        object.__setattr__(self, "warnings", texts["warnings"])
         object.__setattr__(self, "metadata", dict(self.metadata))
         object.__setattr__(self, "spm", None if self.spm is None else float(self.spm))
         object.__setattr__(self, "period", None if self.period is None else float(self.period))

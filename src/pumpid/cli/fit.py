@@ -187,20 +187,33 @@ def _run_info(setup: FitSetup, out: str | None) -> RunInfo:
 
 
 # --------------------------------------------------------------------------- reading
-def _read_file(path: str, setup: FitSetup) -> list[Card]:
-    """Every card of a file (CardError when it cannot be read)."""
-    from ..cards import read_cards
+def _read_file(path: str, setup: FitSetup) -> tuple[list[Card], list[CardError]]:
+    """Every card of a file, each on its own: the good cards, and an error per broken card
+    (a CardError is raised only when the whole file cannot be read)."""
+    from ..cards import read_cards_and_errors
 
-    return read_cards(path, **setup.read)
+    read = read_cards_and_errors(path, **setup.read)
+    return read.cards, read.errors
 
 
-def _selected(cards: list[Card], path: str, args: argparse.Namespace) -> tuple[list[Card],
-                                                                               list[Row]]:
-    """The cards to fit (``--card``, ``--split-strokes``) and rows for cards refused there."""
-    rows: list[Row] = []
+def _refused(error: CardError, path: str) -> Row:
+    """The row of a card of ``path`` that its reader refused (file, line and field named)."""
+    where = [f"line {error.line}"] if error.line is not None else []
+    where += [f"field {error.field!r}"] if error.field else []
+    return Row(card_id=error.card_id, source=", ".join([path, *where]),
+               status="invalid-input", reason=str(error))
+
+
+def _selected(cards: list[Card], path: str, args: argparse.Namespace,
+              errors: Sequence[CardError] = ()) -> tuple[list[Card], list[Row]]:
+    """The cards to fit (``--card``, ``--split-strokes``) and rows for cards refused: by the
+    reader (``errors``, in file order), by ``--card``, or by the stroke splitter."""
+    if args.card is not None:
+        errors = [e for e in errors if e.card_id == args.card]
+    rows: list[Row] = [_refused(e, path) for e in errors]
     if args.card is not None:
         chosen = [c for c in cards if c.card_id == args.card]
-        if not chosen:
+        if not chosen and not errors:
             ids = ", ".join(printable(c.card_id) for c in cards[:20])
             more = f" and {len(cards) - 20} more" if len(cards) > 20 else ""
             rows.append(Row(card_id=args.card, source=path, status="invalid-input",
@@ -493,7 +506,9 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
     single = len(args.files) == 1
     for path in args.files:
         try:
-            cards = _read_file(path, setup)
+            cards, errors = _read_file(path, setup)
+            if single and not cards and errors:
+                raise errors[0]  # nothing of the only file can be fitted: the run's error
         except CardError as exc:
             if single:
                 raise
@@ -503,8 +518,8 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
         if single and args.predict and predictor.card is None and predictor.in_file is None:
             raise CliError(f"--predict: no card {printable(args.predict)!r} in "
                            f"{printable(path)} and no such file")
-        chosen, refused = _selected(cards, path, args)
-        del cards
+        chosen, refused = _selected(cards, path, args, errors)
+        del cards, errors
         if single and args.card is not None and not chosen and refused:
             raise CliError(f"{printable(path)}: {refused[0].reason}")
         yield path, chosen, refused

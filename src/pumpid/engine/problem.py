@@ -14,6 +14,7 @@ problem built for a single fit raises :class:`ValueError` naming the problem ins
 
 from __future__ import annotations
 
+import datetime
 import functools
 import math
 from collections.abc import Mapping, Sequence
@@ -60,6 +61,10 @@ def check_signal(name: str, values: ArrayLike, n: int | None = None) -> Array:
     """Return ``values`` as a finite 1-D float array or raise ValueError naming the problem."""
     if np.iscomplexobj(values):
         raise ValueError(f"{name}: complex values are not accepted (give real numbers)")
+    if _holds_dates(values):  # float() would give epoch counts (ns), not seconds
+        raise ValueError(
+            f"{name}: dates, times or durations are not numbers; give seconds, e.g. "
+            "(t - t[0]) / np.timedelta64(1, 's') or Series.dt.total_seconds()")
     try:
         arr = np.asarray(values, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -76,6 +81,24 @@ def check_signal(name: str, values: ArrayLike, n: int | None = None) -> Array:
     if n is not None and arr.size != n:
         raise ValueError(f"{name}: length {arr.size} does not match the time vector's length {n}")
     return arr
+
+
+def _holds_dates(values: ArrayLike) -> bool:
+    """True for datetime64/timedelta64 arrays and sequences of datetime-like objects."""
+    dtype = getattr(values, "dtype", None)
+    if isinstance(dtype, np.dtype):
+        if dtype.kind in "mM":
+            return True
+        if dtype.kind != "O":
+            return False
+    elif dtype is not None:  # pandas extension dtypes (tz-aware datetimes, periods)
+        return str(getattr(dtype, "kind", "")) in ("m", "M") or "date" in str(dtype).lower()
+    try:
+        probe = values if isinstance(values, np.ndarray) else list(values)  # type: ignore[arg-type]
+    except TypeError:
+        return False
+    first = probe[0] if len(probe) else None
+    return isinstance(first, datetime.date | datetime.timedelta | np.datetime64 | np.timedelta64)
 
 
 def make_time(t: ArrayLike, min_samples: int = 2) -> tuple[Array, bool]:
@@ -391,6 +414,25 @@ def load_shift(t: Array, f: Array, period: float) -> float:
     return 0.5 * area / period
 
 
+def _check_magnitudes(model: type[Model], t: Array, f: Array, d: Array) -> None:
+    """Refuse data whose magnitudes put a parameter's natural size outside the float range
+    (subnormal positions such as 1e-319, say): nothing could be computed from them."""
+    base = {"{load}": float(np.ptp(f)) or float(np.max(np.abs(f))) or 1.0,
+            "{position}": float(np.ptp(d)) or 1.0, "s": float(t[-1] - t[0]) / (2 * math.pi)}
+    tiny = float(np.finfo(float).tiny)
+    for info in model.param_info():
+        try:
+            size = _unit_size(info.unit, base)
+        except (OverflowError, ZeroDivisionError):
+            size = math.inf
+        if not tiny <= size < math.inf:
+            raise ValueError(
+                f"displacement and load: their ranges ({base['{position}']:.3g} and "
+                f"{base['{load}']:.3g}) put parameter {info.name}'s natural size "
+                f"({info.unit}) outside the floating-point range; rescale the data (change "
+                "its units)")
+
+
 def _validate_card(
     model: type[Model], card: CardData, residual: str, offset: bool | float
 ) -> tuple[Array, Array, Array, int, Array, float, bool]:
@@ -419,6 +461,7 @@ def _validate_card(
     peak_d = float(np.max(np.abs(d)))
     if not np.ptp(d) > 1e-12 * peak_d:
         raise ValueError(f"displacement: constant ({d[0]:g}); nothing to fit")
+    _check_magnitudes(model, t, f, d)
     with np.errstate(over="ignore"):
         squares = float(np.sum((d - d.mean()) ** 2))
     if not math.isfinite(squares):

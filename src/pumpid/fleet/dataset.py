@@ -9,7 +9,9 @@ Layout (one file, or a folder of files read one by one in sorted order):
 ``position``, ``load`` (float, required)
     One sample each.
 ``sample`` (int) or ``t`` (float, seconds from the card's start)
-    At least one is required. Samples are put in order of ``sample`` (or of ``t``), which
+    At least one is required. A ``t`` of dates and times (datetime64) is turned into
+    seconds from the card's first sample, with a note; it is never read as epoch counts.
+    Samples are put in order of ``sample`` (or of ``t``), which
     must not repeat. With ``t`` the time comes from the file; otherwise the card is one
     stroke sampled uniformly in time and its time is rebuilt from ``spm``
     (``t_i = i T / N``, ``T = 60 / spm``; marked periodic), as pumpid's other readers do.
@@ -21,8 +23,9 @@ Layout (one file, or a folder of files read one by one in sorted order):
 ``position_unit``, ``load_unit`` (str, optional)
     Constant within a card; a unit given by the caller wins.
 
-Other columns are ignored. Every problem raises :class:`pumpid.cards.CardError` naming the
-file, the card and the column.
+Other columns are ignored. Every problem is a :class:`pumpid.cards.CardError` naming the
+file, the card and the column; each card is checked on its own, so a broken card (a
+non-numeric ``sample``, a NaN load) never costs the file's other cards.
 """
 
 from __future__ import annotations
@@ -55,9 +58,8 @@ class ParquetCardError(CardError):
     """
 
     def __init__(self, error: CardError, *, card_id: str, well_id: str | None) -> None:
-        super().__init__(error.reason, path=error.path, line=error.line, field=error.field)
-        self.card_id = card_id
-        self.well_id = well_id
+        super().__init__(error.reason, path=error.path, line=error.line, field=error.field,
+                         card_id=card_id, well_id=well_id)
 
 
 def _well_of(frame: pd.DataFrame) -> str | None:
@@ -92,6 +94,37 @@ def _constant(
     return None if pd.isna(first) else first
 
 
+def _numeric(
+    frame: pd.DataFrame, column: str, err: Any, notes: list[str]
+) -> np.ndarray:
+    """A column as floats, or a CardError naming it.
+
+    Dates and times are never taken as their integer epoch counts: in ``t`` they are turned
+    into seconds from the card's first sample (noted), elsewhere refused.
+    """
+    values = frame[column]
+    if pd.api.types.is_datetime64_any_dtype(values) or pd.api.types.is_timedelta64_dtype(values):
+        if column != "t":
+            raise err(f"{column} holds dates or durations, not numbers", column)
+        if values.isna().any():
+            raise err("missing value (NaT) in t", column)
+        seconds = (values - values.min()).dt.total_seconds().to_numpy(dtype=float)
+        notes.append("t holds dates and times: converted to seconds from the card's first "
+                     "sample")
+        return seconds
+    if not pd.api.types.is_numeric_dtype(values):  # text: numbers written as text, or not
+        numbers = pd.to_numeric(values, errors="coerce")
+        wrong = numbers.isna() & values.notna()
+        if wrong.any():
+            raise err(f"{column} is not numeric (it holds {str(values[wrong].iloc[0])[:40]!r})",
+                      column)
+        values = numbers
+    try:
+        return values.to_numpy(dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise err(f"{column} is not numeric ({exc})", column) from exc
+
+
 def _card(
     frame: pd.DataFrame,
     card_id: str,
@@ -105,7 +138,8 @@ def _card(
         return CardError(f"card {card_id!r}: {message}", path=path, field=column)
 
     order_col = "sample" if "sample" in frame.columns else "t"
-    order = frame[order_col].to_numpy(dtype=float)
+    notes = [f"read from the Parquet long layout ({path.name})"]
+    order = _numeric(frame, order_col, err, notes)
     if not np.all(np.isfinite(order)):
         raise err(f"missing or non-finite {order_col}", order_col)
     frame = frame.iloc[np.argsort(order, kind="stable")]
@@ -118,10 +152,7 @@ def _card(
         raise err("empty well_id", "well_id")
     arrays = {}
     for col in ("position", "load"):
-        try:
-            arr = frame[col].to_numpy(dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise err(f"{col} is not numeric ({exc})", col) from exc
+        arr = _numeric(frame, col, err, notes)
         bad = np.flatnonzero(~np.isfinite(arr))
         if bad.size:
             kind = "NaN" if np.isnan(arr[bad[0]]) else "infinite"
@@ -133,7 +164,6 @@ def _card(
     for col in ("load", "position"):
         if np.ptp(arrays[col]) == 0:
             raise err(f"constant {col} ({arrays[col][0]:.6g} in every sample)", col)
-    notes = [f"read from the Parquet long layout ({path.name})"]
     spm = None
     if "spm" in frame.columns:
         spm = _constant(frame, "spm", path=path, card=card_id)
@@ -165,7 +195,7 @@ def _card(
             f"t_i = i*T/N with T = {period:.6g} s, N = {n}"
         )
     else:
-        notes.append("no t column and no SPM: t is None")
+        notes.append("no t column and no spm column: the card has no time axis")
     stamp = None
     if "time" in frame.columns:
         value = _constant(frame, "time", path=path, card=card_id)
@@ -266,6 +296,10 @@ def iter_parquet_cards(
                 )
             except CardError as exc:
                 yield ParquetCardError(exc, card_id=str(card_id), well_id=_well_of(group))
+            except (TypeError, ValueError, ArithmeticError) as exc:  # one card's odd values
+                problem = CardError(f"card {str(card_id)!r}: unreadable values "
+                                    f"({type(exc).__name__}: {exc})", path=file)
+                yield ParquetCardError(problem, card_id=str(card_id), well_id=_well_of(group))
 
 
 def read_parquet_cards(

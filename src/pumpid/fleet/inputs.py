@@ -8,13 +8,16 @@ are Parquet's magic number or its name ends in ``.parquet``/``.pq``; otherwise w
 :func:`pumpid.cards.read_cards`, which detects the format.
 
 :func:`iter_items` turns the files into one stream of items in a fixed order: every card
-(:class:`CardItem`) and, in place of what could not be read, a :class:`BadItem` (a whole
-file, or one card of a Parquet file). A card's id in the run is the reader's id when no
-earlier item of the stream has it, else the id followed by its source in brackets, so ids
-are unique in the run and the same on every run over the same inputs. A text file the
-reader refuses as a whole (one card with a NaN, a truncated list, a constant load) keeps
-the well and card time it states in a well or timestamp column or key, when it states a
-single one; an unreadable file (binary, a broken Parquet file) names no well.
+(:class:`CardItem`) and, in place of what could not be read, a :class:`BadItem`: one card
+of a file (a NaN, an unparsable value, lists of different lengths, in any layout; the
+file's other cards are read, see :func:`pumpid.cards.read_cards_and_errors`), or a whole
+file (unreadable, binary, no position column). A card's id in the run is the reader's id
+when no earlier item of the stream has it, else the id followed by its source in brackets,
+so ids are unique in the run and the same on every run over the same inputs. A text file
+refused as a whole keeps the well and card time it states in a well or timestamp column or
+key, when it states a single one; an unreadable file (binary, a broken Parquet file) names
+no well. Named inputs that are neither files nor folders (a named pipe, a device) are
+refused before the run.
 """
 
 from __future__ import annotations
@@ -22,12 +25,13 @@ from __future__ import annotations
 import json
 import os
 import re
+import stat
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pumpid.cards import Card, CardError, read_cards, split_strokes
+from pumpid.cards import Card, CardError, read_cards_and_errors, split_strokes
 
 from .dataset import ParquetCardError, iter_parquet_cards
 
@@ -157,6 +161,8 @@ def find_inputs(
     ------
     FileNotFoundError
         If an input does not exist.
+    pumpid.cards.CardError
+        If an input is neither a file nor a folder (a named pipe, a device).
     """
     skip = [Path(os.fspath(p)).resolve() for p in exclude]
     seen: set[str] = set()
@@ -180,9 +186,23 @@ def find_inputs(
                 add(os.path.join(text, p.relative_to(root).as_posix()), p)
         elif root.is_file():
             add(text, root)
+        elif root.exists():  # a pipe or a device: reading it would block or give nothing
+            raise CardError(f"not a regular file but {_kind(root)}: give card files or folders",
+                            path=text)
         else:
             raise FileNotFoundError(2, "no such file or folder", text)
     return out
+
+
+def _kind(path: Path) -> str:
+    """What a path that is neither a file nor a folder is, in words."""
+    mode = path.stat().st_mode
+    for test, words in ((stat.S_ISFIFO, "a named pipe (FIFO)"),
+                        (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                        (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return words
+    return "a special file"
 
 
 def _is_parquet(path: str) -> bool:
@@ -216,9 +236,11 @@ def _cards_of(file: InputFile, options: ReadOptions) -> Iterator[Card | CardErro
         yield from iter_parquet_cards(file.path, position_unit=options.position_unit,
                                       load_unit=options.load_unit)
         return
-    yield from read_cards(file.path, format=options.format,
-                          position_unit=options.position_unit, load_unit=options.load_unit,
-                          spm=options.spm, period=options.period, columns=options.columns)
+    # Each card on its own: a broken card is an error in its place, its neighbours are read.
+    yield from read_cards_and_errors(
+        file.path, format=options.format, position_unit=options.position_unit,
+        load_unit=options.load_unit, spm=options.spm, period=options.period,
+        columns=options.columns).items
 
 
 # Column and key names (lower case, units and punctuation dropped) under which the text
@@ -263,7 +285,7 @@ def _stated_identity(path: str) -> tuple[str | None, str | None]:
 def _json_identity(text: str) -> tuple[str | None, str | None]:
     try:
         doc = json.loads(text)
-    except ValueError:
+    except (ValueError, RecursionError):  # a hostile nesting depth is no identity either
         return None, None
     cards = doc if isinstance(doc, list) else doc.get("cards", [doc]) \
         if isinstance(doc, dict) else []
@@ -302,7 +324,12 @@ def _bad_file(file: InputFile, error: Exception) -> BadItem:
     if isinstance(error, CardError):
         where = _where(error)
         source = f"{file.name}, {where}" if where else file.name
-        well, when = (None, None) if _is_parquet(file.path) else _stated_identity(file.path)
+        well, when = None, None
+        if not _is_parquet(file.path):
+            try:
+                well, when = _stated_identity(file.path)
+            except Exception:  # best effort: the file's row must be written whatever it holds
+                well, when = None, None
         return BadItem(card_id=file.name, source=source, file=file.name, reason=error.reason,
                        whole_file=True, well_id=well, time=when)
     # A reader must raise nothing else; if one does, the run still goes on and says so.
@@ -358,6 +385,17 @@ def _file_items(file: InputFile, options: ReadOptions,
                 unique: Callable[[str, str], str]) -> Iterator[CardItem | BadItem]:
     """The items of one file (ids made unique with ``unique``)."""
     base = Path(file.path).name
+    identity: list[tuple[str | None, str | None]] = []
+
+    def stated() -> tuple[str | None, str | None]:
+        """The well and time the file states (read once, and only for a broken card)."""
+        if not identity:
+            try:
+                identity.append(_stated_identity(file.path))
+            except Exception:  # best effort: the card's row is written whatever the file holds
+                identity.append((None, None))
+        return identity[0]
+
     try:
         found = list(_cards_of(file, options))
     except Exception as exc:  # one bad file never stops the run
@@ -365,7 +403,7 @@ def _file_items(file: InputFile, options: ReadOptions,
         return
     for item in found:
         if isinstance(item, CardError):
-            yield _bad_card(item, file, unique)
+            yield _bad_card(item, file, unique, stated)
             continue
         cards = [item]
         if options.split_strokes:
@@ -383,15 +421,25 @@ def _file_items(file: InputFile, options: ReadOptions,
                            source=source, file=file.name)
 
 
-def _bad_card(error: CardError, file: InputFile,
-              unique: Callable[[str, str], str]) -> BadItem:
-    """A card of a Parquet file that failed its checks (the rest of the file is read)."""
-    if not isinstance(error, ParquetCardError):
+def _bad_card(error: CardError, file: InputFile, unique: Callable[[str, str], str],
+              stated: Callable[[], tuple[str | None, str | None]]) -> BadItem:
+    """A card that failed its checks (the rest of its file is read); an error that names
+    no card is the whole file's."""
+    if error.card_id is None:
         return _renamed(_bad_file(file, error), unique)
     where = _where(error)
-    source = f"{file.name}, card {error.card_id}" + (f", {where}" if where else "")
+    well, when = error.well_id, None
+    if isinstance(error, ParquetCardError):  # no lines in Parquet: the card names the place
+        source = f"{file.name}, card {error.card_id}" + (f", {where}" if where else "")
+    else:
+        source = f"{file.name}, {where}" if where else file.name
+        # The card's time, when its file states a single one (a file of one card, say): a
+        # row filed under its well and time stays in that well's history.
+        stated_well, stated_time = stated()
+        if well is None or well == stated_well:
+            well, when = well or stated_well, stated_time
     return BadItem(card_id=unique(error.card_id, source), source=source, file=file.name,
-                   reason=error.reason, well_id=error.well_id)
+                   reason=error.reason, well_id=well, time=when)
 
 
 def _renamed(bad: BadItem, unique: Callable[[str, str], str]) -> BadItem:

@@ -29,6 +29,13 @@ def _units(card: Card) -> Units:
     return Units(load=card.load_unit or "load-unit", position=card.position_unit or "position-unit")
 
 
+def _require_card(card: Any, name: str = "card") -> Card:
+    """``card`` itself, or a TypeError naming the argument (not an AttributeError later)."""
+    if not isinstance(card, Card):
+        raise TypeError(f"{name} must be a pumpid.cards.Card, got {type(card).__name__}")
+    return card
+
+
 def _require_time(card: Card) -> tuple[NDArray[np.float64], float | None]:
     if card.t is None:
         raise ValueError(
@@ -72,6 +79,7 @@ def fit_card(
         With ``extra["card"]`` holding the card's id, source and the notes of everything done
         to its data.
     """
+    _require_card(card)
     record = _record(card, initial_state)
     if isinstance(model, str):
         model = model_class(model)
@@ -132,7 +140,18 @@ def fit_cards(
         One result per card, in order. A card that cannot be fitted (no time, no period for
         a periodic start, invalid samples) is an ``invalid-input`` row with the reason; it
         does not stop the others.
+
+    Raises
+    ------
+    TypeError
+        If ``cards`` is not a sequence of :class:`~pumpid.cards.Card` (the message names
+        the first item that is not, as ``cards[k]``).
     """
+    if isinstance(cards, Card) or not isinstance(cards, Sequence):
+        raise TypeError(f"cards must be a sequence of pumpid.cards.Card, got "
+                        f"{type(cards).__name__}")
+    for k, card in enumerate(cards):
+        _require_card(card, f"cards[{k}]")
     if isinstance(model, str):
         model = model_class(model)
     records: list[CardData] = []
@@ -195,6 +214,7 @@ def predict_card(result: FitResult, card: Card) -> Prediction:
         The card's id, ``t``, ``load``, ``measured``, ``predicted`` arrays and the
         prediction's ``r2`` and ``rmse`` (position units). The fit is not changed.
     """
+    _require_card(card)
     t, period = _require_time(card)
     state = "periodic" if card.periodic else "rest"
     predicted = predict(result, t, card.load, initial_state=state,
