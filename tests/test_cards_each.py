@@ -250,3 +250,25 @@ def test_no_time_is_said_in_words():
     (card,) = parse_cards(text, name=name)
     assert not any("t is None" in n for n in card.notes)
     assert any("no time axis" in n and "--spm" in n for n in card.notes)
+
+
+def test_strict_reader_says_the_rest_of_the_file_is_fine():
+    src = cards_of(3, 30, seed=7)
+    src.load[1][5] = "nan"
+    text, _ = _rows(src, ",", "card_id,position_in,load_lbf")
+    with pytest.raises(CardError) as info:
+        parse_cards(text, name="export.csv")
+    message = str(info.value)
+    assert "export.csv" in message and "line 37" in message
+    assert "2 cards of this file passed their checks" in message
+    assert "parse_cards_and_errors keeps them" in message
+    assert info.value.card_id == "C1"
+
+
+def test_strict_reader_of_one_broken_card_gives_its_error_alone():
+    src = cards_of(1, 30, seed=8)
+    src.load[0][3] = "nan"
+    text, _ = _rows(src, ",", "card_id,position_in,load_lbf")
+    with pytest.raises(CardError) as info:
+        parse_cards(text, name="one.csv")
+    assert "passed their checks" not in str(info.value)

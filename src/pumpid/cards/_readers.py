@@ -368,11 +368,21 @@ class CardsRead:
         return [c for c in self.items if isinstance(c, CardError)]
 
 
-def _first_error(items: list[Card | CardError]) -> list[Card]:
-    for item in items:
-        if isinstance(item, CardError):
-            raise item
-    return items  # type: ignore[return-value]
+def _first_error(items: list[Card | CardError], companion: str) -> list[Card]:
+    errors = [item for item in items if isinstance(item, CardError)]
+    if not errors:
+        return items  # type: ignore[return-value]
+    good = len(items) - len(errors)
+    if not good:
+        raise errors[0]
+    # The strict reader refuses the file, but a user who meets this on one bad card of a
+    # long export should learn at once that the rest of the file is fine and how to keep it.
+    cards = "card" if good == 1 else "cards"
+    others = f"{len(errors) - 1} more" if len(errors) > 1 else "no other"
+    hint = (f"{errors[0].reason} ({others} refused; {good} {cards} of this file passed "
+            f"their checks: {companion} keeps them and lists the refused ones)")
+    raise CardError(hint, path=errors[0].path, line=errors[0].line, field=errors[0].field,
+                    card_id=errors[0].card_id, well_id=errors[0].well_id) from errors[0]
 
 
 def parse_cards(
@@ -405,7 +415,8 @@ def parse_cards(
     CardError
         For every problem with the content or the options.
     """
-    return _first_error(list(parse_cards_and_errors(data, name=name, **_options(locals())).items))
+    return _first_error(list(parse_cards_and_errors(data, name=name, **_options(locals())).items),
+                        "parse_cards_and_errors")
 
 
 def _options(scope: dict[str, Any]) -> dict[str, Any]:
@@ -545,7 +556,8 @@ def read_cards(
     one card per row, JSON (one card object, a list, or ``{"cards": [...]}``), whitespace
     tables (Fortran-style numbers allowed) and sktime ``.ts`` files with two dimensions.
     """
-    return _first_error(list(read_cards_and_errors(path, **_options(locals())).items))
+    return _first_error(list(read_cards_and_errors(path, **_options(locals())).items),
+                        "read_cards_and_errors")
 
 
 def read_cards_and_errors(
