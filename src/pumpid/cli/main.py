@@ -82,7 +82,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         err(f"error: {exc}")
         return EXIT_USAGE
     except FileNotFoundError as exc:
-        err(f"error: {exc.filename}: no such file")
+        # Not every FileNotFoundError names its file (pyarrow's do not): then its words.
+        err(f"error: {exc.filename}: no such file" if exc.filename else f"error: {exc}")
         return EXIT_USAGE
     except KeyboardInterrupt:
         err("interrupted (Ctrl-C)")
