@@ -40,13 +40,12 @@ from .common import (
     EXIT_NOT_FITTED,
     EXIT_OK,
     EXIT_OUTPUT,
-    EXIT_POOR_FIT,
-    EXIT_USAGE,
     CliError,
+    check_fit_options,
     columns_option,
     err,
-    initial_state_option,
-    parse_assignments,
+    exit_status,
+    plural,
     rate_option,
 )
 from .render import JsonPrinter, LinePrinter, Row, RunInfo, TextPrinter, printable_block
@@ -107,46 +106,18 @@ def _setup(args: argparse.Namespace) -> FitSetup:
     if auto and args.method != "lm":
         raise CliError("--model auto uses the lm method")
     cls = model_class("kelvin" if auto else args.model)
-    observe = args.observe
-    if observe is not None and observe not in cls.outputs:
-        raise CliError(f"--observe {printable(observe)!r}: {cls.__name__} can observe "
-                       f"{', '.join(cls.outputs)}")
+    checked = check_fit_options(cls, observe=args.observe, scale=args.scale,
+                                min_r2=getattr(args, "min_r2", None), x0=args.x0,
+                                x0_extras=("C", "D", "offset"),
+                                initial_state=args.initial_state)
     opts: dict[str, Any] = {"method": args.method, "integrator": args.integrator,
                             "residual": args.residual}
-    if observe:
-        opts["observe"] = observe
-    if getattr(args, "min_r2", None) is not None:
-        if not (args.min_r2 <= 1):
-            raise CliError(f"--min-r2 {args.min_r2}: R^2 is at most 1")
-        opts["min_r2"] = args.min_r2
-    if args.scale is not None:
-        if args.scale == "free":
-            opts["scale"] = "free"
-        else:
-            try:
-                scale = float(args.scale)
-            except ValueError:
-                raise CliError(f"--scale: {printable(args.scale)!r} is neither a number nor "
-                               "'free'") from None
-            if not (scale > 0 and scale < float("inf")):
-                raise CliError(f"--scale {printable(args.scale)}: the output scale must be a "
-                               "positive number")
-            opts["scale"] = scale
+    opts.update({k: checked[k] for k in ("observe", "scale", "min_r2") if k in checked})
     model: Model | type[Model] = cls
     extras: dict[str, float] | None = None
-    if args.x0:
-        x0 = parse_assignments(args.x0, "--x0")
-        names = cls.param_names()
-        missing = [n for n in names if n not in x0]
-        unknown = [n for n in x0 if n not in names and n not in ("C", "D", "offset")]
-        if missing or unknown:
-            raise CliError(f"--x0: give all of {', '.join(names)}"
-                           + (f" (missing {', '.join(missing)})" if missing else "")
-                           + (f" (unknown {', '.join(unknown)})" if unknown else ""))
-        try:
-            model = cls(**{n: x0[n] for n in names})
-        except (TypeError, ValueError) as exc:
-            raise CliError(f"--x0: {exc}") from None
+    if "x0" in checked:
+        x0 = checked["x0"]
+        model = cls(**{n: x0[n] for n in cls.param_names()})
         extras = {k: v for k, v in x0.items() if k in ("C", "D", "offset")} or None
     rate_option(args.spm, args.period)
     columns = columns_option(args.columns, t=args.t_col, load=args.load_col,
@@ -155,7 +126,7 @@ def _setup(args: argparse.Namespace) -> FitSetup:
             "load_unit": args.load_unit, "spm": args.spm, "period": args.period,
             "columns": columns, "encoding": args.encoding}
     return FitSetup(cls=cls, model=model, auto=auto,
-                    initial_state=initial_state_option(args.initial_state),
+                    initial_state=checked.get("initial_state"),
                     offset=args.offset, options=opts, x0_extras=extras, history=args.history,
                     read=read)
 
@@ -416,7 +387,7 @@ class RunOutputs:
         if self.replaced:
             shown = ", ".join(printable(n) for n in self.replaced[:5])
             more = f" and {len(self.replaced) - 5} more" if len(self.replaced) > 5 else ""
-            err(f"replaced {len(self.replaced)} card folder(s) of an earlier run in "
+            err(f"replaced {plural(len(self.replaced), 'card folder')} of an earlier run in "
                 f"{printable(str(self.folder.path))}: {shown}{more}")
         if self.index is None:
             return None
@@ -591,23 +562,16 @@ def cmd_fit(args: argparse.Namespace) -> int:
         printer.finish(counts, interrupted=interrupted, out=args.out, index=index_path)
     if interrupted:
         done = sum(counts.values())
-        err(f"interrupted (Ctrl-C) after {done} card{'s' if done != 1 else ''}; "
+        err(f"interrupted (Ctrl-C) after {plural(done, 'card')}; "
             + ("the results finished so far are above" if done else "no card was finished")
             + (f" and in {printable(args.out)}" if args.out and done else ""))
         return EXIT_INTERRUPTED
     if outputs is not None and outputs.failed:
-        err(f"{outputs.failed} card(s)' outputs could not be written to "
-            f"{printable(args.out)}; their results are printed above")
+        their = "its result is" if outputs.failed == 1 else "their results are"
+        err(f"the outputs of {plural(outputs.failed, 'card')} could not be written to "
+            f"{printable(args.out)}; {their} printed above")
         return EXIT_OUTPUT
-    total = sum(counts.values())
-    fitted = counts["converged"] + counts["boundary"]
-    if total and fitted == total:
-        return EXIT_OK
-    if total and fitted + counts["poor-fit"] == total:
-        return EXIT_POOR_FIT
-    if fitted == 0 and counts["failed"] == 0:
-        return EXIT_USAGE  # no card could even be tried: the input is the problem
-    return EXIT_NOT_FITTED
+    return exit_status(counts)
 
 
 # --------------------------------------------------------------------------- parser

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..cards import printable
-from .common import CliError
+from .common import CliError, plural
 
 __all__ = ["cmd_report", "register"]
 
@@ -88,14 +88,15 @@ def cmd_report(args: argparse.Namespace) -> int:
                                max_wells_plotted=args.max_wells)
     alerts = pd.read_csv(paths["alerts"])
     wells = table["well_id"].nunique()
-    print(f"pumpid report: {len(table)} cards of {wells} wells, {len(alerts)} alert(s) in "
-          f"{alerts['well_id'].nunique() if len(alerts) else 0} well(s)")
+    alerted = alerts["well_id"].nunique() if len(alerts) else 0
+    print(f"pumpid report: {plural(len(table), 'card')} of {plural(wells, 'well')}, "
+          f"{plural(len(alerts), 'alert')} in {plural(alerted, 'well')}")
     for _, a in alerts.iterrows():
-        print(f"  well {a['well_id']}: {a['quantity']} {a['before']:.4g} -> {a['after']:.4g} "
-              f"{a['unit']} ({a['change_rel']:+.1%}, {a['change_se']:.3g} standard errors) "
-              f"from card {a['first_card_id']}")
-    print(f"report: {paths['report']}")
-    print(f"alerts: {paths['alerts']}; wells: {paths['wells']}")
+        print(f"  well {printable(str(a['well_id']))}: {a['quantity']} {a['before']:.4g} -> "
+              f"{a['after']:.4g} {a['unit']} ({a['change_rel']:+.1%}, {a['change_se']:.3g} "
+              f"standard errors) from card {printable(str(a['first_card_id']))}")
+    print(f"report: {printable(str(paths['report']))}")
+    print(f"alerts: {printable(str(paths['alerts']))}; wells: {printable(str(paths['wells']))}")
     return 0
 
 
