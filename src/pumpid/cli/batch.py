@@ -24,8 +24,10 @@ from ..report.output import OutputError
 from .common import (
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
+    EXIT_USAGE,
     CliError,
     check_fit_options,
+    err_block,
     exit_status,
     plural,
     rate_option,
@@ -175,6 +177,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     from ..fleet.batch import run_batch
     from ..fleet.engines import EngineError
     from ..fleet.progress import make_progress
+    from ..fleet.store import ResultsFolderError
 
     if not args.input and not args.resume:
         raise ValueError("give at least one INPUT file or folder (or --resume to continue "
@@ -190,6 +193,10 @@ def cmd_batch(args: argparse.Namespace) -> int:
                             scheduler=args.scheduler, workers=args.workers, resume=args.resume,
                             partition_size=args.partition_size, progress=progress,
                             csv=csv)
+    except ResultsFolderError as exc:
+        # Its differences are a list, one per line: printed as lines, not as escapes.
+        err_block(f"error: {exc}")
+        return EXIT_USAGE
     except EngineError as exc:
         print(f"pumpid: error: {exc}", file=sys.stderr)
         print("pumpid: the partitions written so far are kept; continue with --resume",

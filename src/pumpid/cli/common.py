@@ -38,8 +38,10 @@ __all__ = [
     "CliError",
     "WarningCounter",
     "check_fit_options",
+    "check_paths",
     "columns_option",
     "err",
+    "err_block",
     "exit_status",
     "fmt",
     "initial_state_option",
@@ -69,6 +71,29 @@ class CliError(ValueError):
 def err(message: str, stream: TextIO | None = None) -> None:
     """One line on standard error, prefixed ``pumpid:``, control characters escaped."""
     print(f"pumpid: {printable(message)}", file=stream or sys.stderr, flush=True)
+
+
+def err_block(message: str, stream: TextIO | None = None) -> None:
+    """A message of several lines on standard error: the first prefixed ``pumpid:``, the
+    others as they are laid out; each line's control characters escaped."""
+    first, *rest = message.split("\n")
+    err(first, stream)
+    for line in rest:
+        print(printable(line), file=stream or sys.stderr, flush=True)
+
+
+#: Options naming an output path, by their attribute and flag.
+_PATH_OPTIONS = (("out", "--out"), ("output", "-o/--output"), ("csv", "--csv"))
+
+
+def check_paths(args: Any) -> None:
+    """Refuse an empty output path (``--out ''``): it names nothing, and a run would write
+    nothing and say nothing of it (CliError)."""
+    for attr, flag in _PATH_OPTIONS:
+        value = getattr(args, attr, None)
+        if isinstance(value, str) and not value.strip():
+            raise CliError(f"{flag} {value!r}: an empty path; give the name of the "
+                           f"{'file' if attr != 'out' else 'folder'} to write")
 
 
 def plural(n: int, word: str, words: str | None = None) -> str:

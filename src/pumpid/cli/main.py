@@ -30,6 +30,7 @@ from .common import (
     EXIT_PIPE,
     EXIT_USAGE,
     WarningCounter,
+    check_paths,
     err,
 )
 
@@ -72,6 +73,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     counter = WarningCounter()
     try:
         with counter.active(), interrupts.recorded():
+            check_paths(args)
             code = int(args.func(args))
     except OutputError as exc:
         err(f"error: {exc}")
