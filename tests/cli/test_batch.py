@@ -165,7 +165,7 @@ def test_other_inputs_or_options_are_refused(field, reference, capsys, tmp_path:
     assert code == 2 and "needs --engine dask" in err
     code, _, err = _run(capsys, ["batch", str(field[0]), "--out", str(tmp_path / "y"),
                                  "--observe", "u9"])
-    assert code == 2 and "cannot observe 'u9'" in err
+    assert code == 2 and "--observe 'u9': Kelvin can observe u, u2" in err
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
 
 

@@ -72,8 +72,9 @@ def test_joint_json_has_the_shape_of_every_json(two_cards: Path, capsys) -> None
                                   ["batch", "{cards}", "--out", "{tmp}/r", "--csv", ""],
                                   ["simulate", "{cards}", "-p", "k0=1,m=1,c1=1,k1=1",
                                    "-o", ""]])
-def test_empty_output_path_is_refused(two_cards: Path, tmp_path: Path, capsys,
+def test_empty_output_path_is_refused(two_cards: Path, tmp_path: Path, capsys, monkeypatch,
                                       argv: list[str]) -> None:
+    monkeypatch.chdir(tmp_path)  # a blank path taken as a name writes here, not in the repo
     argv = [a.format(cards=two_cards, tmp=tmp_path) for a in argv]
     assert main(argv) == 2
     captured = capsys.readouterr()
