@@ -92,6 +92,12 @@ class _Card:
     norms: Array | None = None
 
 
+#: The reason of a card the solver was not run on: no finite point to start from.
+_NO_START = ("not fitted: the starting point is not a finite number (the record's values, "
+             "the output scale or the initial state are beyond what floating point can "
+             "compute from: check the units, the output scale and the initial state)")
+
+
 #: The default quality gate: a fit that explains less than 95 % of its record's variance is
 #: reported as ``poor-fit``. A card the model describes leaves noise and small model errors
 #: (389 public real cards, Kelvin observing u: median R^2 0.99986, 1st percentile 0.960, 4
@@ -595,6 +601,9 @@ def run(problem: Problem, cards: NDArray[np.int64], *, guess: Array | None,
             for j, i in enumerate(run_idx):
                 _apply(fits[i], out, j, problem)
             _mark_edges(problem, cards[run_idx], z0[run_idx], fits, list(run_idx))
+        for i in np.flatnonzero(~ok):
+            # Not run: without this the row would say failed and nothing else.
+            fits[i].message = _NO_START
     for card in fits:
         card.status = Status.CONVERGED if card.stop.converged else Status.FAILED
         card.reason = card.message
@@ -769,6 +778,7 @@ def build_result(problem: Problem, k: int, card: _Card, options: JobOptions, uni
         scale = offset = math.nan
         if status is not Status.FAILED:
             status = Status.FAILED
+        reason = reason or "the fit gave no finite parameters"
     params = model.as_dict() if model is not None else dict.fromkeys(cls.param_names(),
                                                                       math.nan)
     history = _history(problem, card, k)
@@ -841,6 +851,23 @@ def _history(problem: Problem, card: _Card, k: int) -> tuple[Mapping[str, float]
 
 
 # --------------------------------------------------------------------------- public API
+def _x0_number(value: Any, name: str) -> float:
+    """One starting value as a float; a ValueError naming x0 and the entry otherwise."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"x0: {name} = {value!r} is not a number") from None
+
+
+def _x0_array(x0: Any) -> Array:
+    """The starting values as a float array; a ValueError naming x0 otherwise."""
+    try:
+        return np.asarray(x0, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"x0: {x0!r} is not a number, a sequence of numbers, a mapping of "
+                         "parameter names to numbers nor a model") from None
+
+
 def _start_theta(model: Model | type[Model], x0: Mapping[str, float] | Model | ArrayLike | None
                  ) -> tuple[type[Model], Array | None, dict[str, float]]:
     """Model class, starting parameters (None: automatic) and extra start values (C, offset)."""
@@ -868,16 +895,16 @@ def _start_theta(model: Model | type[Model], x0: Mapping[str, float] | Model | A
         values = []
         for i, name in enumerate(names):
             if name in x0:
-                values.append(float(x0[name]))
+                values.append(_x0_number(x0[name], name))
             elif theta is not None:
                 values.append(float(theta[i]))
             else:
                 raise ValueError(f"x0: missing {name!r} (give all of {names} or a model)")
         for key in ("C", "D", "offset"):
             if key in x0:
-                extras[key] = float(x0[key])
+                extras[key] = _x0_number(x0[key], key)
         return cls, np.array(values), extras
-    arr = np.asarray(x0, dtype=float).ravel()
+    arr = _x0_array(x0).ravel()
     return cls, cls.from_values(arr).values, extras
 
 
@@ -1148,7 +1175,7 @@ def fit_records(
     p = len(cls.param_names())
     guess = None
     if x0 is not None:
-        arr = np.asarray(x0, dtype=float)
+        arr = _x0_array(x0)
         if arr.ndim == 1:
             arr = np.broadcast_to(arr, (n_cards, arr.size))
         if arr.shape != (n_cards, p):

@@ -85,7 +85,7 @@ def test_rerun_of_many_cards_replaces_each_folder_whole(tmp_path: Path, capsys) 
     capsys.readouterr()
     assert main(["fit", str(path), *U, "--out", str(out)]) == 0
     err = capsys.readouterr().err
-    assert f"replaced 2 card folder(s) of an earlier run in {out}: W-1, W-2" in err
+    assert f"replaced 2 card folders of an earlier run in {out}: W-1, W-2" in err
     assert err.count("\n") == 1
     assert not (out / "W-1" / "stale.png").exists()
 

@@ -13,40 +13,32 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import tempfile
 import threading
 from pathlib import Path
 from typing import Any
 
-from ..models import MODELS
+from ..cards import printable
+from ..models import MODELS, model_class
+from ..report.output import OutputError
+from .common import (
+    EXIT_INTERNAL,
+    EXIT_INTERRUPTED,
+    EXIT_USAGE,
+    CliError,
+    check_fit_options,
+    err_block,
+    exit_status,
+    plural,
+    rate_option,
+)
 
-__all__ = ["cmd_batch", "register"]
+__all__ = ["cmd_batch", "register", "summary_text"]
 
-EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
-
-
-def _numbers(text: str, what: str) -> dict[str, float]:
-    out: dict[str, float] = {}
-    for part in text.split(","):
-        if not part.strip():
-            continue
-        name, eq, value = part.partition("=")
-        if not eq:
-            raise ValueError(f"{what}: expected name=value, got {part!r}")
-        try:
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise ValueError(f"{what}: {name.strip()} = {value!r} is not a number") from None
-    return out
-
-
-def _initial_state(text: str | None) -> str | tuple[float, ...] | None:
-    if text is None or text in ("rest", "equilibrium", "periodic"):
-        return text
-    try:
-        return tuple(float(v) for v in text.split(","))
-    except ValueError:
-        raise ValueError(f"--initial-state: {text!r} is neither rest, equilibrium, periodic "
-                         "nor a list of numbers") from None
+#: Failed and invalid-card reasons shown in the summary (the results hold them all).
+_SHOWN = 10
+#: Unreadable files named in the summary.
+_SHOWN_FILES = 20
 
 
 def _column(value: str | None) -> str | int | None:
@@ -75,20 +67,25 @@ def _specs(args: argparse.Namespace) -> tuple[Any, Any]:
     for key in ("model", "offset"):
         if getattr(args, key) is not None:
             fit[key] = getattr(args, key)
-    if args.initial_state is not None:
-        state = _initial_state(args.initial_state)
-        fit["initial_state"] = list(state) if isinstance(state, tuple) else state
-    if args.x0:
-        x0: dict[str, float] = {}
-        for item in args.x0:
-            x0.update(_numbers(item, "--x0"))
-        fit["x0"] = x0
+    try:
+        cls = model_class(fit["model"])
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    # The options given are checked as pumpid fit checks them (a resumed run's own options
+    # were checked when it started).
+    checked = check_fit_options(cls, observe=args.observe, scale=args.scale,
+                                min_r2=args.min_r2, max_nfev=args.max_nfev, x0=args.x0,
+                                initial_state=args.initial_state)
+    if "initial_state" in checked:
+        fit["initial_state"] = checked["initial_state"]
+    if "x0" in checked:
+        fit["x0"] = checked["x0"]
     options = dict(fit["options"])
-    for key in ("observe", "integrator", "residual", "max_nfev", "min_r2"):
+    for key in ("integrator", "residual"):
         if getattr(args, key) is not None:
             options[key] = getattr(args, key)
-    if args.scale is not None:
-        options["scale"] = args.scale if args.scale == "free" else float(args.scale)
+    options.update({k: checked[k] for k in ("observe", "scale", "min_r2", "max_nfev")
+                    if k in checked})
     fit["options"] = options
     return FitSpec.from_dict(fit), ReadOptions.from_dict(read)
 
@@ -112,17 +109,93 @@ def _downhole(args: argparse.Namespace) -> Any:
     return DownholeSpec.load(args.well_file, damping=args.damping, harmonics=args.harmonics)
 
 
+def _check_csv(path: Path | None) -> None:
+    """Refuse a ``--csv`` path that cannot be written, before any card is fitted (exit 4).
+
+    The CSV is written last, after all the fitting: a folder of that name, or a place no
+    file can be created in, would otherwise end a long run with an error and no summary.
+    """
+    if path is None:
+        return
+    where = printable(str(path))
+    if path.is_dir():
+        raise OutputError(f"--csv {where}: is a folder; give the name of the CSV file to "
+                          "write (or --csv alone: RESULTS.csv beside the results folder)")
+    parent = path.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise OutputError(f"--csv {where}: {printable(str(parent))} is not a folder")
+    if parent == path.parent:
+        try:
+            tempfile.TemporaryFile(dir=parent).close()
+        except OSError as exc:
+            raise OutputError(f"--csv {where}: cannot write in {printable(str(parent))} "
+                              f"({exc.strerror or exc})") from None
+    elif not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"--csv {where}: cannot create folders in {printable(str(parent))}")
+
+
+def summary_text(summary: Any) -> str:
+    """The run's summary in words, as ``pumpid batch`` prints it.
+
+    Names, card ids and reasons come from the files: control characters, terminal escapes
+    and bidirectional overrides are escaped (:func:`pumpid.cards.printable`).
+    """
+    state = "interrupted" if summary.interrupted else "complete"
+    lines = [f"pumpid batch: {state}; results in {printable(str(summary.results))}",
+             f"  engine: {printable(summary.engine)}",
+             f"  cards: {summary.cards} in {plural(summary.partitions, 'partition')} "
+             f"({summary.fitted} fitted in this run in {summary.elapsed:.1f} s, "
+             f"{summary.rate():.1f} cards/s end to end; {summary.skipped} from an earlier "
+             "run)"]
+    if summary.interrupted:
+        lines.append(f"  partitions dropped at the interrupt: {summary.discarded}; continue "
+                     "with: pumpid batch --resume --out RESULTS")
+    statuses = sorted(summary.statuses.items(), key=lambda x: -x[1])
+    lines.append("  cards per status: "
+                 + (", ".join(f"{printable(str(s))} {n}" for s, n in statuses) or "none"))
+    lines.append(f"  unreadable files: {len(summary.unreadable)}")
+    for name, why in summary.unreadable[:_SHOWN_FILES]:
+        lines.append(f"    {printable(str(name))}: {printable(str(why))}")
+    if len(summary.unreadable) > _SHOWN_FILES:
+        lines.append(f"    ... and {len(summary.unreadable) - _SHOWN_FILES} more (status "
+                     "invalid-input in the results)")
+    if summary.failures:
+        lines.append("  failed or invalid cards by reason:")
+        for kind, n, example in summary.failures[:_SHOWN]:
+            lines.append(f"    {plural(n, 'card')}: {printable(str(kind))} (e.g. "
+                         f"{printable(str(example))})")
+        if len(summary.failures) > _SHOWN:
+            lines.append(f"    ... and {len(summary.failures) - _SHOWN} more kinds of reason")
+    if summary.costliest:
+        lines.append("  costliest cards (model evaluations; a fit's time grows with them and "
+                     "the samples):")
+        for cid, nfev, n in summary.costliest:
+            lines.append(f"    {printable(str(cid))}: {plural(nfev, 'evaluation')} of "
+                         f"{plural(n, 'sample')}")
+    return "\n".join(lines)
+
+
 def cmd_batch(args: argparse.Namespace) -> int:
-    """Run ``pumpid batch``; print the summary; exit 0 (complete), 130 (interrupted),
-    1 (the engine failed) or 2 (bad options, a refused results folder)."""
+    """Run ``pumpid batch``; print the summary; exit as ``pumpid fit`` does.
+
+    0 every card fitted; 2 bad options or a refused results folder, or no card could be
+    fitted (every one invalid); 3 some cards failed or were invalid; 4 ``--csv`` cannot be
+    written; 5 every card fitted, some poorly; 130 interrupted; 1 the engine failed.
+    """
     from ..fleet.batch import run_batch
     from ..fleet.engines import EngineError
     from ..fleet.progress import make_progress
+    from ..fleet.store import ResultsFolderError
 
     if not args.input and not args.resume:
         raise ValueError("give at least one INPUT file or folder (or --resume to continue "
                          "the run in --out with its own inputs)")
     fit, read = _specs(args)
+    rate_option(args.spm, args.period)
+    csv = _csv_path(args)
+    _check_csv(csv)
     downhole = _downhole(args)
     mode = "quiet" if args.quiet else args.progress
     progress = make_progress(mode, interval=args.progress_interval)
@@ -130,13 +203,17 @@ def cmd_batch(args: argparse.Namespace) -> int:
         summary = run_batch(args.input, args.out, fit=fit, read=read, engine=args.engine,
                             scheduler=args.scheduler, workers=args.workers, resume=args.resume,
                             partition_size=args.partition_size, progress=progress,
-                            csv=_csv_path(args), downhole=downhole)
+                            csv=csv, downhole=downhole)
+    except ResultsFolderError as exc:
+        # Its differences are a list, one per line: printed as lines, not as escapes.
+        err_block(f"error: {exc}")
+        return EXIT_USAGE
     except EngineError as exc:
         print(f"pumpid: error: {exc}", file=sys.stderr)
         print("pumpid: the partitions written so far are kept; continue with --resume",
               file=sys.stderr)
-        return EXIT_FAILED
-    print(summary.text())
+        return EXIT_INTERNAL
+    print(summary_text(summary))
     if summary.interrupted:
         sys.stdout.flush()
         sys.stderr.flush()
@@ -145,7 +222,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
             # results would be discarded anyway, and everything written is complete.
             os._exit(EXIT_INTERRUPTED)
         return EXIT_INTERRUPTED
-    return EXIT_OK
+    return exit_status(summary.statuses)
 
 
 def register(subparsers: Any) -> argparse.ArgumentParser:

@@ -37,11 +37,16 @@ __all__ = [
     "EXIT_USAGE",
     "CliError",
     "WarningCounter",
+    "check_fit_options",
+    "check_paths",
     "columns_option",
     "err",
+    "err_block",
+    "exit_status",
     "fmt",
     "initial_state_option",
     "parse_assignments",
+    "plural",
     "rate_option",
 ]
 
@@ -66,6 +71,37 @@ class CliError(ValueError):
 def err(message: str, stream: TextIO | None = None) -> None:
     """One line on standard error, prefixed ``pumpid:``, control characters escaped."""
     print(f"pumpid: {printable(message)}", file=stream or sys.stderr, flush=True)
+
+
+def err_block(message: str, stream: TextIO | None = None) -> None:
+    """A message of several lines on standard error: the first prefixed ``pumpid:``, the
+    others as they are laid out; each line's control characters escaped."""
+    first, *rest = message.split("\n")
+    err(first, stream)
+    for line in rest:
+        print(printable(line), file=stream or sys.stderr, flush=True)
+
+
+#: Options naming an output path, by their attribute and flag.
+_PATH_OPTIONS = (("out", "--out"), ("output", "-o/--output"), ("csv", "--csv"))
+
+
+def check_paths(args: Any) -> None:
+    """Refuse an empty output path (``--out ''``): it names nothing, and a run would write
+    nothing and say nothing of it (CliError)."""
+    for attr, flag in _PATH_OPTIONS:
+        value = getattr(args, attr, None)
+        if isinstance(value, str) and not value.strip():
+            raise CliError(f"{flag} {value!r}: an empty path; give the name of the "
+                           f"{'file' if attr != 'out' else 'folder'} to write")
+
+
+def plural(n: int, word: str, words: str | None = None) -> str:
+    """``n`` with its noun agreeing: ``1 card``, ``0 cards``, ``3 cards``.
+
+    ``words`` is the plural when it is not ``word`` + ``s``.
+    """
+    return f"{n} {word if n == 1 else (words or word + 's')}"
 
 
 def fmt(value: Any, digits: int = 4) -> str:
@@ -120,6 +156,84 @@ def initial_state_option(text: str | None) -> Any:
     return values
 
 
+def check_fit_options(cls: Any, *, observe: str | None = None, scale: str | None = None,
+                      min_r2: float | None = None, max_nfev: int | None = None,
+                      x0: Sequence[str] | None = None, x0_extras: Sequence[str] = (),
+                      initial_state: str | None = None) -> dict[str, Any]:
+    """The fitting options of ``pumpid fit`` and ``pumpid batch``, checked the same way.
+
+    Every option that no card could be fitted with is refused here, before any card is
+    read, so that a run does not end with every card ``failed`` for a reason of the options.
+
+    Parameters
+    ----------
+    cls : type of Model
+        The model to fit (its outputs and parameter names).
+    observe, scale, min_r2, max_nfev, x0, initial_state
+        The options as given (None: not given). ``x0`` is the repeatable ``NAME=VALUE,...``.
+    x0_extras : sequence of str
+        Names ``--x0`` may give besides the model's parameters.
+
+    Returns
+    -------
+    dict
+        The options given, as values: ``observe`` (str), ``scale`` (float or ``"free"``),
+        ``min_r2`` (float), ``max_nfev`` (int), ``x0`` (dict of float: every parameter,
+        and extras), ``initial_state`` (a name or a list of float).
+
+    Raises
+    ------
+    CliError
+        Naming the option and what it takes.
+    """
+    out: dict[str, Any] = {}
+    if observe is not None:
+        if observe not in cls.outputs:
+            raise CliError(f"--observe {printable(observe)!r}: {cls.__name__} can observe "
+                           f"{', '.join(cls.outputs)}")
+        out["observe"] = observe
+    if scale is not None:
+        if scale == "free":
+            out["scale"] = "free"
+        else:
+            try:
+                number = float(scale)
+            except ValueError:
+                raise CliError(f"--scale: {printable(scale)!r} is neither a number nor "
+                               "'free'") from None
+            if not (0 < number < math.inf):
+                raise CliError(f"--scale {printable(scale)}: the output scale must be a "
+                               "positive number")
+            out["scale"] = number
+    if min_r2 is not None:
+        if not (min_r2 <= 1):  # NaN too
+            raise CliError(f"--min-r2 {min_r2}: R^2 is a number at most 1")
+        out["min_r2"] = min_r2
+    if max_nfev is not None:
+        if max_nfev < 1:
+            raise CliError(f"--max-nfev {max_nfev}: give a whole number of model "
+                           "evaluations of at least 1")
+        out["max_nfev"] = max_nfev
+    if x0:
+        values = parse_assignments(x0, "--x0")
+        names = cls.param_names()
+        missing = [n for n in names if n not in values]
+        unknown = [n for n in values if n not in names and n not in x0_extras]
+        if missing or unknown:
+            raise CliError(f"--x0: give all of {', '.join(names)}"
+                           + (f" (missing {', '.join(missing)})" if missing else "")
+                           + (f" (unknown {', '.join(printable(u) for u in unknown)})"
+                              if unknown else ""))
+        try:
+            cls(**{n: values[n] for n in names})
+        except (TypeError, ValueError) as exc:
+            raise CliError(f"--x0: {exc}") from None
+        out["x0"] = values
+    if initial_state is not None:
+        out["initial_state"] = initial_state_option(initial_state)
+    return out
+
+
 def columns_option(spec: str | None, **single: str | None) -> dict[str, Any] | None:
     """Column roles from ``--columns ROLE=COL,...`` and the single ``--t-col``-style options.
 
@@ -150,6 +264,24 @@ def rate_option(spm: float | None, period: float | None) -> None:
     if period is not None and not (math.isfinite(period) and 60.0 / hi <= period <= 60.0 / lo):
         raise CliError(f"--period {period:g} s is not a stroke period (give a number between "
                        f"{60.0 / hi:g} and {60.0 / lo:g} s)")
+
+
+def exit_status(counts: collections.Counter[str] | dict[str, int]) -> int:
+    """The exit status of a run that fitted cards, from its cards per status.
+
+    0 every card fitted (converged or boundary); 5 every card fitted, some poorly; 2 no card
+    could even be tried (every one invalid, or none at all): the input is the problem; 3
+    otherwise (some failed or invalid).
+    """
+    total = sum(counts.values())
+    fitted = counts.get("converged", 0) + counts.get("boundary", 0)
+    if total and fitted == total:
+        return EXIT_OK
+    if total and fitted + counts.get("poor-fit", 0) == total:
+        return EXIT_POOR_FIT
+    if fitted == 0 and counts.get("failed", 0) == 0:
+        return EXIT_USAGE
+    return EXIT_NOT_FITTED
 
 
 class WarningCounter:
@@ -185,5 +317,7 @@ class WarningCounter:
             return None
         total = sum(self.counts.values())
         top = ", ".join(f"{k} ({n}x)" for k, n in self.counts.most_common(3))
-        return (f"note: {total} numerical warning(s) were raised and not shown ({top}); each "
+        were = "was" if total == 1 else "were"
+        return (f"note: {plural(total, 'numerical warning')} {were} raised and not shown "
+                f"({top}); each "
                 "card's status and warnings say whether its fit is usable")

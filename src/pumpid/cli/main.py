@@ -31,6 +31,7 @@ from .common import (
     EXIT_PIPE,
     EXIT_USAGE,
     WarningCounter,
+    check_paths,
     err,
 )
 
@@ -74,6 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     counter = WarningCounter()
     try:
         with counter.active(), interrupts.recorded():
+            check_paths(args)
             code = int(args.func(args))
     except OutputError as exc:
         err(f"error: {exc}")
@@ -84,7 +86,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         err(f"error: {exc}")
         return EXIT_USAGE
     except FileNotFoundError as exc:
-        err(f"error: {exc.filename}: no such file")
+        # Not every FileNotFoundError names its file (pyarrow's do not): then its words.
+        err(f"error: {exc.filename}: no such file" if exc.filename else f"error: {exc}")
         return EXIT_USAGE
     except KeyboardInterrupt:
         err("interrupted (Ctrl-C)")

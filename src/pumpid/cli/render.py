@@ -33,7 +33,7 @@ from typing import Any, TextIO
 from ..cards import Card, printable
 from ..report.units import model_param_units, unit_text
 from ..result import FitResult, Prediction, jsonable, model_choice_text
-from .common import fmt
+from .common import fmt, plural
 
 __all__ = ["JsonPrinter", "LinePrinter", "Row", "RunInfo", "TextPrinter", "first_sentence"]
 
@@ -186,7 +186,7 @@ class TextPrinter:
         """A file's notes that hold for all its cards, once."""
         notes = _shared_notes(cards)
         self._file_notes = set(notes)
-        what = f"{len(cards)} card{'s' if len(cards) != 1 else ''}"
+        what = plural(len(cards), "card")
         self._print("", f"{printable(path)}: {what}")
         if not self.verbose:
             for note in notes:
@@ -265,7 +265,7 @@ class TextPrinter:
         """The run's summary line."""
         total = sum(counts.values())
         parts = ", ".join(f"{n} {k}" for k, n in sorted(counts.items()))
-        line = f"{total} card{'s' if total != 1 else ''}: {parts or 'none'}"
+        line = f"{plural(total, 'card')}: {parts or 'none'}"
         if interrupted:
             line += " (interrupted)"
         self._print("", line)
@@ -336,7 +336,7 @@ class LinePrinter:
                out: str | None, index: str | None) -> None:
         """A ``#`` summary line."""
         parts = ", ".join(f"{n} {k}" for k, n in sorted(counts.items()))
-        self._print(f"# {sum(counts.values())} cards: {parts or 'none'}"
+        self._print(f"# {plural(sum(counts.values()), 'card')}: {parts or 'none'}"
                     + (" (interrupted)" if interrupted else ""))
 
 

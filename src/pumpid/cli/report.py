@@ -11,9 +11,57 @@ file or folder in the same layout).
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
+from ..cards import printable
+from .common import CliError, plural
+
 __all__ = ["cmd_report", "register"]
+
+#: What to give instead, said by every refusal of RESULTS.
+_GIVE = "give the results folder that pumpid batch --out wrote (or a Parquet file of it)"
+#: The columns every results table has; the report groups and counts by them.
+_NEEDED = ("well_id", "card_id", "status")
+#: The first bytes of every Parquet file (its format's magic number).
+_PARQUET_MAGIC = b"PAR1"
+
+
+def _check_results(path: str) -> None:
+    """Refuse, in words, a RESULTS that is not a results table (CliError, exit 2)."""
+    where = printable(path)
+    p = Path(path)
+    if not p.exists():
+        raise CliError(f"{where}: no such file or folder; {_GIVE}")
+    files = [p] if p.is_file() else sorted(p.rglob("*.parquet"))
+    if not files:
+        raise CliError(f"{where}: the folder holds no Parquet results (no *.parquet file); "
+                       f"{_GIVE}")
+    for f in files:
+        try:
+            with f.open("rb") as fh:
+                head = fh.read(len(_PARQUET_MAGIC))
+        except OSError as exc:
+            raise CliError(f"{printable(str(f))}: cannot read ({exc.strerror or exc})") \
+                from None
+        if head != _PARQUET_MAGIC:
+            kind = ("a CSV file (pumpid batch --csv writes one beside the results; the "
+                    "report reads the Parquet folder)" if f.suffix.lower() == ".csv"
+                    else "not a Parquet file")
+            raise CliError(f"{printable(str(f))}: {kind}; {_GIVE}")
+
+
+def _check_columns(path: str, columns: list[str], rows: int) -> None:
+    """Refuse a Parquet table that lacks the columns of a results table."""
+    missing = [c for c in _NEEDED if c not in columns]
+    if not missing:
+        return
+    has = (f"its columns are {', '.join(printable(str(c)) for c in columns[:20])}"
+           + (f" and {len(columns) - 20} more" if len(columns) > 20 else "")
+           if columns else "it has no columns")
+    raise CliError(f"{printable(path)}: not a results table of pumpid batch ({rows} "
+                   f"row{'' if rows == 1 else 's'}; {has}; a results table has "
+                   f"{', '.join(_NEEDED)}); {_GIVE}")
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -24,7 +72,14 @@ def cmd_report(args: argparse.Namespace) -> int:
     from ..fleet.report import write_fleet_report
     from ..fleet.store import read_results
 
-    table = read_results(args.results)
+    _check_results(args.results)
+    try:
+        table = read_results(args.results)
+    except (OSError, ValueError) as exc:
+        # pyarrow's own words (ArrowInvalid is a ValueError) after the file's name.
+        raise CliError(f"{printable(args.results)}: cannot be read as a results table "
+                       f"({exc}); {_GIVE}") from None
+    _check_columns(args.results, [str(c) for c in table.columns], len(table))
     quantities = args.quantity
     if quantities is None and args.parameters:
         quantities = available_quantities(table, parameters=True)
@@ -33,14 +88,15 @@ def cmd_report(args: argparse.Namespace) -> int:
                                max_wells_plotted=args.max_wells)
     alerts = pd.read_csv(paths["alerts"])
     wells = table["well_id"].nunique()
-    print(f"pumpid report: {len(table)} cards of {wells} wells, {len(alerts)} alert(s) in "
-          f"{alerts['well_id'].nunique() if len(alerts) else 0} well(s)")
+    alerted = alerts["well_id"].nunique() if len(alerts) else 0
+    print(f"pumpid report: {plural(len(table), 'card')} of {plural(wells, 'well')}, "
+          f"{plural(len(alerts), 'alert')} in {plural(alerted, 'well')}")
     for _, a in alerts.iterrows():
-        print(f"  well {a['well_id']}: {a['quantity']} {a['before']:.4g} -> {a['after']:.4g} "
-              f"{a['unit']} ({a['change_rel']:+.1%}, {a['change_se']:.3g} standard errors) "
-              f"from card {a['first_card_id']}")
-    print(f"report: {paths['report']}")
-    print(f"alerts: {paths['alerts']}; wells: {paths['wells']}")
+        print(f"  well {printable(str(a['well_id']))}: {a['quantity']} {a['before']:.4g} -> "
+              f"{a['after']:.4g} {a['unit']} ({a['change_rel']:+.1%}, {a['change_se']:.3g} "
+              f"standard errors) from card {printable(str(a['first_card_id']))}")
+    print(f"report: {printable(str(paths['report']))}")
+    print(f"alerts: {printable(str(paths['alerts']))}; wells: {printable(str(paths['wells']))}")
     return 0
 
 

@@ -82,6 +82,23 @@ def _read_table(path: str, names: Sequence[str], encoding: str | None) -> dict[s
     return out
 
 
+def _check_finite(path: str, t: np.ndarray, y: np.ndarray) -> None:
+    """Refuse to write a displacement that is not a number everywhere (CliError, exit 2).
+
+    Parameters far outside floating point (``k0=1e308``, ``m=1e-320``), an output scale
+    that overflows, or time steps too small to divide by all give infinities or NaNs in
+    floating point; a file of them would read as a simulation.
+    """
+    bad = np.flatnonzero(~np.isfinite(y))
+    if bad.size:
+        i = int(bad[0])
+        raise CliError(
+            f"{printable(path)}: the simulated displacement is not a finite number from "
+            f"line {i + 2} (t = {float(t[i]):.6g} s; {bad.size} of {y.size} samples): the "
+            "parameters, the scale or the time steps are outside what floating point can "
+            "compute (check -p, --scale and the time column); nothing was written")
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate a model's displacement for a load record; CSV t, load, displacement."""
     from ..engine.simulate import simulate
@@ -105,6 +122,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.output and Path(args.output).is_dir():
         raise OutputError(f"-o {printable(args.output)}: is a folder; give the name of the CSV "
                           "file to write")
+    if not (0 < args.scale < np.inf):
+        raise CliError(f"--scale {args.scale:g}: the output scale must be a positive finite "
+                       "number")
     t_col, load_col = args.t_col or "t", args.load_col or "load"
     data = _read_table(args.file, [t_col, load_col], args.encoding)
     t, load = data[t_col], data[load_col]
@@ -114,6 +134,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                      integrator=args.integrator, scale=args.scale)
     except ValueError as exc:
         raise CliError(f"{printable(args.file)}: {exc}") from None
+    _check_finite(args.file, t, y)
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(["t", "load", "displacement"])

@@ -17,6 +17,7 @@ from a transient record with the same engine as the cards:
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
@@ -84,6 +85,56 @@ def _initial_state(u: FloatArray, y: FloatArray, requested: Any) -> tuple[Any, s
     return state, why
 
 
+#: The engine's words for a fit's input and output, and the quantities they are in a flow fit.
+_ENGINE_WORDS = ("load", "displacement")
+
+
+def _quantities(record: FlowRecord, direction: str) -> tuple[str, str]:
+    """The names, with units, of a direction's input and output quantities."""
+    dp = f"pressure drop dp [{record.dp_unit}]"
+    q = f"flow rate q [{record.q_unit}]"
+    return (dp, q) if direction == "dp->q" else (q, dp)
+
+
+def _check_magnitudes(record: FlowRecord, direction: str) -> None:
+    """Refuse, naming the file and the quantity, a record whose values floating point cannot
+    fit: their time integrals (the equation-error start) or the output's sum of squares (the
+    fit's cost) overflow.
+
+    Checked before any linear algebra: LAPACK given an overflowed matrix prints its own
+    "illegal value" lines and fails with "SVD did not converge", naming neither the file
+    nor the quantity.
+    """
+    names = dict(zip(("dp", "q"), _quantities(record, "dp->q"), strict=True))
+    output = "q" if direction == "dp->q" else "dp"
+    t = np.asarray(record.t, dtype=float)
+    span = float(t[-1] - t[0])
+    for key in ("dp", "q"):
+        x = np.asarray(getattr(record, key), dtype=float)
+        peak = float(np.max(np.abs(x)))
+        with np.errstate(over="ignore", invalid="ignore"):
+            integral = np.cumsum(0.5 * np.diff(t) * (x[1:] + x[:-1]))
+            squares = float(np.sum((x - x.mean()) ** 2)) if key == output else 0.0
+        if np.all(np.isfinite(integral)) and math.isfinite(squares):
+            continue
+        what = ("their time integral" if not np.all(np.isfinite(integral))
+                else "the sum of their squares (the fit's cost)")
+        unit = record.dp_unit if key == "dp" else record.q_unit
+        raise ValueError(
+            f"{record.source}: {names[key]}: values up to {peak:g} {unit} over {span:g} s "
+            f"are beyond floating point in the fit ({what} exceeds 1e308); give the record "
+            f"in a larger unit (--{key}-unit) or check the column roles")
+
+
+def _in_flow_words(exc: ValueError, record: FlowRecord, direction: str) -> ValueError:
+    """An engine error in the flow record's words: its quantities and its file."""
+    text = str(exc)
+    for word, name in zip(_ENGINE_WORDS, _quantities(record, direction), strict=True):
+        text = re.sub(rf"\b{word}\b", name, text)
+    source = record.source
+    return ValueError(text if not source or text.startswith(source) else f"{source}: {text}")
+
+
 def _equation_error_start(t: FloatArray, u: FloatArray, y: FloatArray) -> tuple[float, float]:
     """(tau, gain) of a first-order lag by linear least squares on the integrated ODE.
 
@@ -93,9 +144,11 @@ def _equation_error_start(t: FloatArray, u: FloatArray, y: FloatArray) -> tuple[
     iu = np.concatenate([[0.0], np.cumsum(0.5 * dt * (u[1:] + u[:-1]))])
     iy = np.concatenate([[0.0], np.cumsum(0.5 * dt * (y[1:] + y[:-1]))])
     mat = np.column_stack([iu, -iy])
-    coef, *_ = np.linalg.lstsq(mat, y - y[0], rcond=None)
-    c_u, c_y = (float(c) for c in coef)
     span = float(t[-1] - t[0])
+    c_u = c_y = math.nan
+    if np.all(np.isfinite(mat)) and np.all(np.isfinite(y)):
+        coef, *_ = np.linalg.lstsq(mat, y - y[0], rcond=None)
+        c_u, c_y = (float(c) for c in coef)
     if c_y > 0 and math.isfinite(c_u / c_y) and c_u / c_y > 0:
         return min(max(1.0 / c_y, 1e-6 * span), 1e3 * span), c_u / c_y
     top = float(np.max(np.abs(u))) or 1.0
@@ -175,6 +228,7 @@ def fit_flow(
     else:
         cls, start = surrogate_class(model), None
     u, y, units = _orient(record, direction)
+    _check_magnitudes(record, direction)
     if direction == "q->dp" and cls is not FirstOrderLag:
         raise ValueError(
             f"direction 'q->dp' is available for the first-order model only; the power-law "
@@ -200,9 +254,12 @@ def fit_flow(
                            tol=fit_options.get("tol", 1e-10),
                            max_nfev=fit_options.get("max_nfev"))
     else:
-        res = fit(start, record.t, u, y, method=method,  # type: ignore[arg-type]
-                  initial_state=state, units=units, fixed=dict(fixed) if fixed else None,
-                  **fit_options)
+        try:
+            res = fit(start, record.t, u, y, method=method,  # type: ignore[arg-type]
+                      initial_state=state, units=units, fixed=dict(fixed) if fixed else None,
+                      **fit_options)
+        except ValueError as exc:
+            raise _in_flow_words(exc, record, direction) from None
     return res.with_parts(
         warnings=(*warnings, *res.warnings),
         application={"flow": {
@@ -394,6 +451,8 @@ def fit_flow_records(
     """
     if not records:
         raise ValueError("no records to fit")
+    for record in records:
+        _check_magnitudes(record, "dp->q")
     if isinstance(model, Model):
         start: Model = model
         cls: type[Model] = type(model)

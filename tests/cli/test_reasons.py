@@ -1,0 +1,98 @@
+"""Every refusal and failure says in words what is wrong: a card not fitted because its
+start is not finite has a reason; a bad x0 names x0; --joint --json has the shape of every
+--json; an empty output path is refused; a refused resume lists its differences as lines."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import pumpid
+import pumpid.pump
+from pumpid.cards import read_cards
+from pumpid.cli import main
+from tests.cli.conftest import write_cards
+
+
+def _brief_rows(text: str) -> list[dict[str, str]]:
+    rows = []
+    for line in text.splitlines():
+        if line.startswith("#"):
+            continue
+        cells = line.split("\t")
+        rows.append({"id": cells[0], "status": cells[1],
+                     **dict(c.split("=", 1) for c in cells[2:] if "=" in c)})
+    return rows
+
+
+@pytest.mark.parametrize("option", [["--scale", "1e-320"],
+                                    ["--initial-state", "1e308,1e308,1e308"]])
+def test_a_start_that_is_not_finite_fails_with_a_reason(two_cards: Path, capsys,
+                                                       option: list[str]) -> None:
+    code = main(["fit", str(two_cards), "--brief", *option])
+    rows = _brief_rows(capsys.readouterr().out)
+    assert code == 3
+    assert [r["status"] for r in rows] == ["failed", "failed"]
+    for r in rows:
+        assert "starting point is not a finite number" in r["reason"]
+
+
+@pytest.mark.parametrize("x0", ["abc", {"k0": "abc", "m": 1.0, "c1": 1.0, "k1": 1.0},
+                                ["1", "x", "1", "1"]])
+def test_x0_that_is_not_numbers_is_named(two_cards: Path, x0: object) -> None:
+    card = read_cards(two_cards)[0]
+    with pytest.raises(ValueError, match=r"^x0: .* is not a number"):
+        pumpid.pump.fit_card(card, pumpid.Kelvin, x0=x0)
+    with pytest.raises(ValueError, match=r"^x0: .* is not a number"):
+        pumpid.pump.fit_cards([card], pumpid.Kelvin, x0=x0)
+
+
+def test_x0_option_that_is_not_a_number_is_named(two_cards: Path, capsys) -> None:
+    code = main(["fit", str(two_cards), "--x0", "k0=abc,m=1,c1=1,k1=1"])
+    assert code == 2
+    assert "--x0: k0 = 'abc' is not a number" in capsys.readouterr().err
+
+
+def test_joint_json_has_the_shape_of_every_json(two_cards: Path, capsys) -> None:
+    code = main(["fit", str(two_cards), "--joint", "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 0
+    assert set(doc) == {"cards", "summary"}
+    assert [c["card"]["id"] for c in doc["cards"]] == ["W-1", "W-2"]
+    assert all(c["status"] == doc["summary"]["joint"]["status"] for c in doc["cards"])
+    assert doc["summary"]["cards"] == 2 and doc["summary"]["joint"]["joint"] is True
+    assert set(doc["summary"]["joint"]["params"]) == {"k0", "m", "c1", "k1"}
+
+
+@pytest.mark.parametrize("argv", [["fit", "{cards}", "--out", ""],
+                                  ["fit", "{cards}", "--out", " "],
+                                  ["batch", "{cards}", "--out", ""],
+                                  ["batch", "{cards}", "--out", "{tmp}/r", "--csv", ""],
+                                  ["simulate", "{cards}", "-p", "k0=1,m=1,c1=1,k1=1",
+                                   "-o", ""]])
+def test_empty_output_path_is_refused(two_cards: Path, tmp_path: Path, capsys, monkeypatch,
+                                      argv: list[str]) -> None:
+    monkeypatch.chdir(tmp_path)  # a blank path taken as a name writes here, not in the repo
+    argv = [a.format(cards=two_cards, tmp=tmp_path) for a in argv]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert "an empty path" in captured.err and captured.out == ""
+    assert not (tmp_path / "r").exists()
+
+
+def test_refused_resume_lists_its_differences_as_lines(tmp_path: Path, capsys) -> None:
+    folder = tmp_path / "in"
+    folder.mkdir()
+    write_cards(folder / "a.csv", ["W-1"])
+    out = tmp_path / "r"
+    assert main(["batch", str(folder), "--out", str(out), "--model", "msd", "--quiet"]) == 0
+    capsys.readouterr()
+    code = main(["batch", "--resume", "--out", str(out), "--model", "kelvin", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "\\n" not in err
+    lines = err.splitlines()
+    assert lines[0].startswith("pumpid: error: ") and "not mixed with this one:" in lines[0]
+    assert any(line.startswith("  - ") and '"model": "msd"' in line for line in lines[1:])
