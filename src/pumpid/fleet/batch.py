@@ -40,6 +40,7 @@ import pyarrow as pa
 
 from pumpid import __version__, interrupts
 from pumpid.models import Model, model_class
+from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
 
 from .defaults import PARTITION_SIZE
 from .engines import Engine, EngineError, make_engine
@@ -605,9 +606,9 @@ def write_csv(store: ResultsStore, partitions: int, path: Path) -> Path:
     try:
         with open(tmp, "w", encoding="utf-8", newline="") as fh:
             for k in range(partitions):
-                frame = to_frame(store.read_part(k))
-                frame.to_csv(fh, index=False, header=(k == 0),
-                             date_format="%Y-%m-%dT%H:%M:%SZ")
+                # Parquet keeps the raw text; the CSV is for spreadsheets (see neutralise).
+                spreadsheet_csv(to_frame(store.read_part(k)), fh, header=(k == 0),
+                                date_format="%Y-%m-%dT%H:%M:%SZ")
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)

@@ -263,12 +263,18 @@ def _quantity(
     units = [""] * n_wells
     if unit_col is not None and unit_col in frame.columns:
         stated = frame[unit_col].to_numpy(dtype=object)
+        # A well's unit is the one most of its kept values state; a well with no kept value
+        # (every card left the quantity undetermined) still has the unit its rows state,
+        # which does not depend on whether the value is known.
+        for has in (pd.notna(stated), keep & pd.notna(stated)):
+            if has.any():
+                counts = pd.DataFrame({"w": code[has],
+                                       "u": stated[has].astype(str)}).value_counts()
+                major = counts.reset_index().drop_duplicates("w")  # sorted by count
+                for w, u in zip(major["w"], major["u"], strict=True):
+                    units[int(w)] = u
         has = keep & pd.notna(stated)
         if has.any():
-            counts = pd.DataFrame({"w": code[has], "u": stated[has].astype(str)}).value_counts()
-            major = counts.reset_index().drop_duplicates("w")  # value_counts sorts by count
-            for w, u in zip(major["w"], major["u"], strict=True):
-                units[int(w)] = u
             # Values in another unit cannot be compared with these: leave them out (a row
             # that states no unit is taken to share the well's).
             well_unit = np.array(units, dtype=object)[code]

@@ -34,6 +34,8 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from pumpid.report.spreadsheet import to_csv
+
 from .changes import (
     STATUSES,
     UNKNOWN_WELL,
@@ -63,6 +65,9 @@ tr.alert td:first-child { border-left: 4px solid #b00020; }
 .muted { color: #666; }
 figure { margin: 1em 0; }
 figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
+figure.wide img { width: 100%; }
+div.grid { display: grid; grid-template-columns: repeat(auto-fit, minmax(34em, 1fr));
+           gap: 0 1.5em; }
 figcaption { color: #555; font-size: 0.92em; }
 footer { margin-top: 2em; color: #777; font-size: 0.85em; }
 div.scroll { overflow-x: auto; max-width: 100%; }
@@ -79,8 +84,12 @@ def _e(text: Any) -> str:
 
 
 def _unit_text(unit: Any) -> str:
+    """A unit for display. A missing unit is said to be missing, never taken for
+    "dimensionless", which only ``-`` and ``1`` (as the models state it) mean."""
     u = "" if unit is None or (isinstance(unit, float) and math.isnan(unit)) else str(unit)
-    return "dimensionless" if u in ("", "-", "1") else u
+    if u == "":
+        return "unit not stated"
+    return "dimensionless" if u in ("-", "1") else u
 
 
 def _num(value: Any, digits: int = 4) -> str:
@@ -148,9 +157,11 @@ def _png(fig: Figure) -> bytes:
     return buf.getvalue()
 
 
-def _figure_html(data: bytes, alt: str, caption: str) -> str:
+def _figure_html(data: bytes, alt: str, caption: str, *, wide: bool = False) -> str:
+    """A figure; ``wide`` ones are drawn across the page's width (their PNG is made for it)."""
     b64 = base64.b64encode(data).decode("ascii")
-    return (f'<figure><img src="data:image/png;base64,{b64}" alt="{_e(alt)}">'
+    cls = ' class="wide"' if wide else ""
+    return (f'<figure{cls}><img src="data:image/png;base64,{b64}" alt="{_e(alt)}">'
             f"<figcaption>{_e(caption)}</figcaption></figure>")
 
 
@@ -172,12 +183,15 @@ def _version() -> str:
 
 
 # --------------------------------------------------------------------------- data helpers
-def _column_unit(summary: pd.DataFrame, quantity: str) -> str:
-    """The unit most wells state for a quantity (from the well summary's latest values)."""
-    col = f"latest_{quantity}_unit"
-    if col not in summary.columns:
-        return ""
-    stated = summary[col].dropna().astype(str)
+def _column_unit(frame: pd.DataFrame, summary: pd.DataFrame, quantity: str) -> str:
+    """The unit of a quantity: the one most rows of the table state in its unit column
+    (whether or not their value is determined: a quantity no card determined still has its
+    unit), else the one most wells' latest values have (parameters: from the model)."""
+    stated = pd.Series(dtype=object)
+    if not quantity.startswith("p_") and f"d_{quantity}_unit" in frame.columns:
+        stated = frame[f"d_{quantity}_unit"].dropna().astype(str)
+    if not len(stated) and f"latest_{quantity}_unit" in summary.columns:
+        stated = summary[f"latest_{quantity}_unit"].dropna().astype(str)
     stated = stated[stated != ""]
     return str(stated.mode().iloc[0]) if len(stated) else ""
 
@@ -203,11 +217,61 @@ def _per_well_median(frame: pd.DataFrame, quantity: str) -> pd.Series:
 
 
 # --------------------------------------------------------------------------- figures
+#: Fewest wells whose values a histogram is drawn for; fewer are drawn one by one.
+MIN_WELLS_HISTOGRAM = 5
+
+
+def _padded_limits(lo: float, hi: float, log: bool = False) -> tuple[float, float]:
+    """Axis limits around the values ``lo..hi``, with a margin; a single value gets a
+    margin of 1 % of its size (a flat series is not stretched over an arbitrary range)."""
+    if log:
+        a, b = _padded_limits(math.log(lo), math.log(hi))
+        return math.exp(a), math.exp(b)
+    span = hi - lo
+    if not span > 0:
+        span = 0.02 * abs(hi) if hi != 0 else 1.0
+    return lo - 0.08 * span, hi + 0.08 * span
+
+
+def _few_wells_figure(frame: pd.DataFrame, quantity: str, unit: str,
+                      alerted: set[str]) -> Figure | None:
+    """Each well's cards of one quantity as a row: the median, the middle half and the
+    range, for fields of too few wells for a histogram."""
+    value, _, ok = _values(frame, quantity)
+    groups = value[ok].groupby(frame.loc[ok, "well_id"].astype(str))
+    if not len(groups):
+        return None
+    wells = sorted(groups.groups)
+    fig = Figure(figsize=(6.4, 0.8 + 0.45 * len(wells)))
+    ax = fig.subplots()
+    for row, well in enumerate(wells):
+        v = groups.get_group(well).to_numpy(dtype=float)
+        q = np.quantile(v, [0.0, 0.25, 0.5, 0.75, 1.0])
+        colour = "#b00020" if well in alerted else "#08519c"
+        ax.hlines(row, q[0], q[4], color=colour, lw=1)
+        ax.hlines(row, q[1], q[3], color=colour, lw=5, alpha=0.5)
+        ax.plot([q[2]], [row], "o", color=colour, ms=6)
+    ax.set_yticks(range(len(wells)), [f"{w} ({_count(groups.get_group(w).size, 'card')})"
+                                      for w in wells], fontsize=8)
+    ax.set_ylim(-0.6, len(wells) - 0.4)
+    allv = value[ok].to_numpy(dtype=float)
+    ax.set_xlim(*_padded_limits(float(allv.min()), float(allv.max())))
+    ax.set_xlabel(f"{quantity} of each card [{_unit_text(unit)}]: median (dot), middle "
+                  "half (bar), range (line)", fontsize=8)
+    ax.tick_params(labelsize=8)
+    ax.grid(alpha=0.3, axis="x")
+    ax.set_title(f"{quantity} in {_count(len(wells), 'well')}"
+                 + (" (red: with an alert)" if alerted & set(wells) else ""), fontsize=10)
+    return fig
+
+
 def _distribution_figure(frame: pd.DataFrame, quantity: str, unit: str,
                          alerted: set[str]) -> Figure | None:
     med = _per_well_median(frame, quantity)
     if med.empty:
         return None
+    if len(med) < MIN_WELLS_HISTOGRAM:
+        return _few_wells_figure(frame, quantity, unit, alerted)
     fig = Figure(figsize=(6.4, 3.2))
     ax = fig.subplots()
     values = med.to_numpy(dtype=float)
@@ -263,7 +327,9 @@ def _band(v: pd.Series, s: pd.Series) -> tuple[np.ndarray, np.ndarray]:
 def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
                  alerts: pd.DataFrame, well: str) -> Figure:
     rows = len(quantities)
-    fig = Figure(figsize=(8.0, 1.9 * rows + 0.6))
+    # As wide as the page's figures are shown (about 1350 px at 96 dpi), so that text is
+    # drawn at its size rather than scaled.
+    fig = Figure(figsize=(14.0, 2.0 * rows + 0.8))
     axes = np.atleast_1d(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0])
     # The time axis as the change detector orders the well: by time when every usable card
     # has one; a failed or invalid card without a time then cannot be placed and is left out.
@@ -277,8 +343,10 @@ def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str
     for ax, q in zip(axes, quantities, strict=True):
         value, se, ok = _values(ordered, q)
         x, v, s = x_all[ok], value[ok], se[ok]
+        band_lo = band_hi = np.empty(0)
         if len(v):
-            lo, hi = _band(v, s)
+            band_lo, band_hi = _band(v, s)
+            lo, hi = band_lo, band_hi
             run = _segments(x, x_all)
             for k in np.unique(run):
                 on = run == k
@@ -315,6 +383,8 @@ def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str
                 ax.hlines(a["before"], lo, xc, color="#e6550d", lw=1.5,
                           label="median before / after")
                 ax.hlines(a["after"], xc, hi, color="#e6550d", lw=1.5)
+        if len(v):
+            _value_axis(ax, x, v.to_numpy(dtype=float), band_lo, band_hi, mine)
         ax.set_ylabel(f"{q}\n[{_unit_text(units.get(q, ''))}]", fontsize=8)
         ax.tick_params(labelsize=8)
         ax.grid(alpha=0.3)
@@ -322,13 +392,39 @@ def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str
     for ax in axes:
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             handles.setdefault(lab, h)
-    fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncols=5,
-               fontsize=7, frameon=False, bbox_to_anchor=(0.5, -0.02))
+    # The legend above the panels, right of the title: below them it would sit on the
+    # time axis' label.
+    top = 1.0 - 0.45 / fig.get_figheight()
+    fig.legend(list(handles.values()), list(handles.keys()), loc="lower right", ncols=6,
+               fontsize=8, frameon=False, bbox_to_anchor=(0.99, top))
     axes[-1].set_xlabel("card time (UTC)" if timed else "card number (no times in the table)")
-    fig.suptitle(f"well {well}", fontsize=10)
+    fig.suptitle(f"well {well}", fontsize=10, x=0.01, y=top + 0.1 / fig.get_figheight(),
+                 ha="left", va="bottom")
     fig.autofmt_xdate()
-    fig.subplots_adjust(bottom=0.16 if rows > 1 else 0.3)
+    fig.subplots_adjust(top=top, bottom=0.9 / fig.get_figheight())
     return fig
+
+
+def _value_axis(ax: Any, x: pd.Series, v: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                alerts: pd.DataFrame) -> None:
+    """Scale the value axis to the values (and the medians of any change), not to the
+    +-2 SE bands: a band may widen the axis by a quarter of the values' range on either side
+    at most (so the values fill at least two thirds of it); what runs
+    beyond is clipped and marked by a triangle at the axis edge."""
+    marks = [*v, *pd.to_numeric(alerts["before"], errors="coerce").dropna(),
+             *pd.to_numeric(alerts["after"], errors="coerce").dropna()]
+    a, b = _padded_limits(float(np.min(marks)), float(np.max(marks)))
+    half = 0.25 * (b - a)
+    finite_lo, finite_hi = lo[np.isfinite(lo)], hi[np.isfinite(hi)]
+    bottom = max(a - half, float(finite_lo.min())) if finite_lo.size else a
+    top = min(b + half, float(finite_hi.max())) if finite_hi.size else b
+    bottom, top = min(bottom, a), max(top, b)
+    ax.set_ylim(bottom, top)
+    for beyond, edge, marker in ((hi > top, 1.0, "^"), (lo < bottom, 0.0, "v")):
+        if beyond.any():
+            ax.plot(x[beyond], np.full(int(beyond.sum()), edge), marker, color="#6baed6",
+                    ms=4, transform=ax.get_xaxis_transform(), clip_on=False,
+                    label="± 2 SE beyond the axis")
 
 
 def _status_figure(counts: pd.Series) -> Figure:
@@ -440,6 +536,27 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
                          row_classes=classes)
 
 
+def _drawn_words(drawn_alerted: Sequence[str], alerted: Sequence[str],
+                 drawn_steady: Sequence[str], steady: Sequence[str], seed: int) -> str:
+    """Which wells the trends show, in words that fit one well as well as thousands."""
+    parts = []
+    if alerted:
+        which = ("it" if len(alerted) == 1 else "all" if len(drawn_alerted) == len(alerted)
+                 else f"the {len(drawn_alerted)} with the largest changes")
+        parts.append(f"{_count(len(alerted), 'well')} with an alert: {which}")
+    if steady:
+        if not drawn_steady:
+            which = "none drawn"
+        elif len(drawn_steady) == len(steady):
+            which = "it" if len(steady) == 1 else "all"
+        else:
+            which = f"{len(drawn_steady)} picked at random (seed {seed}) for comparison"
+        parts.append(f"{_count(len(steady), 'well')} without an alert: {which}")
+    if not parts:
+        return "No well has a usable card to draw."
+    return "Drawn: " + "; ".join(parts) + "."
+
+
 # --------------------------------------------------------------------------- entry point
 def write_fleet_report(
     results: pd.DataFrame | str | os.PathLike[str],
@@ -500,13 +617,14 @@ def write_fleet_report(
     else:
         settings = "alerts given by the caller"
     summary = summarise_wells(frame, alerts, names)
-    units = {q: _column_unit(summary, q) for q in names}
+    units = {q: _column_unit(frame, summary, q) for q in names}
     files: dict[str, Path] = {}
     alerts_path = out / "alerts.csv"
-    alerts.to_csv(alerts_path, index=False, date_format="%Y-%m-%dT%H:%M:%S%z")
+    # Text a spreadsheet would evaluate (an id "=...") is neutralised in the CSV files.
+    to_csv(alerts, alerts_path, date_format="%Y-%m-%dT%H:%M:%S%z")
     files["alerts"] = alerts_path
     wells_path = out / "wells.csv"
-    summary.to_csv(wells_path, index=False, date_format="%Y-%m-%dT%H:%M:%S%z")
+    to_csv(summary, wells_path, date_format="%Y-%m-%dT%H:%M:%S%z")
     files["wells"] = wells_path
 
     def save(fig: Figure, name: str) -> bytes:
@@ -543,6 +661,7 @@ def write_fleet_report(
 
     alerted = set(alerts["well_id"].astype(str))
     parts.append("<section id=\"distributions\"><h2>Quantities across wells</h2>")
+    parts.append("<div class=\"grid\">")
     taken: set[str] = set()
     for q in names:
         fig = _distribution_figure(frame, q, units[q], alerted)
@@ -550,11 +669,13 @@ def write_fleet_report(
             parts.append(f"<p>{_e(q)}: no usable value in any well.</p>")
             continue
         name = _safe_name(f"distribution_{q}", taken)
-        parts.append(_figure_html(save(fig, name), f"distribution of {q}",
-                                  f"Distribution across wells of each well's median {q} "
-                                  f"[{_unit_text(units[q])}]; triangles mark wells with an "
-                                  "alert."))
-    parts.append("</section>")
+        few = _n_wells(frame) < MIN_WELLS_HISTOGRAM
+        caption = (f"{q} [{_unit_text(units[q])}] of each well's cards, well by well (too "
+                   f"few wells for a histogram); red: wells with an alert." if few else
+                   f"Distribution across wells of each well's median {q} "
+                   f"[{_unit_text(units[q])}]; triangles mark wells with an alert.")
+        parts.append(_figure_html(save(fig, name), f"distribution of {q}", caption))
+    parts.append("</div></section>")
 
     # Which wells to draw: the alerted ones by decreasing size, then a random few steady.
     ranked = summary[summary["alerts"] > 0]["well_id"].astype(str).tolist()
@@ -566,14 +687,12 @@ def write_fleet_report(
     k = min(steady_sample, len(steady))
     drawn_steady = sorted(rng.choice(steady, size=k, replace=False).tolist()) if k else []
     parts.append("<section id=\"trends\"><h2>Trends per well</h2>")
-    parts.append(
-        f"<p>Drawn: {len(drawn_alerted)} of {len(ranked)} wells with an alert (largest "
-        f"change first) and {len(drawn_steady)} of {len(steady)} wells without, picked at "
-        f"random (seed {seed}) for comparison. Each panel shows one quantity over the "
-        "well's cards with a band of ± 2 standard errors; dashed lines mark the first "
-        "card of each change; crosses at the bottom mark cards whose fit failed or whose "
-        "input was invalid.</p>"
-    )
+    parts.append(f"<p>{_drawn_words(drawn_alerted, ranked, drawn_steady, steady, seed)} "
+                 "Each panel shows one quantity over the well's cards with a band of ± 2 "
+                 "standard errors (the axis is scaled to the values; a band running beyond "
+                 "it is cut and marked by a triangle at the edge); dashed lines mark the "
+                 "first card of each change; crosses at the bottom mark cards whose fit "
+                 "failed or whose input was invalid.</p>")
     groups = {str(w): g for w, g in frame.groupby(frame["well_id"].astype(str))}
     for label, wells in (("with an alert", drawn_alerted), ("without an alert", drawn_steady)):
         for well in wells:
@@ -582,7 +701,8 @@ def write_fleet_report(
             n_alerts = int((alerts["well_id"].astype(str) == well).sum())
             parts.append(f"<h3>Well {_e(well)} ({_e(label)}: {_count(n_alerts, 'alert')})</h3>")
             parts.append(_figure_html(save(fig, name), f"trends of well {well}",
-                                      f"Well {well}: quantities over time, value ± 2 SE."))
+                                      f"Well {well}: quantities over time, value ± 2 SE.",
+                                      wide=True))
     parts.append("</section>")
 
     body = "\n".join(parts)
