@@ -52,11 +52,26 @@ constant noise level; otherwise the values themselves.
    ``before`` and ``after`` are the medians of the segments on either side (up to the
    neighbouring change points), in the quantity's unit.
 
+Short histories
+---------------
+A history of ``min_short_cards`` (6) to ``min_cards`` usable cards (a week of daily cards)
+has no room for a reference window; it is tested as a whole by the **two-segment test**
+(:func:`pumpid.fleet.thresholds.two_segment_statistic`): for every split into two runs of
+at least 3 cards, the difference of their medians over its standard error, the scale being
+the cards' scatter about their own run's median (never below the median of the fits'
+standard errors); the largest over the splits is compared with its ``1 - alpha`` quantile
+simulated for that very length under the same steady noise as the CUSUM's
+(:func:`pumpid.fleet.thresholds.two_segment_threshold`, same Bonferroni ``alpha``). The
+maximising split is the change's first card; the alarm card is the history's last. At most
+one change per short history; a change in its first or last two cards cannot be told from
+an outlier and is not reported. ``benchmarks/bench_changes.py`` measures its false-alarm
+rate and power.
+
 Assumptions: levels are piecewise constant between changes with independent card-to-card
 noise; a slow drift shows as a late alert, or several alerts in the same direction. The
 first ``min_cards`` cards of a segment (the reference) cannot themselves hold a change
 (two changes closer than ``min_cards`` cards are seen as one); a history shorter than
-``min_cards + 1`` usable cards is not tested.
+``min_short_cards`` usable cards is not tested (:func:`history_coverage` says which).
 
 Column conventions of the results table
 ---------------------------------------
@@ -69,7 +84,6 @@ are treated as unknown (NaT time, NaN standard error, determined, no unit).
 
 from __future__ import annotations
 
-import functools
 import math
 import os
 from collections.abc import Sequence
@@ -78,19 +92,30 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import scipy.stats
 from numpy.typing import NDArray
 
 from pumpid import model_class
 
+from .thresholds import (
+    MAD_TO_SD,
+    MIN_SEGMENT,
+    cusum_paths,
+    cusum_threshold,
+    reference_phases,
+    two_segment_statistic,
+    two_segment_threshold,
+)
+
 __all__ = [
     "ALERT_COLUMNS",
+    "SHORT_MIN_CARDS",
     "STATUSES",
     "UNKNOWN_WELL",
     "USABLE_STATUSES",
     "available_quantities",
     "cusum_threshold",
     "detect_changes",
+    "history_coverage",
     "load_results",
     "summarise_wells",
 ]
@@ -106,15 +131,13 @@ ALERT_COLUMNS = (
     "well_id", "quantity", "unit", "first_card_id", "first_time", "alarm_card_id",
     "alarm_time", "before", "after", "change", "change_rel", "change_se", "direction",
     "kind", "scale", "noise", "first_index", "alarm_index", "delay_cards", "n_before",
-    "n_after", "threshold", "order",
+    "n_after", "threshold", "order", "method",
 )  # fmt: skip
+#: Shortest history :func:`detect_changes` tests by default (the two-segment test).
+SHORT_MIN_CARDS = 6
 
-# MAD -> standard deviation of a normal distribution.
-_MAD_TO_SD = 1.482602218505602
 # Standard error of a median relative to that of a mean, for normal data.
 _MEDIAN_SE = math.sqrt(math.pi / 2.0)
-# History lengths the threshold is calibrated for (19 % apart); a history is rounded up.
-_LENGTH_GRID = tuple(math.ceil(16 * 2 ** (j / 4)) for j in range(0, 48))
 
 
 # --------------------------------------------------------------------------- input
@@ -291,140 +314,7 @@ def _robust_sigma(y: NDArray[np.float64]) -> float:
     if y.size < 3:
         return math.nan
     d = np.diff(y)
-    return float(_MAD_TO_SD * np.median(np.abs(d - np.median(d))) / math.sqrt(2.0))
-
-
-def _cusum(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """One-sided CUSUM ``S_i = max(0, S_{i-1} + x_i)`` along the last axis, and ``C``.
-
-    Lindley's recursion in closed form: with ``C`` the cumulative sum (``C_0 = 0``),
-    ``S_i = C_i - min(C_0..C_i)``; no loop over cards.
-    """
-    c = np.cumsum(x, axis=-1)
-    zero = np.zeros((*x.shape[:-1], 1))
-    running_min = np.minimum.accumulate(np.concatenate([zero, c], axis=-1), axis=-1)[..., 1:]
-    return c - running_min, c
-
-
-def _bucket(n: int) -> int:
-    for b in _LENGTH_GRID:
-        if b >= n:
-            return b
-    return int(2 ** math.ceil(math.log2(n)))
-
-
-def cusum_threshold(
-    n_cards: int,
-    *,
-    min_cards: int = 30,
-    alpha: float = 0.01,
-    reference: float = 1.0,
-    clip: float = 3.0,
-    tail_dof: float = 5.0,
-    outlier_fraction: float = 0.01,
-    replicates: int | None = None,
-    seed: int = 20240611,
-) -> float:
-    """The CUSUM threshold with false-alarm probability ``alpha`` over a steady history.
-
-    Simulates the whole procedure of :func:`detect_changes` on steady series (Student-t
-    noise with ``tail_dof`` degrees of freedom, a fraction ``outlier_fraction`` of cards
-    replaced by outliers of 6-12 robust noise scales with random sign, the reference set
-    from the first ``min_cards`` cards) and returns the ``1 - alpha`` quantile of the
-    largest of the two sums over the monitored cards.
-
-    Parameters
-    ----------
-    n_cards : int
-        Cards monitored after the reference; rounded up to a grid of lengths
-        (16, 20, 23, 27, 32, ... : 19 % apart), so the probability holds for any shorter history.
-    min_cards : int, default 30
-        Cards in the reference window.
-    alpha : float, default 0.01
-        False-alarm probability per series.
-    reference, clip : float
-        The CUSUM's reference value and clipping level, in noise scales.
-    tail_dof : float, default 5
-        Degrees of freedom of the simulated noise (``inf``: Gaussian).
-    outlier_fraction : float, default 0.01
-        Fraction of simulated outlier cards.
-    replicates : int, optional
-        Simulated histories; default ``max(20000, 100 / alpha)`` (at least 100 expected
-        exceedances, so the quantile's own error is about 10 % in probability).
-    seed : int
-        Seed of the simulation (results are cached per argument set).
-
-    Returns
-    -------
-    float
-        The threshold ``h``, in noise scales: the simulated maxima's order statistic that is
-        an upper 95 % confidence bound of their ``1 - alpha`` quantile (so the simulation's
-        own error does not raise the false-alarm probability above ``alpha``).
-    """
-    if not 0 < alpha < 1:
-        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
-    reps = int(replicates) if replicates is not None else int(max(20000, math.ceil(100 / alpha)))
-    return _threshold(_bucket(max(int(n_cards), 1)), int(min_cards), float(alpha),
-                      float(reference), float(clip), float(tail_dof), float(outlier_fraction),
-                      reps, int(seed))  # fmt: skip
-
-
-def _phases(w: int, n: int) -> list[tuple[int, int, int]]:
-    """Reference windows and the cards each one standardises: ``(ref_end, lo, hi)``.
-
-    The reference grows by doubling: cards ``[w, 2w)`` are judged against the first ``w``,
-    ``[2w, 4w)`` against the first ``2w``, and so on, so the level and noise are known
-    better and better while a change that has just begun is still a small minority of the
-    reference (a median barely moves).
-    """
-    out = []
-    end = w
-    while end < n:
-        out.append((end, end, min(2 * end, n)))
-        end *= 2
-    return out
-
-
-@functools.lru_cache(maxsize=256)
-def _threshold(
-    n: int, w: int, alpha: float, k: float, c: float, dof: float, out_frac: float, reps: int,
-    seed: int,
-) -> float:
-    rng = np.random.default_rng(seed)
-    # Robust scale of the noise (what the MAD estimates), to size the outliers in it.
-    if math.isinf(dof):
-        robust = 1.0
-    else:
-        robust = float(scipy.stats.t.ppf(0.75, dof) / scipy.stats.norm.ppf(0.75))
-    total = n + w
-    maxima = []
-    chunk = max(1, min(reps, 4_000_000 // total))  # bounded memory
-    for first in range(0, reps, chunk):
-        r = min(chunk, reps - first)
-        e = rng.standard_normal((r, total)) if math.isinf(dof) else rng.standard_t(dof, (r, total))
-        if out_frac > 0:
-            hit = np.flatnonzero(rng.random(r * total) < out_frac)
-            e.ravel()[hit] = (robust * rng.uniform(6.0, 12.0, hit.size)
-                              * rng.choice([-1.0, 1.0], hit.size))
-        z = np.empty((r, n))
-        for ref_end, lo, hi in _phases(w, total):
-            base = e[:, :ref_end]
-            level = np.median(base, axis=1, keepdims=True)
-            d = np.diff(base, axis=1)
-            sigma = _MAD_TO_SD * np.median(
-                np.abs(d - np.median(d, axis=1, keepdims=True)), axis=1, keepdims=True
-            ) / math.sqrt(2.0)
-            z[:, lo - w:hi - w] = (e[:, lo:hi] - level) / sigma
-        z = np.clip(z, -c, c)
-        up, _ = _cusum(z - k)
-        down, _ = _cusum(-z - k)
-        maxima.append(np.maximum(up.max(axis=1), down.max(axis=1)))
-    # The simulated quantile has its own error; take the order statistic that leaves the
-    # true false-alarm probability below alpha with 95 % confidence (about 84 instead of
-    # 100 exceedances at the default size), so the error errs on the quiet side.
-    values = np.sort(np.concatenate(maxima))
-    allowed = int(scipy.stats.binom.ppf(0.05, values.size, alpha))
-    return float(values[values.size - 1 - allowed])
+    return float(MAD_TO_SD * np.median(np.abs(d - np.median(d))) / math.sqrt(2.0))
 
 
 @dataclass(frozen=True)
@@ -462,7 +352,7 @@ def _standardise(
     z = np.empty(n - start - w)
     sig_all = np.empty(n - start - w)
     ref_sigma = np.empty(n - start - w)
-    for ref_end, lo, hi in _phases(w, n - start):
+    for ref_end, lo, hi in reference_phases(w, n - start):
         base = y[start:start + ref_end]
         level = float(np.median(base))
         sigma = _robust_sigma(base)
@@ -507,8 +397,8 @@ def _scan(
                             clip=clip, tail_dof=tail_dof,
                             outlier_fraction=outlier_fraction)  # fmt: skip
         zc = np.clip(z[skip:], -clip, clip)
-        up, c_up = _cusum(zc - reference)
-        down, c_down = _cusum(-zc - reference)
+        up, c_up = cusum_paths(zc - reference)
+        down, c_down = cusum_paths(-zc - reference)
         hit_up = np.flatnonzero(up > h)
         hit_down = np.flatnonzero(down > h)
         if not hit_up.size and not hit_down.size:
@@ -549,6 +439,7 @@ def detect_changes(
     clip: float = 3.0,
     tail_dof: float = 5.0,
     outlier_fraction: float = 0.01,
+    min_short_cards: int = SHORT_MIN_CARDS,
 ) -> pd.DataFrame:
     """Find persistent shifts in each well's fitted quantities (see the module docstring).
 
@@ -561,8 +452,11 @@ def detect_changes(
         parameters by column name (``"p_k0"``). Default: every derived quantity in the
         table, plus every parameter when ``parameters`` is true.
     min_cards : int, default 30
-        Cards in each reference window; a well needs ``min_cards + 1`` usable cards of a
-        quantity for it to be tested, and changes closer than this are seen as one.
+        Cards in each reference window of the CUSUM, which tests histories of more than
+        ``min_cards`` usable cards of a quantity; changes closer than this are seen as one.
+    min_short_cards : int, default 6
+        Shortest history tested: histories of ``min_short_cards`` to ``min_cards`` cards are
+        tested as a whole by the two-segment test (at most one change each).
     false_alarm : float, default 0.01
         Probability that a steady well raises any alert over its history (split evenly
         over the quantities tested).
@@ -587,8 +481,8 @@ def detect_changes(
         on the log scale, in ``unit`` otherwise), ``first_index``/``alarm_index``
         (positions among the well's usable cards of that quantity), ``delay_cards``,
         ``n_before``/``n_after`` (cards in the segments), ``threshold`` (``h``, in noise
-        scales) and ``order`` (``"time"`` or ``"card order"``). Sorted by well, quantity
-        and first card.
+        scales) and ``order`` (``"time"`` or ``"card order"``), ``method`` (``"cusum"`` or
+        ``"two-segment"``). Sorted by well, quantity and first card.
 
     Raises
     ------
@@ -601,6 +495,10 @@ def detect_changes(
         raise ValueError(f"false_alarm must be in (0, 1), got {false_alarm}")
     if isinstance(min_cards, bool) or not isinstance(min_cards, int) or min_cards < 5:
         raise ValueError(f"min_cards must be an integer >= 5, got {min_cards!r}")
+    if (isinstance(min_short_cards, bool) or not isinstance(min_short_cards, int)
+            or min_short_cards < 2 * MIN_SEGMENT):
+        raise ValueError(f"min_short_cards must be an integer >= {2 * MIN_SEGMENT}, got "
+                         f"{min_short_cards!r}")
     if not (reference >= 0 and clip > reference):
         raise ValueError("need reference >= 0 and clip > reference")
     names = list(quantities) if quantities is not None else available_quantities(
@@ -621,7 +519,7 @@ def detect_changes(
         for i, well in enumerate(usable.wells):
             part = slice(usable.bounds[i], usable.bounds[i + 1])
             k = keep[part]
-            if k.sum() < min_cards + 1:
+            if k.sum() < min_short_cards:
                 continue
             rows.extend(_series_alerts(
                 values[part][k], se[part][k], usable.card_id[part][k], usable.time[part][k],
@@ -647,8 +545,14 @@ def _series_alerts(
     log = bool(np.all(values > 0))
     y = np.log(values) if log else values
     s = se / values if log else se
-    changes, _ = _scan(y, s, min_cards=min_cards, alpha=alpha, reference=reference, clip=clip,
-                       tail_dof=tail_dof, outlier_fraction=outlier_fraction)
+    if values.size > min_cards:
+        changes, _ = _scan(y, s, min_cards=min_cards, alpha=alpha, reference=reference,
+                           clip=clip, tail_dof=tail_dof, outlier_fraction=outlier_fraction)
+        method = "cusum"
+    else:
+        changes = _two_segments(y, s, alpha=alpha, tail_dof=tail_dof,
+                                outlier_fraction=outlier_fraction)
+        method = "two-segment"
     bounds = [0] + [c.first for c in changes] + [values.size]
     out = []
     for j, ch in enumerate(changes):
@@ -668,8 +572,73 @@ def _series_alerts(
             "noise": ch.noise, "first_index": ch.first, "alarm_index": ch.alarm,
             "delay_cards": ch.alarm - ch.first, "n_before": int(seg_b.size),
             "n_after": int(seg_a.size), "threshold": ch.threshold, "order": order,
+            "method": method,
         })  # fmt: skip
     return out
+
+
+def _two_segments(y: NDArray[np.float64], se: NDArray[np.float64], *, alpha: float,
+                  tail_dof: float, outlier_fraction: float) -> list[_Change]:
+    """The change of a short history (at most one), by the two-segment test.
+
+    The whole history is tested at once, so the alarm is its last card. The scale is never
+    below the median of the fits' standard errors; with neither scatter nor errors the
+    history is not tested.
+    """
+    finite = np.isfinite(se)
+    floor = float(np.median(se[finite])) if finite.any() else 0.0
+    stat, split, scale = two_segment_statistic(y, floor)
+    if not (math.isfinite(float(stat[0])) and scale[0] > 0):
+        return []
+    h = two_segment_threshold(y.size, alpha=alpha, tail_dof=tail_dof,
+                              outlier_fraction=outlier_fraction)
+    if not stat[0] > h:
+        return []
+    k = int(split[0])
+    rising = bool(np.median(y[k:]) > np.median(y[:k]))
+    return [_Change(k, y.size - 1, "up" if rising else "down", h, float(scale[0]))]
+
+
+def history_coverage(
+    table: pd.DataFrame | str | os.PathLike[str],
+    quantities: Sequence[str] | None = None,
+    *,
+    min_cards: int = 30,
+    min_short_cards: int = SHORT_MIN_CARDS,
+) -> pd.DataFrame:
+    """How each well's history of each quantity is tested by :func:`detect_changes`.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame or path
+        The results table.
+    quantities : sequence of str, optional
+        As for :func:`detect_changes` (default: every derived quantity).
+    min_cards, min_short_cards : int
+        As for :func:`detect_changes`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``well_id``, ``quantity``, ``cards`` (usable cards of the quantity, duplicates not
+        counted) and ``method``: ``"cusum"`` (more than ``min_cards``), ``"two-segment"``
+        (``min_short_cards`` to ``min_cards``) or ``"too short"``; every well with a usable
+        card, per quantity.
+    """
+    frame = load_results(table)
+    names = list(quantities) if quantities is not None else available_quantities(frame)
+    names = [q for q in names if _columns(q)[0] in frame.columns]
+    rows: list[dict[str, Any]] = []
+    if not frame.empty and names:
+        usable = _prepare(frame)
+        for q in names:
+            _, _, keep, _, _ = _quantity(usable, q)
+            for i, well in enumerate(usable.wells):
+                n = int(keep[usable.bounds[i]:usable.bounds[i + 1]].sum())
+                method = ("cusum" if n > min_cards else "two-segment" if n >= min_short_cards
+                          else "too short")
+                rows.append({"well_id": well, "quantity": q, "cards": n, "method": method})
+    return pd.DataFrame(rows, columns=["well_id", "quantity", "cards", "method"])
 
 
 def _median_se(values: NDArray[np.float64]) -> float:

@@ -37,11 +37,13 @@ from matplotlib.ticker import MaxNLocator
 from pumpid.report.spreadsheet import to_csv
 
 from .changes import (
+    SHORT_MIN_CARDS,
     STATUSES,
     UNKNOWN_WELL,
     USABLE_STATUSES,
     available_quantities,
     detect_changes,
+    history_coverage,
     load_results,
     summarise_wells,
 )
@@ -448,8 +450,41 @@ def _status_figure(counts: pd.Series) -> Figure:
 
 
 # --------------------------------------------------------------------------- sections
+#: How each way of testing a well reads in the report, by :func:`history_coverage`'s method.
+_TESTED = {"cusum": "CUSUM", "two-segment": "two-segment test", "too short": "too short"}
+
+
+def _well_tests(coverage: pd.DataFrame) -> pd.Series:
+    """How each well was tested: by its longest history over the quantities."""
+    rank = {"cusum": 0, "two-segment": 1, "too short": 2}
+    if coverage.empty:
+        return pd.Series(dtype=object)
+    best = coverage.assign(_r=coverage["method"].map(rank)).sort_values("_r", kind="stable")
+    return best.drop_duplicates("well_id").set_index("well_id")["method"]
+
+
+def _coverage_rows(coverage: pd.DataFrame, min_cards: int,
+                   min_short: int) -> list[tuple[str, str]]:
+    """Summary rows: how many wells each method tested, and which were too short."""
+    tests = _well_tests(coverage)
+    tests = tests[tests.index != UNKNOWN_WELL]
+    short = sorted(tests[tests == "too short"].index.astype(str))
+    rows = [("wells tested",
+             f"{_count((tests == 'cusum').sum(), 'well')} by the CUSUM (more than "
+             f"{min_cards} usable cards of a quantity), "
+             f"{_count((tests == 'two-segment').sum(), 'well')} by the two-segment test "
+             f"({min_short} to {min_cards} cards)")]
+    if short:
+        shown = ", ".join(short[:30]) + (f" and {len(short) - 30} more" if len(short) > 30
+                                         else "")
+        rows.append((f"wells too short to test (fewer than {min_short} usable cards of "
+                     "every quantity)", f"{_count(len(short), 'well')}: {shown}"))
+    return rows
+
+
 def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequence[str],
-                     units: dict[str, str], settings: str) -> str:
+                     units: dict[str, str], settings: str,
+                     coverage_rows: Sequence[tuple[str, str]] = ()) -> str:
     status = frame["status"].where(frame["status"].isin(STATUSES), "other")
     counts = status.value_counts().reindex([*STATUSES, "other"], fill_value=0)
     n = len(frame)
@@ -476,14 +511,23 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
          or "none"),
         ("alerts", f"{_count(len(alerts), 'alert')} in "
                    f"{_count(alerts['well_id'].nunique(), 'well')}"),
+        *coverage_rows,
         ("detection", settings),
     ]
     return _table(("item", "value"), rows)
 
 
-def _alerts_section(alerts: pd.DataFrame) -> str:
+def _alerts_section(alerts: pd.DataFrame, tests: pd.Series) -> str:
     if alerts.empty:
-        return "<p>No persistent change was found in any well.</p>"
+        tests = tests[tests.index != UNKNOWN_WELL]
+        tested = int((tests != "too short").sum())
+        if not tested:
+            return ("<p>No well was tested for changes: every well's history is too short "
+                    "(see the run summary).</p>")
+        short = int((tests == "too short").sum())
+        rest = f"; {_count(short, 'well')} too short to test" if short else ""
+        return (f"<p>No persistent change was found in the {_count(tested, 'well')} "
+                f"tested{rest}.</p>")
     order = alerts.assign(_size=alerts["change_se"].astype(float).abs()).sort_values(
         ["_size"], ascending=False, kind="stable")
     rows, classes = [], []
@@ -509,13 +553,14 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
                    limit: int) -> str:
     shown = summary.head(limit)
     # Counts and units go in the headers, so that every column fits a normal window.
-    headers = ["well", "cards", *STATUSES, "alerts", "largest change",
+    headers = ["well", "cards", *STATUSES, "alerts", "tested by", "largest change",
                *(f"latest {q} [{_unit_text(units.get(q, ''))}]" for q in quantities)]
     rows, classes = [], []
     for _, w in shown.iterrows():
         cells = [str(w["well_id"]), str(int(w["cards"]))]
         cells += [str(int(w["n_" + st.replace("-", "_")])) for st in STATUSES]
         cells.append(str(int(w["alerts"])))
+        cells.append(str(w.get("tested", "")))
         size = w["max_abs_change_se"]
         cells.append(f"{w['largest_change']} [{_num(size, 3)} standard errors]"
                      if w["alerts"] else "none")
@@ -609,14 +654,21 @@ def write_fleet_report(
     out = Path(os.fspath(out_dir))
     out.mkdir(parents=True, exist_ok=True)
     names = list(quantities) if quantities is not None else available_quantities(frame)
+    min_cards = int(detect_options.get("min_cards", 30))
+    min_short = int(detect_options.get("min_short_cards", SHORT_MIN_CARDS))
     if alerts is None:
         alerts = detect_changes(frame, names, **detect_options)
-        settings = (f"robust two-sided CUSUM; per-well false-alarm probability "
-                    f"{detect_options.get('false_alarm', 0.01):.1%}, reference windows of "
-                    f"{detect_options.get('min_cards', 30)} cards")
+        settings = (f"per-well false-alarm probability "
+                    f"{detect_options.get('false_alarm', 0.01):.1%}; robust two-sided CUSUM "
+                    f"with reference windows of {min_cards} cards for histories of more than "
+                    f"{min_cards} cards; the two-segment test for {min_short} to {min_cards}")
     else:
         settings = "alerts given by the caller"
+    coverage = history_coverage(frame, names, min_cards=min_cards, min_short_cards=min_short)
     summary = summarise_wells(frame, alerts, names)
+    tests = _well_tests(coverage)
+    summary["tested"] = [_TESTED.get(tests.get(w, ""), "no usable card")
+                         for w in summary["well_id"].astype(str)]
     units = {q: _column_unit(frame, summary, q) for q in names}
     files: dict[str, Path] = {}
     alerts_path = out / "alerts.csv"
@@ -638,7 +690,8 @@ def write_fleet_report(
     counts = status.value_counts().reindex([*STATUSES, "other"], fill_value=0)
     parts: list[str] = []
     parts.append("<section id=\"summary\"><h2>Run summary</h2>")
-    parts.append(_summary_section(frame, alerts, names, units, settings))
+    parts.append(_summary_section(frame, alerts, names, units, settings,
+                                  _coverage_rows(coverage, min_cards, min_short)))
     parts.append(_figure_html(save(_status_figure(counts), "status"), "status of every card",
                               "Cards by fit status. Only converged, boundary and poor-fit "
                               "cards enter the trends; the others are counted here."))
@@ -649,7 +702,7 @@ def write_fleet_report(
                  "card of the new level (the estimated change point), the card at which the "
                  "detector raised the alarm, the medians before and after, and the size of "
                  "the change in units of its standard error. Largest first.</p>")
-    parts.append(_alerts_section(alerts))
+    parts.append(_alerts_section(alerts, tests))
     parts.append("</section>")
 
     parts.append("<section id=\"wells\"><h2>Wells</h2>")
