@@ -5,7 +5,10 @@ cards into partitions of ``partition_size`` cards, has an engine fit each partit
 (:mod:`pumpid.fleet.engines`: :func:`fit_partition` with :func:`pumpid.pump.fit_cards`) and
 writes each partition's rows as one Parquet file of the results folder
 (:mod:`pumpid.fleet.store`) as soon as it is back. One row per input card, in input order:
-the columns of :meth:`pumpid.FitResult.to_row` plus ``file``, ``item`` and ``partition``;
+the columns of :meth:`pumpid.FitResult.to_row` plus ``file``, ``item``, ``partition`` and
+``duplicate_of`` (the id of the earlier card of the run whose data this card repeats
+exactly: the same card exported twice, e.g. as a "Full" and a "Current" card; such a card
+is fitted like any other and set aside by the change detection and the report);
 a card that could not be read or validated is a row of status ``invalid-input`` with the
 reason, and a file that could not be read at all is one such row named after the file,
 with the well and card time the file states (:mod:`pumpid.fleet.inputs`), if it states them.
@@ -24,6 +27,7 @@ seen so far (to keep them unique) and the summary's counts.
 
 from __future__ import annotations
 
+import hashlib
 import heapq
 import math
 import os
@@ -35,6 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 import pyarrow as pa
 
@@ -379,6 +384,50 @@ def _partitions(items: Iterator[CardItem | BadItem],
         yield k, start, chunk
 
 
+def _data_key(card: Any) -> bytes:
+    """What makes two cards the same card: the well, the samples, the time axis and the
+    units (not the id, the source or the card time: an export names a copy differently and
+    stamps it seconds later)."""
+    h = hashlib.blake2b(digest_size=16)
+    for part in (card.well_id, card.position_unit, card.load_unit, card.spm, card.period,
+                 card.periodic, card.position.size):
+        h.update(repr(part).encode("utf-8", "backslashreplace") + b"\x00")
+    for arr in (card.position, card.load, card.t):
+        h.update(b"-" if arr is None else np.ascontiguousarray(arr, dtype=float).tobytes())
+    return h.digest()
+
+
+class _Duplicates:
+    """Finds exact repeats of earlier cards of the run, in input order.
+
+    Memory: one 16-byte digest per distinct card (the run keeps every id already), and the
+    pending flags of the partitions in flight.
+    """
+
+    def __init__(self) -> None:
+        self.first: dict[bytes, str] = {}
+        self.of: dict[int, str] = {}  # run-wide item index -> the id it repeats
+
+    def scan(self, items: Iterator[CardItem | BadItem]) -> Iterator[CardItem | BadItem]:
+        for index, item in enumerate(items):
+            if isinstance(item, CardItem):
+                key = _data_key(item.card)
+                earlier = self.first.setdefault(key, item.card_id)
+                if earlier != item.card_id:
+                    self.of[index] = earlier
+            yield item
+
+    def mark(self, rows: list[dict[str, Any]]) -> None:
+        """Fill ``duplicate_of`` of a partition's rows (and forget their flags)."""
+        for row in rows:
+            row["duplicate_of"] = self.of.pop(int(row["item"]), None)
+
+    def forget(self, first: int, count: int) -> None:
+        """Drop the flags of a partition written by an earlier run."""
+        for i in range(first, first + count):
+            self.of.pop(i, None)
+
+
 def _files_for(inputs: Sequence[str | os.PathLike[str]], out: Path, resume: bool,
                exclude: Sequence[str | os.PathLike[str]]) -> list[InputFile]:
     if inputs:
@@ -499,27 +548,30 @@ def run_batch(
 
     pending: dict[Any, tuple[int, int]] = {}
     n_parts = 0
+    duplicates = _Duplicates()
     try:
         try:
-            stream = iter_items(files, read, on_file=on_file)
+            stream = duplicates.scan(iter_items(files, read, on_file=on_file))
             for k, first, items in _partitions(stream, partition_size):
                 n_parts = k + 1
                 interrupts.check()
                 if _already_written(store, k, items, summary, progress):
+                    duplicates.forget(first, len(items))
                     continue
                 while len(pending) >= runner.capacity:
                     interrupts.check()
-                    _collect(runner, pending, store, schema, summary, progress, 0.5)
+                    _collect(runner, pending, store, schema, summary, progress, 0.5,
+                             duplicates)
                 handle = runner.submit(fit_partition, items, fit, runner.threads, k, first)
                 pending[handle] = (k, len(items))
                 del items
             progress.all_read()
             while pending:
                 interrupts.check()
-                _collect(runner, pending, store, schema, summary, progress, 0.5)
+                _collect(runner, pending, store, schema, summary, progress, 0.5, duplicates)
         except KeyboardInterrupt:
             summary.interrupted = True
-            _wind_down(runner, pending, store, schema, summary, progress)
+            _wind_down(runner, pending, store, schema, summary, progress, duplicates)
     finally:
         runner.close()
         summary.elapsed = time.monotonic() - started
@@ -554,11 +606,12 @@ def _already_written(store: ResultsStore, k: int, items: list[CardItem | BadItem
 
 def _collect(runner: Engine, pending: dict[Any, tuple[int, int]], store: ResultsStore,
              schema: pa.Schema, summary: BatchSummary, progress: Progress,
-             timeout: float) -> None:
+             timeout: float, duplicates: _Duplicates) -> None:
     """Write the partitions that have come back (waiting up to ``timeout`` s for one)."""
     for handle in runner.wait(list(pending), timeout):
         k, n = pending.pop(handle)
         rows = runner.result(handle)
+        duplicates.mark(rows)
         table = store.write_part(k, rows, schema)
         summary.add(table)
         summary.fitted += n
@@ -567,7 +620,8 @@ def _collect(runner: Engine, pending: dict[Any, tuple[int, int]], store: Results
 
 
 def _wind_down(runner: Engine, pending: dict[Any, tuple[int, int]], store: ResultsStore,
-               schema: pa.Schema, summary: BatchSummary, progress: Progress) -> None:
+               schema: pa.Schema, summary: BatchSummary, progress: Progress,
+               duplicates: _Duplicates) -> None:
     """After a Ctrl-C: drop what has not started, finish and write what is being fitted;
     a second Ctrl-C drops those too."""
     waiting = [h for h in pending if not _running(h)]
@@ -581,7 +635,7 @@ def _wind_down(runner: Engine, pending: dict[Any, tuple[int, int]], store: Resul
     try:
         while pending:
             try:
-                _collect(runner, pending, store, schema, summary, progress, 0.5)
+                _collect(runner, pending, store, schema, summary, progress, 0.5, duplicates)
             except EngineError:
                 break  # workers stopped by the same Ctrl-C: what they had is dropped
     except KeyboardInterrupt:

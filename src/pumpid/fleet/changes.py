@@ -116,6 +116,7 @@ __all__ = [
     "cusum_threshold",
     "detect_changes",
     "history_coverage",
+    "is_duplicate",
     "load_results",
     "summarise_wells",
 ]
@@ -170,6 +171,15 @@ def load_results(results: pd.DataFrame | str | os.PathLike[str]) -> pd.DataFrame
         table = table.assign(well_id=table["well_id"].astype(object).where(
             table["well_id"].notna(), UNKNOWN_WELL))
     return table
+
+
+def is_duplicate(table: pd.DataFrame) -> pd.Series:
+    """Rows that repeat an earlier card exactly (``duplicate_of`` set by ``pumpid batch``):
+    counted once, so left out of trends, change detection and counts."""
+    if "duplicate_of" not in table.columns:
+        return pd.Series(False, index=table.index)
+    dup = table["duplicate_of"]
+    return dup.notna() & (dup.astype(str) != "")
 
 
 def available_quantities(table: pd.DataFrame, *, parameters: bool = False) -> list[str]:
@@ -241,7 +251,7 @@ class _Usable:
 def _prepare(frame: pd.DataFrame) -> _Usable:
     """Usable rows, sorted by well, then by time, or by table order for a well with any
     card whose time is unknown (a time order cannot place such a card)."""
-    rows = frame[frame["status"].isin(USABLE_STATUSES)]
+    rows = frame[frame["status"].isin(USABLE_STATUSES) & ~is_duplicate(frame)]
     well = rows["well_id"].astype(str).to_numpy()
     if "time" in rows.columns:
         time = pd.to_datetime(rows["time"], utc=True).dt.tz_localize(None)
@@ -670,8 +680,9 @@ def summarise_wells(
     Returns
     -------
     pandas.DataFrame
-        ``well_id``, ``cards`` (rows), ``n_<status>`` for each of :data:`STATUSES` (and
-        ``n_other`` for any other or missing status), ``usable``, ``first_time``,
+        ``well_id``, ``cards`` (rows; a card repeating an earlier one exactly is counted
+        once), ``n_<status>`` for each of :data:`STATUSES` (and ``n_other`` for any other
+        or missing status), ``usable``, ``duplicates`` (repeats set aside), ``first_time``,
         ``last_time``, ``alerts``, ``alerted_quantities`` (comma-separated),
         ``max_abs_change_se``, ``largest_change`` (a phrase with quantity, size and unit),
         and per quantity ``latest_<name>``, ``latest_<name>_unit`` (its last usable,
@@ -684,6 +695,9 @@ def summarise_wells(
     alerts = alerts if alerts is not None else pd.DataFrame(columns=list(ALERT_COLUMNS))
     if frame.empty:
         return pd.DataFrame(columns=["well_id", "cards"])
+    repeats = is_duplicate(frame)
+    n_repeats = repeats.groupby(frame["well_id"].astype(str)).sum()
+    frame = frame[~repeats]
     well = frame["well_id"].astype(str)
     status = frame["status"].where(frame["status"].isin(STATUSES), "other")
     out = pd.crosstab(well, status).reindex(columns=[*STATUSES, "other"], fill_value=0)
@@ -691,6 +705,7 @@ def summarise_wells(
     out.insert(0, "cards", out.sum(axis=1))
     out.insert(len(out.columns), "usable", out[[f"n_{st.replace('-', '_')}"
                                                 for st in USABLE_STATUSES]].sum(axis=1))
+    out["duplicates"] = n_repeats.reindex(out.index, fill_value=0).astype(int)
     if "time" in frame.columns:
         times = pd.to_datetime(frame["time"], utc=True).groupby(well)
         out["first_time"], out["last_time"] = times.min(), times.max()

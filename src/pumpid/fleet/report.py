@@ -44,6 +44,7 @@ from .changes import (
     available_quantities,
     detect_changes,
     history_coverage,
+    is_duplicate,
     load_results,
     summarise_wells,
 )
@@ -651,6 +652,11 @@ def write_fleet_report(
         If the table lacks ``well_id``, ``card_id`` or ``status``, or a quantity is unknown.
     """
     frame = load_results(results)
+    # A card exported twice counts once: its repeats are set aside before anything is
+    # counted, trended or tested, and the summary says how many.
+    repeats = is_duplicate(frame)
+    n_repeats = int(repeats.sum())
+    frame = frame[~repeats]
     out = Path(os.fspath(out_dir))
     out.mkdir(parents=True, exist_ok=True)
     names = list(quantities) if quantities is not None else available_quantities(frame)
@@ -690,8 +696,11 @@ def write_fleet_report(
     counts = status.value_counts().reindex([*STATUSES, "other"], fill_value=0)
     parts: list[str] = []
     parts.append("<section id=\"summary\"><h2>Run summary</h2>")
+    repeat_rows = [("duplicate cards set aside (exact repeats of an earlier card of the "
+                    "same well, counted once)", _count(n_repeats, "card"))]
     parts.append(_summary_section(frame, alerts, names, units, settings,
-                                  _coverage_rows(coverage, min_cards, min_short)))
+                                  [*repeat_rows, *_coverage_rows(coverage, min_cards,
+                                                                 min_short)]))
     parts.append(_figure_html(save(_status_figure(counts), "status"), "status of every card",
                               "Cards by fit status. Only converged, boundary and poor-fit "
                               "cards enter the trends; the others are counted here."))

@@ -55,8 +55,9 @@ _KIND = "pumpid batch results"
 _LAYOUT = 1
 _META_KEY = b"pumpid.partition"
 #: Columns a batch run adds to :meth:`pumpid.FitResult.to_row`'s: the input file's name, the
-#: card's position in the run's input order, and its partition.
-BATCH_COLUMNS = ("file", "item", "partition")
+#: card's position in the run's input order, its partition, and the id of the earlier card
+#: of the run it repeats exactly (same well, samples, time axis and units), if any.
+BATCH_COLUMNS = ("file", "item", "partition", "duplicate_of")
 
 
 class ResultsFolderError(ValueError):
@@ -82,7 +83,7 @@ def results_schema(model: type[Model]) -> pa.Schema:
     s, f, i, b = pa.string(), pa.float64(), pa.int64(), pa.bool_()
     cols: list[tuple[str, pa.DataType]] = [
         ("well_id", s), ("card_id", s), ("time", pa.timestamp("ns", tz="UTC")), ("source", s),
-        ("file", s), ("item", i), ("partition", i),
+        ("file", s), ("item", i), ("partition", i), ("duplicate_of", s),
         ("model", s), ("observe", s), ("status", s), ("reason", s), ("warnings", s),
         ("r2", f), ("rmse", f), ("cost", f), ("n_samples", i), ("nfev", i),
         ("position_unit", s), ("load_unit", s),
