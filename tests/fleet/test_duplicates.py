@@ -27,7 +27,9 @@ def test_exact_repeats_are_flagged_and_counted_once(tmp_path: Path) -> None:
     data["cards"][3:3] = [current, near]
     path.write_text(json.dumps(data), encoding="utf-8")
     out = tmp_path / "out"
-    run_batch([field], out, fit=FitSpec("msd"), partition_size=3, csv=tmp_path / "r.csv")
+    done = run_batch([field], out, fit=FitSpec("msd"), partition_size=3,
+                     csv=tmp_path / "r.csv")
+    assert done.duplicates == 1 and "duplicate cards: 1 repeat" in done.text()
     table = read_results(out)
     assert len(table) == 18
     flagged = table[table["duplicate_of"].notna()]

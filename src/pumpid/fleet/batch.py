@@ -286,6 +286,8 @@ class BatchSummary:
         Failed and invalid cards grouped by kind of reason: reason, cards, an example card.
     elapsed : float
         Seconds of this run, reading and writing included.
+    duplicates : int
+        Cards that repeat an earlier card of the run exactly (``duplicate_of`` set).
     interrupted : bool
         The run was stopped before the end; ``discarded`` partitions were dropped.
     """
@@ -301,6 +303,7 @@ class BatchSummary:
     costliest: list[tuple[str, int, int]] = field(default_factory=list)
     failures: list[tuple[str, int, str]] = field(default_factory=list)
     elapsed: float = 0.0
+    duplicates: int = 0
     interrupted: bool = False
     discarded: int = 0
     _heap: list[tuple[int, int, str]] = field(default_factory=list, repr=False)
@@ -311,6 +314,8 @@ class BatchSummary:
         cols = table.select(["card_id", "status", "reason", "nfev", "n_samples"]).to_pydict()
         self.partitions += 1
         self.cards += table.num_rows
+        if "duplicate_of" in table.column_names:
+            self.duplicates += table.num_rows - table.column("duplicate_of").null_count
         self.statuses.update(cols["status"])
         for cid, status, reason, nfev, n in zip(cols["card_id"], cols["status"], cols["reason"],
                                                 cols["nfev"], cols["n_samples"], strict=True):
@@ -340,7 +345,8 @@ class BatchSummary:
         state = "interrupted" if self.interrupted else "complete"
         lines = [f"pumpid batch: {state}; results in {self.results}",
                  f"  engine: {self.engine}",
-                 f"  cards: {self.cards} in {self.partitions} partitions "
+                 f"  cards: {self.cards} in {self.partitions} "
+                 f"partition{'' if self.partitions == 1 else 's'} "
                  f"({self.fitted} fitted in this run in {self.elapsed:.1f} s, "
                  f"{self.rate():.1f} cards/s end to end; {self.skipped} from an earlier run)"]
         if self.interrupted:
@@ -349,6 +355,9 @@ class BatchSummary:
         lines.append("  cards per status: " + (", ".join(
             f"{s} {n}" for s, n in sorted(self.statuses.items(), key=lambda x: -x[1]))
             or "none"))
+        if self.duplicates:
+            lines.append(f"  duplicate cards: {self.duplicates} repeat an earlier card of the "
+                         "run exactly (named in duplicate_of; the report counts them once)")
         lines.append(f"  unreadable files: {len(self.unreadable)}")
         for name, why in self.unreadable[:20]:
             lines.append(f"    {name}: {why}")
@@ -598,7 +607,8 @@ def _already_written(store: ResultsStore, k: int, items: list[CardItem | BadItem
             f"{store.part_path(k)} holds {info.rows} rows from {info.first!r} to {info.last!r}, "
             f"but the inputs give partition {k} as {want[0]} cards from {want[1]!r} to "
             f"{want[2]!r}; the folder is not from these inputs")
-    summary.add(store.read_part(k, ["card_id", "status", "reason", "nfev", "n_samples"]))
+    summary.add(store.read_part(k, ["card_id", "status", "reason", "nfev", "n_samples",
+                                    "duplicate_of"]))
     summary.skipped += info.rows
     progress.advance(info.rows, skipped=True)
     return True

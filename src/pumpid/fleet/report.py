@@ -32,7 +32,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
 
 from pumpid.report.spreadsheet import to_csv
 
@@ -47,6 +46,15 @@ from .changes import (
     is_duplicate,
     load_results,
     summarise_wells,
+)
+from .figures import (
+    MIN_WELLS_HISTOGRAM,
+    column_unit,
+    count_words,
+    distribution_figure,
+    status_figure,
+    unit_text,
+    well_figure,
 )
 
 __all__ = ["write_fleet_report"]
@@ -77,22 +85,11 @@ div.scroll { overflow-x: auto; max-width: 100%; }
 """
 
 _DPI = 96
-_STATUS_COLOURS = {"converged": "#176a2c", "boundary": "#c98a00", "poor-fit": "#9a5b00",
-                   "failed": "#b00020", "invalid-input": "#6b2d8c", "other": "#777777"}  # fmt: skip
 
 
 # --------------------------------------------------------------------------- formatting
 def _e(text: Any) -> str:
     return html.escape(str(text), quote=True)
-
-
-def _unit_text(unit: Any) -> str:
-    """A unit for display. A missing unit is said to be missing, never taken for
-    "dimensionless", which only ``-`` and ``1`` (as the models state it) mean."""
-    u = "" if unit is None or (isinstance(unit, float) and math.isnan(unit)) else str(unit)
-    if u == "":
-        return "unit not stated"
-    return "dimensionless" if u in ("-", "1") else u
 
 
 def _num(value: Any, digits: int = 4) -> str:
@@ -109,14 +106,8 @@ def _with_unit(value: Any, unit: Any, digits: int = 4) -> str:
     text = _num(value, digits)
     if text == "n/a":
         return text
-    u = _unit_text(unit)
+    u = unit_text(unit)
     return f"{text} ({u})" if u == "dimensionless" else f"{text} {u}"
-
-
-def _count(n: Any, word: str) -> str:
-    """``"1 card"``, ``"3 cards"``."""
-    k = int(n)
-    return f"{k} {word}" if k == 1 else f"{k} {word}s"
 
 
 def _n_wells(frame: pd.DataFrame) -> int:
@@ -185,274 +176,9 @@ def _version() -> str:
         return "(version unknown)"
 
 
-# --------------------------------------------------------------------------- data helpers
-def _column_unit(frame: pd.DataFrame, summary: pd.DataFrame, quantity: str) -> str:
-    """The unit of a quantity: the one most rows of the table state in its unit column
-    (whether or not their value is determined: a quantity no card determined still has its
-    unit), else the one most wells' latest values have (parameters: from the model)."""
-    stated = pd.Series(dtype=object)
-    if not quantity.startswith("p_") and f"d_{quantity}_unit" in frame.columns:
-        stated = frame[f"d_{quantity}_unit"].dropna().astype(str)
-    if not len(stated) and f"latest_{quantity}_unit" in summary.columns:
-        stated = summary[f"latest_{quantity}_unit"].dropna().astype(str)
-    stated = stated[stated != ""]
-    return str(stated.mode().iloc[0]) if len(stated) else ""
-
-
-def _values(frame: pd.DataFrame, quantity: str) -> tuple[pd.Series, pd.Series, pd.Series]:
-    """Value, standard error and a usable mask of one quantity over rows of ``frame``."""
-    col = quantity if quantity.startswith("p_") else f"d_{quantity}"
-    value = pd.to_numeric(frame[col], errors="coerce")
-    se = pd.Series(np.nan, index=frame.index)
-    for c in (f"{col}_se", f"{col}_se_hac"):
-        if c in frame.columns:
-            se = np.fmax(se, pd.to_numeric(frame[c], errors="coerce"))
-    ok = frame["status"].isin(USABLE_STATUSES) & value.notna() & np.isfinite(value)
-    det = f"{col}_determined"
-    if det in frame.columns:
-        ok &= frame[det].fillna(False).astype(bool)
-    return value, se, ok
-
-
-def _per_well_median(frame: pd.DataFrame, quantity: str) -> pd.Series:
-    value, _, ok = _values(frame, quantity)
-    return value[ok].groupby(frame.loc[ok, "well_id"].astype(str)).median()
-
-
-# --------------------------------------------------------------------------- figures
-#: Fewest wells whose values a histogram is drawn for; fewer are drawn one by one.
-MIN_WELLS_HISTOGRAM = 5
-
-
-def _padded_limits(lo: float, hi: float, log: bool = False) -> tuple[float, float]:
-    """Axis limits around the values ``lo..hi``, with a margin; a single value gets a
-    margin of 1 % of its size (a flat series is not stretched over an arbitrary range)."""
-    if log:
-        a, b = _padded_limits(math.log(lo), math.log(hi))
-        return math.exp(a), math.exp(b)
-    span = hi - lo
-    if not span > 0:
-        span = 0.02 * abs(hi) if hi != 0 else 1.0
-    return lo - 0.08 * span, hi + 0.08 * span
-
-
-def _few_wells_figure(frame: pd.DataFrame, quantity: str, unit: str,
-                      alerted: set[str]) -> Figure | None:
-    """Each well's cards of one quantity as a row: the median, the middle half and the
-    range, for fields of too few wells for a histogram."""
-    value, _, ok = _values(frame, quantity)
-    groups = value[ok].groupby(frame.loc[ok, "well_id"].astype(str))
-    if not len(groups):
-        return None
-    wells = sorted(groups.groups)
-    fig = Figure(figsize=(6.4, 0.8 + 0.45 * len(wells)))
-    ax = fig.subplots()
-    for row, well in enumerate(wells):
-        v = groups.get_group(well).to_numpy(dtype=float)
-        q = np.quantile(v, [0.0, 0.25, 0.5, 0.75, 1.0])
-        colour = "#b00020" if well in alerted else "#08519c"
-        ax.hlines(row, q[0], q[4], color=colour, lw=1)
-        ax.hlines(row, q[1], q[3], color=colour, lw=5, alpha=0.5)
-        ax.plot([q[2]], [row], "o", color=colour, ms=6)
-    ax.set_yticks(range(len(wells)), [f"{w} ({_count(groups.get_group(w).size, 'card')})"
-                                      for w in wells], fontsize=8)
-    ax.set_ylim(-0.6, len(wells) - 0.4)
-    allv = value[ok].to_numpy(dtype=float)
-    ax.set_xlim(*_padded_limits(float(allv.min()), float(allv.max())))
-    ax.set_xlabel(f"{quantity} of each card [{_unit_text(unit)}]: median (dot), middle "
-                  "half (bar), range (line)", fontsize=8)
-    ax.tick_params(labelsize=8)
-    ax.grid(alpha=0.3, axis="x")
-    ax.set_title(f"{quantity} in {_count(len(wells), 'well')}"
-                 + (" (red: with an alert)" if alerted & set(wells) else ""), fontsize=10)
-    return fig
-
-
-def _distribution_figure(frame: pd.DataFrame, quantity: str, unit: str,
-                         alerted: set[str]) -> Figure | None:
-    med = _per_well_median(frame, quantity)
-    if med.empty:
-        return None
-    if len(med) < MIN_WELLS_HISTOGRAM:
-        return _few_wells_figure(frame, quantity, unit, alerted)
-    fig = Figure(figsize=(6.4, 3.2))
-    ax = fig.subplots()
-    values = med.to_numpy(dtype=float)
-    # A log axis only pays when the values span an order of magnitude; below that it only
-    # squeezes the ticks.
-    positive = bool(np.all(values > 0)) and values.max() >= 10 * values.min()
-    bins: Any = int(np.clip(np.ceil(2 * np.sqrt(len(values))), 5, 30))
-    if positive:
-        bins = np.geomspace(values.min(), values.max(), bins + 1)
-        ax.set_xscale("log")
-    ax.hist(values, bins=bins, color="#8fb3d9", edgecolor="#4a6f96")
-    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-    marked = med[med.index.isin(alerted)]
-    if len(marked):
-        ax.plot(marked.to_numpy(), np.zeros(len(marked)), "v", color="#b00020", ms=8,
-                clip_on=False, label=f"wells with an alert ({len(marked)})")
-        # beside the axes, where it cannot hide a bar
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    ax.set_xlabel(f"{quantity}: median over each well's cards [{_unit_text(unit)}]")
-    ax.set_ylabel("wells")
-    ax.set_title(f"{quantity} across {len(med)} wells", fontsize=10)
-    return fig
-
-
-def _as_float(x: pd.Series) -> np.ndarray:
-    if np.issubdtype(x.dtype, np.datetime64):
-        return x.to_numpy().astype("datetime64[ns]").astype(np.int64).astype(float)
-    return x.to_numpy(dtype=float)
-
-
-def _segments(x: pd.Series, every: pd.Series) -> np.ndarray:
-    """A run number per point of ``x`` that changes across gaps far longer than the usual
-    spacing of the well's cards (``every``), so that bands and lines do not pretend to know
-    the quantity where no card was read or where the cards left it undetermined."""
-    step = np.diff(np.sort(_as_float(every)))
-    typical = float(np.median(step[step > 0])) if np.any(step > 0) else 0.0
-    if len(x) < 2 or typical <= 0:
-        return np.zeros(len(x), dtype=int)
-    return np.concatenate([[0], np.cumsum(np.diff(_as_float(x)) > 3.0 * typical)])
-
-
-def _band(v: pd.Series, s: pd.Series) -> tuple[np.ndarray, np.ndarray]:
-    """Limits of value +- 2 SE. A positive quantity gets them on the log scale (as the
-    change detector judges it), so the band never crosses zero."""
-    vv = v.to_numpy(dtype=float)
-    ss = np.where(np.isfinite(s.to_numpy(dtype=float)), s.to_numpy(dtype=float), 0.0)
-    if len(vv) and np.all(vv > 0):
-        factor = np.exp(2.0 * ss / vv)
-        return vv / factor, vv * factor
-    return vv - 2.0 * ss, vv + 2.0 * ss
-
-
-def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
-                 alerts: pd.DataFrame, well: str) -> Figure:
-    rows = len(quantities)
-    # As wide as the page's figures are shown (about 1350 px at 96 dpi), so that text is
-    # drawn at its size rather than scaled.
-    fig = Figure(figsize=(14.0, 2.0 * rows + 0.8))
-    axes = np.atleast_1d(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0])
-    # The time axis as the change detector orders the well: by time when every usable card
-    # has one; a failed or invalid card without a time then cannot be placed and is left out.
-    timed = ("time" in group.columns and group["time"].notna().any()
-             and group.loc[group["status"].isin(USABLE_STATUSES), "time"].notna().all())
-    ordered = (group[group["time"].notna()].sort_values("time", kind="stable") if timed
-               else group)
-    x_all = (pd.to_datetime(ordered["time"], utc=True).dt.tz_localize(None) if timed
-             else pd.Series(np.arange(len(ordered)), index=ordered.index))
-    bad = ordered["status"].isin(("failed", "invalid-input")).to_numpy()
-    for ax, q in zip(axes, quantities, strict=True):
-        value, se, ok = _values(ordered, q)
-        x, v, s = x_all[ok], value[ok], se[ok]
-        band_lo = band_hi = np.empty(0)
-        if len(v):
-            band_lo, band_hi = _band(v, s)
-            lo, hi = band_lo, band_hi
-            run = _segments(x, x_all)
-            for k in np.unique(run):
-                on = run == k
-                if on.sum() > 1:
-                    ax.fill_between(x[on], lo[on], hi[on], color="#c6dbef", linewidth=0,
-                                    label="value ± 2 SE")
-                else:  # a band needs two cards; a lone card gets its interval as a bar
-                    ax.vlines(x[on], lo[on], hi[on], color="#c6dbef", lw=3,
-                              label="value ± 2 SE")
-                ax.plot(x[on], v[on], ".-", color="#08519c", ms=3, lw=0.6,
-                        label="value of a card")
-        if bad.any():
-            # at the foot of the panel, whatever the quantity's range
-            ax.plot(x_all[bad], np.full(int(bad.sum()), 0.02), "x", color="#b00020", ms=5,
-                    transform=ax.get_xaxis_transform(), clip_on=False,
-                    label="failed / invalid card")
-        mine = alerts[(alerts["well_id"].astype(str) == well) & (alerts["quantity"] == q)]
-        ids = ordered["card_id"].astype(str)
-        for _, a in mine.iterrows():
-            key = ids == str(a["first_card_id"])
-            if not key.any():
-                continue
-            xc = x_all[key].iloc[0]
-            ax.axvline(xc, color="#b00020", lw=1.2, ls="--",
-                       label="first card of a change" if _ == mine.index[0] else None)
-            ax.annotate(f"{a['change_rel']:+.0%}", (xc, 0.98), xycoords=("data", "axes fraction"),
-                        xytext=(4, -10), textcoords="offset points", color="#b00020",
-                        fontsize=8, fontweight="bold")
-            # the medians before and after, over the cards they were taken from
-            xs, fi = x.to_numpy(), int(a["first_index"])
-            if 0 <= fi < xs.size:
-                lo = xs[max(fi - int(a["n_before"]), 0)]
-                hi = xs[min(fi + int(a["n_after"]) - 1, xs.size - 1)]
-                ax.hlines(a["before"], lo, xc, color="#e6550d", lw=1.5,
-                          label="median before / after")
-                ax.hlines(a["after"], xc, hi, color="#e6550d", lw=1.5)
-        if len(v):
-            _value_axis(ax, x, v.to_numpy(dtype=float), band_lo, band_hi, mine)
-        ax.set_ylabel(f"{q}\n[{_unit_text(units.get(q, ''))}]", fontsize=8)
-        ax.tick_params(labelsize=8)
-        ax.grid(alpha=0.3)
-    handles: dict[str, Any] = {}
-    for ax in axes:
-        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
-            handles.setdefault(lab, h)
-    # The legend above the panels, right of the title: below them it would sit on the
-    # time axis' label.
-    top = 1.0 - 0.45 / fig.get_figheight()
-    fig.legend(list(handles.values()), list(handles.keys()), loc="lower right", ncols=6,
-               fontsize=8, frameon=False, bbox_to_anchor=(0.99, top))
-    axes[-1].set_xlabel("card time (UTC)" if timed else "card number (no times in the table)")
-    fig.suptitle(f"well {well}", fontsize=10, x=0.01, y=top + 0.1 / fig.get_figheight(),
-                 ha="left", va="bottom")
-    fig.autofmt_xdate()
-    fig.subplots_adjust(top=top, bottom=0.9 / fig.get_figheight())
-    return fig
-
-
-def _value_axis(ax: Any, x: pd.Series, v: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                alerts: pd.DataFrame) -> None:
-    """Scale the value axis to the values (and the medians of any change), not to the
-    +-2 SE bands: a band may widen the axis by a quarter of the values' range on either side
-    at most (so the values fill at least two thirds of it); what runs
-    beyond is clipped and marked by a triangle at the axis edge."""
-    marks = [*v, *pd.to_numeric(alerts["before"], errors="coerce").dropna(),
-             *pd.to_numeric(alerts["after"], errors="coerce").dropna()]
-    a, b = _padded_limits(float(np.min(marks)), float(np.max(marks)))
-    half = 0.25 * (b - a)
-    finite_lo, finite_hi = lo[np.isfinite(lo)], hi[np.isfinite(hi)]
-    bottom = max(a - half, float(finite_lo.min())) if finite_lo.size else a
-    top = min(b + half, float(finite_hi.max())) if finite_hi.size else b
-    bottom, top = min(bottom, a), max(top, b)
-    ax.set_ylim(bottom, top)
-    for beyond, edge, marker in ((hi > top, 1.0, "^"), (lo < bottom, 0.0, "v")):
-        if beyond.any():
-            ax.plot(x[beyond], np.full(int(beyond.sum()), edge), marker, color="#6baed6",
-                    ms=4, transform=ax.get_xaxis_transform(), clip_on=False,
-                    label="± 2 SE beyond the axis")
-
-
-def _status_figure(counts: pd.Series) -> Figure:
-    fig = Figure(figsize=(7.5, 1.1))
-    ax = fig.subplots()
-    left = 0.0
-    total = float(counts.sum())
-    for st, n in counts.items():
-        if n == 0:
-            continue
-        ax.barh([0], [n], left=left, color=_STATUS_COLOURS.get(str(st), "#777777"),
-                label=f"{st}: {n} cards")
-        left += n
-    ax.set_xlim(0, max(total, 1))
-    ax.set_yticks([])
-    ax.set_xlabel("cards")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.9), ncols=3, fontsize=8,
-              frameon=False)
-    ax.set_title("fit status of every card", fontsize=10)
-    return fig
-
-
 # --------------------------------------------------------------------------- sections
 #: How each way of testing a well reads in the report, by :func:`history_coverage`'s method.
-_TESTED = {"cusum": "CUSUM", "two-segment": "two-segment test", "too short": "too short"}
+_TESTED = {"cusum": "CUSUM", "two-segment": "two-segment", "too short": "too short"}
 
 
 def _well_tests(coverage: pd.DataFrame) -> pd.Series:
@@ -471,15 +197,15 @@ def _coverage_rows(coverage: pd.DataFrame, min_cards: int,
     tests = tests[tests.index != UNKNOWN_WELL]
     short = sorted(tests[tests == "too short"].index.astype(str))
     rows = [("wells tested",
-             f"{_count((tests == 'cusum').sum(), 'well')} by the CUSUM (more than "
+             f"{count_words((tests == 'cusum').sum(), 'well')} by the CUSUM (more than "
              f"{min_cards} usable cards of a quantity), "
-             f"{_count((tests == 'two-segment').sum(), 'well')} by the two-segment test "
+             f"{count_words((tests == 'two-segment').sum(), 'well')} by the two-segment test "
              f"({min_short} to {min_cards} cards)")]
     if short:
         shown = ", ".join(short[:30]) + (f" and {len(short) - 30} more" if len(short) > 30
                                          else "")
         rows.append((f"wells too short to test (fewer than {min_short} usable cards of "
-                     "every quantity)", f"{_count(len(short), 'well')}: {shown}"))
+                     "every quantity)", f"{count_words(len(short), 'well')}: {shown}"))
     return rows
 
 
@@ -497,21 +223,21 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
         (frame["well_id"].isna() | (frame["well_id"].astype(str) == UNKNOWN_WELL)).sum()
     )
     rows = [
-        ("wells", _count(_n_wells(frame), "well")),
-        ("cards", _count(n, "card")),
-        *((("cards without a well (unreadable input)", _count(no_well, "card")),)
+        ("wells", count_words(_n_wells(frame), "well")),
+        ("cards", count_words(n, "card")),
+        *((("cards without a well (unreadable input)", count_words(no_well, "card")),)
           if no_well else ()),
         ("cards used for trends (converged, boundary, poor-fit)",
-         _count(counts[list(USABLE_STATUSES)].sum(), "card")),
-        *((f"status {st}", f"{_count(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
+         count_words(counts[list(USABLE_STATUSES)].sum(), "card")),
+        *((f"status {st}", f"{count_words(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
           for st in counts.index if counts[st] or st in STATUSES),
         ("cards without a time",
-         _count(times.isna().sum() if times is not None else n, "card")),
+         count_words(times.isna().sum() if times is not None else n, "card")),
         ("period covered", span),
-        ("quantities trended", ", ".join(f"{q} [{_unit_text(units[q])}]" for q in quantities)
+        ("quantities trended", ", ".join(f"{q} [{unit_text(units[q])}]" for q in quantities)
          or "none"),
-        ("alerts", f"{_count(len(alerts), 'alert')} in "
-                   f"{_count(alerts['well_id'].nunique(), 'well')}"),
+        ("alerts", f"{count_words(len(alerts), 'alert')} in "
+                   f"{count_words(alerts['well_id'].nunique(), 'well')}"),
         *coverage_rows,
         ("detection", settings),
     ]
@@ -526,8 +252,8 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series) -> str:
             return ("<p>No well was tested for changes: every well's history is too short "
                     "(see the run summary).</p>")
         short = int((tests == "too short").sum())
-        rest = f"; {_count(short, 'well')} too short to test" if short else ""
-        return (f"<p>No persistent change was found in the {_count(tested, 'well')} "
+        rest = f"; {count_words(short, 'well')} too short to test" if short else ""
+        return (f"<p>No persistent change was found in the {count_words(tested, 'well')} "
                 f"tested{rest}.</p>")
     order = alerts.assign(_size=alerts["change_se"].astype(float).abs()).sort_values(
         ["_size"], ascending=False, kind="stable")
@@ -537,7 +263,7 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series) -> str:
         rows.append([
             str(a["well_id"]), str(a["quantity"]),
             f"{a['first_card_id']} ({_when(a['first_time'])})",
-            f"{a['alarm_card_id']} ({_count(a['delay_cards'], 'card')} later)",
+            f"{a['alarm_card_id']} ({count_words(a['delay_cards'], 'card')} later)",
             f"{_with_unit(a['before'], unit)} → {_with_unit(a['after'], unit)}",
             f"{_with_unit(a['change'], unit)} ({float(a['change_rel']):+.1%})",
             _num(a["change_se"], 3), str(a["direction"]),
@@ -555,7 +281,7 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
     shown = summary.head(limit)
     # Counts and units go in the headers, so that every column fits a normal window.
     headers = ["well", "cards", *STATUSES, "alerts", "tested by", "largest change",
-               *(f"latest {q} [{_unit_text(units.get(q, ''))}]" for q in quantities)]
+               *(f"latest {q} [{unit_text(units.get(q, ''))}]" for q in quantities)]
     rows, classes = [], []
     for _, w in shown.iterrows():
         cells = [str(w["well_id"]), str(int(w["cards"]))]
@@ -567,7 +293,7 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
                      if w["alerts"] else "none")
         for q in quantities:
             unit = w.get(f"latest_{q}_unit", "")
-            same = _unit_text(unit) == _unit_text(units.get(q, ""))
+            same = unit_text(unit) == unit_text(units.get(q, ""))
             value = w.get(f"latest_{q}")
             cells.append(_num(value) if same else _with_unit(value, unit))
         rows.append(cells)
@@ -589,7 +315,7 @@ def _drawn_words(drawn_alerted: Sequence[str], alerted: Sequence[str],
     if alerted:
         which = ("it" if len(alerted) == 1 else "all" if len(drawn_alerted) == len(alerted)
                  else f"the {len(drawn_alerted)} with the largest changes")
-        parts.append(f"{_count(len(alerted), 'well')} with an alert: {which}")
+        parts.append(f"{count_words(len(alerted), 'well')} with an alert: {which}")
     if steady:
         if not drawn_steady:
             which = "none drawn"
@@ -597,7 +323,7 @@ def _drawn_words(drawn_alerted: Sequence[str], alerted: Sequence[str],
             which = "it" if len(steady) == 1 else "all"
         else:
             which = f"{len(drawn_steady)} picked at random (seed {seed}) for comparison"
-        parts.append(f"{_count(len(steady), 'well')} without an alert: {which}")
+        parts.append(f"{count_words(len(steady), 'well')} without an alert: {which}")
     if not parts:
         return "No well has a usable card to draw."
     return "Drawn: " + "; ".join(parts) + "."
@@ -675,7 +401,7 @@ def write_fleet_report(
     tests = _well_tests(coverage)
     summary["tested"] = [_TESTED.get(tests.get(w, ""), "no usable card")
                          for w in summary["well_id"].astype(str)]
-    units = {q: _column_unit(frame, summary, q) for q in names}
+    units = {q: column_unit(frame, summary, q) for q in names}
     files: dict[str, Path] = {}
     alerts_path = out / "alerts.csv"
     # Text a spreadsheet would evaluate (an id "=...") is neutralised in the CSV files.
@@ -697,11 +423,11 @@ def write_fleet_report(
     parts: list[str] = []
     parts.append("<section id=\"summary\"><h2>Run summary</h2>")
     repeat_rows = [("duplicate cards set aside (exact repeats of an earlier card of the "
-                    "same well, counted once)", _count(n_repeats, "card"))]
+                    "same well, counted once)", count_words(n_repeats, "card"))]
     parts.append(_summary_section(frame, alerts, names, units, settings,
                                   [*repeat_rows, *_coverage_rows(coverage, min_cards,
                                                                  min_short)]))
-    parts.append(_figure_html(save(_status_figure(counts), "status"), "status of every card",
+    parts.append(_figure_html(save(status_figure(counts), "status"), "status of every card",
                               "Cards by fit status. Only converged, boundary and poor-fit "
                               "cards enter the trends; the others are counted here."))
     parts.append("</section>")
@@ -726,16 +452,16 @@ def write_fleet_report(
     parts.append("<div class=\"grid\">")
     taken: set[str] = set()
     for q in names:
-        fig = _distribution_figure(frame, q, units[q], alerted)
+        fig = distribution_figure(frame, q, units[q], alerted)
         if fig is None:
             parts.append(f"<p>{_e(q)}: no usable value in any well.</p>")
             continue
         name = _safe_name(f"distribution_{q}", taken)
         few = _n_wells(frame) < MIN_WELLS_HISTOGRAM
-        caption = (f"{q} [{_unit_text(units[q])}] of each well's cards, well by well (too "
+        caption = (f"{q} [{unit_text(units[q])}] of each well's cards, well by well (too "
                    f"few wells for a histogram); red: wells with an alert." if few else
                    f"Distribution across wells of each well's median {q} "
-                   f"[{_unit_text(units[q])}]; triangles mark wells with an alert.")
+                   f"[{unit_text(units[q])}]; triangles mark wells with an alert.")
         parts.append(_figure_html(save(fig, name), f"distribution of {q}", caption))
     parts.append("</div></section>")
 
@@ -758,18 +484,19 @@ def write_fleet_report(
     groups = {str(w): g for w, g in frame.groupby(frame["well_id"].astype(str))}
     for label, wells in (("with an alert", drawn_alerted), ("without an alert", drawn_steady)):
         for well in wells:
-            fig = _well_figure(groups[well], names, units, alerts, well)
+            fig = well_figure(groups[well], names, units, alerts, well)
             name = _safe_name(f"well_{well}", taken)
             n_alerts = int((alerts["well_id"].astype(str) == well).sum())
-            parts.append(f"<h3>Well {_e(well)} ({_e(label)}: {_count(n_alerts, 'alert')})</h3>")
+            parts.append(f"<h3>Well {_e(well)} ({_e(label)}: "
+                         f"{count_words(n_alerts, 'alert')})</h3>")
             parts.append(_figure_html(save(fig, name), f"trends of well {well}",
                                       f"Well {well}: quantities over time, value ± 2 SE.",
                                       wide=True))
     parts.append("</section>")
 
     body = "\n".join(parts)
-    headline = (f"{_count(_n_wells(frame), 'well')}, {_count(len(frame), 'card')}, "
-                f"{_count(len(alerts), 'alert')}")
+    headline = (f"{count_words(_n_wells(frame), 'well')}, {count_words(len(frame), 'card')}, "
+                f"{count_words(len(alerts), 'alert')}")
     page = f"""<!DOCTYPE html>
 <html lang="en">
 <head>
