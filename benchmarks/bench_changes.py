@@ -19,6 +19,11 @@ of wells whose change was found (an alert whose first card is within 10 cards of
 one), the alarm delay (alarm card minus true first card: median, 90th percentile, largest)
 and the error of the estimated first card (fraction within 0 and +-3 cards, largest).
 
+Part 3, short histories (the two-segment test, 6 to 30 cards): false alarms of steady
+wells of 6, 8, 10, 15, 20 and 30 cards under the three noise models of part 1 (CV 4 %),
+and the fraction of wells whose step (after half the cards, -20 % ... +20 %) is found
+(an alert whose first card is within 1 card of the true one) at CV 1 %, 2 % and 4 %.
+
 Figures from one run (``--wells 6000``; 2 cores, Python 3.11, numpy 2.4, pandas 3.1; the
 run is seeded, so the same versions give the same counts):
 
@@ -29,6 +34,19 @@ run is seeded, so the same versions give the same counts):
   of wells and within +-3 cards for all;
 * steps of 10 %: at 2 % noise like the larger ones (largest delay 5); at 5 % noise a median
   delay of 8-10 cards, largest 26-40, first card within +-3 for 93-96.5 %.
+
+Part 3 from one run (``--short-only``, 2000 wells per cell; 1428 s on 2 shared cores):
+
+* false alarms (wells with any alert, target 1 %): 6 cards 0.35-0.50 %; 8 cards 0.35-1.10 %;
+  10 cards 0.65-1.20 %; 15 cards 0.65-0.85 %; 20 cards 0.55-1.00 %; 30 cards 0.70-1.10 %;
+  every 95 % interval contains or lies below 1 % (largest: Gaussian at 10 cards, 24 of 2000,
+  0.77-1.78 %). Calibrated on t5 noise alone, Gaussian wells of 10 cards alerted at 1.65 %
+  (1.14-2.31 %): hence the threshold is the larger of the t5+outlier and Gaussian ones;
+* steps found with their first card within 1 card (after half the cards): at 1 % noise
+  +-10 % in 97-100 % of wells from 6 cards on, +-5 % in 57-64 % at 6 cards, 88-94 % at 10,
+  99 % at 20; at 2 % noise +-20 % in 96-100 % from 6 cards, +-10 % in 65-72 % at 6 cards,
+  83-96 % at 10, 100 % at 20; at 4 % noise +-20 % in 59-75 % at 6 cards, 81-95 % at 10,
+  100 % at 20 (a +20 % step is 0.18 on the log scale, -20 % is 0.22: found more often).
 """
 
 from __future__ import annotations
@@ -127,17 +145,58 @@ def detection(n_wells: int, n_cards: int) -> None:
                 print(f"{cv:>5.1%}{factor - 1:>+7.0%}{found:>8.1%}")
 
 
+def short_false_alarms(n_wells: int) -> None:
+    print(f"\n3a. Short histories, false alarms: {n_wells} steady wells per cell x "
+          f"{len(QUANTITIES)} quantities, CV 4 %, false_alarm = 0.01 (two-segment test)")
+    print(f"{'cards':>6}{'noise':>14}{'wells alerting':>16}{'rate':>9}{'95 % interval':>20}"
+          f"{'time':>9}")
+    for n in (6, 8, 10, 15, 20, 30):
+        for seed, noise in enumerate(("gaussian", "t5", "t5+outliers")):
+            tab = table(n_wells, n, cv=0.04, noise=noise, seed=300 + 10 * n + seed)
+            t0 = time.perf_counter()
+            alerts = detect_changes(tab)
+            dt = time.perf_counter() - t0
+            k = alerts["well_id"].nunique()
+            lo, hi = clopper_pearson(k, n_wells)
+            print(f"{n:>6d}{noise:>14}{k:>16d}{k / n_wells:>9.2%}   [{lo:.2%}, {hi:.2%}]"
+                  f"{dt:>8.1f}s")
+
+
+def short_detection(n_wells: int) -> None:
+    print(f"\n3b. Short histories, detection: stiffness steps after half the cards; t5 noise; "
+          f"{n_wells} wells per cell; found = an alert whose first card is within 1 card")
+    print(f"{'cards':>6}{'CV':>6}" + "".join(f"{f - 1:>+8.0%}" for f in STEPS_SHORT))
+    for n in (6, 10, 20):
+        for cv in (0.01, 0.02, 0.04):
+            cells = []
+            for factor in STEPS_SHORT:
+                tab = table(n_wells, n, cv=cv, noise="t5", seed=int(7000 * cv + 100 * factor + n),
+                            step=("stiffness", factor, n // 2))
+                alerts = detect_changes(tab, ["stiffness"])
+                hits = alerts[(alerts["first_index"] - n // 2).abs() <= 1]
+                cells.append(hits["well_id"].nunique() / n_wells)
+            print(f"{n:>6d}{cv:>6.0%}" + "".join(f"{c:>8.1%}" for c in cells))
+
+
+STEPS_SHORT = (0.8, 0.9, 0.95, 1.05, 1.1, 1.2)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer wells")
     parser.add_argument("--wells", type=int, default=2000,
                         help="steady wells per noise model in part 1 (default 2000)")
+    parser.add_argument("--short-only", action="store_true",
+                        help="only part 3 (short histories)")
     args = parser.parse_args()
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, pandas {pd.__version__}, "
           f"{platform.machine()}")
     t0 = time.perf_counter()
-    false_alarms(500 if args.quick else args.wells, 300)
-    detection(50 if args.quick else 200, 300)
+    if not args.short_only:
+        false_alarms(500 if args.quick else args.wells, 300)
+        detection(50 if args.quick else 200, 300)
+    short_false_alarms(500 if args.quick else args.wells)
+    short_detection(50 if args.quick else 200)
     print(f"\ntotal {time.perf_counter() - t0:.0f} s (thresholds are simulated once per "
           "history length and cached)")
 

@@ -41,7 +41,8 @@ def test_report_files_and_page(table: pd.DataFrame, tmp_path: Path) -> None:
         assert (tmp_path / "out" / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     page = files["report"].read_text(encoding="utf-8")
     # self-contained: nothing fetched from anywhere, no script
-    assert "http" not in page.lower()
+    # (the embedded PNGs' base64 text may spell anything)
+    assert "http" not in re.sub(r"data:image/png;base64,[A-Za-z0-9+/=]+", "", page).lower()
     assert not re.search(r"<(script|link|iframe)\b", page, re.IGNORECASE)
     assert all(src.startswith("data:image/png;base64,")
                for src in re.findall(r'src="([^"]*)"', page))
@@ -56,7 +57,7 @@ def test_report_files_and_page(table: pd.DataFrame, tmp_path: Path) -> None:
         assert f"<h2>{section}</h2>" in page
     assert "13 wells" in page and "1800 cards" in page and "40 cards (2.2%)" in page
     assert "lbf/in" in page and "Hz" in page
-    assert "2 of 2 wells with an alert" in page and "2 of 11 wells without" in page
+    assert "2 wells with an alert: all; 11 wells without an alert: 2 picked at random" in page
 
 
 def test_alerts_csv_round_trips(table: pd.DataFrame, tmp_path: Path) -> None:
@@ -80,7 +81,7 @@ def test_many_wells_are_sampled_and_no_alerts(tmp_path: Path) -> None:
     page = files["report"].read_text(encoding="utf-8")
     assert "No persistent change was found" in page
     assert "The first 50 of 900 wells are listed" in page
-    assert "3 of 900 wells without" in page
+    assert "900 wells without an alert: 3 picked at random" in page
     assert len([k for k in files if k.startswith("well_")]) == 3
     assert len(pd.read_csv(files["wells"])) == 900
 
@@ -135,3 +136,51 @@ def test_tables_state_units_once_and_fit_a_window(table: pd.DataFrame, tmp_path:
     assert alerts_table.count("<th>") <= 9
     assert "<th>latest stiffness [lbf/in]</th>" in wells_table
     assert "lbf/in</td>" not in wells_table  # the unit is in the header, not in every row
+
+
+def test_a_quantity_no_card_determined_keeps_its_unit(tmp_path: Path) -> None:
+    # Real Kelvin wells: the third pole's time constant undetermined on every card. Its
+    # unit (s) does not depend on that; the page said "[dimensionless]" in three places.
+    frame = results_table(6, 40, cv=0.02, seed=8).assign(
+        d_time_constant=np.nan, d_time_constant_se=np.nan, d_time_constant_determined=False,
+        d_time_constant_unit="s")
+    files = write_fleet_report(frame, tmp_path, steady_sample=1)
+    page = files["report"].read_text(encoding="utf-8")
+    assert "time_constant [s]" in page and "<th>latest time_constant [s]</th>" in page
+    assert "dimensionless" not in page.replace("damping_ratio [dimensionless]", "")
+
+
+def _blue_rows(png: Path) -> tuple[int, int]:
+    """Rows spanned by the value line's colour, and by the band's (the panel's height when
+    the band runs off the axis)."""
+    from PIL import Image
+
+    rgb = np.asarray(Image.open(png).convert("RGB")).astype(int)
+    # the data's left part, clear of the legend (above the axes on the right)
+    left = rgb[:, rgb.shape[1] // 5: rgb.shape[1] // 2]
+    hit = np.flatnonzero((np.abs(left - (8, 81, 156)).sum(axis=2) < 40).any(axis=1))
+    band = np.flatnonzero((np.abs(left - (198, 219, 239)).sum(axis=2) < 20).any(axis=1))
+    return int(hit.max() - hit.min()), int(band.max() - band.min())
+
+
+def test_one_well_reads_right(tmp_path: Path) -> None:
+    # One well, 76 cards, stiffness 100-200 lbf/in with standard errors so large that the
+    # +-2 SE bands run from about 0 to over 1000.
+    frame = results_table(1, 76, cv=0.02, seed=9)
+    frame["d_stiffness"] = np.random.default_rng(1).uniform(100.0, 200.0, 76)
+    frame["d_stiffness_se"] = 0.6 * frame["d_stiffness"]
+    files = write_fleet_report(frame, tmp_path, quantities=["stiffness"])
+    page = files["report"].read_text(encoding="utf-8")
+    assert "Drawn: 1 well without an alert: it." in page
+    assert "0 of 0" not in page
+    assert "too few wells for a histogram" in page
+    # the values span most of the panel's height, not a sliver of an axis made for bands
+    span, height = _blue_rows(files["well_W0000"])
+    assert span > 0.45 * height, (span, height)  # about 0.15 when scaled to the bands
+    from PIL import Image
+
+    rgb = np.asarray(Image.open(files["well_W0000"]).convert("RGB")).astype(int)
+    assert rgb.shape[1] >= 1200  # the page's width
+    marked = (np.abs(rgb - (107, 174, 214)).sum(axis=2) < 30).sum()
+    assert marked > 50  # the cut bands' triangles
+    assert 'class="wide"' in page

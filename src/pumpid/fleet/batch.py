@@ -5,7 +5,10 @@ cards into partitions of ``partition_size`` cards, has an engine fit each partit
 (:mod:`pumpid.fleet.engines`: :func:`fit_partition` with :func:`pumpid.pump.fit_cards`) and
 writes each partition's rows as one Parquet file of the results folder
 (:mod:`pumpid.fleet.store`) as soon as it is back. One row per input card, in input order:
-the columns of :meth:`pumpid.FitResult.to_row` plus ``file``, ``item`` and ``partition``;
+the columns of :meth:`pumpid.FitResult.to_row` plus ``file``, ``item``, ``partition`` and
+``duplicate_of`` (the id of the earlier card of the run whose data this card repeats
+exactly: the same card exported twice, e.g. as a "Full" and a "Current" card; such a card
+is fitted like any other and set aside by the change detection and the report);
 a card that could not be read or validated is a row of status ``invalid-input`` with the
 reason, and a file that could not be read at all is one such row named after the file,
 with the well and card time the file states (:mod:`pumpid.fleet.inputs`), if it states them.
@@ -24,6 +27,7 @@ seen so far (to keep them unique) and the summary's counts.
 
 from __future__ import annotations
 
+import hashlib
 import heapq
 import math
 import os
@@ -35,11 +39,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 import pyarrow as pa
 
 from pumpid import __version__, interrupts
 from pumpid.models import Model, model_class
+from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
 
 from .defaults import PARTITION_SIZE
 from .downhole import DownholeSpec, add_pump_columns, pump_schema
@@ -286,6 +292,8 @@ class BatchSummary:
         Failed and invalid cards grouped by kind of reason: reason, cards, an example card.
     elapsed : float
         Seconds of this run, reading and writing included.
+    duplicates : int
+        Cards that repeat an earlier card of the run exactly (``duplicate_of`` set).
     interrupted : bool
         The run was stopped before the end; ``discarded`` partitions were dropped.
     """
@@ -301,6 +309,7 @@ class BatchSummary:
     costliest: list[tuple[str, int, int]] = field(default_factory=list)
     failures: list[tuple[str, int, str]] = field(default_factory=list)
     elapsed: float = 0.0
+    duplicates: int = 0
     interrupted: bool = False
     discarded: int = 0
     _heap: list[tuple[int, int, str]] = field(default_factory=list, repr=False)
@@ -311,6 +320,8 @@ class BatchSummary:
         cols = table.select(["card_id", "status", "reason", "nfev", "n_samples"]).to_pydict()
         self.partitions += 1
         self.cards += table.num_rows
+        if "duplicate_of" in table.column_names:
+            self.duplicates += table.num_rows - table.column("duplicate_of").null_count
         self.statuses.update(cols["status"])
         for cid, status, reason, nfev, n in zip(cols["card_id"], cols["status"], cols["reason"],
                                                 cols["nfev"], cols["n_samples"], strict=True):
@@ -340,7 +351,8 @@ class BatchSummary:
         state = "interrupted" if self.interrupted else "complete"
         lines = [f"pumpid batch: {state}; results in {self.results}",
                  f"  engine: {self.engine}",
-                 f"  cards: {self.cards} in {self.partitions} partitions "
+                 f"  cards: {self.cards} in {self.partitions} "
+                 f"partition{'' if self.partitions == 1 else 's'} "
                  f"({self.fitted} fitted in this run in {self.elapsed:.1f} s, "
                  f"{self.rate():.1f} cards/s end to end; {self.skipped} from an earlier run)"]
         if self.interrupted:
@@ -349,6 +361,9 @@ class BatchSummary:
         lines.append("  cards per status: " + (", ".join(
             f"{s} {n}" for s, n in sorted(self.statuses.items(), key=lambda x: -x[1]))
             or "none"))
+        if self.duplicates:
+            lines.append(f"  duplicate cards: {self.duplicates} repeat an earlier card of the "
+                         "run exactly (named in duplicate_of; the report counts them once)")
         lines.append(f"  unreadable files: {len(self.unreadable)}")
         for name, why in self.unreadable[:20]:
             lines.append(f"    {name}: {why}")
@@ -382,6 +397,50 @@ def _partitions(items: Iterator[CardItem | BadItem],
             k, start, chunk = k + 1, start + size, []
     if chunk:
         yield k, start, chunk
+
+
+def _data_key(card: Any) -> bytes:
+    """What makes two cards the same card: the well, the samples, the time axis and the
+    units (not the id, the source or the card time: an export names a copy differently and
+    stamps it seconds later)."""
+    h = hashlib.blake2b(digest_size=16)
+    for part in (card.well_id, card.position_unit, card.load_unit, card.spm, card.period,
+                 card.periodic, card.position.size):
+        h.update(repr(part).encode("utf-8", "backslashreplace") + b"\x00")
+    for arr in (card.position, card.load, card.t):
+        h.update(b"-" if arr is None else np.ascontiguousarray(arr, dtype=float).tobytes())
+    return h.digest()
+
+
+class _Duplicates:
+    """Finds exact repeats of earlier cards of the run, in input order.
+
+    Memory: one 16-byte digest per distinct card (the run keeps every id already), and the
+    pending flags of the partitions in flight.
+    """
+
+    def __init__(self) -> None:
+        self.first: dict[bytes, str] = {}
+        self.of: dict[int, str] = {}  # run-wide item index -> the id it repeats
+
+    def scan(self, items: Iterator[CardItem | BadItem]) -> Iterator[CardItem | BadItem]:
+        for index, item in enumerate(items):
+            if isinstance(item, CardItem):
+                key = _data_key(item.card)
+                earlier = self.first.setdefault(key, item.card_id)
+                if earlier != item.card_id:
+                    self.of[index] = earlier
+            yield item
+
+    def mark(self, rows: list[dict[str, Any]]) -> None:
+        """Fill ``duplicate_of`` of a partition's rows (and forget their flags)."""
+        for row in rows:
+            row["duplicate_of"] = self.of.pop(int(row["item"]), None)
+
+    def forget(self, first: int, count: int) -> None:
+        """Drop the flags of a partition written by an earlier run."""
+        for i in range(first, first + count):
+            self.of.pop(i, None)
 
 
 def _files_for(inputs: Sequence[str | os.PathLike[str]], out: Path, resume: bool,
@@ -514,17 +573,20 @@ def run_batch(
 
     pending: dict[Any, tuple[int, int]] = {}
     n_parts = 0
+    duplicates = _Duplicates()
     try:
         try:
-            stream = iter_items(files, read, on_file=on_file)
+            stream = duplicates.scan(iter_items(files, read, on_file=on_file))
             for k, first, items in _partitions(stream, partition_size):
                 n_parts = k + 1
                 interrupts.check()
                 if _already_written(store, k, items, summary, progress):
+                    duplicates.forget(first, len(items))
                     continue
                 while len(pending) >= runner.capacity:
                     interrupts.check()
-                    _collect(runner, pending, store, schema, summary, progress, 0.5)
+                    _collect(runner, pending, store, schema, summary, progress, 0.5,
+                             duplicates)
                 handle = runner.submit(fit_partition, items, fit, runner.threads, k, first,
                                        downhole)
                 pending[handle] = (k, len(items))
@@ -532,10 +594,10 @@ def run_batch(
             progress.all_read()
             while pending:
                 interrupts.check()
-                _collect(runner, pending, store, schema, summary, progress, 0.5)
+                _collect(runner, pending, store, schema, summary, progress, 0.5, duplicates)
         except KeyboardInterrupt:
             summary.interrupted = True
-            _wind_down(runner, pending, store, schema, summary, progress)
+            _wind_down(runner, pending, store, schema, summary, progress, duplicates)
     finally:
         runner.close()
         summary.elapsed = time.monotonic() - started
@@ -562,7 +624,8 @@ def _already_written(store: ResultsStore, k: int, items: list[CardItem | BadItem
             f"{store.part_path(k)} holds {info.rows} rows from {info.first!r} to {info.last!r}, "
             f"but the inputs give partition {k} as {want[0]} cards from {want[1]!r} to "
             f"{want[2]!r}; the folder is not from these inputs")
-    summary.add(store.read_part(k, ["card_id", "status", "reason", "nfev", "n_samples"]))
+    summary.add(store.read_part(k, ["card_id", "status", "reason", "nfev", "n_samples",
+                                    "duplicate_of"]))
     summary.skipped += info.rows
     progress.advance(info.rows, skipped=True)
     return True
@@ -570,11 +633,12 @@ def _already_written(store: ResultsStore, k: int, items: list[CardItem | BadItem
 
 def _collect(runner: Engine, pending: dict[Any, tuple[int, int]], store: ResultsStore,
              schema: pa.Schema, summary: BatchSummary, progress: Progress,
-             timeout: float) -> None:
+             timeout: float, duplicates: _Duplicates) -> None:
     """Write the partitions that have come back (waiting up to ``timeout`` s for one)."""
     for handle in runner.wait(list(pending), timeout):
         k, n = pending.pop(handle)
         rows = runner.result(handle)
+        duplicates.mark(rows)
         table = store.write_part(k, rows, schema)
         summary.add(table)
         summary.fitted += n
@@ -583,7 +647,8 @@ def _collect(runner: Engine, pending: dict[Any, tuple[int, int]], store: Results
 
 
 def _wind_down(runner: Engine, pending: dict[Any, tuple[int, int]], store: ResultsStore,
-               schema: pa.Schema, summary: BatchSummary, progress: Progress) -> None:
+               schema: pa.Schema, summary: BatchSummary, progress: Progress,
+               duplicates: _Duplicates) -> None:
     """After a Ctrl-C: drop what has not started, finish and write what is being fitted;
     a second Ctrl-C drops those too."""
     waiting = [h for h in pending if not _running(h)]
@@ -597,7 +662,7 @@ def _wind_down(runner: Engine, pending: dict[Any, tuple[int, int]], store: Resul
     try:
         while pending:
             try:
-                _collect(runner, pending, store, schema, summary, progress, 0.5)
+                _collect(runner, pending, store, schema, summary, progress, 0.5, duplicates)
             except EngineError:
                 break  # workers stopped by the same Ctrl-C: what they had is dropped
     except KeyboardInterrupt:
@@ -622,9 +687,9 @@ def write_csv(store: ResultsStore, partitions: int, path: Path) -> Path:
     try:
         with open(tmp, "w", encoding="utf-8", newline="") as fh:
             for k in range(partitions):
-                frame = to_frame(store.read_part(k))
-                frame.to_csv(fh, index=False, header=(k == 0),
-                             date_format="%Y-%m-%dT%H:%M:%SZ")
+                # Parquet keeps the raw text; the CSV is for spreadsheets (see neutralise).
+                spreadsheet_csv(to_frame(store.read_part(k)), fh, header=(k == 0),
+                                date_format="%Y-%m-%dT%H:%M:%SZ")
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)

@@ -52,11 +52,26 @@ constant noise level; otherwise the values themselves.
    ``before`` and ``after`` are the medians of the segments on either side (up to the
    neighbouring change points), in the quantity's unit.
 
+Short histories
+---------------
+A history of ``min_short_cards`` (6) to ``min_cards`` usable cards (a week of daily cards)
+has no room for a reference window; it is tested as a whole by the **two-segment test**
+(:func:`pumpid.fleet.thresholds.two_segment_statistic`): for every split into two runs of
+at least 3 cards, the difference of their medians over its standard error, the scale being
+the cards' scatter about their own run's median (never below the median of the fits'
+standard errors); the largest over the splits is compared with its ``1 - alpha`` quantile
+simulated for that very length under the same steady noise as the CUSUM's
+(:func:`pumpid.fleet.thresholds.two_segment_threshold`, same Bonferroni ``alpha``). The
+maximising split is the change's first card; the alarm card is the history's last. At most
+one change per short history; a change in its first or last two cards cannot be told from
+an outlier and is not reported. ``benchmarks/bench_changes.py`` measures its false-alarm
+rate and power.
+
 Assumptions: levels are piecewise constant between changes with independent card-to-card
 noise; a slow drift shows as a late alert, or several alerts in the same direction. The
 first ``min_cards`` cards of a segment (the reference) cannot themselves hold a change
 (two changes closer than ``min_cards`` cards are seen as one); a history shorter than
-``min_cards + 1`` usable cards is not tested.
+``min_short_cards`` usable cards is not tested (:func:`history_coverage` says which).
 
 Column conventions of the results table
 ---------------------------------------
@@ -69,7 +84,6 @@ are treated as unknown (NaT time, NaN standard error, determined, no unit).
 
 from __future__ import annotations
 
-import functools
 import math
 import os
 from collections.abc import Sequence
@@ -78,21 +92,25 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import scipy.stats
 from numpy.typing import NDArray
 
 from pumpid import model_class
 
+from .detectors import robust_sigma, scan_cusum, scan_two_segments
 from .downhole import is_pump_quantity, pump_quantities, pump_usable
+from .thresholds import MIN_SEGMENT, cusum_threshold
 
 __all__ = [
     "ALERT_COLUMNS",
+    "SHORT_MIN_CARDS",
     "STATUSES",
     "UNKNOWN_WELL",
     "USABLE_STATUSES",
     "available_quantities",
     "cusum_threshold",
     "detect_changes",
+    "history_coverage",
+    "is_duplicate",
     "load_results",
     "summarise_wells",
 ]
@@ -108,15 +126,13 @@ ALERT_COLUMNS = (
     "well_id", "quantity", "unit", "first_card_id", "first_time", "alarm_card_id",
     "alarm_time", "before", "after", "change", "change_rel", "change_se", "direction",
     "kind", "scale", "noise", "first_index", "alarm_index", "delay_cards", "n_before",
-    "n_after", "threshold", "order",
+    "n_after", "threshold", "order", "method",
 )  # fmt: skip
+#: Shortest history :func:`detect_changes` tests by default (the two-segment test).
+SHORT_MIN_CARDS = 6
 
-# MAD -> standard deviation of a normal distribution.
-_MAD_TO_SD = 1.482602218505602
 # Standard error of a median relative to that of a mean, for normal data.
 _MEDIAN_SE = math.sqrt(math.pi / 2.0)
-# History lengths the threshold is calibrated for (19 % apart); a history is rounded up.
-_LENGTH_GRID = tuple(math.ceil(16 * 2 ** (j / 4)) for j in range(0, 48))
 
 
 # --------------------------------------------------------------------------- input
@@ -149,6 +165,15 @@ def load_results(results: pd.DataFrame | str | os.PathLike[str]) -> pd.DataFrame
         table = table.assign(well_id=table["well_id"].astype(object).where(
             table["well_id"].notna(), UNKNOWN_WELL))
     return table
+
+
+def is_duplicate(table: pd.DataFrame) -> pd.Series:
+    """Rows that repeat an earlier card exactly (``duplicate_of`` set by ``pumpid batch``):
+    counted once, so left out of trends, change detection and counts."""
+    if "duplicate_of" not in table.columns:
+        return pd.Series(False, index=table.index)
+    dup = table["duplicate_of"]
+    return dup.notna() & (dup.astype(str) != "")
 
 
 def available_quantities(table: pd.DataFrame, *, parameters: bool = False) -> list[str]:
@@ -223,7 +248,8 @@ def _prepare(frame: pd.DataFrame) -> _Usable:
     """Usable rows, sorted by well, then by time, or by table order for a well with any
     card whose time is unknown (a time order cannot place such a card)."""
     # A card's pump quantities count when its downhole card was computed, whatever its fit.
-    rows = frame[frame["status"].isin(USABLE_STATUSES) | pump_usable(frame)]
+    rows = frame[(frame["status"].isin(USABLE_STATUSES) | pump_usable(frame))
+                 & ~is_duplicate(frame)]
     well = rows["well_id"].astype(str).to_numpy()
     if "time" in rows.columns:
         time = pd.to_datetime(rows["time"], utc=True).dt.tz_localize(None)
@@ -270,12 +296,18 @@ def _quantity(
     units = [""] * n_wells
     if unit_col is not None and unit_col in frame.columns:
         stated = frame[unit_col].to_numpy(dtype=object)
+        # A well's unit is the one most of its kept values state; a well with no kept value
+        # (every card left the quantity undetermined) still has the unit its rows state,
+        # which does not depend on whether the value is known.
+        for has in (pd.notna(stated), keep & pd.notna(stated)):
+            if has.any():
+                counts = pd.DataFrame({"w": code[has],
+                                       "u": stated[has].astype(str)}).value_counts()
+                major = counts.reset_index().drop_duplicates("w")  # sorted by count
+                for w, u in zip(major["w"], major["u"], strict=True):
+                    units[int(w)] = u
         has = keep & pd.notna(stated)
         if has.any():
-            counts = pd.DataFrame({"w": code[has], "u": stated[has].astype(str)}).value_counts()
-            major = counts.reset_index().drop_duplicates("w")  # value_counts sorts by count
-            for w, u in zip(major["w"], major["u"], strict=True):
-                units[int(w)] = u
             # Values in another unit cannot be compared with these: leave them out (a row
             # that states no unit is taken to share the well's).
             well_unit = np.array(units, dtype=object)[code]
@@ -284,258 +316,6 @@ def _quantity(
         units = [_parameter_unit(frame.iloc[usable.bounds[i]:usable.bounds[i + 1]], q)
                  for i in range(n_wells)]  # fmt: skip
     return values, se, keep, units, kind
-
-
-# --------------------------------------------------------------------------- statistics
-def _robust_sigma(y: NDArray[np.float64]) -> float:
-    """Card-to-card noise from successive differences (robust to one step or a drift)."""
-    if y.size < 3:
-        return math.nan
-    d = np.diff(y)
-    return float(_MAD_TO_SD * np.median(np.abs(d - np.median(d))) / math.sqrt(2.0))
-
-
-def _cusum(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """One-sided CUSUM ``S_i = max(0, S_{i-1} + x_i)`` along the last axis, and ``C``.
-
-    Lindley's recursion in closed form: with ``C`` the cumulative sum (``C_0 = 0``),
-    ``S_i = C_i - min(C_0..C_i)``; no loop over cards.
-    """
-    c = np.cumsum(x, axis=-1)
-    zero = np.zeros((*x.shape[:-1], 1))
-    running_min = np.minimum.accumulate(np.concatenate([zero, c], axis=-1), axis=-1)[..., 1:]
-    return c - running_min, c
-
-
-def _bucket(n: int) -> int:
-    for b in _LENGTH_GRID:
-        if b >= n:
-            return b
-    return int(2 ** math.ceil(math.log2(n)))
-
-
-def cusum_threshold(
-    n_cards: int,
-    *,
-    min_cards: int = 30,
-    alpha: float = 0.01,
-    reference: float = 1.0,
-    clip: float = 3.0,
-    tail_dof: float = 5.0,
-    outlier_fraction: float = 0.01,
-    replicates: int | None = None,
-    seed: int = 20240611,
-) -> float:
-    """The CUSUM threshold with false-alarm probability ``alpha`` over a steady history.
-
-    Simulates the whole procedure of :func:`detect_changes` on steady series (Student-t
-    noise with ``tail_dof`` degrees of freedom, a fraction ``outlier_fraction`` of cards
-    replaced by outliers of 6-12 robust noise scales with random sign, the reference set
-    from the first ``min_cards`` cards) and returns the ``1 - alpha`` quantile of the
-    largest of the two sums over the monitored cards.
-
-    Parameters
-    ----------
-    n_cards : int
-        Cards monitored after the reference; rounded up to a grid of lengths
-        (16, 20, 23, 27, 32, ... : 19 % apart), so the probability holds for any shorter history.
-    min_cards : int, default 30
-        Cards in the reference window.
-    alpha : float, default 0.01
-        False-alarm probability per series.
-    reference, clip : float
-        The CUSUM's reference value and clipping level, in noise scales.
-    tail_dof : float, default 5
-        Degrees of freedom of the simulated noise (``inf``: Gaussian).
-    outlier_fraction : float, default 0.01
-        Fraction of simulated outlier cards.
-    replicates : int, optional
-        Simulated histories; default ``max(20000, 100 / alpha)`` (at least 100 expected
-        exceedances, so the quantile's own error is about 10 % in probability).
-    seed : int
-        Seed of the simulation (results are cached per argument set).
-
-    Returns
-    -------
-    float
-        The threshold ``h``, in noise scales: the simulated maxima's order statistic that is
-        an upper 95 % confidence bound of their ``1 - alpha`` quantile (so the simulation's
-        own error does not raise the false-alarm probability above ``alpha``).
-    """
-    if not 0 < alpha < 1:
-        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
-    reps = int(replicates) if replicates is not None else int(max(20000, math.ceil(100 / alpha)))
-    return _threshold(_bucket(max(int(n_cards), 1)), int(min_cards), float(alpha),
-                      float(reference), float(clip), float(tail_dof), float(outlier_fraction),
-                      reps, int(seed))  # fmt: skip
-
-
-def _phases(w: int, n: int) -> list[tuple[int, int, int]]:
-    """Reference windows and the cards each one standardises: ``(ref_end, lo, hi)``.
-
-    The reference grows by doubling: cards ``[w, 2w)`` are judged against the first ``w``,
-    ``[2w, 4w)`` against the first ``2w``, and so on, so the level and noise are known
-    better and better while a change that has just begun is still a small minority of the
-    reference (a median barely moves).
-    """
-    out = []
-    end = w
-    while end < n:
-        out.append((end, end, min(2 * end, n)))
-        end *= 2
-    return out
-
-
-@functools.lru_cache(maxsize=256)
-def _threshold(
-    n: int, w: int, alpha: float, k: float, c: float, dof: float, out_frac: float, reps: int,
-    seed: int,
-) -> float:
-    rng = np.random.default_rng(seed)
-    # Robust scale of the noise (what the MAD estimates), to size the outliers in it.
-    if math.isinf(dof):
-        robust = 1.0
-    else:
-        robust = float(scipy.stats.t.ppf(0.75, dof) / scipy.stats.norm.ppf(0.75))
-    total = n + w
-    maxima = []
-    chunk = max(1, min(reps, 4_000_000 // total))  # bounded memory
-    for first in range(0, reps, chunk):
-        r = min(chunk, reps - first)
-        e = rng.standard_normal((r, total)) if math.isinf(dof) else rng.standard_t(dof, (r, total))
-        if out_frac > 0:
-            hit = np.flatnonzero(rng.random(r * total) < out_frac)
-            e.ravel()[hit] = (robust * rng.uniform(6.0, 12.0, hit.size)
-                              * rng.choice([-1.0, 1.0], hit.size))
-        z = np.empty((r, n))
-        for ref_end, lo, hi in _phases(w, total):
-            base = e[:, :ref_end]
-            level = np.median(base, axis=1, keepdims=True)
-            d = np.diff(base, axis=1)
-            sigma = _MAD_TO_SD * np.median(
-                np.abs(d - np.median(d, axis=1, keepdims=True)), axis=1, keepdims=True
-            ) / math.sqrt(2.0)
-            z[:, lo - w:hi - w] = (e[:, lo:hi] - level) / sigma
-        z = np.clip(z, -c, c)
-        up, _ = _cusum(z - k)
-        down, _ = _cusum(-z - k)
-        maxima.append(np.maximum(up.max(axis=1), down.max(axis=1)))
-    # The simulated quantile has its own error; take the order statistic that leaves the
-    # true false-alarm probability below alpha with 95 % confidence (about 84 instead of
-    # 100 exceedances at the default size), so the error errs on the quiet side.
-    values = np.sort(np.concatenate(maxima))
-    allowed = int(scipy.stats.binom.ppf(0.05, values.size, alpha))
-    return float(values[values.size - 1 - allowed])
-
-
-@dataclass(frozen=True)
-class _Change:
-    """One detected change within a series (indices into the series)."""
-
-    first: int
-    alarm: int
-    direction: str
-    threshold: float
-    noise: float
-
-
-def _split(y: NDArray[np.float64], wgt: NDArray[np.float64], lo: int, hi: int,
-           candidates: range) -> int:
-    """The split into two constant levels with the least weighted absolute deviation."""
-    best, best_cost = candidates.start, math.inf
-    for k in candidates:
-        left, right = y[lo:k], y[k:hi]
-        cost = float(np.sum(wgt[lo:k] * np.abs(left - np.median(left)))
-                     + np.sum(wgt[k:hi] * np.abs(right - np.median(right))))
-        if cost < best_cost - 1e-12 * abs(best_cost if math.isfinite(best_cost) else 1.0):
-            best, best_cost = k, cost
-    return best
-
-
-def _standardise(
-    y: NDArray[np.float64], se: NDArray[np.float64], start: int, w: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None:
-    """Scores ``z``, noise ``sigma_i`` and reference scatter for cards ``start + w`` on.
-
-    None when the first reference has neither scatter nor standard errors.
-    """
-    n = y.size
-    z = np.empty(n - start - w)
-    sig_all = np.empty(n - start - w)
-    ref_sigma = np.empty(n - start - w)
-    for ref_end, lo, hi in _phases(w, n - start):
-        base = y[start:start + ref_end]
-        level = float(np.median(base))
-        sigma = _robust_sigma(base)
-        base_se = se[start:start + ref_end]
-        finite = np.isfinite(base_se)
-        s_ref = float(np.median(base_se[finite])) if finite.any() else math.nan
-        if not (math.isfinite(sigma) and sigma > 0):
-            # Identical reference values: only the reported errors can give a scale.
-            sigma = s_ref if math.isfinite(s_ref) and s_ref > 0 else math.nan
-        if not math.isfinite(sigma):
-            return None
-        tau2 = max(sigma**2 - (s_ref**2 if math.isfinite(s_ref) else 0.0), 0.0)
-        part = slice(start + lo, start + hi)
-        s = np.where(np.isfinite(se[part]), se[part], s_ref if math.isfinite(s_ref) else 0.0)
-        sig_i = np.maximum(np.sqrt(tau2 + s**2), 0.5 * sigma)
-        z[lo - w:hi - w] = (y[part] - level) / sig_i
-        sig_all[lo - w:hi - w] = sig_i
-        ref_sigma[lo - w:hi - w] = sigma
-    return z, sig_all, ref_sigma
-
-
-def _scan(
-    y: NDArray[np.float64], se: NDArray[np.float64], *, min_cards: int, alpha: float,
-    reference: float, clip: float, tail_dof: float, outlier_fraction: float,
-) -> tuple[list[_Change], str]:
-    """All changes of one series on the analysis scale, and a word on why none if so."""
-    n = y.size
-    w = min_cards
-    changes: list[_Change] = []
-    start = 0
-    note = ""
-    while start + w < n:
-        std = _standardise(y, se, start, w)
-        if std is None:
-            note = "no scatter in the reference cards and no standard errors: not tested"
-            break
-        z, sig_i, ref_sigma = std
-        # After a change the search resumes at the alarm: cards of the new level already
-        # seen between the change point and the alarm are its reference, not tested again.
-        skip = max(0, (changes[-1].alarm + 1 - start - w) if changes else 0)
-        h = cusum_threshold(n - start - w, min_cards=w, alpha=alpha, reference=reference,
-                            clip=clip, tail_dof=tail_dof,
-                            outlier_fraction=outlier_fraction)  # fmt: skip
-        zc = np.clip(z[skip:], -clip, clip)
-        up, c_up = _cusum(zc - reference)
-        down, c_down = _cusum(-zc - reference)
-        hit_up = np.flatnonzero(up > h)
-        hit_down = np.flatnonzero(down > h)
-        if not hit_up.size and not hit_down.size:
-            break
-        a_up = int(hit_up[0]) if hit_up.size else n
-        a_down = int(hit_down[0]) if hit_down.size else n
-        rising = a_up <= a_down
-        a = min(a_up, a_down)
-        csum = c_up if rising else c_down
-        # The CUSUM's own change point: the card after the cumulative sum's last minimum
-        # (counting the empty sum before the first monitored card) up to the alarm.
-        path = np.concatenate([[0.0], csum[: a + 1]])
-        offset = start + w + skip
-        tau0 = offset + int(path.size - 1 - np.argmin(path[::-1]))
-        alarm = offset + a
-        weights = np.full(n, 1.0 / ref_sigma[0])
-        weights[start + w:] = 1.0 / sig_i
-        lo = max(start, tau0 - w)
-        hi = min(n, alarm + 1 + w)
-        cand = range(max(lo + 2, start + 1), min(alarm, hi - 2) + 1)
-        first = _split(y, weights, lo, hi, cand) if len(cand) else tau0
-        first = max(start + 1, min(first, alarm))
-        changes.append(_Change(first, alarm, "up" if rising else "down", h,
-                               float(ref_sigma[alarm - start - w])))
-        start = first
-    return changes, note
 
 
 # --------------------------------------------------------------------------- public API
@@ -550,6 +330,7 @@ def detect_changes(
     clip: float = 3.0,
     tail_dof: float = 5.0,
     outlier_fraction: float = 0.01,
+    min_short_cards: int = SHORT_MIN_CARDS,
 ) -> pd.DataFrame:
     """Find persistent shifts in each well's fitted quantities (see the module docstring).
 
@@ -562,8 +343,11 @@ def detect_changes(
         parameters by column name (``"p_k0"``). Default: every derived quantity in the
         table, plus every parameter when ``parameters`` is true.
     min_cards : int, default 30
-        Cards in each reference window; a well needs ``min_cards + 1`` usable cards of a
-        quantity for it to be tested, and changes closer than this are seen as one.
+        Cards in each reference window of the CUSUM, which tests histories of more than
+        ``min_cards`` usable cards of a quantity; changes closer than this are seen as one.
+    min_short_cards : int, default 6
+        Shortest history tested: histories of ``min_short_cards`` to ``min_cards`` cards are
+        tested as a whole by the two-segment test (at most one change each).
     false_alarm : float, default 0.01
         Probability that a steady well raises any alert over its history (split evenly
         over the quantities tested).
@@ -588,8 +372,8 @@ def detect_changes(
         on the log scale, in ``unit`` otherwise), ``first_index``/``alarm_index``
         (positions among the well's usable cards of that quantity), ``delay_cards``,
         ``n_before``/``n_after`` (cards in the segments), ``threshold`` (``h``, in noise
-        scales) and ``order`` (``"time"`` or ``"card order"``). Sorted by well, quantity
-        and first card.
+        scales) and ``order`` (``"time"`` or ``"card order"``), ``method`` (``"cusum"`` or
+        ``"two-segment"``). Sorted by well, quantity and first card.
 
     Raises
     ------
@@ -602,6 +386,10 @@ def detect_changes(
         raise ValueError(f"false_alarm must be in (0, 1), got {false_alarm}")
     if isinstance(min_cards, bool) or not isinstance(min_cards, int) or min_cards < 5:
         raise ValueError(f"min_cards must be an integer >= 5, got {min_cards!r}")
+    if (isinstance(min_short_cards, bool) or not isinstance(min_short_cards, int)
+            or min_short_cards < 2 * MIN_SEGMENT):
+        raise ValueError(f"min_short_cards must be an integer >= {2 * MIN_SEGMENT}, got "
+                         f"{min_short_cards!r}")
     if not (reference >= 0 and clip > reference):
         raise ValueError("need reference >= 0 and clip > reference")
     names = list(quantities) if quantities is not None else available_quantities(
@@ -622,7 +410,7 @@ def detect_changes(
         for i, well in enumerate(usable.wells):
             part = slice(usable.bounds[i], usable.bounds[i + 1])
             k = keep[part]
-            if k.sum() < min_cards + 1:
+            if k.sum() < min_short_cards:
                 continue
             rows.extend(_series_alerts(
                 values[part][k], se[part][k], usable.card_id[part][k], usable.time[part][k],
@@ -648,8 +436,14 @@ def _series_alerts(
     log = bool(np.all(values > 0))
     y = np.log(values) if log else values
     s = se / values if log else se
-    changes, _ = _scan(y, s, min_cards=min_cards, alpha=alpha, reference=reference, clip=clip,
-                       tail_dof=tail_dof, outlier_fraction=outlier_fraction)
+    if values.size > min_cards:
+        changes, _ = scan_cusum(y, s, min_cards=min_cards, alpha=alpha, reference=reference,
+                           clip=clip, tail_dof=tail_dof, outlier_fraction=outlier_fraction)
+        method = "cusum"
+    else:
+        changes = scan_two_segments(y, s, alpha=alpha, tail_dof=tail_dof,
+                                outlier_fraction=outlier_fraction)
+        method = "two-segment"
     bounds = [0] + [c.first for c in changes] + [values.size]
     out = []
     for j, ch in enumerate(changes):
@@ -669,15 +463,58 @@ def _series_alerts(
             "noise": ch.noise, "first_index": ch.first, "alarm_index": ch.alarm,
             "delay_cards": ch.alarm - ch.first, "n_before": int(seg_b.size),
             "n_after": int(seg_a.size), "threshold": ch.threshold, "order": order,
+            "method": method,
         })  # fmt: skip
     return out
+
+
+def history_coverage(
+    table: pd.DataFrame | str | os.PathLike[str],
+    quantities: Sequence[str] | None = None,
+    *,
+    min_cards: int = 30,
+    min_short_cards: int = SHORT_MIN_CARDS,
+) -> pd.DataFrame:
+    """How each well's history of each quantity is tested by :func:`detect_changes`.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame or path
+        The results table.
+    quantities : sequence of str, optional
+        As for :func:`detect_changes` (default: every derived quantity).
+    min_cards, min_short_cards : int
+        As for :func:`detect_changes`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``well_id``, ``quantity``, ``cards`` (usable cards of the quantity, duplicates not
+        counted) and ``method``: ``"cusum"`` (more than ``min_cards``), ``"two-segment"``
+        (``min_short_cards`` to ``min_cards``) or ``"too short"``; every well with a usable
+        card, per quantity.
+    """
+    frame = load_results(table)
+    names = list(quantities) if quantities is not None else available_quantities(frame)
+    names = [q for q in names if _columns(q)[0] in frame.columns]
+    rows: list[dict[str, Any]] = []
+    if not frame.empty and names:
+        usable = _prepare(frame)
+        for q in names:
+            _, _, keep, _, _ = _quantity(usable, q)
+            for i, well in enumerate(usable.wells):
+                n = int(keep[usable.bounds[i]:usable.bounds[i + 1]].sum())
+                method = ("cusum" if n > min_cards else "two-segment" if n >= min_short_cards
+                          else "too short")
+                rows.append({"well_id": well, "quantity": q, "cards": n, "method": method})
+    return pd.DataFrame(rows, columns=["well_id", "quantity", "cards", "method"])
 
 
 def _median_se(values: NDArray[np.float64]) -> float:
     """Standard error of a segment's median from its card-to-card scatter."""
     if values.size < 2:
         return math.nan
-    sigma = _robust_sigma(values) if values.size >= 3 else float(np.std(values, ddof=1))
+    sigma = robust_sigma(values) if values.size >= 3 else float(np.std(values, ddof=1))
     if not sigma > 0:  # identical values: fall back on the plain spread
         sigma = float(np.std(values, ddof=1))
     return _MEDIAN_SE * sigma / math.sqrt(values.size)
@@ -702,8 +539,9 @@ def summarise_wells(
     Returns
     -------
     pandas.DataFrame
-        ``well_id``, ``cards`` (rows), ``n_<status>`` for each of :data:`STATUSES` (and
-        ``n_other`` for any other or missing status), ``usable``, ``first_time``,
+        ``well_id``, ``cards`` (rows; a card repeating an earlier one exactly is counted
+        once), ``n_<status>`` for each of :data:`STATUSES` (and ``n_other`` for any other
+        or missing status), ``usable``, ``duplicates`` (repeats set aside), ``first_time``,
         ``last_time``, ``alerts``, ``alerted_quantities`` (comma-separated),
         ``max_abs_change_se``, ``largest_change`` (a phrase with quantity, size and unit),
         and per quantity ``latest_<name>``, ``latest_<name>_unit`` (its last usable,
@@ -716,6 +554,9 @@ def summarise_wells(
     alerts = alerts if alerts is not None else pd.DataFrame(columns=list(ALERT_COLUMNS))
     if frame.empty:
         return pd.DataFrame(columns=["well_id", "cards"])
+    repeats = is_duplicate(frame)
+    n_repeats = repeats.groupby(frame["well_id"].astype(str)).sum()
+    frame = frame[~repeats]
     well = frame["well_id"].astype(str)
     status = frame["status"].where(frame["status"].isin(STATUSES), "other")
     out = pd.crosstab(well, status).reindex(columns=[*STATUSES, "other"], fill_value=0)
@@ -723,6 +564,7 @@ def summarise_wells(
     out.insert(0, "cards", out.sum(axis=1))
     out.insert(len(out.columns), "usable", out[[f"n_{st.replace('-', '_')}"
                                                 for st in USABLE_STATUSES]].sum(axis=1))
+    out["duplicates"] = n_repeats.reindex(out.index, fill_value=0).astype(int)
     if "time" in frame.columns:
         times = pd.to_datetime(frame["time"], utc=True).groupby(well)
         out["first_time"], out["last_time"] = times.min(), times.max()

@@ -32,18 +32,30 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
+
+from pumpid.report.spreadsheet import to_csv
 
 from .changes import (
+    SHORT_MIN_CARDS,
     STATUSES,
     UNKNOWN_WELL,
     USABLE_STATUSES,
     available_quantities,
     detect_changes,
+    history_coverage,
+    is_duplicate,
     load_results,
     summarise_wells,
 )
-from .downhole import PUMP_PREFIX, is_pump_quantity, pump_usable
+from .figures import (
+    MIN_WELLS_HISTOGRAM,
+    column_unit,
+    count_words,
+    distribution_figure,
+    status_figure,
+    unit_text,
+    well_figure,
+)
 
 __all__ = ["write_fleet_report"]
 
@@ -64,24 +76,20 @@ tr.alert td:first-child { border-left: 4px solid #b00020; }
 .muted { color: #666; }
 figure { margin: 1em 0; }
 figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
+figure.wide img { width: 100%; }
+div.grid { display: grid; grid-template-columns: repeat(auto-fit, minmax(34em, 1fr));
+           gap: 0 1.5em; }
 figcaption { color: #555; font-size: 0.92em; }
 footer { margin-top: 2em; color: #777; font-size: 0.85em; }
 div.scroll { overflow-x: auto; max-width: 100%; }
 """
 
 _DPI = 96
-_STATUS_COLOURS = {"converged": "#176a2c", "boundary": "#c98a00", "poor-fit": "#9a5b00",
-                   "failed": "#b00020", "invalid-input": "#6b2d8c", "other": "#777777"}  # fmt: skip
 
 
 # --------------------------------------------------------------------------- formatting
 def _e(text: Any) -> str:
     return html.escape(str(text), quote=True)
-
-
-def _unit_text(unit: Any) -> str:
-    u = "" if unit is None or (isinstance(unit, float) and math.isnan(unit)) else str(unit)
-    return "dimensionless" if u in ("", "-", "1") else u
 
 
 def _num(value: Any, digits: int = 4) -> str:
@@ -98,14 +106,8 @@ def _with_unit(value: Any, unit: Any, digits: int = 4) -> str:
     text = _num(value, digits)
     if text == "n/a":
         return text
-    u = _unit_text(unit)
+    u = unit_text(unit)
     return f"{text} ({u})" if u == "dimensionless" else f"{text} {u}"
-
-
-def _count(n: Any, word: str) -> str:
-    """``"1 card"``, ``"3 cards"``."""
-    k = int(n)
-    return f"{k} {word}" if k == 1 else f"{k} {word}s"
 
 
 def _n_wells(frame: pd.DataFrame) -> int:
@@ -149,9 +151,11 @@ def _png(fig: Figure) -> bytes:
     return buf.getvalue()
 
 
-def _figure_html(data: bytes, alt: str, caption: str) -> str:
+def _figure_html(data: bytes, alt: str, caption: str, *, wide: bool = False) -> str:
+    """A figure; ``wide`` ones are drawn across the page's width (their PNG is made for it)."""
     b64 = base64.b64encode(data).decode("ascii")
-    return (f'<figure><img src="data:image/png;base64,{b64}" alt="{_e(alt)}">'
+    cls = ' class="wide"' if wide else ""
+    return (f'<figure{cls}><img src="data:image/png;base64,{b64}" alt="{_e(alt)}">'
             f"<figcaption>{_e(caption)}</figcaption></figure>")
 
 
@@ -172,191 +176,42 @@ def _version() -> str:
         return "(version unknown)"
 
 
-# --------------------------------------------------------------------------- data helpers
-def _column_unit(summary: pd.DataFrame, quantity: str) -> str:
-    """The unit most wells state for a quantity (from the well summary's latest values)."""
-    col = f"latest_{quantity}_unit"
-    if col not in summary.columns:
-        return ""
-    stated = summary[col].dropna().astype(str)
-    stated = stated[stated != ""]
-    return str(stated.mode().iloc[0]) if len(stated) else ""
-
-
-def _values(frame: pd.DataFrame, quantity: str) -> tuple[pd.Series, pd.Series, pd.Series]:
-    """Value, standard error and a usable mask of one quantity over rows of ``frame``."""
-    col = quantity if quantity.startswith(("p_", PUMP_PREFIX)) else f"d_{quantity}"
-    value = pd.to_numeric(frame[col], errors="coerce")
-    se = pd.Series(np.nan, index=frame.index)
-    for c in (f"{col}_se", f"{col}_se_hac"):
-        if c in frame.columns:
-            se = np.fmax(se, pd.to_numeric(frame[c], errors="coerce"))
-    ok = frame["status"].isin(USABLE_STATUSES) & value.notna() & np.isfinite(value)
-    if is_pump_quantity(quantity):  # counts when the pump card was computed
-        ok = pump_usable(frame) & value.notna() & np.isfinite(value)
-    det = f"{col}_determined"
-    if det in frame.columns:
-        ok &= frame[det].fillna(False).astype(bool)
-    return value, se, ok
-
-
-def _per_well_median(frame: pd.DataFrame, quantity: str) -> pd.Series:
-    value, _, ok = _values(frame, quantity)
-    return value[ok].groupby(frame.loc[ok, "well_id"].astype(str)).median()
-
-
-# --------------------------------------------------------------------------- figures
-def _distribution_figure(frame: pd.DataFrame, quantity: str, unit: str,
-                         alerted: set[str]) -> Figure | None:
-    med = _per_well_median(frame, quantity)
-    if med.empty:
-        return None
-    fig = Figure(figsize=(6.4, 3.2))
-    ax = fig.subplots()
-    values = med.to_numpy(dtype=float)
-    # A log axis only pays when the values span an order of magnitude; below that it only
-    # squeezes the ticks.
-    positive = bool(np.all(values > 0)) and values.max() >= 10 * values.min()
-    bins: Any = int(np.clip(np.ceil(2 * np.sqrt(len(values))), 5, 30))
-    if positive:
-        bins = np.geomspace(values.min(), values.max(), bins + 1)
-        ax.set_xscale("log")
-    ax.hist(values, bins=bins, color="#8fb3d9", edgecolor="#4a6f96")
-    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-    marked = med[med.index.isin(alerted)]
-    if len(marked):
-        ax.plot(marked.to_numpy(), np.zeros(len(marked)), "v", color="#b00020", ms=8,
-                clip_on=False, label=f"wells with an alert ({len(marked)})")
-        # beside the axes, where it cannot hide a bar
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    ax.set_xlabel(f"{quantity}: median over each well's cards [{_unit_text(unit)}]")
-    ax.set_ylabel("wells")
-    ax.set_title(f"{quantity} across {len(med)} wells", fontsize=10)
-    return fig
-
-
-def _as_float(x: pd.Series) -> np.ndarray:
-    if np.issubdtype(x.dtype, np.datetime64):
-        return x.to_numpy().astype("datetime64[ns]").astype(np.int64).astype(float)
-    return x.to_numpy(dtype=float)
-
-
-def _segments(x: pd.Series, every: pd.Series) -> np.ndarray:
-    """A run number per point of ``x`` that changes across gaps far longer than the usual
-    spacing of the well's cards (``every``), so that bands and lines do not pretend to know
-    the quantity where no card was read or where the cards left it undetermined."""
-    step = np.diff(np.sort(_as_float(every)))
-    typical = float(np.median(step[step > 0])) if np.any(step > 0) else 0.0
-    if len(x) < 2 or typical <= 0:
-        return np.zeros(len(x), dtype=int)
-    return np.concatenate([[0], np.cumsum(np.diff(_as_float(x)) > 3.0 * typical)])
-
-
-def _band(v: pd.Series, s: pd.Series) -> tuple[np.ndarray, np.ndarray]:
-    """Limits of value +- 2 SE. A positive quantity gets them on the log scale (as the
-    change detector judges it), so the band never crosses zero."""
-    vv = v.to_numpy(dtype=float)
-    ss = np.where(np.isfinite(s.to_numpy(dtype=float)), s.to_numpy(dtype=float), 0.0)
-    if len(vv) and np.all(vv > 0):
-        factor = np.exp(2.0 * ss / vv)
-        return vv / factor, vv * factor
-    return vv - 2.0 * ss, vv + 2.0 * ss
-
-
-def _well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
-                 alerts: pd.DataFrame, well: str) -> Figure:
-    rows = len(quantities)
-    fig = Figure(figsize=(8.0, 1.9 * rows + 0.6))
-    axes = np.atleast_1d(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0])
-    # The time axis as the change detector orders the well: by time when every usable card
-    # has one; a failed or invalid card without a time then cannot be placed and is left out.
-    timed = ("time" in group.columns and group["time"].notna().any()
-             and group.loc[group["status"].isin(USABLE_STATUSES), "time"].notna().all())
-    ordered = (group[group["time"].notna()].sort_values("time", kind="stable") if timed
-               else group)
-    x_all = (pd.to_datetime(ordered["time"], utc=True).dt.tz_localize(None) if timed
-             else pd.Series(np.arange(len(ordered)), index=ordered.index))
-    bad = ordered["status"].isin(("failed", "invalid-input")).to_numpy()
-    for ax, q in zip(axes, quantities, strict=True):
-        value, se, ok = _values(ordered, q)
-        x, v, s = x_all[ok], value[ok], se[ok]
-        if len(v):
-            lo, hi = _band(v, s)
-            run = _segments(x, x_all)
-            for k in np.unique(run):
-                on = run == k
-                if on.sum() > 1:
-                    ax.fill_between(x[on], lo[on], hi[on], color="#c6dbef", linewidth=0,
-                                    label="value ± 2 SE")
-                else:  # a band needs two cards; a lone card gets its interval as a bar
-                    ax.vlines(x[on], lo[on], hi[on], color="#c6dbef", lw=3,
-                              label="value ± 2 SE")
-                ax.plot(x[on], v[on], ".-", color="#08519c", ms=3, lw=0.6,
-                        label="value of a card")
-        if bad.any():
-            # at the foot of the panel, whatever the quantity's range
-            ax.plot(x_all[bad], np.full(int(bad.sum()), 0.02), "x", color="#b00020", ms=5,
-                    transform=ax.get_xaxis_transform(), clip_on=False,
-                    label="failed / invalid card")
-        mine = alerts[(alerts["well_id"].astype(str) == well) & (alerts["quantity"] == q)]
-        ids = ordered["card_id"].astype(str)
-        for _, a in mine.iterrows():
-            key = ids == str(a["first_card_id"])
-            if not key.any():
-                continue
-            xc = x_all[key].iloc[0]
-            ax.axvline(xc, color="#b00020", lw=1.2, ls="--",
-                       label="first card of a change" if _ == mine.index[0] else None)
-            ax.annotate(f"{a['change_rel']:+.0%}", (xc, 0.98), xycoords=("data", "axes fraction"),
-                        xytext=(4, -10), textcoords="offset points", color="#b00020",
-                        fontsize=8, fontweight="bold")
-            # the medians before and after, over the cards they were taken from
-            xs, fi = x.to_numpy(), int(a["first_index"])
-            if 0 <= fi < xs.size:
-                lo = xs[max(fi - int(a["n_before"]), 0)]
-                hi = xs[min(fi + int(a["n_after"]) - 1, xs.size - 1)]
-                ax.hlines(a["before"], lo, xc, color="#e6550d", lw=1.5,
-                          label="median before / after")
-                ax.hlines(a["after"], xc, hi, color="#e6550d", lw=1.5)
-        ax.set_ylabel(f"{q}\n[{_unit_text(units.get(q, ''))}]", fontsize=8)
-        ax.tick_params(labelsize=8)
-        ax.grid(alpha=0.3)
-    handles: dict[str, Any] = {}
-    for ax in axes:
-        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
-            handles.setdefault(lab, h)
-    fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncols=5,
-               fontsize=7, frameon=False, bbox_to_anchor=(0.5, -0.02))
-    axes[-1].set_xlabel("card time (UTC)" if timed else "card number (no times in the table)")
-    fig.suptitle(f"well {well}", fontsize=10)
-    fig.autofmt_xdate()
-    fig.subplots_adjust(bottom=0.16 if rows > 1 else 0.3)
-    return fig
-
-
-def _status_figure(counts: pd.Series) -> Figure:
-    fig = Figure(figsize=(7.5, 1.1))
-    ax = fig.subplots()
-    left = 0.0
-    total = float(counts.sum())
-    for st, n in counts.items():
-        if n == 0:
-            continue
-        ax.barh([0], [n], left=left, color=_STATUS_COLOURS.get(str(st), "#777777"),
-                label=f"{st}: {n} cards")
-        left += n
-    ax.set_xlim(0, max(total, 1))
-    ax.set_yticks([])
-    ax.set_xlabel("cards")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.9), ncols=3, fontsize=8,
-              frameon=False)
-    ax.set_title("fit status of every card", fontsize=10)
-    return fig
-
-
 # --------------------------------------------------------------------------- sections
+#: How each way of testing a well reads in the report, by :func:`history_coverage`'s method.
+_TESTED = {"cusum": "CUSUM", "two-segment": "two-segment", "too short": "too short"}
+
+
+def _well_tests(coverage: pd.DataFrame) -> pd.Series:
+    """How each well was tested: by its longest history over the quantities."""
+    rank = {"cusum": 0, "two-segment": 1, "too short": 2}
+    if coverage.empty:
+        return pd.Series(dtype=object)
+    best = coverage.assign(_r=coverage["method"].map(rank)).sort_values("_r", kind="stable")
+    return best.drop_duplicates("well_id").set_index("well_id")["method"]
+
+
+def _coverage_rows(coverage: pd.DataFrame, min_cards: int,
+                   min_short: int) -> list[tuple[str, str]]:
+    """Summary rows: how many wells each method tested, and which were too short."""
+    tests = _well_tests(coverage)
+    tests = tests[tests.index != UNKNOWN_WELL]
+    short = sorted(tests[tests == "too short"].index.astype(str))
+    rows = [("wells tested",
+             f"{count_words((tests == 'cusum').sum(), 'well')} by the CUSUM (more than "
+             f"{min_cards} usable cards of a quantity), "
+             f"{count_words((tests == 'two-segment').sum(), 'well')} by the two-segment test "
+             f"({min_short} to {min_cards} cards)")]
+    if short:
+        shown = ", ".join(short[:30]) + (f" and {len(short) - 30} more" if len(short) > 30
+                                         else "")
+        rows.append((f"wells too short to test (fewer than {min_short} usable cards of "
+                     "every quantity)", f"{count_words(len(short), 'well')}: {shown}"))
+    return rows
+
+
 def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequence[str],
-                     units: dict[str, str], settings: str) -> str:
+                     units: dict[str, str], settings: str,
+                     coverage_rows: Sequence[tuple[str, str]] = ()) -> str:
     status = frame["status"].where(frame["status"].isin(STATUSES), "other")
     counts = status.value_counts().reindex([*STATUSES, "other"], fill_value=0)
     n = len(frame)
@@ -368,29 +223,38 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
         (frame["well_id"].isna() | (frame["well_id"].astype(str) == UNKNOWN_WELL)).sum()
     )
     rows = [
-        ("wells", _count(_n_wells(frame), "well")),
-        ("cards", _count(n, "card")),
-        *((("cards without a well (unreadable input)", _count(no_well, "card")),)
+        ("wells", count_words(_n_wells(frame), "well")),
+        ("cards", count_words(n, "card")),
+        *((("cards without a well (unreadable input)", count_words(no_well, "card")),)
           if no_well else ()),
         ("cards used for trends (converged, boundary, poor-fit)",
-         _count(counts[list(USABLE_STATUSES)].sum(), "card")),
-        *((f"status {st}", f"{_count(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
+         count_words(counts[list(USABLE_STATUSES)].sum(), "card")),
+        *((f"status {st}", f"{count_words(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
           for st in counts.index if counts[st] or st in STATUSES),
         ("cards without a time",
-         _count(times.isna().sum() if times is not None else n, "card")),
+         count_words(times.isna().sum() if times is not None else n, "card")),
         ("period covered", span),
-        ("quantities trended", ", ".join(f"{q} [{_unit_text(units[q])}]" for q in quantities)
+        ("quantities trended", ", ".join(f"{q} [{unit_text(units[q])}]" for q in quantities)
          or "none"),
-        ("alerts", f"{_count(len(alerts), 'alert')} in "
-                   f"{_count(alerts['well_id'].nunique(), 'well')}"),
+        ("alerts", f"{count_words(len(alerts), 'alert')} in "
+                   f"{count_words(alerts['well_id'].nunique(), 'well')}"),
+        *coverage_rows,
         ("detection", settings),
     ]
     return _table(("item", "value"), rows)
 
 
-def _alerts_section(alerts: pd.DataFrame) -> str:
+def _alerts_section(alerts: pd.DataFrame, tests: pd.Series) -> str:
     if alerts.empty:
-        return "<p>No persistent change was found in any well.</p>"
+        tests = tests[tests.index != UNKNOWN_WELL]
+        tested = int((tests != "too short").sum())
+        if not tested:
+            return ("<p>No well was tested for changes: every well's history is too short "
+                    "(see the run summary).</p>")
+        short = int((tests == "too short").sum())
+        rest = f"; {count_words(short, 'well')} too short to test" if short else ""
+        return (f"<p>No persistent change was found in the {count_words(tested, 'well')} "
+                f"tested{rest}.</p>")
     order = alerts.assign(_size=alerts["change_se"].astype(float).abs()).sort_values(
         ["_size"], ascending=False, kind="stable")
     rows, classes = [], []
@@ -399,7 +263,7 @@ def _alerts_section(alerts: pd.DataFrame) -> str:
         rows.append([
             str(a["well_id"]), str(a["quantity"]),
             f"{a['first_card_id']} ({_when(a['first_time'])})",
-            f"{a['alarm_card_id']} ({_count(a['delay_cards'], 'card')} later)",
+            f"{a['alarm_card_id']} ({count_words(a['delay_cards'], 'card')} later)",
             f"{_with_unit(a['before'], unit)} → {_with_unit(a['after'], unit)}",
             f"{_with_unit(a['change'], unit)} ({float(a['change_rel']):+.1%})",
             _num(a["change_se"], 3), str(a["direction"]),
@@ -416,19 +280,20 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
                    limit: int) -> str:
     shown = summary.head(limit)
     # Counts and units go in the headers, so that every column fits a normal window.
-    headers = ["well", "cards", *STATUSES, "alerts", "largest change",
-               *(f"latest {q} [{_unit_text(units.get(q, ''))}]" for q in quantities)]
+    headers = ["well", "cards", *STATUSES, "alerts", "tested by", "largest change",
+               *(f"latest {q} [{unit_text(units.get(q, ''))}]" for q in quantities)]
     rows, classes = [], []
     for _, w in shown.iterrows():
         cells = [str(w["well_id"]), str(int(w["cards"]))]
         cells += [str(int(w["n_" + st.replace("-", "_")])) for st in STATUSES]
         cells.append(str(int(w["alerts"])))
+        cells.append(str(w.get("tested", "")))
         size = w["max_abs_change_se"]
         cells.append(f"{w['largest_change']} [{_num(size, 3)} standard errors]"
                      if w["alerts"] else "none")
         for q in quantities:
             unit = w.get(f"latest_{q}_unit", "")
-            same = _unit_text(unit) == _unit_text(units.get(q, ""))
+            same = unit_text(unit) == unit_text(units.get(q, ""))
             value = w.get(f"latest_{q}")
             cells.append(_num(value) if same else _with_unit(value, unit))
         rows.append(cells)
@@ -441,6 +306,27 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
     return note + _table(headers, rows, num_cols=[*num, *range(len(headers) - len(quantities),
                                                                len(headers))],
                          row_classes=classes)
+
+
+def _drawn_words(drawn_alerted: Sequence[str], alerted: Sequence[str],
+                 drawn_steady: Sequence[str], steady: Sequence[str], seed: int) -> str:
+    """Which wells the trends show, in words that fit one well as well as thousands."""
+    parts = []
+    if alerted:
+        which = ("it" if len(alerted) == 1 else "all" if len(drawn_alerted) == len(alerted)
+                 else f"the {len(drawn_alerted)} with the largest changes")
+        parts.append(f"{count_words(len(alerted), 'well')} with an alert: {which}")
+    if steady:
+        if not drawn_steady:
+            which = "none drawn"
+        elif len(drawn_steady) == len(steady):
+            which = "it" if len(steady) == 1 else "all"
+        else:
+            which = f"{len(drawn_steady)} picked at random (seed {seed}) for comparison"
+        parts.append(f"{count_words(len(steady), 'well')} without an alert: {which}")
+    if not parts:
+        return "No well has a usable card to draw."
+    return "Drawn: " + "; ".join(parts) + "."
 
 
 # --------------------------------------------------------------------------- entry point
@@ -492,24 +378,37 @@ def write_fleet_report(
         If the table lacks ``well_id``, ``card_id`` or ``status``, or a quantity is unknown.
     """
     frame = load_results(results)
+    # A card exported twice counts once: its repeats are set aside before anything is
+    # counted, trended or tested, and the summary says how many.
+    repeats = is_duplicate(frame)
+    n_repeats = int(repeats.sum())
+    frame = frame[~repeats]
     out = Path(os.fspath(out_dir))
     out.mkdir(parents=True, exist_ok=True)
     names = list(quantities) if quantities is not None else available_quantities(frame)
+    min_cards = int(detect_options.get("min_cards", 30))
+    min_short = int(detect_options.get("min_short_cards", SHORT_MIN_CARDS))
     if alerts is None:
         alerts = detect_changes(frame, names, **detect_options)
-        settings = (f"robust two-sided CUSUM; per-well false-alarm probability "
-                    f"{detect_options.get('false_alarm', 0.01):.1%}, reference windows of "
-                    f"{detect_options.get('min_cards', 30)} cards")
+        settings = (f"per-well false-alarm probability "
+                    f"{detect_options.get('false_alarm', 0.01):.1%}; robust two-sided CUSUM "
+                    f"with reference windows of {min_cards} cards for histories of more than "
+                    f"{min_cards} cards; the two-segment test for {min_short} to {min_cards}")
     else:
         settings = "alerts given by the caller"
+    coverage = history_coverage(frame, names, min_cards=min_cards, min_short_cards=min_short)
     summary = summarise_wells(frame, alerts, names)
-    units = {q: _column_unit(summary, q) for q in names}
+    tests = _well_tests(coverage)
+    summary["tested"] = [_TESTED.get(tests.get(w, ""), "no usable card")
+                         for w in summary["well_id"].astype(str)]
+    units = {q: column_unit(frame, summary, q) for q in names}
     files: dict[str, Path] = {}
     alerts_path = out / "alerts.csv"
-    alerts.to_csv(alerts_path, index=False, date_format="%Y-%m-%dT%H:%M:%S%z")
+    # Text a spreadsheet would evaluate (an id "=...") is neutralised in the CSV files.
+    to_csv(alerts, alerts_path, date_format="%Y-%m-%dT%H:%M:%S%z")
     files["alerts"] = alerts_path
     wells_path = out / "wells.csv"
-    summary.to_csv(wells_path, index=False, date_format="%Y-%m-%dT%H:%M:%S%z")
+    to_csv(summary, wells_path, date_format="%Y-%m-%dT%H:%M:%S%z")
     files["wells"] = wells_path
 
     def save(fig: Figure, name: str) -> bytes:
@@ -523,8 +422,12 @@ def write_fleet_report(
     counts = status.value_counts().reindex([*STATUSES, "other"], fill_value=0)
     parts: list[str] = []
     parts.append("<section id=\"summary\"><h2>Run summary</h2>")
-    parts.append(_summary_section(frame, alerts, names, units, settings))
-    parts.append(_figure_html(save(_status_figure(counts), "status"), "status of every card",
+    repeat_rows = [("duplicate cards set aside (exact repeats of an earlier card of the "
+                    "same well, counted once)", count_words(n_repeats, "card"))]
+    parts.append(_summary_section(frame, alerts, names, units, settings,
+                                  [*repeat_rows, *_coverage_rows(coverage, min_cards,
+                                                                 min_short)]))
+    parts.append(_figure_html(save(status_figure(counts), "status"), "status of every card",
                               "Cards by fit status. Only converged, boundary and poor-fit "
                               "cards enter the trends; the others are counted here."))
     parts.append("</section>")
@@ -534,7 +437,7 @@ def write_fleet_report(
                  "card of the new level (the estimated change point), the card at which the "
                  "detector raised the alarm, the medians before and after, and the size of "
                  "the change in units of its standard error. Largest first.</p>")
-    parts.append(_alerts_section(alerts))
+    parts.append(_alerts_section(alerts, tests))
     parts.append("</section>")
 
     parts.append("<section id=\"wells\"><h2>Wells</h2>")
@@ -546,18 +449,21 @@ def write_fleet_report(
 
     alerted = set(alerts["well_id"].astype(str))
     parts.append("<section id=\"distributions\"><h2>Quantities across wells</h2>")
+    parts.append("<div class=\"grid\">")
     taken: set[str] = set()
     for q in names:
-        fig = _distribution_figure(frame, q, units[q], alerted)
+        fig = distribution_figure(frame, q, units[q], alerted)
         if fig is None:
             parts.append(f"<p>{_e(q)}: no usable value in any well.</p>")
             continue
         name = _safe_name(f"distribution_{q}", taken)
-        parts.append(_figure_html(save(fig, name), f"distribution of {q}",
-                                  f"Distribution across wells of each well's median {q} "
-                                  f"[{_unit_text(units[q])}]; triangles mark wells with an "
-                                  "alert."))
-    parts.append("</section>")
+        few = _n_wells(frame) < MIN_WELLS_HISTOGRAM
+        caption = (f"{q} [{unit_text(units[q])}] of each well's cards, well by well (too "
+                   f"few wells for a histogram); red: wells with an alert." if few else
+                   f"Distribution across wells of each well's median {q} "
+                   f"[{unit_text(units[q])}]; triangles mark wells with an alert.")
+        parts.append(_figure_html(save(fig, name), f"distribution of {q}", caption))
+    parts.append("</div></section>")
 
     # Which wells to draw: the alerted ones by decreasing size, then a random few steady.
     ranked = summary[summary["alerts"] > 0]["well_id"].astype(str).tolist()
@@ -569,28 +475,28 @@ def write_fleet_report(
     k = min(steady_sample, len(steady))
     drawn_steady = sorted(rng.choice(steady, size=k, replace=False).tolist()) if k else []
     parts.append("<section id=\"trends\"><h2>Trends per well</h2>")
-    parts.append(
-        f"<p>Drawn: {len(drawn_alerted)} of {len(ranked)} wells with an alert (largest "
-        f"change first) and {len(drawn_steady)} of {len(steady)} wells without, picked at "
-        f"random (seed {seed}) for comparison. Each panel shows one quantity over the "
-        "well's cards with a band of ± 2 standard errors; dashed lines mark the first "
-        "card of each change; crosses at the bottom mark cards whose fit failed or whose "
-        "input was invalid.</p>"
-    )
+    parts.append(f"<p>{_drawn_words(drawn_alerted, ranked, drawn_steady, steady, seed)} "
+                 "Each panel shows one quantity over the well's cards with a band of ± 2 "
+                 "standard errors (the axis is scaled to the values; a band running beyond "
+                 "it is cut and marked by a triangle at the edge); dashed lines mark the "
+                 "first card of each change; crosses at the bottom mark cards whose fit "
+                 "failed or whose input was invalid.</p>")
     groups = {str(w): g for w, g in frame.groupby(frame["well_id"].astype(str))}
     for label, wells in (("with an alert", drawn_alerted), ("without an alert", drawn_steady)):
         for well in wells:
-            fig = _well_figure(groups[well], names, units, alerts, well)
+            fig = well_figure(groups[well], names, units, alerts, well)
             name = _safe_name(f"well_{well}", taken)
             n_alerts = int((alerts["well_id"].astype(str) == well).sum())
-            parts.append(f"<h3>Well {_e(well)} ({_e(label)}: {_count(n_alerts, 'alert')})</h3>")
+            parts.append(f"<h3>Well {_e(well)} ({_e(label)}: "
+                         f"{count_words(n_alerts, 'alert')})</h3>")
             parts.append(_figure_html(save(fig, name), f"trends of well {well}",
-                                      f"Well {well}: quantities over time, value ± 2 SE."))
+                                      f"Well {well}: quantities over time, value ± 2 SE.",
+                                      wide=True))
     parts.append("</section>")
 
     body = "\n".join(parts)
-    headline = (f"{_count(_n_wells(frame), 'well')}, {_count(len(frame), 'card')}, "
-                f"{_count(len(alerts), 'alert')}")
+    headline = (f"{count_words(_n_wells(frame), 'well')}, {count_words(len(frame), 'card')}, "
+                f"{count_words(len(alerts), 'alert')}")
     page = f"""<!DOCTYPE html>
 <html lang="en">
 <head>

@@ -45,6 +45,7 @@ __all__ = [
     "ResultsStore",
     "read_results",
     "results_schema",
+    "storable_table",
 ]
 
 #: The manifest's file name inside the results folder.
@@ -54,8 +55,9 @@ _KIND = "pumpid batch results"
 _LAYOUT = 1
 _META_KEY = b"pumpid.partition"
 #: Columns a batch run adds to :meth:`pumpid.FitResult.to_row`'s: the input file's name, the
-#: card's position in the run's input order, and its partition.
-BATCH_COLUMNS = ("file", "item", "partition")
+#: card's position in the run's input order, its partition, and the id of the earlier card
+#: of the run it repeats exactly (same well, samples, time axis and units), if any.
+BATCH_COLUMNS = ("file", "item", "partition", "duplicate_of")
 
 
 class ResultsFolderError(ValueError):
@@ -81,7 +83,7 @@ def results_schema(model: type[Model]) -> pa.Schema:
     s, f, i, b = pa.string(), pa.float64(), pa.int64(), pa.bool_()
     cols: list[tuple[str, pa.DataType]] = [
         ("well_id", s), ("card_id", s), ("time", pa.timestamp("ns", tz="UTC")), ("source", s),
-        ("file", s), ("item", i), ("partition", i),
+        ("file", s), ("item", i), ("partition", i), ("duplicate_of", s),
         ("model", s), ("observe", s), ("status", s), ("reason", s), ("warnings", s),
         ("r2", f), ("rmse", f), ("cost", f), ("n_samples", i), ("nfev", i),
         ("position_unit", s), ("load_unit", s),
@@ -274,8 +276,12 @@ class ResultsStore:
         return pq.read_table(self.part_path(index), columns=columns)
 
     def write_part(self, index: int, rows: list[dict[str, Any]], schema: pa.Schema) -> pa.Table:
-        """Write partition ``index`` atomically; return its table."""
-        table = pa.Table.from_pylist(rows, schema=schema)
+        """Write partition ``index`` atomically; return its table.
+
+        A row that cannot be stored as it is (text that is not valid Unicode, a value its
+        column cannot hold) does not cost the partition or the run: see :func:`storable_table`.
+        """
+        table = storable_table(rows, schema)
         info = {"index": index, "rows": len(rows),
                 "first": rows[0]["card_id"] if rows else "",
                 "last": rows[-1]["card_id"] if rows else ""}
@@ -318,6 +324,74 @@ class ResultsStore:
     def write_summary(self, summary: str) -> None:
         """Keep the run's summary in the folder (``_summary.txt``)."""
         _write_atomic(self.folder / SUMMARY, (summary.rstrip() + "\n").encode("utf-8"))
+
+
+# What Arrow raises for a value its column cannot hold (UnicodeEncodeError is a ValueError).
+_CONVERSION_ERRORS = (pa.ArrowException, ValueError, TypeError, OverflowError)
+
+
+def _escaped(value: Any) -> Any:
+    """Text with what UTF-8 cannot encode (lone surrogates) written as escapes."""
+    if isinstance(value, str):
+        return value.encode("utf-8", "backslashreplace").decode("utf-8")
+    return value
+
+
+def storable_table(rows: list[dict[str, Any]], schema: pa.Schema) -> pa.Table:
+    """The Arrow table of a partition's rows, every row kept whatever its values.
+
+    Rows are converted together; when that fails, each is converted on its own, so the
+    rows that can be stored are stored as they are. A row that cannot is stored with its
+    text escaped (``\\ud800`` for a lone surrogate) and a warning saying so; if it still
+    cannot, it becomes a ``failed`` row keeping only its identifying columns (text escaped),
+    with the conversion error as its reason. One bad value so never ends the partition,
+    nor the run that would write the partitions after it.
+
+    Parameters
+    ----------
+    rows : list of dict
+        The partition's rows (keys: the schema's column names).
+    schema : pyarrow.Schema
+        The run's schema (:func:`results_schema`).
+
+    Returns
+    -------
+    pyarrow.Table
+        One row per input row, in order.
+    """
+    try:
+        return pa.Table.from_pylist(rows, schema=schema)
+    except _CONVERSION_ERRORS:
+        pass
+    fixed = []
+    for row in rows:
+        try:
+            pa.Table.from_pylist([row], schema=schema)
+            fixed.append(row)
+            continue
+        except _CONVERSION_ERRORS as exc:
+            error = f"{type(exc).__name__}: {exc}"
+        escaped = {k: _escaped(v) for k, v in row.items()}
+        note = f"text that is not valid Unicode stored escaped ({_escaped(error)})"
+        escaped["warnings"] = " | ".join(w for w in (escaped.get("warnings"), note) if w)
+        try:
+            pa.Table.from_pylist([escaped], schema=schema)
+            fixed.append(escaped)
+            continue
+        except _CONVERSION_ERRORS as exc:
+            error = f"{type(exc).__name__}: {exc}"
+        keep = ("well_id", "card_id", "time", "source", "file", "item", "partition", "model",
+                "observe")
+        bare: dict[str, Any] = dict.fromkeys(schema.names)
+        bare.update({k: escaped.get(k) for k in keep})
+        bare.update(status="failed", warnings="",
+                    reason=f"its result could not be stored ({_escaped(error)})")
+        try:
+            pa.Table.from_pylist([bare], schema=schema)
+        except _CONVERSION_ERRORS:
+            bare.update(time=None, item=None, partition=None)
+        fixed.append(bare)
+    return pa.Table.from_pylist(fixed, schema=schema)
 
 
 def _read_manifest(folder: Path) -> dict[str, Any]:

@@ -1,0 +1,169 @@
+"""The change detectors on one series: a well's values of one quantity, in time order.
+
+:func:`scan_cusum` (histories longer than the reference window) and
+:func:`scan_two_segments` (short histories) return the changes they find as :class:`Change`
+records (indices into the series); :mod:`pumpid.fleet.changes` applies them to every well
+and quantity of a results table and describes the method. Values are on the analysis scale
+(logarithms of positive quantities), with each card's standard error on that scale.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .thresholds import (
+    MAD_TO_SD,
+    cusum_paths,
+    cusum_threshold,
+    reference_phases,
+    two_segment_statistic,
+    two_segment_threshold,
+)
+
+__all__ = ["Change", "best_split", "robust_sigma", "scan_cusum", "scan_two_segments",
+           "standardise"]
+
+
+def robust_sigma(y: NDArray[np.float64]) -> float:
+    """Card-to-card noise from successive differences (robust to one step or a drift)."""
+    if y.size < 3:
+        return math.nan
+    d = np.diff(y)
+    return float(MAD_TO_SD * np.median(np.abs(d - np.median(d))) / math.sqrt(2.0))
+
+
+@dataclass(frozen=True)
+class Change:
+    """One detected change within a series (indices into the series)."""
+
+    first: int
+    alarm: int
+    direction: str
+    threshold: float
+    noise: float
+
+
+def best_split(y: NDArray[np.float64], wgt: NDArray[np.float64], lo: int, hi: int,
+           candidates: range) -> int:
+    """The split into two constant levels with the least weighted absolute deviation."""
+    best, best_cost = candidates.start, math.inf
+    for k in candidates:
+        left, right = y[lo:k], y[k:hi]
+        cost = float(np.sum(wgt[lo:k] * np.abs(left - np.median(left)))
+                     + np.sum(wgt[k:hi] * np.abs(right - np.median(right))))
+        if cost < best_cost - 1e-12 * abs(best_cost if math.isfinite(best_cost) else 1.0):
+            best, best_cost = k, cost
+    return best
+
+
+def standardise(
+    y: NDArray[np.float64], se: NDArray[np.float64], start: int, w: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None:
+    """Scores ``z``, noise ``sigma_i`` and reference scatter for cards ``start + w`` on.
+
+    None when the first reference has neither scatter nor standard errors.
+    """
+    n = y.size
+    z = np.empty(n - start - w)
+    sig_all = np.empty(n - start - w)
+    ref_sigma = np.empty(n - start - w)
+    for ref_end, lo, hi in reference_phases(w, n - start):
+        base = y[start:start + ref_end]
+        level = float(np.median(base))
+        sigma = robust_sigma(base)
+        base_se = se[start:start + ref_end]
+        finite = np.isfinite(base_se)
+        s_ref = float(np.median(base_se[finite])) if finite.any() else math.nan
+        if not (math.isfinite(sigma) and sigma > 0):
+            # Identical reference values: only the reported errors can give a scale.
+            sigma = s_ref if math.isfinite(s_ref) and s_ref > 0 else math.nan
+        if not math.isfinite(sigma):
+            return None
+        tau2 = max(sigma**2 - (s_ref**2 if math.isfinite(s_ref) else 0.0), 0.0)
+        part = slice(start + lo, start + hi)
+        s = np.where(np.isfinite(se[part]), se[part], s_ref if math.isfinite(s_ref) else 0.0)
+        sig_i = np.maximum(np.sqrt(tau2 + s**2), 0.5 * sigma)
+        z[lo - w:hi - w] = (y[part] - level) / sig_i
+        sig_all[lo - w:hi - w] = sig_i
+        ref_sigma[lo - w:hi - w] = sigma
+    return z, sig_all, ref_sigma
+
+
+def scan_cusum(
+    y: NDArray[np.float64], se: NDArray[np.float64], *, min_cards: int, alpha: float,
+    reference: float, clip: float, tail_dof: float, outlier_fraction: float,
+) -> tuple[list[Change], str]:
+    """All changes of one series on the analysis scale, and a word on why none if so."""
+    n = y.size
+    w = min_cards
+    changes: list[Change] = []
+    start = 0
+    note = ""
+    while start + w < n:
+        std = standardise(y, se, start, w)
+        if std is None:
+            note = "no scatter in the reference cards and no standard errors: not tested"
+            break
+        z, sig_i, ref_sigma = std
+        # After a change the search resumes at the alarm: cards of the new level already
+        # seen between the change point and the alarm are its reference, not tested again.
+        skip = max(0, (changes[-1].alarm + 1 - start - w) if changes else 0)
+        h = cusum_threshold(n - start - w, min_cards=w, alpha=alpha, reference=reference,
+                            clip=clip, tail_dof=tail_dof,
+                            outlier_fraction=outlier_fraction)  # fmt: skip
+        zc = np.clip(z[skip:], -clip, clip)
+        up, c_up = cusum_paths(zc - reference)
+        down, c_down = cusum_paths(-zc - reference)
+        hit_up = np.flatnonzero(up > h)
+        hit_down = np.flatnonzero(down > h)
+        if not hit_up.size and not hit_down.size:
+            break
+        a_up = int(hit_up[0]) if hit_up.size else n
+        a_down = int(hit_down[0]) if hit_down.size else n
+        rising = a_up <= a_down
+        a = min(a_up, a_down)
+        csum = c_up if rising else c_down
+        # The CUSUM's own change point: the card after the cumulative sum's last minimum
+        # (counting the empty sum before the first monitored card) up to the alarm.
+        path = np.concatenate([[0.0], csum[: a + 1]])
+        offset = start + w + skip
+        tau0 = offset + int(path.size - 1 - np.argmin(path[::-1]))
+        alarm = offset + a
+        weights = np.full(n, 1.0 / ref_sigma[0])
+        weights[start + w:] = 1.0 / sig_i
+        lo = max(start, tau0 - w)
+        hi = min(n, alarm + 1 + w)
+        cand = range(max(lo + 2, start + 1), min(alarm, hi - 2) + 1)
+        first = best_split(y, weights, lo, hi, cand) if len(cand) else tau0
+        first = max(start + 1, min(first, alarm))
+        changes.append(Change(first, alarm, "up" if rising else "down", h,
+                               float(ref_sigma[alarm - start - w])))
+        start = first
+    return changes, note
+
+
+
+def scan_two_segments(y: NDArray[np.float64], se: NDArray[np.float64], *, alpha: float,
+                  tail_dof: float, outlier_fraction: float) -> list[Change]:
+    """The change of a short history (at most one), by the two-segment test.
+
+    The whole history is tested at once, so the alarm is its last card. The scale is never
+    below the median of the fits' standard errors; with neither scatter nor errors the
+    history is not tested.
+    """
+    finite = np.isfinite(se)
+    floor = float(np.median(se[finite])) if finite.any() else 0.0
+    stat, split, scale = two_segment_statistic(y, floor)
+    if not (math.isfinite(float(stat[0])) and scale[0] > 0):
+        return []
+    h = two_segment_threshold(y.size, alpha=alpha, tail_dof=tail_dof,
+                              outlier_fraction=outlier_fraction)
+    if not stat[0] > h:
+        return []
+    k = int(split[0])
+    rising = bool(np.median(y[k:]) > np.median(y[:k]))
+    return [Change(k, y.size - 1, "up" if rising else "down", h, float(scale[0]))]

@@ -1,0 +1,85 @@
+"""Short histories (6 to 30 cards of a well) are tested, by the two-segment test, at its
+simulated false-alarm rate; shorter ones are named as not tested."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.stats
+
+from pumpid.fleet.changes import detect_changes, history_coverage
+from pumpid.fleet.thresholds import two_segment_statistic, two_segment_threshold
+
+from .test_changes import results_table
+
+
+def _issue_field(step: bool) -> tuple:
+    # 30 wells x 10 cards; W0004's stiffness about 710 lbf/in (card-to-card scatter 1 %,
+    # fits' standard errors about 1 lbf/in), stepping to about 820 from its sixth card.
+    table = results_table(30, 10, cv=0.01, seed=12)
+    rng = np.random.default_rng(5)
+    mine = (table["well_id"] == "W0004").to_numpy()
+    level = np.where(np.arange(10) >= 5, 820.0, 710.0) if step else np.full(10, 710.0)
+    table.loc[mine, "d_stiffness"] = level * np.exp(0.01 * rng.standard_normal(10))
+    table.loc[mine, "d_stiffness_se"] = 1.0
+    return table, mine
+
+
+def test_a_step_in_a_week_of_cards_alerts() -> None:
+    table, _ = _issue_field(step=True)
+    alerts = detect_changes(table, ["stiffness"])
+    mine = alerts[alerts["well_id"] == "W0004"]
+    assert len(mine) == 1, alerts
+    row = mine.iloc[0]
+    assert row["method"] == "two-segment" and row["direction"] == "up"
+    assert row["first_index"] == 5 and row["first_card_id"] == "W0004-0005"
+    assert row["alarm_index"] == 9 and row["n_before"] == 5 and row["n_after"] == 5
+    assert row["before"] == pytest.approx(710, rel=0.02)
+    assert row["after"] == pytest.approx(820, rel=0.02)
+    assert row["unit"] == "lbf/in" and row["change_se"] > 10
+    steady, _ = _issue_field(step=False)
+    assert "W0004" not in set(detect_changes(steady, ["stiffness"])["well_id"])
+
+
+@pytest.mark.parametrize(("n_cards", "n_wells"), [(6, 1500), (10, 1500), (30, 400)])
+def test_steady_short_wells_alert_at_the_simulated_rate(n_cards: int, n_wells: int) -> None:
+    # Steady wells x 3 quantities, Student-t tails and 1 % outlier cards: the noise the
+    # threshold is simulated for; a steady well alerts with probability at most 1 %.
+    table = results_table(n_wells, n_cards, cv=0.04, seed=n_cards, outliers=0.01)
+    alerts = detect_changes(table, false_alarm=0.01)
+    assert set(alerts["method"]) <= {"two-segment"}
+    # at most the binomial's 99.9th percentile at 1 % (27 of 1500, 11 of 400)
+    assert alerts["well_id"].nunique() <= scipy.stats.binom.ppf(0.999, n_wells, 0.01)
+
+
+def test_an_outlier_is_not_a_change_and_lengths_are_covered() -> None:
+    y = np.log(np.full(8, 500.0) * np.exp(0.01 * np.random.default_rng(3).standard_normal(8)))
+    y[-1] += 0.5  # the last card alone 65 % off
+    stat, _, _ = two_segment_statistic(y)
+    assert stat[0] < two_segment_threshold(8, alpha=0.01)
+    table = results_table(4, 8, cv=0.02, seed=1)
+    short = table["well_id"] == "W0003"
+    table = table[~short | (table["card_id"].str[-4:].astype(int) < 5)]
+    cover = history_coverage(table, ["stiffness"]).set_index("well_id")
+    assert cover.loc["W0003", "method"] == "too short" and cover.loc["W0003", "cards"] == 5
+    assert set(cover.loc[["W0000", "W0001", "W0002"], "method"]) == {"two-segment"}
+    long = results_table(1, 31, seed=2)
+    assert history_coverage(long, ["stiffness"])["method"].tolist() == ["cusum"]
+    with pytest.raises(ValueError, match="min_short_cards"):
+        detect_changes(table, min_short_cards=5)
+
+
+def test_the_report_says_which_wells_were_tested(tmp_path) -> None:
+    from pumpid.fleet.report import write_fleet_report
+
+    table, _ = _issue_field(step=True)
+    few = table["well_id"].isin(["W0010", "W0011"]) & (table["card_id"].str[-4:] >= "0004")
+    table = table[~few]
+    files = write_fleet_report(table, tmp_path, quantities=["stiffness"], steady_sample=0)
+    page = files["report"].read_text(encoding="utf-8")
+    assert "1 alert in 1 well" in page
+    assert "0 wells by the CUSUM" in page and "28 wells by the two-segment test" in page
+    assert ("wells too short to test (fewer than 6 usable cards of every quantity)</td>"
+            "<td>2 wells: W0010, W0011") in page
+    wells = files["wells"].read_text(encoding="utf-8")
+    assert "too short" in wells and "two-segment" in wells
