@@ -34,6 +34,7 @@ __all__ = [
     "EXIT_OUTPUT",
     "EXIT_PIPE",
     "EXIT_POOR_FIT",
+    "EXIT_UNDETERMINED",
     "EXIT_USAGE",
     "CliError",
     "WarningCounter",
@@ -51,6 +52,8 @@ EXIT_USAGE = 2
 EXIT_NOT_FITTED = 3
 EXIT_OUTPUT = 4
 EXIT_POOR_FIT = 5
+#: Every card fitted, but on some the data determine none of the model's parameters.
+EXIT_UNDETERMINED = 6
 EXIT_INTERRUPTED = 130
 EXIT_PIPE = 141
 

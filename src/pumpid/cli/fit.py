@@ -41,6 +41,7 @@ from .common import (
     EXIT_OK,
     EXIT_OUTPUT,
     EXIT_POOR_FIT,
+    EXIT_UNDETERMINED,
     EXIT_USAGE,
     CliError,
     columns_option,
@@ -532,6 +533,8 @@ def _cmd_joint(args: argparse.Namespace, setup: FitSetup) -> int:
         print(json.dumps(jsonable(joint.to_dict()), indent=2, allow_nan=False))
     else:
         print(printable_block(joint.report()))
+    if joint.status == "undetermined":
+        return EXIT_UNDETERMINED
     return EXIT_OK if joint.status in ("converged", "boundary") else EXIT_NOT_FITTED
 
 
@@ -603,8 +606,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
     fitted = counts["converged"] + counts["boundary"]
     if total and fitted == total:
         return EXIT_OK
-    if total and fitted + counts["poor-fit"] == total:
-        return EXIT_POOR_FIT
+    if total and fitted + counts["poor-fit"] + counts["undetermined"] == total:
+        return EXIT_POOR_FIT if counts["poor-fit"] else EXIT_UNDETERMINED
     if fitted == 0 and counts["failed"] == 0:
         return EXIT_USAGE  # no card could even be tried: the input is the problem
     return EXIT_NOT_FITTED

@@ -198,10 +198,20 @@ def findings_of(
     undetermined = sorted({inner[i] for k in structural for i in range(qi)
                            if abs(vt[k, i]) >= 1e-6})
     at_bound = {n for n, _d, _l in boundaries}
+    # A model parameter is determined when the error shown for it (the robust one where the
+    # residuals are serially correlated) is below PRACTICAL_REL_SE of its value: the rule
+    # the derived quantities follow. Its error stays finite; it is only not called known.
+    shown = nums.hac_scaled if robust else nums.cov_scaled
+    loose = set()
+    for a, i in enumerate(inner):
+        if names[i] in model_names and is_positive_quantity(names[i]):
+            var = float(shown[a, a])
+            if not (math.isfinite(var) and math.sqrt(max(var, 0.0)) <= PRACTICAL_REL_SE):
+                loose.add(i)
     for i, name in enumerate(names):
         if name in at_bound:
             continue
-        if i in undetermined:
+        if i in undetermined or i in loose:
             determined["not_determined"].append(name)
         else:
             determined["parameters"].append(name)
