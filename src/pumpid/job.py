@@ -50,7 +50,12 @@ from .inference.boundaries import BoundaryInfo, Limiting, ReducedFit
 from .inference.derived import derived_of
 from .inference.echo import echo_of
 from .inference.identifiability import findings_of, whiteness_warning
-from .inference.serial import calibrate_robust, robust_covariance, shown_errors
+from .inference.serial import (
+    calibrate_robust,
+    robust_covariance,
+    shown_errors,
+    with_ar1_floor,
+)
 from .inference.uncertainty import Numbers, numbers, uncertainty_of
 from .models import Model, model_class
 from .result import FitBatch, FitResult, StartInfo, Status, Units
@@ -503,13 +508,20 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
             if b.name in names:
                 inner[j, names.index(b.name)] = False
     nums = numbers(problem, cards[idx], np.array([fits[i].z for i in idx]), inner)
+    data, model_code, settings = problem.arrays
     for j, i in enumerate(idx):
         card = fits[i]
-        num = _numbers_for_true_offset(problem, int(cards[i]), card.z, nums[j])
-        unit = ("(ln of position)^2, dimensionless" if problem.residual == "log"
-                else f"{units[int(cards[i])].position}^2")
+        k = int(cards[i])
+        num, calibration = calibrate_robust(nums[j])
         serial = not num.exact and not (num.rho <= 2.576 / math.sqrt(max(num.n, 1)))
-        num, calibration = calibrate_robust(num)
+        if serial:
+            rows = np.empty((problem.q + 1, problem.n_samples(k)))
+            if drive.residual_rows(card.z, k, data, model_code, settings, rows):
+                num, calibration["ar1"] = with_ar1_floor(
+                    num, rows, problem.q - 1 if problem.offset_fixed is None else -1)
+        num = _numbers_for_true_offset(problem, k, card.z, num)
+        unit = ("(ln of position)^2, dimensionless" if problem.residual == "log"
+                else f"{units[k].position}^2")
         f = findings_of(num, model_names=model_names, gauge_fixed=problem.gauge_fixed,
                         initial_state=problem.initial_states[int(cards[i])],
                         residual=problem.residual,
@@ -527,6 +539,7 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
                 problem.model, _theta(problem, z), observe=problem.observe, scale=scale,
                 nums=num, units=(units[int(cards[i])].load, units[int(cards[i])].position),
                 serial=serial, limits=[(b.name, b.direction) for b in card.limits])
+            _offset_gauge(problem, int(cards[i]), card, units[int(cards[i])])
             period = (float(problem.period[int(cards[i])])
                       if problem.initial_states[int(cards[i])] == "periodic" else None)
             card.derived, echo = echo_of(card.derived, period)
@@ -536,6 +549,35 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
                     n for n, d in card.derived.items() if not d.well_property]
         if unc is not None and unc.whiteness is not None and not unc.whiteness["white"]:
             card.warnings.append(whiteness_warning(dict(unc.whiteness), num.n, len(names)))
+
+
+def _offset_gauge(problem: Problem, k: int, card: _Card, units: Units) -> None:
+    """The offset a periodic card fixes, and the one it does not.
+
+    A periodic card's mean position is the offset plus the mean load over the static
+    stiffness: the data fix that sum (the position at the card's mean load, the solver's
+    own offset coordinate), not its parts. Where the static stiffness is not determined,
+    the reported offset (the position at zero load) is not either (on real cards k1 and
+    the offset correlate 1.000); the combination is reported as determined instead.
+    """
+    stiff = card.derived.get("static_stiffness")
+    if (problem.offset_fixed is not None or problem.shift_of(k) == 0.0 or stiff is None
+            or "offset" not in card.determined.get("parameters", [])):
+        return
+    level = _scale_offset(problem, card.z)[1]
+    card.determined.setdefault("combinations", []).append(
+        f"the position at the card's mean load, offset + mean load / static stiffness = "
+        f"{level:.6g} {units.position}")
+    card.determined["offset_at_mean_load"] = level
+    if stiff.determined:
+        return
+    card.determined["parameters"].remove("offset")
+    card.determined["not_determined"].append("offset")
+    card.findings = (*card.findings,
+                     "The offset (the position at zero load) is not determined: the card "
+                     "fixes only the position at its mean load, offset + mean load / static "
+                     f"stiffness = {level:.6g} {units.position}, and the static stiffness "
+                     "is not determined, so the offset trades off with it.")
 
 
 # --------------------------------------------------------------------------- the job
