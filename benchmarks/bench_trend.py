@@ -91,6 +91,13 @@ def target_table(title: str, fits: list[pumpid.FitResult]) -> tuple[int, int]:
         print(f"  {name:<30}{rows[0][name][3]:<12}{len(keep):>7}/{len(rows):<3}"
               f"{np.median(vals):>12.4g}{cv:>9.1%}{rel:>12.1%}{cv / rel:>8.2f}  "
               f"{'met' if ok else 'NOT met'}{tag}")
+    ratios = [r.derived["natural_frequency"].value * r.card.period for r in fits
+              if "natural_frequency" in r.derived and r.card is not None and r.card.period]
+    if ratios:
+        print(f"  natural frequency / stroke frequency: {min(ratios):.3f}-{max(ratios):.3f} "
+              f"(median {float(np.median(ratios)):.3f}); echo of the stroke on "
+              f"{sum(not r.derived['natural_frequency'].well_property for r in fits)} of "
+              f"{len(fits)} cards")
     return met, total
 
 
