@@ -153,3 +153,27 @@ def test_the_model_choice_text_states_the_effective_size_it_measured() -> None:
     text = model_choice_text(choice)
     assert "n_eff = 2.0, counted as 8.0 by the criteria" in text
     assert not math.isnan(choice["n_eff_data"])
+
+
+def test_a_better_optimum_is_claimed_with_digits_that_differ() -> None:
+    from pumpid import job
+
+    said = job._cost_change(87.99541234567, 87.99540987654)
+    before, after = said.split(",")[0].removeprefix("cost ").split(" -> ")
+    assert before != after and "lower by" in said
+
+
+@pytest.mark.realdata
+def test_real_card_words_and_units_match_the_numbers(shared_raw) -> None:
+    from pumpid.pump import fit_card
+
+    card = read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")[0].with_dt(0.075)
+    res = fit_card(card)
+    assert res.status is Status.BOUNDARY and res.boundary.reduced is not None
+    # The reduced model's units are the card's (lbf, in), not N and m.
+    units = res.to_dict()["reduced"]["units"]
+    assert units == {"m": "lbf*s^2/in", "c": "lbf*s/in", "k": "lbf/in"}
+    # The limit's words quote the value the result reports.
+    for b in res.boundary.limits:
+        assert f"fitted value {res.params[b.name]:.4g} is arbitrary" in b.describe()
+        assert any(f"fitted value {res.params[b.name]:.4g}" in w for w in res.warnings)
