@@ -548,7 +548,8 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
                 card.determined["not_well_property"] = [
                     n for n, d in card.derived.items() if not d.well_property]
         if unc is not None and unc.whiteness is not None and not unc.whiteness["white"]:
-            card.warnings.append(whiteness_warning(dict(unc.whiteness), num.n, len(names)))
+            card.warnings.append(whiteness_warning(dict(unc.whiteness), num.n, len(names),
+                                                   unc.shown == "robust"))
 
 
 def _offset_gauge(problem: Problem, k: int, card: _Card, units: Units) -> None:
