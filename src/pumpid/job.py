@@ -48,7 +48,14 @@ from .engine.threads import default_workers
 from .inference import boundaries as bnd
 from .inference.boundaries import BoundaryInfo, Limiting, ReducedFit
 from .inference.derived import derived_of
+from .inference.echo import echo_of
 from .inference.identifiability import findings_of, whiteness_warning
+from .inference.serial import (
+    calibrate_robust,
+    robust_covariance,
+    shown_errors,
+    with_ar1_floor,
+)
 from .inference.uncertainty import Numbers, numbers, uncertainty_of
 from .models import Model, model_class
 from .result import FitBatch, FitResult, StartInfo, Status, Units
@@ -412,6 +419,12 @@ def _check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[_Ca
         if not found[j] or k in restarts:
             continue
         _to_the_limit(problem, k, card, found[j], options)
+        # The limit's words quote the value the card ends at, not the one where the limit
+        # was found (the move to the window's edge changes it: 6.4e8 said, 1.7e9 reported).
+        free_names = [problem.model.param_names()[i] for i in problem.free_idx]
+        found[j] = [dataclasses.replace(b, value=float(np.exp(min(
+            card.z[free_names.index(b.name)], 709.0)))) if b.name in free_names else b
+            for b in found[j]]
         card.status = Status.BOUNDARY
         names = ", ".join(b.name for b in found[j])
         card.reason = (f"{card.reason}; {names} ran to a bound: the solution is a limiting "
@@ -501,12 +514,20 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
             if b.name in names:
                 inner[j, names.index(b.name)] = False
     nums = numbers(problem, cards[idx], np.array([fits[i].z for i in idx]), inner)
+    data, model_code, settings = problem.arrays
     for j, i in enumerate(idx):
         card = fits[i]
-        num = _numbers_for_true_offset(problem, int(cards[i]), card.z, nums[j])
-        unit = ("(ln of position)^2, dimensionless" if problem.residual == "log"
-                else f"{units[int(cards[i])].position}^2")
+        k = int(cards[i])
+        num, calibration = calibrate_robust(nums[j])
         serial = not num.exact and not (num.rho <= 2.576 / math.sqrt(max(num.n, 1)))
+        if serial:
+            rows = np.empty((problem.q + 1, problem.n_samples(k)))
+            if drive.residual_rows(card.z, k, data, model_code, settings, rows):
+                num, calibration["ar1"] = with_ar1_floor(
+                    num, rows, problem.q - 1 if problem.offset_fixed is None else -1)
+        num = _numbers_for_true_offset(problem, k, card.z, num)
+        unit = ("(ln of position)^2, dimensionless" if problem.residual == "log"
+                else f"{units[k].position}^2")
         f = findings_of(num, model_names=model_names, gauge_fixed=problem.gauge_fixed,
                         initial_state=problem.initial_states[int(cards[i])],
                         residual=problem.residual,
@@ -515,6 +536,7 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
         card.findings, card.determined = f.sentences, f.determined
         unc = uncertainty_of(num, f.undetermined, [names.index(b.name) for b in card.limits
                                                    if b.name in names], f.notes, unit)
+        unc = shown_errors(unc, serial, robust_covariance(num, f.undetermined), calibration)
         card.uncertainty = unc
         if problem.model.input_map is None:
             z = card.z
@@ -523,8 +545,46 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
                 problem.model, _theta(problem, z), observe=problem.observe, scale=scale,
                 nums=num, units=(units[int(cards[i])].load, units[int(cards[i])].position),
                 serial=serial, limits=[(b.name, b.direction) for b in card.limits])
+            _offset_gauge(problem, int(cards[i]), card, units[int(cards[i])])
+            period = (float(problem.period[int(cards[i])])
+                      if problem.initial_states[int(cards[i])] == "periodic" else None)
+            card.derived, echo = echo_of(card.derived, period)
+            if echo is not None:
+                card.warnings.append(echo)
+                card.determined["not_well_property"] = [
+                    n for n, d in card.derived.items() if not d.well_property]
         if unc is not None and unc.whiteness is not None and not unc.whiteness["white"]:
-            card.warnings.append(whiteness_warning(dict(unc.whiteness), num.n, len(names)))
+            card.warnings.append(whiteness_warning(dict(unc.whiteness), num.n, len(names),
+                                                   unc.shown == "robust"))
+
+
+def _offset_gauge(problem: Problem, k: int, card: _Card, units: Units) -> None:
+    """The offset a periodic card fixes, and the one it does not.
+
+    A periodic card's mean position is the offset plus the mean load over the static
+    stiffness: the data fix that sum (the position at the card's mean load, the solver's
+    own offset coordinate), not its parts. Where the static stiffness is not determined,
+    the reported offset (the position at zero load) is not either (on real cards k1 and
+    the offset correlate 1.000); the combination is reported as determined instead.
+    """
+    stiff = card.derived.get("static_stiffness")
+    if (problem.offset_fixed is not None or problem.shift_of(k) == 0.0 or stiff is None
+            or "offset" not in card.determined.get("parameters", [])):
+        return
+    level = _scale_offset(problem, card.z)[1]
+    card.determined.setdefault("combinations", []).append(
+        f"the position at the card's mean load, offset + mean load / static stiffness = "
+        f"{level:.6g} {units.position}")
+    card.determined["offset_at_mean_load"] = level
+    if stiff.determined:
+        return
+    card.determined["parameters"].remove("offset")
+    card.determined["not_determined"].append("offset")
+    card.findings = (*card.findings,
+                     "The offset (the position at zero load) is not determined: the card "
+                     "fixes only the position at its mean load, offset + mean load / static "
+                     f"stiffness = {level:.6g} {units.position}, and the static stiffness "
+                     "is not determined, so the offset trades off with it.")
 
 
 # --------------------------------------------------------------------------- the job
@@ -663,7 +723,7 @@ def run(problem: Problem, cards: NDArray[np.int64], *, guess: Array | None,
                     fits[i].warnings.append(
                         f"the first answer did not explain the data; a wider search "
                         f"({int(counts[better[j]])} more starts) found a better optimum "
-                        f"(cost {before:.6g} -> {fits[i].cost:.6g})")
+                        f"({_cost_change(before, fits[i].cost)})")
                 _mark_edges(problem, cards[idx], z_wide[better], fits, idx)
                 _summarize(problem, cards, fits)
 
@@ -696,6 +756,17 @@ def run(problem: Problem, cards: NDArray[np.int64], *, guess: Array | None,
     return fits
 
 
+def _cost_change(before: float, after: float) -> str:
+    """``cost A -> B`` with enough digits that A and B differ in print, and the relative
+    change (a claim of a better optimum must show one)."""
+    digits = 6
+    while digits < 17 and f"{before:.{digits}g}" == f"{after:.{digits}g}":
+        digits += 1
+    rel = (before - after) / before if before > 0 else math.nan
+    return (f"cost {before:.{digits}g} -> {after:.{digits}g}, lower by {rel:.2g} of it"
+            if math.isfinite(rel) else f"cost {before:.{digits}g} -> {after:.{digits}g}")
+
+
 def _with(options: JobOptions, **changes: Any) -> JobOptions:
     from dataclasses import replace
 
@@ -720,15 +791,36 @@ def _run_batch(problem: Problem, *, guess: Array | None, c_start: Array | None =
     results: list[FitResult | None] = [None] * problem.n_cards
     for j, k in enumerate(valid):
         res = build_result(problem, int(k), fits[j], options, per_card[int(k)], warnings)
-        results[int(k)] = _quality_gate(res, options.min_r2) if depth == 0 else res
+        results[int(k)] = (_quality_gate(_determination_gate(res), options.min_r2)
+                           if depth == 0 else res)
     return FitBatch(model_name=problem.model.__name__,
                     param_names=problem.model.param_names(), results=tuple(results),
                     invalid=problem.invalid)
 
 
+def _determination_gate(res: FitResult) -> FitResult:
+    """``undetermined`` for an answer (converged or at a boundary) that determines none of
+    the model's parameters: a converged optimum of numbers the data do not fix is not an
+    answer (on real cards: m in the millions, damping ratios of 1e-5)."""
+    if res.status not in (Status.CONVERGED, Status.BOUNDARY) or res.uncertainty is None:
+        return res
+    if any(n in res.params for n in res.determined.get("parameters", ())):
+        return res
+    good = [d.name for d in res.derived.values() if d.determined]
+    said = ("no parameter of the model is determined by these data (each ran to a limit, "
+            "is structurally free or has an error over 100 % of its value): the fitted "
+            "values are one of many that fit as well"
+            + (f"; determined derived quantities: {', '.join(good)}" if good else ""))
+    return dataclasses.replace(res, status=Status.UNDETERMINED,
+                               reason=f"{said} (the solver's own verdict: {res.status.key}: "
+                                      f"{res.reason})",
+                               warnings=(*res.warnings, said))
+
+
 def _quality_gate(res: FitResult, min_r2: float) -> FitResult:
-    """``poor-fit`` for an answer (converged or at a boundary) below the R^2 threshold."""
-    if res.status not in (Status.CONVERGED, Status.BOUNDARY):
+    """``poor-fit`` for an answer (converged, at a boundary or undetermined) below the R^2
+    threshold."""
+    if res.status not in (Status.CONVERGED, Status.BOUNDARY, Status.UNDETERMINED):
         return res
     if math.isfinite(res.r2) and res.r2 >= min_r2:
         return res
@@ -783,7 +875,14 @@ def build_result(problem: Problem, k: int, card: _Card, options: JobOptions, uni
                                                                       math.nan)
     history = _history(problem, card, k)
     text = tuple(w.replace("{position}", units.position) for w in (*warnings, *card.warnings))
-    boundary = (BoundaryInfo(card.limits, card.reduced) if card.limits else None)
+    reduced = card.reduced
+    if reduced is not None:
+        # The reduced model was fitted inside the job, which knows no units: its parameters'
+        # units come from this card's, as the full model's do.
+        info = model_class(reduced.model).param_info()
+        reduced = dataclasses.replace(reduced, units={
+            p.name: p.unit_for(units.load, units.position) for p in info})
+    boundary = (BoundaryInfo(card.limits, reduced) if card.limits else None)
     state = problem.initial_states[k]
     return FitResult(
         model=model, model_name=cls.__name__, status=status, reason=reason, params=params,

@@ -62,6 +62,11 @@ class Status(enum.StrEnum):
     CONVERGED = ("converged", "the solver met a convergence test at an interior optimum")
     BOUNDARY = ("boundary", "a parameter ran to 0 or infinity: the data want a limiting "
                 "model, whose parameters are reported beside the full model's")
+    UNDETERMINED = ("undetermined", "the solver found its optimum, but the data determine "
+                    "none of the model's parameters (each ran to a limit, is structurally free "
+                    "or has an error over 100 % of its value): the numbers are one point of a "
+                    "wide set of models that fit as well; only derived quantities marked "
+                    "determined, if any, say something")
     POOR_FIT = ("poor-fit", "the solver found its optimum, but the model explains less of "
                 "the data than the quality threshold asks (R^2 below min_r2): the numbers "
                 "describe a model that does not reproduce this record")
@@ -196,7 +201,8 @@ class FitResult:
     model : Model or None
         The fitted model (None when the fit produced no finite parameters).
     status : Status
-        ``converged``, ``boundary`` (a parameter ran to 0 or infinity) or ``failed``.
+        ``converged``, ``boundary`` (a parameter ran to 0 or infinity), ``undetermined``
+        (no parameter determined), ``poor-fit`` or ``failed``.
     reason : str
         Why the solver stopped, in words, and what the boundary analysis found.
     params : mapping
@@ -283,13 +289,37 @@ class FitResult:
 
     @property
     def stderr(self) -> dict[str, float]:
-        """Standard error of every fitted value (empty when not computed)."""
+        """Standard error of every fitted value (empty when not computed): the error that
+        holds for these residuals, robust to their serial correlation where they fail the
+        whiteness check (:attr:`errors_shown`; :attr:`stderr_white` assumes white noise)."""
         return dict(self.uncertainty.stderr) if self.uncertainty else {}
 
     @property
     def ci95(self) -> dict[str, Any]:
         """95 % confidence interval (low, high) of every fitted value."""
         return dict(self.uncertainty.ci95) if self.uncertainty else {}
+
+    @property
+    def errors_shown(self) -> str:
+        """Which errors :attr:`stderr` and :attr:`ci95` are: ``"robust"`` (the residuals
+        are serially correlated: the autocorrelation-robust ones) or ``"white"``."""
+        return str(getattr(self.uncertainty, "shown", "white"))
+
+    @property
+    def stderr_white(self) -> dict[str, float]:
+        """Standard errors that assume independent (white) noise, whatever is shown."""
+        unc = self.uncertainty
+        if unc is None:
+            return {}
+        return dict(getattr(unc, "stderr_white", None) or unc.stderr)
+
+    @property
+    def ci95_white(self) -> dict[str, Any]:
+        """95 % intervals from :attr:`stderr_white`."""
+        unc = self.uncertainty
+        if unc is None:
+            return {}
+        return dict(getattr(unc, "ci95_white", None) or unc.ci95)
 
     @property
     def stderr_hac(self) -> dict[str, float]:
@@ -370,9 +400,13 @@ class FitResult:
                 "ci95": {k: list(v) if v else None for k, v in unc.ci95.items()},
                 "stderr_hac": dict(unc.stderr_hac),
                 "ci95_hac": {k: list(v) if v else None for k, v in unc.ci95_hac.items()},
+                "stderr_white": self.stderr_white,
+                "ci95_white": {k: list(v) if v else None for k, v in self.ci95_white.items()},
+                "errors_shown": self.errors_shown,
             })
         else:
             out.update({"stderr": {}, "ci95": {}, "stderr_hac": {}, "ci95_hac": {},
+                        "stderr_white": {}, "ci95_white": {}, "errors_shown": "white",
                         "correlation": {}, "covariance": {}, "sigma2": math.nan,
                         "uncertainty": {"note": "not computed: the fit has no finite solution "
                                                 "with a Jacobian, or no more samples than "
@@ -391,9 +425,12 @@ class FitResult:
         Keys: ``well_id``, ``card_id``, ``time``, ``source``, ``model``, ``observe``,
         ``status``, ``reason``, ``warnings`` (joined by " | "), ``r2``, ``rmse``, ``cost``,
         ``n_samples``, ``nfev``, ``position_unit``, ``load_unit``; per parameter
-        ``p_NAME``, ``p_NAME_se``, ``p_NAME_se_hac``; ``scale`` and ``offset``; per derived
-        quantity ``d_NAME``, ``d_NAME_se``, ``d_NAME_se_hac``, ``d_NAME_determined``,
-        ``d_NAME_unit``. Standard errors are NaN where not computed.
+        ``p_NAME``, ``p_NAME_se`` (the error shown: robust where the residuals are serially
+        correlated), ``p_NAME_se_hac``, ``p_NAME_se_white``; ``scale`` and ``offset``; per
+        derived quantity ``d_NAME``, ``d_NAME_se`` (shown), ``d_NAME_se_hac``,
+        ``d_NAME_se_white``, ``d_NAME_determined``, ``d_NAME_well_property`` (False when the
+        card's imposed motion, not the well, sets it), ``d_NAME_unit``. Standard errors are
+        NaN where not computed.
         """
         card = self.card
         row: dict[str, Any] = {
@@ -409,17 +446,21 @@ class FitResult:
         }
         se = self.stderr
         se_hac = self.stderr_hac
+        se_white = self.stderr_white
         for name, value in self.params.items():
             row[f"p_{name}"] = value
             row[f"p_{name}_se"] = float(se.get(name, math.nan))
             row[f"p_{name}_se_hac"] = float(se_hac.get(name, math.nan))
+            row[f"p_{name}_se_white"] = float(se_white.get(name, math.nan))
         row["scale"] = self.scale
         row["offset"] = self.offset
         for name, d in self.derived.items():
             row[f"d_{name}"] = d.value
             row[f"d_{name}_se"] = d.stderr
             row[f"d_{name}_se_hac"] = d.stderr_hac
+            row[f"d_{name}_se_white"] = d.stderr_white
             row[f"d_{name}_determined"] = d.determined
+            row[f"d_{name}_well_property"] = d.well_property
             row[f"d_{name}_unit"] = d.unit
         return row
 
@@ -512,13 +553,20 @@ def diagnostics_text(result: FitResult) -> str:
         lines.append(f"  ({unc.assumptions})")
         values = result.free_values()
         units = {**result.param_units(), "C": "-", "D": "-", "offset": result.units.position}
-        lines += _error_table(result.free, values, units, unc.stderr, unc.ci95)
-        if unc.whiteness and not unc.whiteness.get("white") and unc.hac:
+        if result.errors_shown == "robust" and unc.hac:
             m = unc.hac["bandwidth"]
-            lines.append("  robust to the residuals' serial correlation (HAC: prewhitened "
-                         f"Bartlett kernel, bandwidth {m} sample{'s' if m != 1 else ''}; see "
-                         "the warning below):")
-            lines += _error_table(result.free, values, units, unc.stderr_hac, unc.ci95_hac)
+            lines.append("  robust to the residuals' serial correlation (shown; HAC: "
+                         f"prewhitened Bartlett kernel, bandwidth {m} "
+                         f"sample{'s' if m != 1 else ''}, widened by "
+                         f"{float(unc.hac.get('factor', 1.0)):.3g} for the estimate's own "
+                         "spread; see the warning below):")
+            lines += _error_table(result.free, values, units, unc.stderr, unc.ci95)
+            lines.append("  assuming independent noise (too narrow for these residuals: "
+                         "stderr_white, ci95_white):")
+            lines += _error_table(result.free, values, units, result.stderr_white,
+                                  result.ci95_white)
+        else:
+            lines += _error_table(result.free, values, units, unc.stderr, unc.ci95)
         for note in unc.notes:
             lines.append(f"  note: {note}")
         lines.append("  correlation:")
@@ -541,14 +589,19 @@ def derived_text(result: FitResult) -> list[str]:
     """The derived quantities as report lines (empty when there are none)."""
     if not result.derived:
         return []
+    shown = "robust" if result.errors_shown == "robust" else "std. error"
     lines = ["", "  derived quantities (what the data determine in physical terms):",
-             f"  {'quantity':<18}  {'value':<12}  {'std. error':<11}  {'robust':<11}  "
+             f"  {'quantity':<18}  {'value':<12}  {shown:<11}  {'white':<11}  "
              f"{'determined':<10}  unit"]
+    notes = []
     for d in result.derived.values():
+        verdict = "yes" if d.determined else "no"
+        if not d.well_property:
+            verdict += " (*)"
+            notes.append(f"  (*) {d.name}: not a property of the well: {d.note}")
         lines.append(f"  {d.name:<18}  {_fmt(d.value, 6):<12}  {_fmt(d.stderr, 4):<11}  "
-                     f"{_fmt(d.stderr_hac, 4):<11}  {'yes' if d.determined else 'no':<10}  "
-                     f"{d.unit}")
-    return lines
+                     f"{_fmt(d.stderr_white, 4):<11}  {verdict:<10}  {d.unit}")
+    return lines + notes
 
 
 def format_report(result: FitResult, history: bool = False) -> str:
@@ -569,15 +622,19 @@ def format_report(result: FitResult, history: bool = False) -> str:
     ]
     unc = result.uncertainty
     stderr = dict(unc.stderr) if unc else {}
-    robust = (dict(unc.stderr_hac) if unc and unc.whiteness and not unc.whiteness.get("white")
-              else {})
+    robust = result.errors_shown == "robust"
+    white = result.stderr_white if robust else {}
+    loose = set(result.determined.get("not_determined", []) or [])
     for name, value in result.params.items():
         se = stderr.get(name)
-        se_hac = robust.get(name)
-        hac_txt = (f"; robust +/- {_fmt(se_hac, 3)}"
-                   if se_hac is not None and math.isfinite(se_hac) else "")
-        se_txt = f"  (+/- {_fmt(se, 3)}{hac_txt})" if se is not None else ""
-        lines.append(f"  {name:<15}  {_fmt(value, 10):<15}  {units.get(name, '')}{se_txt}")
+        se_white = white.get(name)
+        white_txt = (f"; independent-noise +/- {_fmt(se_white, 3)}"
+                     if se_white is not None and math.isfinite(se_white) else "")
+        what = "robust " if robust else ""
+        se_txt = f"  ({what}+/- {_fmt(se, 3)}{white_txt})" if se is not None else ""
+        flag = "  (not determined)" if name in loose else ""
+        lines.append(f"  {name:<15}  {_fmt(value, 10):<15}  {units.get(name, '')}{se_txt}"
+                     f"{flag}")
     scale_state = "fitted" if "C" in result.free or "D" in result.free else "fixed"
     lines.append(f"  {'C (scale)':<15}  {_fmt(result.scale, 10):<15}  - ({scale_state})")
     if result.residual == "log" and result.scale > 0:
@@ -741,9 +798,14 @@ class FitBatch:
 def model_choice_text(choice: Mapping[str, Any]) -> str:
     """A model choice's ranking (``application["model_choice"]``) as text."""
     crit = str(choice["criterion"]).upper()
+    data = choice.get("n_eff_data", choice["n_eff"])
+    data = choice["n_eff"] if data is None or not math.isfinite(data) else float(data)
+    used = (f"n_eff = {data:.1f}" if abs(data - choice["n_eff"]) < 0.05 else
+            f"n_eff = {data:.1f}, counted as {choice['n_eff']:.1f} by the criteria, their "
+            f"smallest usable size")
     lines = [f"Model choice by {crit} on the effective sample size (n = {choice['n']}, "
-             f"residual lag-1 autocorrelation {choice['rho']:.3f}, n_eff = "
-             f"{choice['n_eff']:.1f}); chosen: {choice['chosen']}",
+             f"residual lag-1 autocorrelation {choice['rho']:.3f}, {used}); chosen: "
+             f"{choice['chosen']}",
              f"  {'structure':<18}{'k':>3}{'R^2':>11}{'BIC':>12}{'AICc':>12}"
              f"{'delta':>9}{'weight':>8}  status"]
     for c in choice["candidates"]:

@@ -184,3 +184,16 @@ def test_parameters_and_options() -> None:
     assert empty.empty and list(empty.columns) == list(ALERT_COLUMNS)
     no_quantities = detect_changes(table[["well_id", "card_id", "status"]])
     assert no_quantities.empty
+
+
+def test_a_resonance_that_echoes_the_stroke_is_not_trended_unless_asked() -> None:
+    # Well W0000's natural frequency steps 40 % with the pumping speed; its fits mark it
+    # as an echo of the stroke (not a property of the well): no alert by default, the
+    # step is found when the quantity is asked for by name.
+    table = results_table(2, 120, cv=0.02, seed=4, steps={0: ("natural_frequency", 1.4, 60)})
+    table["d_natural_frequency_well_property"] = table["well_id"] != "W0000"
+    assert "natural_frequency_well_property" not in available_quantities(table)
+    quiet = detect_changes(table)
+    assert not ((quiet["well_id"] == "W0000") & (quiet["quantity"] == "natural_frequency")).any()
+    asked = detect_changes(table, ["natural_frequency"])
+    assert ((asked["well_id"] == "W0000") & (asked["quantity"] == "natural_frequency")).any()

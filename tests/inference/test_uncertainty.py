@@ -160,7 +160,7 @@ def test_robust_errors_widen_for_autocorrelated_noise() -> None:
     check = res.extra["uncertainty"]["whiteness"]
     assert not check["white"] and check["interval_factor"] == pytest.approx(3.0, rel=0.15)
     for name in res.free:
-        ratio = res.stderr_hac[name] / res.stderr[name]
+        ratio = res.stderr_hac[name] / res.stderr_white[name]
         assert 0.6 * check["interval_factor"] < ratio < 1.6 * check["interval_factor"], name
         low, high = res.ci95_hac[name]
         assert low < res.params[name] < high
@@ -170,7 +170,7 @@ def test_robust_errors_widen_for_autocorrelated_noise() -> None:
     text = diagnostics_text(res)
     assert "robust to the residuals' serial correlation" in text
     assert text.count("95 % interval") == 2
-    assert "; robust +/- " in res.report()
+    assert "; independent-noise +/- " in res.report()
     json.loads(res.to_json(allow_nan=False))
 
 
@@ -348,7 +348,7 @@ def test_practical_identifiability_is_judged_on_robust_errors_when_residuals_fol
     # By the white errors every direction is pinned down (relative error below 100 %)...
     kept = nums.singular[np.isfinite(nums.singular)]
     assert np.all(math.sqrt(nums.sigma2) / kept <= 1.0)
-    assert max(res.stderr[n] / res.params[n] for n in names) < 0.5
+    assert max(res.stderr_white[n] / res.params[n] for n in names) < 0.5
     finding = next(f for f in res.identifiability if "practically not" in f)
     assert "k0" in finding.split("practically")[0] and " m" in finding.split("practically")[0]
     assert "serial-correlation-robust" in finding

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -39,7 +41,7 @@ def test_errors_shrink_about_as_one_over_the_root_of_the_number_of_cards() -> No
     well = steady_well(16)
     few, many = fit_joint(well[:4]), fit_joint(well)
     for name in ("m", "c1", "k1"):
-        ratio = many.stderr[name] / few.stderr[name]
+        ratio = many.stderr_white[name] / few.stderr_white[name]
         assert 0.3 <= ratio <= 0.8, (name, ratio)  # 1 / sqrt(4) = 0.5
 
 
@@ -56,3 +58,24 @@ def test_the_cli_fits_the_files_cards_jointly(capsys) -> None:
     out = capsys.readouterr().out
     assert out.startswith("joint fit: Kelvin observing u") and "EX-1A" in out
     assert main(["fit", EXAMPLE, "--joint", "--model", "auto"]) == 2
+
+
+@pytest.mark.realdata
+def test_a_parameter_the_strokes_do_not_hold_is_not_called_converged(shared_raw) -> None:
+    # Sandia's downhole record split into its strokes: the joint fit used to stop anywhere
+    # along the limits and call it converged (on a real well: k0 = 3.6e10 +- 9.3e13).
+    from pumpid.cards import split_strokes
+
+    record = read_cards(shared_raw / "sandia_dds" / "downhole_timeseries.csv")[0]
+    joint = fit_joint(split_strokes(record))
+    assert joint.status in ("boundary", "undetermined"), joint.message
+    assert joint.shown == "robust" and joint.to_dict()["errors_shown"] == "robust"
+    report = joint.report()
+    for name, value in joint.params.items():
+        se = joint.stderr[name]
+        if se == math.inf:
+            assert "held at its limit" in joint.message
+        elif se > abs(value):  # shown, and said, as not determined
+            line = next(ln for ln in report.splitlines() if ln.strip().startswith(name))
+            assert "not determined" in line, line
+        assert joint.stderr_white[name] <= se

@@ -34,6 +34,7 @@ __all__ = [
     "EXIT_OUTPUT",
     "EXIT_PIPE",
     "EXIT_POOR_FIT",
+    "EXIT_UNDETERMINED",
     "EXIT_USAGE",
     "CliError",
     "WarningCounter",
@@ -56,6 +57,8 @@ EXIT_USAGE = 2
 EXIT_NOT_FITTED = 3
 EXIT_OUTPUT = 4
 EXIT_POOR_FIT = 5
+#: Every card fitted, but on some the data determine none of the model's parameters.
+EXIT_UNDETERMINED = 6
 EXIT_INTERRUPTED = 130
 EXIT_PIPE = 141
 
@@ -269,16 +272,18 @@ def rate_option(spm: float | None, period: float | None) -> None:
 def exit_status(counts: collections.Counter[str] | dict[str, int]) -> int:
     """The exit status of a run that fitted cards, from its cards per status.
 
-    0 every card fitted (converged or boundary); 5 every card fitted, some poorly; 2 no card
+    0 every card fitted (converged or boundary); 5 every card fitted, some poorly; 6 every
+    card fitted, some leaving every parameter undetermined (and none poorly); 2 no card
     could even be tried (every one invalid, or none at all): the input is the problem; 3
     otherwise (some failed or invalid).
     """
     total = sum(counts.values())
     fitted = counts.get("converged", 0) + counts.get("boundary", 0)
+    poor, undetermined = counts.get("poor-fit", 0), counts.get("undetermined", 0)
     if total and fitted == total:
         return EXIT_OK
-    if total and fitted + counts.get("poor-fit", 0) == total:
-        return EXIT_POOR_FIT
+    if total and fitted + poor + undetermined == total:
+        return EXIT_POOR_FIT if poor else EXIT_UNDETERMINED
     if fitted == 0 and counts.get("failed", 0) == 0:
         return EXIT_USAGE
     return EXIT_NOT_FITTED

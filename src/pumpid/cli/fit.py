@@ -42,6 +42,7 @@ from .common import (
     EXIT_NOT_FITTED,
     EXIT_OK,
     EXIT_OUTPUT,
+    EXIT_UNDETERMINED,
     CliError,
     check_fit_options,
     columns_option,
@@ -521,6 +522,8 @@ def _cmd_joint(args: argparse.Namespace, setup: FitSetup) -> int:
         print(json.dumps(jsonable(_joint_document(joint, cards)), indent=2, allow_nan=False))
     else:
         print(printable_block(joint.report()))
+    if joint.status == "undetermined":
+        return EXIT_UNDETERMINED
     return EXIT_OK if joint.status in ("converged", "boundary") else EXIT_NOT_FITTED
 
 

@@ -39,7 +39,8 @@ __all__ = ["build_parser", "main"]
 
 _EPILOG = """exit status: 0 every card fitted; 1 internal error (a bug); 2 bad options or input,
 nothing fitted; 3 some cards not fitted; 4 outputs could not be written; 5 every card
-fitted, some poorly (R^2 below --min-r2: status poor-fit); 130 interrupted (Ctrl-C,
+fitted, some poorly (R^2 below --min-r2: status poor-fit); 6 every card fitted, but on
+some the data determine no parameter (status undetermined); 130 interrupted (Ctrl-C,
 results so far kept); 141 output pipe closed"""
 
 

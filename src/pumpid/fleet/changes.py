@@ -118,9 +118,9 @@ __all__ = [
 #: The well of rows whose ``well_id`` is missing (files that could not be read).
 UNKNOWN_WELL = "(unknown well)"
 #: Every status a results row can have.
-STATUSES = ("converged", "boundary", "poor-fit", "failed", "invalid-input")
+STATUSES = ("converged", "boundary", "undetermined", "poor-fit", "failed", "invalid-input")
 #: Statuses whose values are trended (the others are counted only).
-USABLE_STATUSES = ("converged", "boundary", "poor-fit")
+USABLE_STATUSES = ("converged", "boundary", "undetermined", "poor-fit")
 #: Columns of :func:`detect_changes`' result, in order.
 ALERT_COLUMNS = (
     "well_id", "quantity", "unit", "first_card_id", "first_time", "alarm_card_id",
@@ -193,7 +193,7 @@ def available_quantities(table: pd.DataFrame, *, parameters: bool = False) -> li
     -------
     list of str
     """
-    suffixes = ("_se", "_se_hac", "_determined", "_unit")
+    suffixes = ("_se", "_se_hac", "_se_white", "_determined", "_well_property", "_unit")
     derived = [
         c[2:] for c in table.columns
         if isinstance(c, str) and c.startswith("d_") and not c.endswith(suffixes)
@@ -274,7 +274,7 @@ def _prepare(frame: pd.DataFrame) -> _Usable:
 
 
 def _quantity(
-    usable: _Usable, q: str
+    usable: _Usable, q: str, asked: bool = False
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], list[str], str]:
     """One quantity over the usable rows: values, standard errors, which rows count, the
     unit of each well, and the kind (derived or parameter)."""
@@ -286,6 +286,8 @@ def _quantity(
              else frame["status"].isin(USABLE_STATUSES)).to_numpy()
     if det_col is not None and det_col in frame.columns:
         keep &= frame[det_col].fillna(False).astype(bool).to_numpy()
+    if not asked and f"{col}_well_property" in frame.columns:  # an echo of the stroke: skip
+        keep &= frame[f"{col}_well_property"].fillna(True).astype(bool).to_numpy()
     se = np.full(values.size, np.nan)
     for c in se_cols:
         if c in frame.columns:
@@ -406,7 +408,7 @@ def detect_changes(
     alpha = false_alarm / len(names)
     usable = _prepare(frame)
     for q in names:
-        values, se, keep, units, kind = _quantity(usable, q)
+        values, se, keep, units, kind = _quantity(usable, q, asked=quantities is not None)
         for i, well in enumerate(usable.wells):
             part = slice(usable.bounds[i], usable.bounds[i + 1])
             k = keep[part]

@@ -89,12 +89,13 @@ def results_schema(model: type[Model]) -> pa.Schema:
         ("position_unit", s), ("load_unit", s),
     ]  # fmt: skip
     for name in model.param_names():
-        cols += [(f"p_{name}", f), (f"p_{name}_se", f), (f"p_{name}_se_hac", f)]
+        cols += [(f"p_{name}", f), (f"p_{name}_se", f), (f"p_{name}_se_hac", f),
+                 (f"p_{name}_se_white", f)]
     cols += [("scale", f), ("offset", f)]
     for info in model.derived_info():
         d = f"d_{info.name}"
-        cols += [(d, f), (f"{d}_se", f), (f"{d}_se_hac", f), (f"{d}_determined", b),
-                 (f"{d}_unit", s)]
+        cols += [(d, f), (f"{d}_se", f), (f"{d}_se_hac", f), (f"{d}_se_white", f),
+                 (f"{d}_determined", b), (f"{d}_well_property", b), (f"{d}_unit", s)]
     return pa.schema(cols)
 
 

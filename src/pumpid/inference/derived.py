@@ -6,14 +6,15 @@ combinations are: the natural frequency and damping ratio of the oscillating pai
 another real pole's time constant, the stiffness seen at the observed output. The model
 says what they are (:meth:`pumpid.Model.derived_info`); this module gives each its value,
 its standard error by the delta method on the fit's covariance (the white-noise one and the
-autocorrelation-robust one), and whether the data determine it.
+autocorrelation-robust one; the robust one is shown where the residuals are serially
+correlated), and whether the data determine it.
 
 The gradient is taken by central differences in the scaled coordinates the covariance is
 expressed in (``ln`` of the positive values), over the coordinates analysed at the optimum (a
 parameter at a boundary is held at its limit, as in the covariance). A quantity that moves
 along a structurally undetermined direction has an infinite error; it is *determined* when
-its relative standard error is below :data:`~pumpid.inference.uncertainty.PRACTICAL_REL_SE`
-(and, where the residuals are serially correlated, its robust error too), the rule the
+its relative standard error (the one shown: robust where the residuals are serially
+correlated) is below :data:`~pumpid.inference.uncertainty.PRACTICAL_REL_SE`, the rule the
 parameters follow.
 
 At a boundary solution a quantity that still moves when the limiting parameter goes further
@@ -46,7 +47,13 @@ _STEP = 1e-6
 
 @dataclass(frozen=True)
 class Derived:
-    """One derived quantity of a fit."""
+    """One derived quantity of a fit.
+
+    ``stderr`` is the error shown: the robust one (``stderr_hac``) where the residuals are
+    serially correlated, else the independent-noise one (``stderr_white``); ``determined``
+    follows it. ``well_property`` is False for a quantity the card's imposed motion sets
+    rather than the well (``note`` says why, see :mod:`pumpid.inference.echo`).
+    """
 
     name: str
     value: float
@@ -55,12 +62,16 @@ class Derived:
     stderr_hac: float
     determined: bool
     meaning: str
+    stderr_white: float = math.nan
+    well_property: bool = True
+    note: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form."""
         return {"value": self.value, "unit": self.unit, "stderr": self.stderr,
-                "stderr_hac": self.stderr_hac, "determined": self.determined,
-                "meaning": self.meaning}
+                "stderr_hac": self.stderr_hac, "stderr_white": self.stderr_white,
+                "determined": self.determined, "well_property": self.well_property,
+                "note": self.note, "meaning": self.meaning}
 
 
 def derived_gradient(cls: type[Model], theta: Array, observe: str, scale: float,
@@ -169,8 +180,10 @@ def derived_of(
     for k, info in enumerate(infos):
         value = float(values[k])
         bound = PRACTICAL_REL_SE * abs(value)
-        determined = bool(math.isfinite(value) and se[k] < bound
-                          and (not serial or not se_hac[k] >= bound))
+        # The error shown (and the verdict) is the one that holds for these residuals.
+        shown = se_hac[k] if serial and not math.isnan(se_hac[k]) else se[k]
+        determined = bool(math.isfinite(value) and shown < bound)
         out[info.name] = Derived(info.name, value, info.unit_for(load, position),
-                                 float(se[k]), float(se_hac[k]), determined, info.meaning)
+                                 float(shown), float(se_hac[k]), determined, info.meaning,
+                                 stderr_white=float(se[k]))
     return out

@@ -198,10 +198,20 @@ def findings_of(
     undetermined = sorted({inner[i] for k in structural for i in range(qi)
                            if abs(vt[k, i]) >= 1e-6})
     at_bound = {n for n, _d, _l in boundaries}
+    # A model parameter is determined when the error shown for it (the robust one where the
+    # residuals are serially correlated) is below PRACTICAL_REL_SE of its value: the rule
+    # the derived quantities follow. Its error stays finite; it is only not called known.
+    shown = nums.hac_scaled if robust else nums.cov_scaled
+    loose = set()
+    for a, i in enumerate(inner):
+        if names[i] in model_names and is_positive_quantity(names[i]):
+            var = float(shown[a, a])
+            if not (math.isfinite(var) and math.sqrt(max(var, 0.0)) <= PRACTICAL_REL_SE):
+                loose.add(i)
     for i, name in enumerate(names):
         if name in at_bound:
             continue
-        if i in undetermined:
+        if i in undetermined or i in loose:
             determined["not_determined"].append(name)
         else:
             determined["parameters"].append(name)
@@ -218,19 +228,23 @@ def findings_of(
     return Findings(tuple(sentences), determined, tuple(undetermined), tuple(notes))
 
 
-def whiteness_warning(check: dict[str, Any], n_obs: int, n_fitted: int) -> str:
-    """The warning for residuals that fail the whiteness check."""
+def whiteness_warning(check: dict[str, Any], n_obs: int, n_fitted: int,
+                      shown_robust: bool = False) -> str:
+    """The warning for residuals that fail the whiteness check (``shown_robust``: the
+    errors shown are the robust ones; False where none are computed or shown)."""
     effective = max(1, round(check["effective_samples"]))
     few = (f"; that is too few against {n_fitted} fitted values for any interval, the robust "
            f"ones included, to mean much" if effective < 3 * n_fitted else "")
     return (
         f"the residuals are not white noise: their lag-1 autocorrelation is "
         f"{check['lag1_autocorrelation']:.2f} (white noise stays below {check['limit']:.2f} "
-        f"for {n_obs} samples, 99.5 %). The standard errors and 95 % intervals assume "
-        f"independent errors and are too narrow here; for AR(1) errors they would be about "
+        f"for {n_obs} samples, 99.5 %). Errors that assume independent noise (stderr_white, "
+        f"ci95_white) are too narrow here; for AR(1) errors they would be about "
         f"{check['interval_factor']:.1f} times wider (about {effective} effective "
-        f"sample{'s' if effective != 1 else ''} of {n_obs}{few}). The autocorrelation-robust "
-        f"(HAC) errors and intervals (stderr_hac, ci95_hac) allow for it, though they too run "
-        f"somewhat narrow when the autocorrelation is strong. Structured "
-        f"residuals usually mean that the model misses part of the response."
+        f"sample{'s' if effective != 1 else ''} of {n_obs}{few}). "
+        + ("The errors shown (stderr, ci95) are the autocorrelation-robust ones (also "
+           "stderr_hac, ci95_hac), which allow for it. " if shown_robust else
+           "No autocorrelation-robust errors are available here, so the errors shown are "
+           "these. ")
+        + "Structured residuals usually mean that the model misses part of the response."
     )

@@ -42,7 +42,7 @@ __all__ = ["CANDIDATES", "Candidate", "ModelChoice", "NestedTest", "choose_model
 CANDIDATES: tuple[tuple[str, str], ...] = (
     ("msd", "u"), ("kelvin", "u"), ("kelvin", "u2"), ("maxwell", "u"))
 
-_USABLE = (Status.CONVERGED, Status.BOUNDARY, Status.POOR_FIT)
+_USABLE = (Status.CONVERGED, Status.BOUNDARY, Status.UNDETERMINED, Status.POOR_FIT)
 #: A structure is preferred over one nested in it only when the likelihood-ratio test
 #: rejects the nested one at this level.
 NESTED_LEVEL = 0.01
@@ -111,8 +111,9 @@ class ModelChoice:
     tests : tuple of NestedTest
     criterion : {"bic", "aicc"}
     n : int
-        Samples; ``n_eff`` the effective sample size and ``rho`` the residuals' lag-1
-        autocorrelation it comes from.
+        Samples; ``n_eff_data`` the effective sample size, ``n (1 - rho) / (1 + rho)``
+        with ``rho`` the residuals' lag-1 autocorrelation, and ``n_eff`` the size the
+        criteria used: the same, but never below k + 3 (largest k) nor 5.
     """
 
     chosen: FitResult
@@ -122,11 +123,13 @@ class ModelChoice:
     n: int
     n_eff: float
     rho: float
+    n_eff_data: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form (the ranking and the tests; the chosen fit is the result itself)."""
         return {"criterion": self.criterion, "chosen": self.candidates[0].name,
-                "n": self.n, "n_eff": self.n_eff, "rho": self.rho,
+                "n": self.n, "n_eff": self.n_eff, "n_eff_data": self.n_eff_data,
+                "rho": self.rho,
                 "candidates": [c.to_dict() for c in self.candidates],
                 "nested_tests": [t.to_dict() for t in self.tests]}
 
@@ -199,8 +202,10 @@ def choose_model(
     n = int(best.data.size)
     rho = _lag1(np.asarray(best.fitted) - np.asarray(best.data))
     k_max = max(_n_fitted(r) for _k, _o, r in usable)
-    n_eff = n * (1 - rho) / (1 + rho) if rho > 0 else float(n)
-    n_eff = float(min(n, max(n_eff, k_max + 3, 5)))
+    n_data = float(n * (1 - rho) / (1 + rho) if rho > 0 else n)
+    # The criteria need n_eff > k + 1 (AICc's correction); below that the data's own
+    # effective size is reported beside the floor the ranking used.
+    n_eff = float(min(n, max(n_data, k_max + 3, 5)))
     rows = []
     for key, observe, res, why in fits:
         name = _label(key, observe)
@@ -231,7 +236,8 @@ def choose_model(
     chosen = ranked[0].result
     assert chosen is not None  # a finite criterion comes from a usable fit
     choice = ModelChoice(chosen=chosen, candidates=tuple(ranked), tests=tests,
-                         criterion=criterion, n=n, n_eff=n_eff, rho=rho)
+                         criterion=criterion, n=n, n_eff=n_eff, rho=rho,
+                         n_eff_data=min(n_data, float(n)))
     application = {**chosen.application, "model_choice": choice.to_dict()}
     return dataclasses.replace(choice, chosen=chosen.with_parts(application=application))
 

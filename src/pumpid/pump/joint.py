@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from ..cards import Card
 from ..engine import drive
 from ..inference.derived import derived_gradient, moved_by_limits
+from ..inference.uncertainty import PRACTICAL_REL_SE, WHITENESS_Z
 from ..models import Kelvin, Model, model_class
 from ..result import Units
 from .fit import fit_cards
@@ -36,6 +37,9 @@ from .fit import fit_cards
 __all__ = ["JointFit", "fit_joint"]
 
 Array = NDArray[np.float64]
+
+#: The chi-square (one degree of freedom) 95 % point of the likelihood-ratio test.
+_LR_95 = 3.841
 
 
 @dataclass(frozen=True)
@@ -45,8 +49,10 @@ class JointFit:
     Attributes
     ----------
     model_name, observe : the structure.
-    params, stderr, stderr_ar1 : shared parameters (the user's units), their standard errors
-        (white residuals) and the same inflated for the residuals' serial correlation.
+    params, stderr, stderr_white, stderr_ar1 : shared parameters (the user's units), the
+        standard errors shown (``shown``: ``"robust"``, the AR(1)-inflated ones, where the
+        pooled residuals fail the whiteness check, else ``"white"``), the errors for white
+        residuals and the AR(1)-inflated ones.
     derived : name -> (value, stderr, stderr_ar1, unit) of the model's derived quantities.
     cards, offsets, r2, rmse : per card, in order.
     single : per card, the parameters its own fit gave (for comparison).
@@ -57,6 +63,8 @@ class JointFit:
     observe: str
     params: dict[str, float]
     stderr: dict[str, float]
+    stderr_white: dict[str, float]
+    shown: str
     stderr_ar1: dict[str, float]
     derived: dict[str, tuple[float, float, float, str]]
     cards: tuple[str, ...]
@@ -77,7 +85,8 @@ class JointFit:
         return {
             "joint": True, "model": self.model_name, "observe": self.observe,
             "status": self.status, "message": self.message, "cards": list(self.cards),
-            "params": self.params, "stderr": self.stderr, "stderr_ar1": self.stderr_ar1,
+            "params": self.params, "stderr": self.stderr, "stderr_white": self.stderr_white,
+            "errors_shown": self.shown, "stderr_ar1": self.stderr_ar1,
             "param_units": self.param_units,
             "derived": {k: {"value": v[0], "stderr": v[1], "stderr_ar1": v[2], "unit": v[3]}
                         for k, v in self.derived.items()},
@@ -95,17 +104,21 @@ class JointFit:
                  f"offset per card; status {self.status}: {self.message}",
                  f"  parameters (+/- standard error; robust to the residuals' serial "
                  f"correlation, lag-1 autocorrelation {self.rho:.3f}):"]
-        def errors(se: float, se_ar1: float) -> str:
+        def errors(value: float, se: float, se_ar1: float) -> str:
             if se == math.inf:
                 return "(at a limit: not determined)"
-            return f"(+/- {se:.3g}; robust +/- {se_ar1:.3g})"
+            flag = "" if abs(se_ar1 if self.shown == "robust" else se) <= abs(value) else \
+                " (not determined: error over 100 %)"
+            if self.shown == "robust":
+                return f"(robust +/- {se_ar1:.3g}; independent-noise +/- {se:.3g}){flag}"
+            return f"(+/- {se:.3g}; robust +/- {se_ar1:.3g}){flag}"
 
         for name, value in self.params.items():
             lines.append(f"  {name:<6} = {value:.6g} {self.param_units.get(name, '')} "
-                         f"{errors(self.stderr[name], self.stderr_ar1[name])}")
+                         f"{errors(value, self.stderr_white[name], self.stderr_ar1[name])}")
         for name, (value, se, se_ar1, unit) in self.derived.items():
             lines.append(f"  {name.replace('_', ' ')} = {value:.6g} {unit} "
-                         f"{errors(se, se_ar1)}")
+                         f"{errors(value, se, se_ar1)}")
         lines.append("  per card: offset, R^2, RMSE, and the card's own fit:")
         for i, card in enumerate(self.cards):
             own = ", ".join(f"{k} = {v:.4g}" for k, v in self.single[i].items())
@@ -219,16 +232,20 @@ def fit_joint(
         if every and len(directions) == 1:
             edge = hi[i] if directions == {"infinity"} else lo[i]
             lo[i], hi[i] = edge - 1e-8, edge
+    def solve(x0: Array, low: Array, high: Array) -> Any:
+        return scipy.optimize.least_squares(
+            lambda x: evaluate(x)[0], x0, jac=lambda x: evaluate(x)[1], bounds=(low, high),
+            method="trf", x_scale="jac", max_nfev=max_nfev, xtol=1e-12, ftol=1e-12,
+            gtol=1e-12)
+
     best: Any = None
     for z0 in starts:
         z0 = np.clip(z0, lo[:p] + 1e-9 * (hi[:p] - lo[:p]), hi[:p] - 1e-9 * (hi[:p] - lo[:p]))
         x0 = np.concatenate([z0, offsets_for(problem.full_theta(np.exp(z0)))])
-        sol = scipy.optimize.least_squares(
-            lambda x: evaluate(x)[0], x0, jac=lambda x: evaluate(x)[1], bounds=(lo, hi),
-            method="trf", x_scale="jac", max_nfev=max_nfev, xtol=1e-12, ftol=1e-12,
-            gtol=1e-12)
+        sol = solve(x0, lo, hi)
         if best is None or sol.cost < best.cost:
             best = sol
+    best = _limits(best, solve, stacked, lo, hi, p)
     x = best.x
     at_limit = [i for i in range(p) if min(x[i] - lo[i], hi[i] - x[i]) < 1e-3]
     r, jac = stacked(x)
@@ -249,6 +266,8 @@ def fit_joint(
     den = sum(float(a @ a) for a in pieces)
     rho = num / den if den > 0 else 0.0
     inflate = math.sqrt((1 + rho) / (1 - rho)) if 0 < rho < 1 else 1.0
+    # The robust error is the one shown where the residuals fail the whiteness check.
+    serial = rho > WHITENESS_Z / math.sqrt(n_total)
     theta = problem.full_theta(np.exp(x[:p]))
     names = cls.param_names()
     se_log = np.sqrt(np.clip(np.diag(cov)[:p], 0, None))
@@ -265,23 +284,75 @@ def fit_joint(
         r2s.append(1.0 - float(res_i @ res_i) / float(np.sum((d - d.mean()) ** 2)))
         rmses.append(math.sqrt(float(res_i @ res_i) / d.size))
     names_at = [names[int(problem.free_idx[i])] for i in at_limit]
+    shown = {n: v * inflate if serial else v for n, v in stderr.items()}
+    known = [n for n in problem.free_names[:p] if n not in names_at
+             and shown[n] <= PRACTICAL_REL_SE * abs(params[n])]
     if best.status <= 0:
         status = "failed"
+    elif not known:
+        status = "undetermined"
     elif names_at:
         status = "boundary"
     else:
         status = "converged"
-    held = (f"; {', '.join(names_at)} at the window's edge: held at its limit"
-            if names_at else "")
-    message = str(best.message).rstrip(".") + held
+    held = (f"; {', '.join(names_at)} at a limit (the others fit as well there): held at "
+            "its limit" if names_at else "")
+    none = ("; the data determine none of the parameters (each at a limit or with an error "
+            "over 100 % of its value)" if status == "undetermined" else "")
+    message = str(best.message).rstrip(".") + held + none
     return JointFit(
-        model_name=cls.__name__, observe=problem.observe, params=params, stderr=stderr,
+        model_name=cls.__name__, observe=problem.observe, params=params, stderr=shown,
+        stderr_white=stderr, shown="robust" if serial else "white",
         stderr_ar1={n: v * inflate for n, v in stderr.items()}, derived=derived,
         cards=tuple(str(c.card_id) for c in cards), offsets=tuple(offsets), r2=tuple(r2s),
         rmse=tuple(rmses),
         single=tuple(dict(r.params) for r in results if r is not None),
         cost=0.5 * float(r @ r), n_samples=n_total, rho=rho, status=status,
         message=message, units=first.units, param_units=first.param_units())
+
+
+def _limits(best: Any, solve: Any, stacked: Any, lo: Array, hi: Array, p: int) -> Any:
+    """Move parameters the data do not hold to their limit, as the single fits do.
+
+    A parameter is tried at both edges of the window (the others refitted there); it is
+    held at the better one when the joint cost rises by less than the 95 % likelihood-ratio point
+    (chi-square, one degree of freedom), i.e. when the limit fits as well: a value like
+    k0 = 3.6e10 +- 9.3e13 is a limit, not an estimate. The noise variance in the test is
+    the residuals' long-run one (AR(1)), as serially correlated residuals carry less
+    evidence than their count says.
+    """
+    for _round in range(p):
+        x = best.x
+        r, jac = stacked(x)
+        rho = float(r[1:] @ r[:-1]) / float(r @ r) if float(r @ r) > 0 else 0.0
+        rho = min(max(rho, 0.0), 0.999)
+        sigma2 = float(r @ r) / max(r.size - x.size, 1) * (1 + rho) / (1 - rho)
+        # Only a parameter the data do not pin down (log-error over PRACTICAL_REL_SE) is
+        # tried at its limit: a determined one stays where the data put it.
+        free = [i for i in range(x.size) if not (i < p and min(x[i] - lo[i], hi[i] - x[i])
+                                                 < 1e-3)]
+        _u, sv, vt = np.linalg.svd(jac[:, free], full_matrices=False)
+        keep = sv > sv[0] * 1e-12
+        var = np.full(x.size, np.inf)
+        var[free] = np.sum((vt[keep] / sv[keep, None]) ** 2, axis=0) * sigma2
+        tried = None
+        for i in range(p):
+            if min(x[i] - lo[i], hi[i] - x[i]) < 1e-3 or not np.isfinite(hi[i] - lo[i]) \
+                    or math.sqrt(var[i]) <= PRACTICAL_REL_SE:
+                continue
+            for edge in (lo[i], hi[i]):
+                low, high = lo.copy(), hi.copy()
+                low[i], high[i] = edge - 1e-8, edge
+                x0 = np.clip(x, low, high)
+                x0[i] = edge - 5e-9
+                sol = solve(x0, low, high)
+                if sol.status > 0 and sol.cost - best.cost <= 0.5 * _LR_95 * sigma2 and (
+                        tried is None or sol.cost < tried.cost):
+                    tried = sol
+        if tried is None:
+            return best
+        best = tried
+    return best
 
 
 def _derived(cls: type[Model], theta: Array, observe: str, cov: Array, inflate: float,

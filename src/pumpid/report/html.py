@@ -59,7 +59,7 @@ CAPTIONS: dict[str, str] = {
 # leaves them out. "edges" (solver indices that hit the log-parameter clip) is internal: its
 # meaning is reported by "boundaries".
 _KNOWN_EXTRA = ("model_name", "gauge", "start", "card", "stderr", "ci95", "stderr_hac",
-                "ci95_hac", "correlation",
+                "ci95_hac", "stderr_white", "ci95_white", "errors_shown", "correlation",
                 "identifiability", "boundaries", "reduced", "prediction", "edges",
                 "covariance", "sigma2", "uncertainty", "determined", "derived")
 _PREDICTION_KEYS = ("t", "load", "measured", "predicted")
@@ -338,17 +338,21 @@ def _params_html(result: FitResult) -> str:
     ci95 = result.extra.get("ci95")
     stderr = stderr if isinstance(stderr, Mapping) and stderr else None
     ci95 = ci95 if isinstance(ci95, Mapping) and ci95 else None
-    # The serial-correlation-robust interval earns a column when the residuals fail the
-    # whiteness check, i.e. when the ordinary one is known to be too narrow.
-    ci95_hac = result.extra.get("ci95_hac") if not _residuals_white(result) else None
+    # Where the residuals fail the whiteness check the robust errors are the ones shown
+    # (stderr, ci95) and the independent-noise interval, known to be too narrow, is the
+    # extra column; a result from before that rule shows the robust one as the extra.
+    robust = result.extra.get("errors_shown") == "robust"
+    extra_key = "ci95_white" if robust else "ci95_hac"
+    ci95_hac = result.extra.get(extra_key) if not _residuals_white(result) else None
     ci95_hac = ci95_hac if isinstance(ci95_hac, Mapping) and any(ci95_hac.values()) else None
     headers = ["parameter", "value", "unit"]
     if stderr is not None:
-        headers.append("std. error")
+        headers.append("robust std. error (shown)" if robust else "std. error")
     if ci95 is not None:
-        headers.append("95 % CI")
+        headers.append("95 % CI, robust to serial correlation (HAC)" if robust else "95 % CI")
     if ci95_hac is not None:
-        headers.append("95 % CI, robust to serial correlation (HAC)")
+        headers.append("95 % CI assuming independent noise (too narrow here)" if robust
+                       else "95 % CI, robust to serial correlation (HAC)")
     headers += ["status", "description"]
     free = set(result.free)
 
@@ -379,14 +383,19 @@ def _params_html(result: FitResult) -> str:
 
 
 def _derived_html(result: FitResult) -> str:
-    rows = [[d.name, _num(d.value, 6), d.unit, _num(d.stderr), _num(d.stderr_hac),
-             "yes" if d.determined else "no", d.meaning] for d in result.derived.values()]
+    rows = [[d.name, _num(d.value, 6), d.unit, _num(d.stderr), _num(d.stderr_white),
+             ("yes" if d.determined else "no")
+             + ("" if d.well_property else "; not a property of the well"),
+             d.meaning if d.well_property else f"{d.meaning}. {d.note}"]
+            for d in result.derived.values()]
     return (
         "<p>Physical combinations of the parameters, from the model's poles and static gain: "
         "they stay determined where single parameters trade off, so they are the numbers "
-        "to trend.</p>\n"
-        + _table(("quantity", "value", "unit", "std. error", "robust std. error (HAC)",
-                  "determined", "meaning"), rows, num_cols=(1, 3, 4)))
+        "to trend, except those marked as not a property of the well (a resonance on the "
+        "stroke frequency echoes the pumping speed).</p>\n"
+        + _table(("quantity", "value", "unit", "std. error (shown: robust where the "
+                  "residuals are serially correlated)", "std. error assuming independent "
+                  "noise", "determined", "meaning"), rows, num_cols=(1, 3, 4)))
 
 
 def _quality_html(result: FitResult) -> str:

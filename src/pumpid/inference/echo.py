@@ -1,0 +1,77 @@
+"""A resonance on the imposed motion: what a periodic card cannot tell about the well.
+
+A dynamometer card is one period of a motion the pumping unit imposes: its content is the
+stroke frequency and a handful of its harmonics, nothing between them. A lumped model fitted
+load in, position out can only place its poles where they shape those harmonics, and on
+real wells it puts the oscillating pair right on them: the natural frequency comes out at
+1.00-1.22 times the stroke frequency on every card of a well (median 1.06), steady from card
+to card, and "determined" by every error measure. Steady and determined, but it echoes the
+pumping speed, not the rod string: change the speed and it follows.
+
+:func:`echo_of` names such fits: the natural frequency within ``ECHO_BAND`` stroke
+frequencies of one of the first ``ECHO_HARMONICS`` harmonics. The oscillating pair's
+quantities (natural frequency, damping ratio) are then marked as not a property of the well,
+with the reason in words, and the fleet's change detection leaves them out.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+
+from .derived import Derived
+
+__all__ = ["ECHO_BAND", "ECHO_HARMONICS", "PAIR_QUANTITIES", "echo_of"]
+
+#: Harmonics of the stroke frequency checked (1: the stroke frequency itself).
+ECHO_HARMONICS = 3
+#: Half-width of the band around each harmonic, in stroke frequencies: 0.25 keeps the bands
+#: apart (0.75-1.25, 1.75-2.25, 2.75-3.25) and holds the real well's 1.00-1.22.
+ECHO_BAND = 0.25
+#: The quantities the oscillating pair of poles sets.
+PAIR_QUANTITIES = ("natural_frequency", "damping_ratio")
+
+
+def echo_of(derived: Mapping[str, Derived], period: float | None
+            ) -> tuple[dict[str, Derived], str | None]:
+    """Mark the oscillating pair's quantities when its resonance sits on a harmonic.
+
+    Parameters
+    ----------
+    derived : mapping of name -> Derived
+        A fit's derived quantities.
+    period : float or None
+        The stroke period (s) of a periodic card; None or NaN for a record that is not one
+        period of a periodic motion (nothing is checked).
+
+    Returns
+    -------
+    derived : dict
+        The quantities, those of the pair marked ``well_property=False`` with a note.
+    warning : str or None
+        The finding in words (None when the resonance is clear of the harmonics).
+    """
+    out = dict(derived)
+    fn = derived.get("natural_frequency")
+    if fn is None or period is None or not (math.isfinite(period) and period > 0) \
+            or not (math.isfinite(fn.value) and fn.value > 0):
+        return out, None
+    stroke = 1.0 / period
+    ratio = fn.value / stroke
+    harmonic = max(1, round(ratio))
+    if harmonic > ECHO_HARMONICS or abs(ratio - harmonic) > ECHO_BAND:
+        return out, None
+    where = "the stroke frequency" if harmonic == 1 else f"harmonic {harmonic} of the stroke " \
+                                                         "frequency"
+    note = (f"the fitted resonance sits on {where} (natural frequency {fn.value:.4g} Hz = "
+            f"{ratio:.3f} x the stroke frequency {stroke:.4g} Hz): the model echoes the "
+            f"imposed motion, and this follows the pumping speed, not the well")
+    for name in PAIR_QUANTITIES:
+        if name in out:
+            out[name] = dataclasses.replace(out[name], well_property=False, note=note)
+    names = " and ".join(n.replace("_", " ") for n in PAIR_QUANTITIES if n in out)
+    warning = (f"{note[0].upper()}{note[1:]}. A card holds only the stroke frequency and its "
+               f"harmonics, so it cannot tell where the rod string's own resonance is: the "
+               f"{names} are not properties of the well (not trended by the fleet report)")
+    return out, warning

@@ -1,0 +1,260 @@
+"""Errors that hold when the residuals are serially correlated, and which error is shown.
+
+A card's residuals are mostly model error: on real wells their lag-1 autocorrelation is
+0.95-0.98, and the independent-noise (white) standard errors are several times too small.
+The HAC sandwich (:mod:`pumpid.inference.hac`) allows for the correlation, but its own
+estimate is noisy where the correlation is strong and the record short: the prewhitening
+coefficient ``a`` it recolours by (``(1 - a)^-2``) is estimated from the record, and near 1
+a small error in it is a large error in the variance. Taken with the normal (or N - q
+Student) quantile such an error is too often too small, and its intervals cover less than
+they say (86.5-90 % at rho = 0.5-0.95 before this calibration, see
+``benchmarks/stat_coverage.py``).
+
+:func:`calibrate_robust` widens the robust errors by the two corrections a variance
+estimated this way needs:
+
+* the estimate's own spread, as a Student t quantile with degrees of freedom matched to it
+  (Satterthwaite): the log of the standard error has variance ``(1 + a) / ((1 - a) N)``
+  from the prewhitening coefficient (its sampling variance ``(1 - a^2) / N`` times the
+  squared sensitivity ``1 / (1 - a)`` of ``ln se``) plus ``m / (3 N)`` from the Bartlett
+  kernel of bandwidth ``m``; a chi-square estimate on ``nu`` degrees of freedom has
+  ``var(ln se) = 1 / (2 nu)``;
+* the downward bias of a least-squares AR(1) coefficient, ``(1 + 3 a) / N`` (Kendall), which
+  makes ``ln se`` too small by ``(1 + 3 a) / ((1 - a) N)``.
+
+The robust error is scaled so that ``t_{N-q}`` times it is the interval these give; the
+intervals, the practical identifiability and the derived quantities' errors all follow.
+
+:func:`shown_errors` then makes the error a user sees by default the one that holds: the
+robust error where the residuals fail the whiteness check, the white one where they pass;
+the other stays available by its own name (``stderr_white``/``ci95_white``,
+``stderr_hac``/``ci95_hac``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+import scipy.signal
+from numpy.typing import NDArray
+
+from .uncertainty import Numbers, Uncertainty, t_quantile
+
+__all__ = [
+    "Errors", "calibrate_robust", "robust_covariance", "robust_factor", "shown_errors",
+    "with_ar1_floor",
+]
+
+Array = NDArray[np.float64]
+
+#: The degrees of freedom of the robust error's reference distribution never go below
+#: this: t_{0.975} on one degree of freedom is 12.7, on 1.0 it is already a Cauchy.
+_MIN_DOF = 1.0
+
+
+def robust_factor(persistence: float, bandwidth: float, n: int, dof: int
+                  ) -> tuple[float, float]:
+    """Widening of a prewhitened Bartlett HAC error for its sampling spread and bias.
+
+    Parameters
+    ----------
+    persistence : float
+        The prewhitening coefficient ``a`` (the VAR(1) matrix's largest singular value).
+    bandwidth : float
+        The Bartlett bandwidth ``m`` (samples).
+    n : int
+        Samples.
+    dof : int
+        ``N - q``, the degrees of freedom of the quantile the intervals are built with.
+
+    Returns
+    -------
+    factor : float
+        Multiply the HAC standard error by this.
+    nu : float
+        Degrees of freedom of the robust error's t reference distribution.
+    """
+    if not (n > 3 and dof > 0):
+        return 1.0, math.nan
+    a = min(max(float(persistence) if math.isfinite(persistence) else 0.0, 0.0), 0.99)
+    m = max(float(bandwidth) if math.isfinite(bandwidth) else 1.0, 1.0)
+    var_log_se = (1.0 + a) / ((1.0 - a) * n) + m / (3.0 * n)
+    nu = max(1.0 / (2.0 * var_log_se), _MIN_DOF)
+    bias = (1.0 + 3.0 * a) / ((1.0 - a) * n)
+    factor = t_quantile(0.975, nu) / t_quantile(0.975, dof) * math.exp(min(bias, 1.0))
+    return max(factor, 1.0), nu
+
+
+def calibrate_robust(nums: Numbers) -> tuple[Numbers, dict[str, Any]]:
+    """The analysis with its robust (HAC) covariance widened by :func:`robust_factor`.
+
+    Returns the new :class:`Numbers` and what was done (``factor``, ``dof``), for the
+    uncertainty's ``hac`` record.
+    """
+    factor, nu = robust_factor(nums.persistence, nums.bandwidth, nums.n, nums.dof)
+    info = {"calibration": "widened for the robust estimate's own spread (Student t on "
+                           "matched degrees of freedom) and the AR(1) coefficient's bias",
+            "factor": factor, "dof": nu}
+    if factor == 1.0:
+        return nums, info
+    return dataclasses.replace(nums, hac_scaled=nums.hac_scaled * factor**2,
+                               direction_se_hac=nums.direction_se_hac * factor), info
+
+
+def with_ar1_floor(nums: Numbers, rows: Array, offset_col: int) -> tuple[Numbers, float]:
+    """The robust covariance floored, per value, by the AR(1) sandwich.
+
+    The HAC estimate learns the correlation's shape from the record and runs narrow when
+    the record says little (87 % coverage for Kelvin's k0 and k1 at rho = 0.5 even after
+    :func:`calibrate_robust`). Under errors that follow one another the simplest model of
+    them is AR(1): covariance ``gamma0 rho^|i - j|``, with ``rho`` the residuals' lag-1
+    autocorrelation, bias-corrected by ``(1 + 3 rho) / N`` (Kendall), and ``gamma0`` their
+    variance. Its sandwich ``B J^T Sigma J B`` (``B`` the pseudo-inverse of ``J^T J`` on
+    the determined directions) is exact for AR(1) errors. Each value's robust variance is
+    the larger of the two; the correlations are the AR(1) sandwich's, so the covariance
+    stays positive semi-definite (a diagonal rescaling of one).
+
+    ``rows`` (q + 1, N): the solver's Jacobian columns and the residual last (as
+    :func:`~pumpid.inference.uncertainty.analyse_rows` takes them); ``offset_col`` the
+    offset's column (-1: none), scaled like the analysis by the data's range.
+    Returns the new numbers and the AR(1) coefficient used.
+    """
+    inner = list(nums.inner)
+    qi = len(inner)
+    n = rows.shape[1]
+    if qi == 0 or nums.dof <= 0 or n < 4:
+        return nums, math.nan
+    r = rows[-1]
+    rc = r - r.mean()
+    ss = float(rc @ rc)
+    if not ss > 0:
+        return nums, math.nan
+    rho = float(rc[1:] @ rc[:-1]) / ss
+    rho = min(max(rho + (1.0 + 3.0 * rho) / n, 0.0), 0.99)
+    span = float(nums.scales[-1]) if offset_col >= 0 else 1.0
+    js = np.array([rows[j] * (span if j == offset_col else 1.0) for j in inner]).T
+    s = nums.singular[:qi]
+    vt = nums.vt[:qi, :qi]
+    if not (np.all(np.isfinite(s)) and np.all(np.isfinite(vt)) and s[0] > 0):
+        return nums, rho
+    kept = s > 1e-10 * s[0]
+    bread = (vt[kept].T / s[kept] ** 2) @ vt[kept]
+    gamma0 = 2.0 * nums.cost / nums.dof
+    # Sigma J by the AR(1) recursion forwards and backwards (O(N q), no N x N matrix).
+    fwd = scipy.signal.lfilter([1.0], [1.0, -rho], js, axis=0)
+    bwd = scipy.signal.lfilter([1.0], [1.0, -rho], js[::-1], axis=0)[::-1]
+    meat = gamma0 * (js.T @ (fwd + bwd - js))
+    ar1 = bread @ meat @ bread
+    hac = nums.hac_scaled[:qi, :qi]
+    var = np.fmax(np.diag(hac), np.diag(ar1))
+    sd_ar1 = np.sqrt(np.clip(np.diag(ar1), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = ar1 / np.outer(sd_ar1, sd_ar1)
+    if not np.all(np.isfinite(corr)) or not np.all(np.isfinite(var)):
+        return nums, rho
+    sd = np.sqrt(var)
+    out = nums.hac_scaled.copy()
+    out[:qi, :qi] = corr * np.outer(sd, sd)
+    dse = nums.direction_se_hac.copy()
+    for c in np.flatnonzero(kept):
+        dse[c] = math.sqrt(max(float(vt[c] @ out[:qi, :qi] @ vt[c]), 0.0))
+    return dataclasses.replace(nums, hac_scaled=out, direction_se_hac=dse), rho
+
+
+@dataclass(frozen=True)
+class Errors(Uncertainty):
+    """An :class:`Uncertainty` whose ``stderr``/``ci95``/``covariance`` are the errors shown.
+
+    ``shown`` says which: ``"robust"`` (the residuals failed the whiteness check, the
+    calibrated HAC errors are shown) or ``"white"``. The independent-noise errors stay in
+    ``stderr_white``/``ci95_white``/``covariance_white`` whatever is shown.
+    """
+
+    stderr_white: Mapping[str, float] = field(default_factory=dict)
+    ci95_white: Mapping[str, tuple[float, float] | None] = field(default_factory=dict)
+    covariance_white: Array | None = None
+    shown: str = "white"
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form, with the name of the errors shown."""
+        return {**super().to_dict(), "shown": self.shown}
+
+
+_ROBUST_WORDS = (
+    "the residuals are serially correlated, so the errors shown (stderr, ci95) are the "
+    "autocorrelation-robust ones (HAC sandwich, widened for its own estimate's spread); the "
+    "independent-noise errors are stderr_white and ci95_white")
+
+
+def shown_errors(unc: Uncertainty | None, serial: bool, robust_cov: Array | None = None,
+                 calibration: Mapping[str, Any] | None = None) -> Errors | None:
+    """The uncertainty with the error that holds shown by default.
+
+    Parameters
+    ----------
+    unc : Uncertainty or None
+    serial : bool
+        The residuals failed the whiteness check.
+    robust_cov : ndarray, optional
+        The robust covariance (:func:`robust_covariance`); without it the white
+        correlations are scaled to the robust errors.
+    calibration : mapping, optional
+        :func:`calibrate_robust`'s record, added to ``hac``.
+    """
+    if unc is None:
+        return None
+    base = {f.name: getattr(unc, f.name) for f in dataclasses.fields(Uncertainty)}
+    hac = dict(unc.hac) if unc.hac is not None else None
+    if hac is not None and calibration:
+        hac.update(calibration)
+    base["hac"] = MappingProxyType(hac) if hac is not None else None
+    white = {"stderr_white": unc.stderr, "ci95_white": unc.ci95,
+             "covariance_white": unc.covariance}
+    robust_ok = serial and hac is not None and any(
+        math.isfinite(v) for v in unc.stderr_hac.values())
+    if not robust_ok:
+        return Errors(**base, **white, shown="white")
+    if robust_cov is None:
+        se = np.array([unc.stderr_hac.get(n, math.nan) for n in unc.names], dtype=float)
+        with np.errstate(invalid="ignore"):
+            robust_cov = unc.correlation * np.outer(se, se)
+    cov = np.array(robust_cov, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sd = np.sqrt(np.diag(cov))
+        corr = cov / np.outer(sd, sd)
+    corr[~np.isfinite(corr)] = math.nan
+    np.fill_diagonal(corr, [1.0 if np.isfinite(s) else math.nan for s in sd])
+    for a in (cov, corr):
+        a.flags.writeable = False
+    base.update(stderr=unc.stderr_hac, ci95=unc.ci95_hac, covariance=cov, correlation=corr,
+                notes=(*unc.notes, _ROBUST_WORDS),
+                assumptions=unc.assumptions + "; SHOWN: the robust errors (serially "
+                                              "correlated residuals)")
+    return Errors(**base, **white, shown="robust")
+
+
+def robust_covariance(nums: Numbers, undetermined: Sequence[int]) -> Array:
+    """The robust (HAC) covariance in the reported coordinates (the layout of
+    :attr:`Uncertainty.covariance`: NaN rows and an infinite variance for values the data
+    do not determine, NaN for values at a boundary)."""
+    names = nums.names
+    q = len(names)
+    inner = list(nums.inner)
+    qi = len(inner)
+    scales = nums.scales[inner]
+    hac_in = nums.hac_scaled[:qi, :qi] * np.outer(scales, scales)
+    und = set(undetermined)
+    for a, i in enumerate(inner):
+        if i in und:
+            hac_in[a, :] = math.nan
+            hac_in[:, a] = math.nan
+            hac_in[a, a] = math.inf
+    cov = np.full((q, q), math.nan)
+    cov[np.ix_(inner, inner)] = hac_in
+    return cov

@@ -1,0 +1,179 @@
+"""The error shown by default is the one that holds; statuses and words that match it."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from pumpid import Kelvin, fit, simulate
+from pumpid.cards import read_cards
+from pumpid.inference.derived import Derived
+from pumpid.inference.echo import echo_of
+from pumpid.inference.serial import robust_factor
+from pumpid.result import Status, model_choice_text
+
+from ..conftest import well_load
+
+T = np.linspace(0.0, 20.0, 801)
+LOAD = well_load(T)
+KELVIN = Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0)
+
+
+def _ar1(rng: np.random.Generator, rho: float, n: int) -> np.ndarray:
+    e = rng.standard_normal(n + 200)
+    out = np.empty_like(e)
+    out[0] = e[0]
+    for k in range(1, e.size):
+        out[k] = rho * out[k - 1] + e[k]
+    out = out[200:]
+    return out / out.std()
+
+
+def test_serially_correlated_residuals_show_the_robust_error_everywhere() -> None:
+    rng = np.random.default_rng(5)
+    clean = simulate(KELVIN, T, LOAD)
+    res = fit(KELVIN, T, LOAD, clean + 0.01 * np.ptp(clean) * _ar1(rng, 0.8, T.size))
+    assert not res.whiteness["white"]
+    assert res.errors_shown == "robust"
+    for name in res.free:
+        assert res.stderr[name] == res.stderr_hac[name]
+        assert res.ci95[name] == res.ci95_hac[name]
+        # The independent-noise error stays available under its own name, and is smaller.
+        assert res.stderr_white[name] < res.stderr[name]
+    as_json = json.loads(res.to_json(allow_nan=False))
+    assert as_json["stderr"] == pytest.approx(res.stderr_hac)
+    assert as_json["stderr_white"] == pytest.approx(res.stderr_white)
+    assert as_json["errors_shown"] == "robust"
+    row = res.to_row()
+    assert row["p_k1_se"] == res.stderr_hac["k1"] and row["p_k1_se_white"] < row["p_k1_se"]
+    d = res.derived["static_stiffness"]
+    assert d.stderr == d.stderr_hac and row["d_static_stiffness_se"] == d.stderr_hac
+    assert "robust +/- " in res.report() and "independent-noise +/- " in res.report()
+
+
+def test_white_residuals_show_the_independent_noise_error() -> None:
+    rng = np.random.default_rng(6)
+    clean = simulate(KELVIN, T, LOAD)
+    res = fit(KELVIN, T, LOAD, clean + 0.01 * np.ptp(clean) * rng.standard_normal(T.size))
+    assert res.whiteness["white"] and res.errors_shown == "white"
+    assert res.stderr == res.stderr_white
+
+
+def test_the_robust_error_widens_for_its_own_spread() -> None:
+    # Few samples and a persistent score series: the HAC estimate is itself uncertain, so
+    # its interval needs a heavier-tailed quantile; long weakly correlated records need none.
+    strong, nu_strong = robust_factor(0.95, 10, 130, 125)
+    weak, nu_weak = robust_factor(0.1, 2, 5000, 4995)
+    assert strong > 1.5 and nu_strong < 10
+    assert weak == pytest.approx(1.0, abs=0.01) and nu_weak > 1000
+    assert robust_factor(0.5, 3, 200, 195)[0] < robust_factor(0.9, 3, 200, 195)[0]
+
+
+def test_determined_parameters_follow_the_error_shown() -> None:
+    # Strongly autocorrelated noise: what is called determined is what the robust error,
+    # the one shown, pins to within 100 % of its value, and nothing else.
+    rng = np.random.default_rng(0)
+    clean = simulate(KELVIN, T, LOAD, observe="u2")
+    res = fit(KELVIN, T, LOAD, clean + 0.2 * np.ptp(clean) * _ar1(rng, 0.9, T.size),
+              observe="u2", min_r2=-np.inf)
+    assert res.errors_shown == "robust"
+    determined = set(res.determined["parameters"])
+    for name, value in res.params.items():
+        assert (name in determined) == (res.stderr[name] <= abs(value)), name
+    assert determined != set(res.params)  # the weak direction (k0, m) is not
+
+
+def test_a_fit_that_determines_no_parameter_is_not_converged() -> None:
+    # Slow noise as large as the response, two parameters left free: the optimum exists
+    # and the solver converges, but neither free parameter's error is below its value.
+    rng = np.random.default_rng(3)
+    t = T[:200]
+    clean = simulate(KELVIN, t, LOAD[:200])
+    res = fit(KELVIN, t, LOAD[:200], clean + np.ptp(clean) * _ar1(rng, 0.95, t.size),
+              fixed={"k0": 120.0, "m": 2.0}, min_r2=-np.inf)
+    assert not res.determined["parameters"]
+    assert all(res.stderr[n] > res.params[n] for n in ("c1", "k1"))
+    assert res.status is Status.UNDETERMINED and not res.converged
+    assert "no parameter of the model is determined" in res.reason
+    assert "the solver's own verdict: converged" in res.reason
+    assert res.status.meaning.startswith("the solver found its optimum")
+
+
+@pytest.mark.realdata
+def test_real_strokes_that_determine_nothing_are_not_converged(shared_raw) -> None:
+    # Sandia's downhole record split into strokes: some fits put m near 4e8 and k1 near
+    # 2e10 with a damping ratio of 5e-8 and nothing determined. They were "converged".
+    from pumpid.cards import split_strokes
+    from pumpid.pump import fit_card
+
+    record = read_cards(shared_raw / "sandia_dds" / "downhole_timeseries.csv")[0]
+    fits = [fit_card(s) for s in split_strokes(record)[:2]]
+    for res in fits:
+        if not res.determined["parameters"]:
+            assert res.status is Status.UNDETERMINED, res.reason
+        assert res.errors_shown == "robust"
+        # The resonance sits on the stroke frequency: not a property of the well.
+        fn = res.derived["natural_frequency"]
+        ratio = fn.value * res.card.period if res.card.period else fn.value * 60 / res.card.spm
+        assert 0.75 <= ratio <= 1.25 and not fn.well_property
+        assert any("echoes the imposed motion" in w for w in res.warnings)
+        assert res.to_row()["d_natural_frequency_well_property"] is False
+
+
+def test_a_resonance_on_the_stroke_frequency_is_not_a_well_property() -> None:
+    def quantities(fn: float) -> dict[str, Derived]:
+        return {"natural_frequency": Derived("natural_frequency", fn, "Hz", 0.01, 0.01, True,
+                                             ""),
+                "damping_ratio": Derived("damping_ratio", 0.3, "1", 0.01, 0.01, True, ""),
+                "static_stiffness": Derived("static_stiffness", 100.0, "lbf/in", 1.0, 1.0,
+                                            True, "")}
+
+    period = 60.0 / 8.5  # 8.5 strokes per minute
+    marked, said = echo_of(quantities(1.06 / period), period)
+    assert said is not None and "1.060 x the stroke frequency" in said
+    assert not marked["natural_frequency"].well_property
+    assert not marked["damping_ratio"].well_property
+    assert marked["static_stiffness"].well_property
+    assert "echoes the imposed motion" in marked["natural_frequency"].note
+    second, said2 = echo_of(quantities(2.1 / period), period)
+    assert said2 is not None and "harmonic 2" in said2
+    assert not second["natural_frequency"].well_property
+    clear, none = echo_of(quantities(6.4 / period), period)
+    assert none is None and clear["natural_frequency"].well_property
+    assert echo_of(quantities(1.0 / period), None)[1] is None  # not a periodic card
+
+
+def test_the_model_choice_text_states_the_effective_size_it_measured() -> None:
+    choice = {"criterion": "bic", "chosen": "kelvin (u)", "n": 130, "rho": 0.97,
+              "n_eff": 8.0, "n_eff_data": 130 * 0.03 / 1.97, "candidates": [],
+              "nested_tests": []}
+    text = model_choice_text(choice)
+    assert "n_eff = 2.0, counted as 8.0 by the criteria" in text
+    assert not math.isnan(choice["n_eff_data"])
+
+
+def test_a_better_optimum_is_claimed_with_digits_that_differ() -> None:
+    from pumpid import job
+
+    said = job._cost_change(87.99541234567, 87.99540987654)
+    before, after = said.split(",")[0].removeprefix("cost ").split(" -> ")
+    assert before != after and "lower by" in said
+
+
+@pytest.mark.realdata
+def test_real_card_words_and_units_match_the_numbers(shared_raw) -> None:
+    from pumpid.pump import fit_card
+
+    card = read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")[0].with_dt(0.075)
+    res = fit_card(card)
+    assert res.status is Status.BOUNDARY and res.boundary.reduced is not None
+    # The reduced model's units are the card's (lbf, in), not N and m.
+    units = res.to_dict()["reduced"]["units"]
+    assert units == {"m": "lbf*s^2/in", "c": "lbf*s/in", "k": "lbf/in"}
+    # The limit's words quote the value the result reports.
+    for b in res.boundary.limits:
+        assert f"fitted value {res.params[b.name]:.4g} is arbitrary" in b.describe()
+        assert any(f"fitted value {res.params[b.name]:.4g}" in w for w in res.warnings)
