@@ -25,6 +25,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any, TextIO
 
 from ..cards import printable
+from ..engine import compiled
 
 __all__ = [
     "EXIT_INTERNAL",
@@ -38,6 +39,7 @@ __all__ = [
     "CliError",
     "WarningCounter",
     "columns_option",
+    "compile_notice",
     "err",
     "fmt",
     "initial_state_option",
@@ -66,6 +68,19 @@ class CliError(ValueError):
 def err(message: str, stream: TextIO | None = None) -> None:
     """One line on standard error, prefixed ``pumpid:``, control characters escaped."""
     print(f"pumpid: {printable(message)}", file=stream or sys.stderr, flush=True)
+
+
+def compile_notice(stream: TextIO | None = None) -> bool:
+    """Say on standard error, before a fit, that this build's compiled code is not cached yet:
+    the first fit compiles it once (a silent wait of a minute looks like a hang). True if
+    said."""
+    if not compiled.uncached():
+        return False
+    low, high = compiled.COLD_MINUTES
+    err(f"compiling the numerical core for this machine, once per installed version: about "
+        f"{low}-{high} minutes on 2 cores (longer on a busy machine); later runs load it in a "
+        "fraction of a second", stream)
+    return True
 
 
 def fmt(value: Any, digits: int = 4) -> str:

@@ -30,6 +30,7 @@ from .common import (
     EXIT_PIPE,
     EXIT_USAGE,
     WarningCounter,
+    compile_notice,
     err,
 )
 
@@ -39,6 +40,10 @@ _EPILOG = """exit status: 0 every card fitted; 1 internal error (a bug); 2 bad o
 nothing fitted; 3 some cards not fitted; 4 outputs could not be written; 5 every card
 fitted, some poorly (R^2 below --min-r2: status poor-fit); 130 interrupted (Ctrl-C,
 results so far kept); 141 output pipe closed"""
+
+
+#: The commands that fit (and so may compile the main job on a fresh install).
+_FITTING = ("fit", "batch", "demo", "reproduce")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -69,6 +74,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         err("interrupted (Ctrl-C)")
         return EXIT_INTERRUPTED
+    if args.command in _FITTING:
+        compile_notice()
     counter = WarningCounter()
     try:
         with counter.active(), interrupts.recorded():

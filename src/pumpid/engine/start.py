@@ -648,13 +648,14 @@ def complete(problem: Problem, cards: NDArray[np.int64], theta: Array,
     do_rescale = bool((rescale and problem.gauge_fixed) or (
         rescale and problem.model.scale_symmetric and problem.scale_fixed is not None
         and not problem.fixed and bool(np.all(problem.mode != kernel.GIVEN))))
+    mode = drive.RESCALE if do_rescale else drive.BEST_LINEAR
     out = np.empty_like(z)
     cost = np.empty(z.shape[0])
     cards = np.ascontiguousarray(cards, dtype=np.int64)
 
     def work(a: int, b: int) -> None:
         out[a:b], cost[a:b] = drive.linear_items(cards[a:b], np.ascontiguousarray(z[a:b]),
-                                                 do_rescale, data, model, settings)
+                                                 mode, data, model, settings)
 
     run_chunks(work, z.shape[0], workers=workers, chunk=256)
     return out, cost
