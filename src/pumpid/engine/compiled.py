@@ -50,8 +50,9 @@ MAIN_JOB = (
     "drive.summary_items",
 )
 #: What compiling the main job costs on an empty cache (minutes, low and high): one card of
-#: the bundled example on 2 cores, 132 s on a quiet machine, 327 s on a loaded one.
-COLD_MINUTES = (2, 6)
+#: the bundled example on 2 cores took 132 s on a quiet machine and 327 s on a loaded one
+#: before a periodic card stopped compiling the time-domain start (about 40 % of it).
+COLD_MINUTES = (1, 4)
 
 #: Every compiled function by module.function, filled as the modules are imported.
 _DISPATCHERS: dict[str, Any] = {}
