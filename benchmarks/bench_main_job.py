@@ -18,6 +18,13 @@ Sections:
   (statuses identical, determined parameters to 1e-8); ``fit_cards`` on 10,000 cards (cards
   per second) and the growth of the process's peak resident memory from a tenth of that
   number to all of it.
+* **real**: the same per-card measurement on real cards, every public set under
+  ``../shared/data/raw`` (beside the repository; skipped when absent) that holds strokes of
+  one well: Sandia's surface cards and the strokes of its two downhole records (split with
+  ``split_strokes``), the CUPB and dzhang sets, and the oilfield set. A real card's residual
+  is model error, not white noise: the table also counts how often the job's guards fire
+  (the wider search, the boundary refits, a limit reached), the work the synthetic cards
+  rarely need.
 * **single**: one Kelvin fit of 2001 samples from a start about 30 % off
   (``pumpid.fit(..., multistart=False)``; no automatic start), noiseless and with 1 % noise,
   beside ``least_squares`` with the exact sensitivity Jacobian over ``scipy.signal.lsim``
@@ -144,6 +151,52 @@ def section_families(quick: bool) -> None:
            "peak RSS MiB (tenth of the cards -> all)"], batch_rows)
 
 
+# --------------------------------------------------------------------------- real
+#: Words of the warnings that say which of the job's guards changed the answer.
+GUARDS = (("wider search", "wider search"), ("limit", "ran to a bound"),
+          ("reduced fit", "reduced model"), ("restart", "restarted next"))
+
+
+def real_sets(limit: int | None) -> dict[str, list]:
+    """The public real card sets of single wells, by name (empty when the folder is absent)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_optimum import real_cards
+
+    return real_cards(limit)
+
+
+def section_real(quick: bool) -> None:
+    sets = real_sets(10 if quick else None)
+    if not sets:
+        print("\n(1r) real cards: skipped (no ../shared/data/raw beside the repository)")
+        return
+    fit_card(next(iter(sets.values()))[0])  # compiled code loaded, caches warm
+    rows = []
+    for name, cards in sets.items():
+        times, nfev, counts, guards = [], [], collections.Counter(), collections.Counter()
+        for card in cards:
+            t0 = time.perf_counter()
+            try:
+                res = fit_card(card)
+            except ValueError:
+                counts["not fitted"] += 1
+                continue
+            times.append(time.perf_counter() - t0)
+            nfev.append(res.nfev)
+            counts[res.status.value] += 1
+            for label, words in GUARDS:
+                guards[label] += any(words in w for w in res.warnings)
+        ms = np.array(times) * 1e3
+        rows.append([
+            name, str(len(times)), f"{np.median(ms):.1f}", f"{np.percentile(ms, 90):.1f}",
+            f"{ms.mean():.1f}", f"{np.median(nfev):.0f}",
+            ", ".join(f"{k} {v}" for k, v in sorted(guards.items())),
+            ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))])
+    table("(1r) fit_card on real cards, one at a time (the main job end to end, no plots)",
+          ["set", "cards", "median ms", "p90 ms", "mean ms", "median evals",
+           "guards that changed the answer", "statuses"], rows)
+
+
 # --------------------------------------------------------------------------- single
 def stroke_load(t: Array, seed: int = 0) -> Array:
     """A dynamometer-card-like polished-rod load over repeated strokes (N)."""
@@ -239,12 +292,13 @@ def section_cli(quick: bool) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="smaller sizes")
-    parser.add_argument("--only", choices=("families", "single", "cli"))
+    parser.add_argument("--only", choices=("families", "real", "single", "cli"))
     args = parser.parse_args()
     print(f"pumpid {pumpid.__version__}, numpy {np.__version__}, scipy {scipy.__version__}, "
           f"python {platform.python_version()}, {os.cpu_count()} cores, "
           f"load average {os.getloadavg()[0]:.2f}")
-    sections = {"families": section_families, "single": section_single, "cli": section_cli}
+    sections = {"families": section_families, "real": section_real, "single": section_single,
+                "cli": section_cli}
     for name, run in sections.items():
         if args.only in (None, name):
             run(args.quick)

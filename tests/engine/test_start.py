@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -159,3 +160,61 @@ def test_valley_walk_stays_put_on_noisy_data() -> None:
               res.offset + float(problem.offset_gap(0, res.model.values, 1.0))]
     _zw, cw = walk_valley(problem, 0, z, res.cost)
     assert cw >= 0.95 * res.cost * (1 - 1e-9) or math.isclose(cw, res.cost)
+
+
+def _mixed_problem():
+    """Three cards: a periodic stroke, a record from rest, one from equilibrium."""
+    period = 7.5
+    t_p = np.arange(200) * period / 200
+    load_p = well_load(t_p, period)
+    y_p = simulate(KELVIN, t_p, load_p, initial_state="periodic", period=period) + 3.0
+    cards = [CardData(t_p, load_p, y_p, "periodic", period),
+             CardData(T, LOAD, simulate(KELVIN, T, LOAD)),
+             CardData(T, LOAD + 500.0, simulate(KELVIN, T, LOAD + 500.0,
+                                                initial_state="equilibrium"), "equilibrium")]
+    return build_problem(Kelvin, cards, offset=True)
+
+
+def test_equation_error_by_kind_equals_card_by_card() -> None:
+    # Periodic strokes go to the harmonic estimate, other records to the time-domain one;
+    # a mixed call gives each card what it gets alone.
+    from pumpid.engine.start import _bandwidths, _periodic_cards, equation_error_items
+
+    problem = _mixed_problem()
+    cards = np.array([2, 0, 1], dtype=np.int64)
+    assert _periodic_cards(cards, problem.arrays[0]).tolist() == [False, True, False]
+    form = Kelvin.equation_error["u"]
+    packed = (form.target[0] == "f", int(form.target[1]), np.array(form.y_orders),
+              np.array(form.f_orders), int(form.order))
+    lams = _bandwidths(problem, cards)
+    together = equation_error_items(cards, lams, problem.arrays[0], packed, 1.0, True)
+    assert np.isfinite(together).any(axis=(1, 2)).all()
+    for i in range(cards.size):
+        alone = equation_error_items(cards[i:i + 1], lams[i:i + 1], problem.arrays[0],
+                                     packed, 1.0, True)
+        np.testing.assert_array_equal(alone[0], together[i])
+
+
+def test_a_periodic_card_does_not_compile_the_time_domain_estimate() -> None:
+    # A fresh process that starts a periodic stroke compiles (or loads) only the harmonic
+    # estimate: a first run does not pay for the time-domain filters it never uses.
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np\n"
+        "from pumpid import Kelvin, simulate\n"
+        "from pumpid.engine import start\n"
+        "from pumpid.engine.problem import CardData, build_problem\n"
+        "from tests.conftest import well_load\n"
+        "t = np.arange(200) * 7.5 / 200\n"
+        "f = well_load(t, 7.5)\n"
+        "y = simulate(Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0), t, f,\n"
+        "             initial_state='periodic', period=7.5)\n"
+        "p = build_problem(Kelvin, [CardData(t, f, y, 'periodic', 7.5)], offset=True)\n"
+        "start.candidates(p, np.zeros(1, dtype=np.int64))\n"
+        "print(len(start._harmonic_items.signatures), len(start._time_items.signatures))\n")
+    root = Path(__file__).resolve().parents[2]
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=root, check=True)
+    assert done.stdout.split() == ["1", "0"]

@@ -25,6 +25,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any, TextIO
 
 from ..cards import printable
+from ..engine import compiled
 
 __all__ = [
     "EXIT_INTERNAL",
@@ -41,6 +42,7 @@ __all__ = [
     "check_fit_options",
     "check_paths",
     "columns_option",
+    "compile_notice",
     "err",
     "err_block",
     "exit_status",
@@ -105,6 +107,19 @@ def plural(n: int, word: str, words: str | None = None) -> str:
     ``words`` is the plural when it is not ``word`` + ``s``.
     """
     return f"{n} {word if n == 1 else (words or word + 's')}"
+
+
+def compile_notice(stream: TextIO | None = None) -> bool:
+    """Say on standard error, before a fit, that this build's compiled code is not cached yet:
+    the first fit compiles it once (a silent wait of a minute looks like a hang). True if
+    said."""
+    if not compiled.uncached():
+        return False
+    low, high = compiled.COLD_MINUTES
+    err(f"compiling the numerical core for this machine, once per installed version: about "
+        f"{low}-{high} minutes on 2 cores (longer on a busy machine); later runs load it in a "
+        "fraction of a second", stream)
+    return True
 
 
 def fmt(value: Any, digits: int = 4) -> str:

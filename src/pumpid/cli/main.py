@@ -32,6 +32,7 @@ from .common import (
     EXIT_USAGE,
     WarningCounter,
     check_paths,
+    compile_notice,
     err,
 )
 
@@ -42,6 +43,10 @@ nothing fitted; 3 some cards not fitted; 4 outputs could not be written; 5 every
 fitted, some poorly (R^2 below --min-r2: status poor-fit); 6 every card fitted, but on
 some the data determine no parameter (status undetermined); 130 interrupted (Ctrl-C,
 results so far kept); 141 output pipe closed"""
+
+
+#: The commands that fit (and so may compile the main job on a fresh install).
+_FITTING = ("fit", "batch", "demo", "reproduce")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -73,6 +78,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         err("interrupted (Ctrl-C)")
         return EXIT_INTERRUPTED
+    if args.command in _FITTING:
+        compile_notice()
     counter = WarningCounter()
     try:
         with counter.active(), interrupts.recorded():

@@ -26,7 +26,12 @@ from . import lm
 from .compiled import jit
 from .kernel import simulate_card
 
-__all__ = ["cost_items", "evaluate", "outputs", "solve_items"]
+__all__ = ["AS_GIVEN", "BEST_LINEAR", "RESCALE", "cost_items", "evaluate", "outputs",
+           "solve_items"]
+
+#: :func:`linear_items`' modes: cost the points as given, complete them with their best
+#: scale and offset, or rescale the parameters to the fixed scale.
+AS_GIVEN, BEST_LINEAR, RESCALE = 0, 1, 2
 
 @jit
 def _card(data, k):
@@ -249,25 +254,6 @@ def solve_one(z0, lo, hi, tol, max_evals, n_capped, noise_tol, card, data, model
 
 
 @jit
-def cost_items(cards, z, data, model, settings):
-    """Cost ``0.5 |r|^2`` of many (card, point) items (no sensitivities); inf when not finite."""
-    m = z.shape[0]
-    bounds = data[3]
-    out = np.empty(m)
-    for i in range(m):
-        k = cards[i]
-        r = np.empty(bounds[k + 1] - bounds[k])
-        if residual_vector(z[i], k, data, model, settings, r):
-            total = 0.0
-            for s in range(r.size):
-                total += r[s] * r[s]
-            out[i] = 0.5 * total if math.isfinite(total) else math.inf
-        else:
-            out[i] = math.inf
-    return out
-
-
-@jit
 def outputs(cards, z, data, model, settings, total):
     """Unscaled outputs of many (card, point) items, concatenated (``total`` samples);
     and per item whether the simulation succeeded."""
@@ -292,16 +278,18 @@ def outputs(cards, z, data, model, settings, total):
 
 
 @jit
-def linear_items(cards, z, rescale, data, model, settings):
+def linear_items(cards, z, mode, data, model, settings):
     """Best linear values (ln C, offset) for parameter points, and their costs.
 
-    For each item: simulate card ``cards[i]`` at ``z[i]``'s parameters and fill the free
-    scale and offset coordinates with their least-squares values. With ``rescale`` (a
-    scale-symmetric model on a fixed scale, from a load-driven state) the parameters are
-    multiplied by ``C / a`` instead, ``a`` the least-squares amplitude: the same curve with
-    the scale held. Returns the completed points (m, q) and their costs (inf when the point
-    cannot be simulated or the amplitude is not positive).
+    For each item: simulate card ``cards[i]`` at ``z[i]``'s parameters and, with ``mode``
+    :data:`BEST_LINEAR`, fill the free scale and offset coordinates with their
+    least-squares values. With :data:`RESCALE` (a scale-symmetric model on a fixed scale,
+    from a load-driven state) the parameters are multiplied by ``C / a`` instead, ``a`` the
+    least-squares amplitude: the same curve with the scale held. With :data:`AS_GIVEN` the
+    points are kept and only costed. Returns the completed points (m, q) and their costs
+    (inf when the point cannot be simulated or the amplitude is not positive).
     """
+    rescale = mode == RESCALE
     m, _q = z.shape
     free, _lz_base, log_res, scale_free, scale_fixed, offset_free, offset_fixed = settings
     nf = free.size
@@ -312,13 +300,17 @@ def linear_items(cards, z, rescale, data, model, settings):
         k = cards[i]
         n_samples = bounds[k + 1] - bounds[k]
         y = np.empty(n_samples)
-        ok, _s, _o = simulate_at(z[i], k, data, model, settings, y, np.empty((0, n_samples)))
+        ok, given_scale, given_offset = simulate_at(z[i], k, data, model, settings, y,
+                                                    np.empty((0, n_samples)))
         if not ok:
             continue
         d = _card(data, k)[2]
         scale = scale_fixed
         offset = offset_fixed
-        if log_res:
+        if mode == AS_GIVEN:
+            scale = given_scale
+            offset = given_offset
+        elif log_res:
             total = 0.0
             for s in range(n_samples):
                 if not (y[s] > 0.0):
@@ -380,32 +372,22 @@ def linear_items(cards, z, rescale, data, model, settings):
             total += e * e
         if not math.isfinite(total):
             continue
+        cost[i] = 0.5 * total
+        if mode == AS_GIVEN:
+            continue
         j = nf
         if scale_free:
             out[i, j] = math.log(scale)
             j += 1
         if offset_free:
             out[i, j] = offset
-        cost[i] = 0.5 * total
     return out, cost
 
 
-@jit
 def column_norms(cards, z, data, model, settings):
-    """Norms of the Jacobian's columns (m, q) at points z (NaN rows where not finite)."""
-    m, q = z.shape
-    out = np.full((m, q), math.nan)
-    bounds = data[3]
-    for i in range(m):
-        k = cards[i]
-        rows = np.empty((q + 1, bounds[k + 1] - bounds[k]))
-        if residual_rows(z[i], k, data, model, settings, rows):
-            for j in range(q):
-                s = 0.0
-                for t in range(rows.shape[1]):
-                    s += rows[j, t] * rows[j, t]
-                out[i, j] = math.sqrt(s)
-    return out
+    """Norms of the Jacobian's columns (m, q) at points z (NaN rows where not finite):
+    :func:`summary_items`' second half (one compiled function for both)."""
+    return summary_items(cards, z, data, model, settings)[1]
 
 
 @jit
@@ -462,3 +444,12 @@ def summary_items(cards, z, data, model, settings):
         stats[i, 2] = 1.0 - ss / sst if sst > 0.0 else math.nan
         _ = scale + offset
     return stats, norms
+
+
+def cost_items(cards, z, data, model, settings):
+    """Cost ``0.5 |r|^2`` of many (card, point) items (no sensitivities); inf when not finite.
+
+    :func:`linear_items` with the points kept as given: one compiled function for both, so
+    a fresh install compiles the simulation into one caller less.
+    """
+    return linear_items(cards, z, AS_GIVEN, data, model, settings)[1]

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import zlib
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -140,7 +141,8 @@ def _time_coefs(t, y, f, lam, form, uniform):
         for k in range(t.size):
             mat[k, ncoef + j] = math.exp(-lam * tt[k]) * (lam * tt[k]) ** j
     mat[:, ncoef + n] = onesf[:, 0]
-    target = ff[:, target_order] if target_f else yf[:, target_order]
+    # A contiguous copy: _lstsq then has one signature for both equation errors.
+    target = (ff[:, target_order] if target_f else yf[:, target_order]).copy()
     return _lstsq(mat, target)[:ncoef]
 
 
@@ -290,7 +292,7 @@ def _refine_time(t, y, f, coef, form, uniform, offset_free, iterations):
             mat[:, y_orders.size + j] = ff[:, f_orders[j]]
         if offset_free:
             mat[:, ncoef] = _filter_den(t, np.ones(t.size), poly, uniform)[:, 0]
-        target = ff[:, target_order] if target_f else yf[:, target_order]
+        target = (ff[:, target_order] if target_f else yf[:, target_order]).copy()
         new = _lstsq(mat, target)[:ncoef]
         if not np.all(np.isfinite(new)):
             break
@@ -338,11 +340,71 @@ def _refine_harmonic(yk, fk, period, coef, form, first, iterations):
     return best
 
 
-@jit
-def equation_error_items(cards, lams, data, form, scale, offset_free):
+def _periodic_cards(cards: NDArray[np.int64], data: tuple[Any, ...]) -> NDArray[np.bool_]:
+    """Which cards are one uniformly sampled period (their equation error uses harmonics)."""
+    t_all, _f, _d, bounds, mode, _x0, period, uniform = data
+    out = np.zeros(cards.size, dtype=bool)
+    for i, k in enumerate(cards):
+        a, b = int(bounds[k]), int(bounds[k + 1])
+        out[i] = bool(b - a >= 2 and mode[k] == kernel.PERIODIC and uniform[k]
+                      and abs(period[k] - (b - a) * (t_all[a + 1] - t_all[a]))
+                      <= 1e-6 * period[k])
+    return out
+
+
+def equation_error_items(cards: NDArray[np.int64], lams: Array, data: tuple[Any, ...],
+                         form: tuple[Any, ...], scale: float, offset_free: bool) -> Array:
     """Equation-error coefficients (m, 2 L, c) for cards (m,) at bandwidths lams (m, L): the
-    estimate at each bandwidth, then its Steiglitz-McBride refinement (NaN where none)."""
-    t_all, f_all, d_all, bounds, mode, _x0, period, uniform = data
+    estimate at each bandwidth, then its Steiglitz-McBride refinement (NaN where none).
+
+    A periodic stroke's estimate works on its harmonics, any other record's in time: two
+    compiled functions, so a first run compiles only the one its cards need (the time
+    domain's filters were a quarter of a periodic card's compile).
+    """
+    cards = np.ascontiguousarray(cards, dtype=np.int64)
+    lams = np.ascontiguousarray(lams, dtype=float)
+    ncoef = form[2].size + form[3].size
+    out = np.full((cards.size, 2 * lams.shape[1], ncoef), math.nan)
+    periodic = _periodic_cards(cards, data)
+    for kind, which in ((_harmonic_items, periodic), (_time_items, ~periodic)):
+        if np.any(which):
+            out[which] = kind(cards[which], lams[which], data, form, scale, offset_free)
+    return out
+
+
+@jit
+def _harmonic_items(cards, lams, data, form, scale, offset_free):
+    """:func:`equation_error_items` for periodic strokes (see :func:`_periodic_cards`)."""
+    _t_all, f_all, d_all, bounds, _mode, _x0, period, _uniform = data
+    ncoef = form[2].size + form[3].size
+    m, n_lam = lams.shape
+    out = np.full((m, 2 * n_lam, ncoef), math.nan)
+    first = 0 if not offset_free else 1
+    for i in range(m):
+        k = cards[i]
+        a, b = bounds[k], bounds[k + 1]
+        # Writable copies, like y: one signature of the helpers for both signals.
+        f = f_all[a:b].copy()
+        y = d_all[a:b] / scale
+        # The harmonics once per card; every bandwidth reuses them.
+        kmax = min(y.size // 2, _HARMONICS)
+        yk = _dft(y, kmax)
+        fk = _dft(f, kmax)
+        for li in range(n_lam):
+            lam = lams[i, li]
+            if not lam > 0.0:
+                continue
+            coef = _harmonic_coefs(yk, fk, period[k], lam, form, first)
+            out[i, li] = coef
+            if np.all(np.isfinite(coef)):
+                out[i, n_lam + li] = _refine_harmonic(yk, fk, period[k], coef, form, first, 8)
+    return out
+
+
+@jit
+def _time_items(cards, lams, data, form, scale, offset_free):
+    """:func:`equation_error_items` for records that are not one periodic stroke."""
+    t_all, f_all, d_all, bounds, mode, _x0, _period, uniform = data
     ncoef = form[2].size + form[3].size
     m, n_lam = lams.shape
     out = np.full((m, 2 * n_lam, ncoef), math.nan)
@@ -350,22 +412,10 @@ def equation_error_items(cards, lams, data, form, scale, offset_free):
         k = cards[i]
         a, b = bounds[k], bounds[k + 1]
         t = t_all[a:b]
-        f = f_all[a:b]
+        f = f_all[a:b].copy()
         y = d_all[a:b] / scale
-        n_samples = b - a
-        periodic = (mode[k] == kernel.PERIODIC and uniform[k]
-                    and abs(period[k] - n_samples * (t[1] - t[0])) <= 1e-6 * period[k])
-        first = 0 if not offset_free else 1
-        if periodic:
-            # The harmonics once per card; every bandwidth reuses them.
-            kmax = min(y.size // 2, _HARMONICS)
-            yk = _dft(y, kmax)
-            fk = _dft(f, kmax)
-        else:
-            yk = np.zeros(1, np.complex128)
-            fk = np.zeros(1, np.complex128)
         # A record from rest (or from equilibrium, as deviations) can be refined in time.
-        refine_time = not periodic and (mode[k] == kernel.REST or mode[k] == kernel.EQUILIBRIUM)
+        refine_time = mode[k] == kernel.REST or mode[k] == kernel.EQUILIBRIUM
         y_dev = y - y[0] if mode[k] == kernel.EQUILIBRIUM else y
         f_dev = f - f[0] if mode[k] == kernel.EQUILIBRIUM else f
         tt = t - t[0]
@@ -373,19 +423,12 @@ def equation_error_items(cards, lams, data, form, scale, offset_free):
             lam = lams[i, li]
             if not lam > 0.0:
                 continue
-            if periodic:
-                coef = _harmonic_coefs(yk, fk, period[k], lam, form, first)
-                out[i, li] = coef
-                if np.all(np.isfinite(coef)):
-                    out[i, n_lam + li] = _refine_harmonic(yk, fk, period[k], coef, form,
-                                                          first, 8)
-            else:
-                coef = _time_coefs(t, y, f, lam, form, uniform[k])
-                out[i, li] = coef
-                if refine_time and np.all(np.isfinite(coef)):
-                    out[i, n_lam + li] = _refine_time(
-                        tt, y_dev, f_dev, coef, form, uniform[k],
-                        offset_free and mode[k] == kernel.REST, 8)
+            coef = _time_coefs(t, y, f, lam, form, uniform[k])
+            out[i, li] = coef
+            if refine_time and np.all(np.isfinite(coef)):
+                out[i, n_lam + li] = _refine_time(
+                    tt, y_dev, f_dev, coef, form, uniform[k],
+                    offset_free and mode[k] == kernel.REST, 8)
     return out
 
 
@@ -648,13 +691,14 @@ def complete(problem: Problem, cards: NDArray[np.int64], theta: Array,
     do_rescale = bool((rescale and problem.gauge_fixed) or (
         rescale and problem.model.scale_symmetric and problem.scale_fixed is not None
         and not problem.fixed and bool(np.all(problem.mode != kernel.GIVEN))))
+    mode = drive.RESCALE if do_rescale else drive.BEST_LINEAR
     out = np.empty_like(z)
     cost = np.empty(z.shape[0])
     cards = np.ascontiguousarray(cards, dtype=np.int64)
 
     def work(a: int, b: int) -> None:
         out[a:b], cost[a:b] = drive.linear_items(cards[a:b], np.ascontiguousarray(z[a:b]),
-                                                 do_rescale, data, model, settings)
+                                                 mode, data, model, settings)
 
     run_chunks(work, z.shape[0], workers=workers, chunk=256)
     return out, cost
