@@ -73,3 +73,27 @@ def test_batch_csv_is_neutralised_and_parquet_raw(tmp_path: Path) -> None:
     assert (back["r2"] == "-0.5").all()
     raw = pd.read_parquet(store.part_path(0))
     assert raw["well_id"].tolist() == HOSTILE
+
+
+def test_report_command_prints_ids_as_the_files_have_them(tmp_path: Path, capsys) -> None:
+    from pumpid.cli import main
+
+    frame = _hostile_table()
+    results = tmp_path / "results"
+    results.mkdir()
+    frame.to_parquet(results / "part-00000.parquet")
+    code = main(["report", str(results), "--out", str(tmp_path / "fleet"),
+                 "--quantity", "stiffness"])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "1 alert in 1 well" in out
+    assert "well =1+1: stiffness" in out and "from card =W" in out
+    assert "'=" not in out  # the CSV's neutralising quote is not the id
+
+
+def test_report_draws_well_names_with_dollars_and_controls(tmp_path: Path) -> None:
+    frame = results_table(2, 40, cv=0.02, seed=5)
+    frame["well_id"] = frame["well_id"].map(dict(zip(sorted(frame["well_id"].unique()),
+                                                     ["$x^{$", "a\tb\x1b[31m"], strict=True)))
+    files = write_fleet_report(frame, tmp_path, quantities=["stiffness"])
+    assert files["report"].exists()

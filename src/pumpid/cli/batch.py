@@ -29,16 +29,11 @@ from .common import (
     check_fit_options,
     err_block,
     exit_status,
-    plural,
     rate_option,
 )
 
-__all__ = ["cmd_batch", "register", "summary_text"]
+__all__ = ["cmd_batch", "register"]
 
-#: Failed and invalid-card reasons shown in the summary (the results hold them all).
-_SHOWN = 10
-#: Unreadable files named in the summary.
-_SHOWN_FILES = 20
 
 
 def _column(value: str | None) -> str | int | None:
@@ -136,47 +131,6 @@ def _check_csv(path: Path | None) -> None:
         raise OutputError(f"--csv {where}: cannot create folders in {printable(str(parent))}")
 
 
-def summary_text(summary: Any) -> str:
-    """The run's summary in words, as ``pumpid batch`` prints it.
-
-    Names, card ids and reasons come from the files: control characters, terminal escapes
-    and bidirectional overrides are escaped (:func:`pumpid.cards.printable`).
-    """
-    state = "interrupted" if summary.interrupted else "complete"
-    lines = [f"pumpid batch: {state}; results in {printable(str(summary.results))}",
-             f"  engine: {printable(summary.engine)}",
-             f"  cards: {summary.cards} in {plural(summary.partitions, 'partition')} "
-             f"({summary.fitted} fitted in this run in {summary.elapsed:.1f} s, "
-             f"{summary.rate():.1f} cards/s end to end; {summary.skipped} from an earlier "
-             "run)"]
-    if summary.interrupted:
-        lines.append(f"  partitions dropped at the interrupt: {summary.discarded}; continue "
-                     "with: pumpid batch --resume --out RESULTS")
-    statuses = sorted(summary.statuses.items(), key=lambda x: -x[1])
-    lines.append("  cards per status: "
-                 + (", ".join(f"{printable(str(s))} {n}" for s, n in statuses) or "none"))
-    lines.append(f"  unreadable files: {len(summary.unreadable)}")
-    for name, why in summary.unreadable[:_SHOWN_FILES]:
-        lines.append(f"    {printable(str(name))}: {printable(str(why))}")
-    if len(summary.unreadable) > _SHOWN_FILES:
-        lines.append(f"    ... and {len(summary.unreadable) - _SHOWN_FILES} more (status "
-                     "invalid-input in the results)")
-    if summary.failures:
-        lines.append("  failed or invalid cards by reason:")
-        for kind, n, example in summary.failures[:_SHOWN]:
-            lines.append(f"    {plural(n, 'card')}: {printable(str(kind))} (e.g. "
-                         f"{printable(str(example))})")
-        if len(summary.failures) > _SHOWN:
-            lines.append(f"    ... and {len(summary.failures) - _SHOWN} more kinds of reason")
-    if summary.costliest:
-        lines.append("  costliest cards (model evaluations; a fit's time grows with them and "
-                     "the samples):")
-        for cid, nfev, n in summary.costliest:
-            lines.append(f"    {printable(str(cid))}: {plural(nfev, 'evaluation')} of "
-                         f"{plural(n, 'sample')}")
-    return "\n".join(lines)
-
-
 def cmd_batch(args: argparse.Namespace) -> int:
     """Run ``pumpid batch``; print the summary; exit as ``pumpid fit`` does.
 
@@ -213,7 +167,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         print("pumpid: the partitions written so far are kept; continue with --resume",
               file=sys.stderr)
         return EXIT_INTERNAL
-    print(summary_text(summary))
+    print(summary.text())
     if summary.interrupted:
         sys.stdout.flush()
         sys.stderr.flush()

@@ -26,6 +26,7 @@ from typing import Any, TextIO
 
 from ..cards import printable
 from ..engine import compiled
+from ..report.words import plural
 
 __all__ = [
     "EXIT_INTERNAL",
@@ -99,14 +100,6 @@ def check_paths(args: Any) -> None:
         if isinstance(value, str) and not value.strip():
             raise CliError(f"{flag} {value!r}: an empty path; give the name of the "
                            f"{'file' if attr != 'out' else 'folder'} to write")
-
-
-def plural(n: int, word: str, words: str | None = None) -> str:
-    """``n`` with its noun agreeing: ``1 card``, ``0 cards``, ``3 cards``.
-
-    ``words`` is the plural when it is not ``word`` + ``s``.
-    """
-    return f"{n} {word if n == 1 else (words or word + 's')}"
 
 
 def compile_notice(stream: TextIO | None = None) -> bool:

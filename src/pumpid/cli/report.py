@@ -66,9 +66,8 @@ def _check_columns(path: str, columns: list[str], rows: int) -> None:
 
 def cmd_report(args: argparse.Namespace) -> int:
     """Write the fleet report; print where, and the alerts in one line each."""
-    import pandas as pd
 
-    from ..fleet.changes import available_quantities
+    from ..fleet.changes import available_quantities, detect_changes
     from ..fleet.report import write_fleet_report
     from ..fleet.store import read_results
 
@@ -83,10 +82,12 @@ def cmd_report(args: argparse.Namespace) -> int:
     quantities = args.quantity
     if quantities is None and args.parameters:
         quantities = available_quantities(table, parameters=True)
-    paths = write_fleet_report(table, args.out, quantities=quantities,
-                               false_alarm=args.false_alarm, min_cards=args.min_cards,
-                               max_wells_plotted=args.max_wells)
-    alerts = pd.read_csv(paths["alerts"])
+    # The alerts are found here and handed to the report, so that they are printed with the
+    # ids as the files have them (alerts.csv neutralises text a spreadsheet would evaluate).
+    options = {"false_alarm": args.false_alarm, "min_cards": args.min_cards}
+    alerts = detect_changes(table, quantities, **options)
+    paths = write_fleet_report(table, args.out, alerts=alerts, quantities=quantities,
+                               max_wells_plotted=args.max_wells, **options)
     wells = table["well_id"].nunique()
     alerted = alerts["well_id"].nunique() if len(alerts) else 0
     print(f"pumpid report: {plural(len(table), 'card')} of {plural(wells, 'well')}, "

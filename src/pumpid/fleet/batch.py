@@ -44,8 +44,10 @@ import pandas as pd
 import pyarrow as pa
 
 from pumpid import __version__, interrupts
+from pumpid.cards import printable
 from pumpid.models import Model, model_class
 from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
+from pumpid.report.words import plural
 
 from .defaults import PARTITION_SIZE
 from .downhole import DownholeSpec, add_pump_columns, pump_schema
@@ -267,6 +269,11 @@ def reason_kind(reason: str) -> str:
     return _NUMBER.sub("N", _QUOTED.sub("'…'", reason or "(no reason given)")).strip()
 
 
+#: How many unreadable files and kinds of failure reason the summary names.
+_SHOWN_FILES = 20
+_SHOWN_REASONS = 10
+
+
 @dataclass
 class BatchSummary:
     """What a run did: counts, what could not be read, the costliest cards, failures.
@@ -347,40 +354,46 @@ class BatchSummary:
         return self.fitted / self.elapsed if self.elapsed > 0 else math.nan
 
     def text(self) -> str:
-        """The summary in words, as printed at the end of ``pumpid batch``."""
+        """The summary in words, as ``pumpid batch`` prints it and ``_summary.txt`` keeps it.
+
+        Names, card ids and reasons come from the files: control characters, terminal
+        escapes and bidirectional overrides are shown escaped (:func:`pumpid.cards.printable`).
+        """
         state = "interrupted" if self.interrupted else "complete"
-        lines = [f"pumpid batch: {state}; results in {self.results}",
-                 f"  engine: {self.engine}",
-                 f"  cards: {self.cards} in {self.partitions} "
-                 f"partition{'' if self.partitions == 1 else 's'} "
+        lines = [f"pumpid batch: {state}; results in {printable(str(self.results))}",
+                 f"  engine: {printable(self.engine)}",
+                 f"  cards: {self.cards} in {plural(self.partitions, 'partition')} "
                  f"({self.fitted} fitted in this run in {self.elapsed:.1f} s, "
                  f"{self.rate():.1f} cards/s end to end; {self.skipped} from an earlier run)"]
         if self.interrupted:
             lines.append(f"  partitions dropped at the interrupt: {self.discarded}; "
                          "continue with: pumpid batch --resume --out RESULTS")
-        lines.append("  cards per status: " + (", ".join(
-            f"{s} {n}" for s, n in sorted(self.statuses.items(), key=lambda x: -x[1]))
-            or "none"))
+        statuses = sorted(self.statuses.items(), key=lambda x: -x[1])
+        lines.append("  cards per status: "
+                     + (", ".join(f"{printable(str(s))} {n}" for s, n in statuses) or "none"))
         if self.duplicates:
             lines.append(f"  duplicate cards: {self.duplicates} repeat an earlier card of the "
                          "run exactly (named in duplicate_of; the report counts them once)")
         lines.append(f"  unreadable files: {len(self.unreadable)}")
-        for name, why in self.unreadable[:20]:
-            lines.append(f"    {name}: {why}")
-        if len(self.unreadable) > 20:
-            lines.append(f"    ... and {len(self.unreadable) - 20} more (status invalid-input "
-                         "in the results)")
+        for name, why in self.unreadable[:_SHOWN_FILES]:
+            lines.append(f"    {printable(str(name))}: {printable(str(why))}")
+        if len(self.unreadable) > _SHOWN_FILES:
+            lines.append(f"    ... and {len(self.unreadable) - _SHOWN_FILES} more (status "
+                         "invalid-input in the results)")
         if self.failures:
             lines.append("  failed or invalid cards by reason:")
-            for kind, n, example in self.failures[:10]:
-                lines.append(f"    {n} card{'s' if n != 1 else ''}: {kind} (e.g. {example})")
-            if len(self.failures) > 10:
-                lines.append(f"    ... and {len(self.failures) - 10} more kinds of reason")
+            for kind, n, example in self.failures[:_SHOWN_REASONS]:
+                lines.append(f"    {plural(n, 'card')}: {printable(str(kind))} (e.g. "
+                             f"{printable(str(example))})")
+            if len(self.failures) > _SHOWN_REASONS:
+                lines.append(f"    ... and {len(self.failures) - _SHOWN_REASONS} more kinds of "
+                             "reason")
         if self.costliest:
             lines.append("  costliest cards (model evaluations; a fit's time grows with them "
                          "and the samples):")
             for cid, nfev, n in self.costliest:
-                lines.append(f"    {cid}: {nfev} evaluations of {n} samples")
+                lines.append(f"    {printable(str(cid))}: {plural(nfev, 'evaluation')} of "
+                             f"{plural(n, 'sample')}")
         return "\n".join(lines)
 
 

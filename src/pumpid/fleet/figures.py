@@ -15,6 +15,9 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from pumpid.cards import printable
+from pumpid.report.words import plural
+
 from .changes import USABLE_STATUSES
 from .downhole import PUMP_PREFIX, is_pump_quantity, pump_usable
 
@@ -25,6 +28,7 @@ __all__ = [
     "count_words",
     "distribution_figure",
     "few_wells_figure",
+    "label",
     "padded_limits",
     "per_well_median",
     "quantity_values",
@@ -47,10 +51,15 @@ def unit_text(unit: Any) -> str:
     return "dimensionless" if u in ("-", "1") else u
 
 
+def label(text: Any) -> str:
+    """A name from the files as figure text: control characters escaped (they have no
+    glyph) and ``$`` escaped (matplotlib would read ``$...$`` as mathematics)."""
+    return printable(str(text)).replace("$", r"\$")
+
+
 def count_words(n: Any, word: str) -> str:
-    """``"1 card"``, ``"3 cards"``."""
-    k = int(n)
-    return f"{k} {word}" if k == 1 else f"{k} {word}s"
+    """``"1 card"``, ``"3 cards"`` for a count that may be a numpy or pandas integer."""
+    return plural(int(n), word)
 
 
 # --------------------------------------------------------------------------- data helpers
@@ -125,8 +134,8 @@ def few_wells_figure(frame: pd.DataFrame, quantity: str, unit: str,
         ax.hlines(row, q[0], q[4], color=colour, lw=1)
         ax.hlines(row, q[1], q[3], color=colour, lw=5, alpha=0.5)
         ax.plot([q[2]], [row], "o", color=colour, ms=6)
-    ax.set_yticks(range(len(wells)), [f"{w} ({count_words(groups.get_group(w).size, 'card')})"
-                                      for w in wells], fontsize=8)
+    names = [f"{label(w)} ({count_words(groups.get_group(w).size, 'card')})" for w in wells]
+    ax.set_yticks(range(len(wells)), names, fontsize=8)
     ax.set_ylim(-0.6, len(wells) - 0.4)
     allv = value[ok].to_numpy(dtype=float)
     ax.set_xlim(*padded_limits(float(allv.min()), float(allv.max())))
@@ -277,7 +286,7 @@ def well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str,
     fig.legend(list(handles.values()), list(handles.keys()), loc="lower right", ncols=6,
                fontsize=8, frameon=False, bbox_to_anchor=(0.99, top))
     axes[-1].set_xlabel("card time (UTC)" if timed else "card number (no times in the table)")
-    fig.suptitle(f"well {well}", fontsize=10, x=0.01, y=top + 0.1 / fig.get_figheight(),
+    fig.suptitle(f"well {label(well)}", fontsize=10, x=0.01, y=top + 0.1 / fig.get_figheight(),
                  ha="left", va="bottom")
     fig.autofmt_xdate()
     fig.subplots_adjust(top=top, bottom=0.9 / fig.get_figheight())

@@ -388,8 +388,12 @@ def write_fleet_report(
     names = list(quantities) if quantities is not None else available_quantities(frame)
     min_cards = int(detect_options.get("min_cards", 30))
     min_short = int(detect_options.get("min_short_cards", SHORT_MIN_CARDS))
+    given = alerts is not None
     if alerts is None:
         alerts = detect_changes(frame, names, **detect_options)
+    if not given or detect_options:
+        # Alerts a caller found with these same options (the command line prints them
+        # before the CSV neutralises their text) are described as if found here.
         settings = (f"per-well false-alarm probability "
                     f"{detect_options.get('false_alarm', 0.01):.1%}; robust two-sided CUSUM "
                     f"with reference windows of {min_cards} cards for histories of more than "
