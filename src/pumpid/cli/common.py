@@ -40,6 +40,7 @@ __all__ = [
     "EXIT_USAGE",
     "CliError",
     "WarningCounter",
+    "add_card_options",
     "check_fit_options",
     "check_paths",
     "columns_option",
@@ -165,6 +166,32 @@ def initial_state_option(text: str | None) -> Any:
     if not all(math.isfinite(v) for v in values):
         raise CliError(f"--initial-state: {printable(text)} has a value that is not finite")
     return values
+
+
+def add_card_options(p: Any) -> None:
+    """The card-reading options, one set for every command that reads cards from files.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser or argument group
+    """
+    p.add_argument("--spm", type=float, help="strokes per minute (cards without time)")
+    p.add_argument("--period", type=float, help="stroke period in s (cards without time)")
+    p.add_argument("--format", help="force a format: csv, scada, json, whitespace, ts")
+    p.add_argument("--encoding", help="text encoding of the files (default: detected)")
+    p.add_argument("--card", help="only this card id")
+    p.add_argument("--split-strokes", action="store_true",
+                   help="split multi-stroke time records at position minima; each stroke "
+                        "is a card, one period (ids CARD#0, CARD#1, ...)")
+    p.add_argument("--columns", metavar="ROLE=COL[,...]",
+                   help="column roles, e.g. position=1,load=0 (names or 0-based indices; "
+                        "roles t, position, load, card, well, spm, period)")
+    p.add_argument("--t-col", help="time column (name, or index for tables without header)")
+    p.add_argument("--load-col", help="load column")
+    p.add_argument("--position-col", "--displacement-col", dest="position_col",
+                   help="position/displacement column")
+    p.add_argument("--load-unit", help="load unit of the files: lbf, klbf, N, kN, kgf")
+    p.add_argument("--position-unit", help="position unit of the files: in, ft, m")
 
 
 def check_fit_options(cls: Any, *, observe: str | None = None, scale: str | None = None,

@@ -40,6 +40,7 @@ from .common import (
     EXIT_OUTPUT,
     EXIT_USAGE,
     CliError,
+    add_card_options,
     columns_option,
     err,
     fmt,
@@ -339,22 +340,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                    help="fourier (Gibbs, default) or fd (finite differences)")
     p.add_argument("--convention", choices=["effective", "true"], default="effective",
                    help="load convention of the downhole loads (default effective)")
-    p.add_argument("--spm", type=float, help="strokes per minute (cards without time)")
-    p.add_argument("--period", type=float, help="stroke period in s (cards without time)")
-    p.add_argument("--format", help="force a format: csv, scada, json, whitespace, ts")
-    p.add_argument("--encoding", help="text encoding of the files (default: detected)")
-    p.add_argument("--card", help="only this card id")
-    p.add_argument("--split-strokes", action="store_true",
-                   help="split multi-stroke time records at position minima; each stroke "
-                        "is a card (ids CARD#0, CARD#1, ...)")
-    p.add_argument("--columns", metavar="ROLE=COL[,...]",
-                   help="column roles, e.g. position=1,load=0 (names or 0-based indices)")
-    p.add_argument("--t-col", help="time column")
-    p.add_argument("--load-col", help="load column")
-    p.add_argument("--position-col", "--displacement-col", dest="position_col",
-                   help="position/displacement column")
-    p.add_argument("--load-unit", help="load unit of the file: lbf, klbf, N, kN, kgf")
-    p.add_argument("--position-unit", help="position unit of the file: in, ft, m")
+    add_card_options(p)
     p.add_argument("--out", help="write downhole.json, pump_card.csv and cards.png here (one "
                                  "card), or a folder per card and downhole.csv (several)")
     view = p.add_mutually_exclusive_group()

@@ -44,6 +44,7 @@ from .common import (
     EXIT_OUTPUT,
     EXIT_UNDETERMINED,
     CliError,
+    add_card_options,
     check_fit_options,
     columns_option,
     err,
@@ -626,29 +627,14 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                     "as it is fitted; a card or file that cannot be fitted is reported and "
                     "the others go on. Exit status: 0 all fitted, 2 bad options or nothing "
                     "readable, 3 some cards not fitted, 4 outputs not written, 5 every card "
-                    "fitted but some poorly (R^2 below --min-r2), 130 interrupted.")
+                    "fitted but some poorly (R^2 below --min-r2), 6 every card fitted but some "
+                    "determine no parameter, 130 interrupted.")
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="card files (CSV/TSV, SCADA export, JSON, table, .ts)")
-    p.add_argument("--spm", type=float, help="strokes per minute (cards without time)")
-    p.add_argument("--period", type=float, help="stroke period in s (cards without time)")
-    p.add_argument("--format", help="force a format: csv, scada, json, whitespace, ts")
-    p.add_argument("--encoding", help="text encoding of the files (default: detected)")
-    p.add_argument("--card", help="fit only this card id")
+    add_card_options(p)
     p.add_argument("--joint", action="store_true",
                    help="one parameter set for all the cards (strokes of one well), each "
                         "card with its own offset; prints the joint fit")
-    p.add_argument("--split-strokes", action="store_true",
-                   help="split multi-stroke time records at position minima; fit each stroke "
-                        "as one period (ids CARD#0, CARD#1, ...)")
-    p.add_argument("--columns", metavar="ROLE=COL[,...]",
-                   help="column roles, e.g. position=1,load=0 (names or 0-based indices; "
-                        "roles t, position, load, card, well, spm, period)")
-    p.add_argument("--t-col", help="time column (name, or index for tables without header)")
-    p.add_argument("--load-col", help="load column")
-    p.add_argument("--position-col", "--displacement-col", dest="position_col",
-                   help="position/displacement column")
-    p.add_argument("--load-unit", help="load unit of the file: lbf, klbf, N, kN, kgf")
-    p.add_argument("--position-unit", help="position unit of the file: in, ft, m")
     add_fit_arguments(p)
     p.add_argument("--predict", metavar="CARD_OR_FILE",
                    help="predict another card (an id in the same file, or a file) with each fit")
