@@ -179,3 +179,17 @@ def test_flow_out_naming_a_file_is_exit_4(tmp_path: Path, capsys) -> None:
     out = tmp_path / "flowout"
     assert main(["flow", "fit", str(rec), "--out", str(out)]) == 0
     assert (out / "report.html").is_file() and (out / MANIFEST).is_file()
+
+
+def test_fit_results_csv_cannot_carry_a_formula(tmp_path: Path, capsys) -> None:
+    import pandas as pd
+
+    path = write_cards(tmp_path / "field.csv", ["=HYPERLINK(1)", "@cmd"], n_samples=40)
+    code = main(["fit", str(path), "--model", "msd", "--brief", "--out", str(tmp_path / "o")])
+    capsys.readouterr()
+    assert code in (0, 3, 5, 6)
+    raw = (tmp_path / "o" / "results.csv").read_bytes()
+    assert b"\r\n" in raw  # rows end as spreadsheets expect
+    index = pd.read_csv(tmp_path / "o" / "results.csv", dtype=str, keep_default_na=False)
+    assert sorted(index["card_id"]) == ["'=HYPERLINK(1)", "'@cmd"]
+    assert not [c for c in index.to_numpy().ravel() if c.startswith(("=", "@"))]

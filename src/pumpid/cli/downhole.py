@@ -29,6 +29,7 @@ from typing import Any, TextIO
 from .. import interrupts
 from ..cards import Card, CardError, printable
 from ..report.output import OutputError, OutputFolder, UniqueNames, atomic_write
+from ..report.spreadsheet import LINE_END, neutralise_row
 from ..result import jsonable
 from ..rods import DEFAULT_DAMPING, DownholeResult, WellFile, diagnose_cards, read_well_file
 from ..rods.figure import draw_cards
@@ -233,9 +234,9 @@ class _Outputs:
             return
         names = list(dict.fromkeys(k for r in self.rows for k in r))
         buf = io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=names, lineterminator="\n")
+        w = csv.DictWriter(buf, fieldnames=names, lineterminator=LINE_END)
         w.writeheader()
-        w.writerows(self.rows)
+        w.writerows(neutralise_row(r) for r in self.rows)
         try:
             atomic_write(self.folder.path / INDEX_NAME, buf.getvalue())
         except (OutputError, OSError) as exc:

@@ -36,6 +36,7 @@ from .. import interrupts
 from ..cards import Card, CardError, printable
 from ..models import MODELS, Model, model_class
 from ..report.output import FILE_MODE, OutputError, OutputFolder, UniqueNames
+from ..report.spreadsheet import LINE_END, neutralise_row
 from ..result import FitResult
 from .common import (
     EXIT_INTERRUPTED,
@@ -292,21 +293,22 @@ class _Index:
             return
         if self._writer is None:
             names = list(dict.fromkeys([*self._BASE, *rec]))
-            self._writer = csv.DictWriter(self._fh, fieldnames=names, extrasaction="ignore")
+            self._writer = csv.DictWriter(self._fh, fieldnames=names, extrasaction="ignore",
+                                          lineterminator=LINE_END)
             self._writer.writeheader()
             for waiting in self._waiting:
-                self._writer.writerow(waiting)
+                self._writer.writerow(neutralise_row(waiting))
             self._waiting.clear()
-        self._writer.writerow(rec)
+        self._writer.writerow(neutralise_row(rec))
         self._fh.flush()
 
     def close(self) -> Path:
         if self._writer is None:
             self._writer = csv.DictWriter(self._fh, fieldnames=list(self._BASE),
-                                          extrasaction="ignore")
+                                          extrasaction="ignore", lineterminator=LINE_END)
             self._writer.writeheader()
             for waiting in self._waiting:
-                self._writer.writerow(waiting)
+                self._writer.writerow(neutralise_row(waiting))
         self._fh.close()
         target = self.folder / INDEX_NAME
         os.chmod(self._tmp, FILE_MODE)

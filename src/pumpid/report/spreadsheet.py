@@ -18,9 +18,11 @@ default line end it writes bare, so that a reader splits the row in two there.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["FORMULA_STARTS", "LINE_END", "neutralise", "neutralise_frame", "to_csv"]
+__all__ = ["FORMULA_STARTS", "LINE_END", "neutralise", "neutralise_frame", "neutralise_row",
+           "to_csv"]
 
 #: First characters that make a spreadsheet cell a formula (or hide one after them).
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
@@ -46,6 +48,20 @@ def neutralise(value: Any) -> Any:
     if value in ("-", "+") or _NUMBER.fullmatch(value):
         return value
     return "'" + value
+
+
+def neutralise_row(row: Mapping[str, Any]) -> dict[str, Any]:
+    """A row for :class:`csv.DictWriter` with :func:`neutralise` applied to every cell.
+
+    Parameters
+    ----------
+    row : mapping of column name to cell
+
+    Returns
+    -------
+    dict
+    """
+    return {k: neutralise(v) for k, v in row.items()}
 
 
 def neutralise_frame(frame: Any) -> Any:
