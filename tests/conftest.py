@@ -37,3 +37,18 @@ def shared_raw() -> Path:
     if not SHARED_RAW.is_dir():
         pytest.skip("third-party cards (../shared/data/raw) are not available")
     return SHARED_RAW
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compiled_once() -> None:
+    """Compile the main job once, before any test: a command's stderr then holds only what
+    the test is about, not the one-time notice that a cold cache is being compiled (which
+    tests/engine/test_compiled.py checks on its own)."""
+    import pumpid
+    from pumpid.engine import compiled
+    from pumpid.pump import fit_card, synthetic_card
+
+    if compiled.uncached():
+        card = synthetic_card(pumpid.Kelvin(k0=200.0, m=8.8, c1=40.0, k1=130.0), spm=8.0,
+                              n_samples=60, observe="u", noise=0.002, seed=0)
+        fit_card(card, pumpid.Kelvin)
