@@ -138,9 +138,9 @@ def test_a_resonance_on_the_stroke_frequency_is_not_a_well_property() -> None:
     assert not marked["damping_ratio"].well_property
     assert marked["static_stiffness"].well_property
     assert "echoes the imposed motion" in marked["natural_frequency"].note
+    # near a higher harmonic by coincidence: a resonance the data can fix (see ECHO_HARMONICS)
     second, said2 = echo_of(quantities(2.1 / period), period)
-    assert said2 is not None and "harmonic 2" in said2
-    assert not second["natural_frequency"].well_property
+    assert said2 is None and second["natural_frequency"].well_property
     clear, none = echo_of(quantities(6.4 / period), period)
     assert none is None and clear["natural_frequency"].well_property
     assert echo_of(quantities(1.0 / period), None)[1] is None  # not a periodic card
