@@ -42,7 +42,10 @@ demo: $(STAMP)
 	$(VENV)/bin/pumpid demo --out demo-output
 	rm -rf demo-output/fleet
 	$(PY) -m pumpid.fleet.demo demo-output/fleet/field
-	$(VENV)/bin/pumpid batch demo-output/fleet/field --out demo-output/fleet/results --observe u
+	@# The demo field holds broken cards on purpose: pumpid batch then exits 3 (some cards
+	@# not fitted), 5 or 6 (some fitted poorly or determining nothing); the report follows.
+	$(VENV)/bin/pumpid batch demo-output/fleet/field --out demo-output/fleet/results --observe u; \
+	  code=$$?; case $$code in 0|3|5|6) ;; *) exit $$code ;; esac
 	$(VENV)/bin/pumpid report demo-output/fleet/results --out demo-output/fleet
 
 lint: $(TSTAMP)
