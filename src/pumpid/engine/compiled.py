@@ -49,10 +49,11 @@ MAIN_JOB = (
     "drive.rows_items",
     "drive.solve_items",
 )
-#: What compiling the main job costs on an empty cache (minutes, low and high): one card of
-#: the bundled example on 2 cores took 132 s on a quiet machine and 327 s on a loaded one
-#: before a periodic card stopped compiling the time-domain start (about 40 % of it).
-COLD_MINUTES = (1, 4)
+#: What compiling the main job costs on an empty cache (minutes, low and high): the bundled
+#: example (two periodic cards) took 178 s with one core free (load average 1.0) and 379 s
+#: on a busy machine (load average 3.3 on 2 cores), once the simulation was compiled into
+#: three entry points instead of re-optimised at every level of five (277 and 623 s before).
+COLD_MINUTES = (2, 4)
 
 #: Every compiled function by module.function, filled as the modules are imported.
 _DISPATCHERS: dict[str, Any] = {}
