@@ -52,10 +52,10 @@ def main() -> None:
             records.append((name, str(event.data["args"]), took, took - children, len(stack)))
 
     ev.register("numba:compile", Listener())
-    from pumpid.cli import main as cli
+    from pumpid.cli import main as cli_main
 
     start = time.perf_counter()
-    code = cli.main(["fit", args.file, "--brief"])
+    code = cli_main(["fit", args.file, "--brief"])
     wall = time.perf_counter() - start
     top = [r for r in records if r[4] == 0]
     print(f"pumpid fit {Path(args.file).name}: exit {code}, wall {wall:.1f} s, load average "

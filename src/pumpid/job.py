@@ -529,7 +529,7 @@ def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],
         serial = not num.exact and not (num.rho <= 2.576 / math.sqrt(max(num.n, 1)))
         if serial:
             rows = np.empty((problem.q + 1, problem.n_samples(k)))
-            if drive.residual_rows(card.z, k, data, model_code, settings, rows):
+            if drive.rows_at(card.z, k, data, model_code, settings, rows):
                 num, calibration["ar1"] = with_ar1_floor(
                     num, rows, problem.q - 1 if problem.offset_fixed is None else -1)
         num = _numbers_for_true_offset(problem, k, card.z, num)
@@ -978,7 +978,7 @@ def _at_optimum(problem: Problem, k: int, z: Array) -> tuple[Array, Array | None
     q = problem.q
     d = problem.card(k)[2]
     rows = np.empty((q + 1, problem.n_samples(k)))
-    if not drive.residual_rows(z, k, data, model, settings, rows):
+    if not drive.rows_at(z, k, data, model, settings, rows):
         y, _ok = drive.outputs(np.array([k], dtype=np.int64), np.ascontiguousarray(z[None]),
                               data, model, settings, d.size)
         scale, offset = _scale_offset(problem, z)

@@ -46,13 +46,14 @@ COMPILED_MODULES = (
 #: compile on every run of the others.)
 MAIN_JOB = (
     "drive.linear_items",
+    "drive.rows_items",
     "drive.solve_items",
-    "drive.summary_items",
 )
-#: What compiling the main job costs on an empty cache (minutes, low and high): one card of
-#: the bundled example on 2 cores took 132 s on a quiet machine and 327 s on a loaded one
-#: before a periodic card stopped compiling the time-domain start (about 40 % of it).
-COLD_MINUTES = (1, 4)
+#: What compiling the main job costs on an empty cache (minutes, low and high): the bundled
+#: example (two periodic cards) took 178 s with one core free (load average 1.0) and 379 s
+#: on a busy machine (load average 3.3 on 2 cores), once the simulation was compiled into
+#: three entry points instead of re-optimised at every level of five (277 and 623 s before).
+COLD_MINUTES = (2, 4)
 
 #: Every compiled function by module.function, filled as the modules are imported.
 _DISPATCHERS: dict[str, Any] = {}
@@ -85,12 +86,22 @@ def _cache_location() -> Iterator[None]:
         numba.config.CACHE_DIR = previous
 
 
-def jit(fn: F) -> F:
-    """Compile ``fn`` (no Python objects, GIL released, numpy's error rules) with the cache."""
+def jit(fn: F | None = None, *, inline: bool = False) -> Any:
+    """Compile ``fn`` (no Python objects, GIL released, numpy's error rules) with the cache.
+
+    ``inline=True`` (as ``@jit(inline=True)``) for a thin wrapper between the simulation and
+    its compiled callers: numba then copies its body into each caller instead of compiling
+    it as a function of its own. Every function of its own re-optimises all the compiled
+    code it calls when it is compiled (about 15 s for the simulation on one core), so each
+    wrapper level in the call chain cost a fresh install that much again.
+    """
+    if fn is None:
+        return functools.partial(jit, inline=inline)
     with _cache_location():
-        dispatcher = numba.njit(cache=True, nogil=True, error_model="numpy")(fn)
+        dispatcher = numba.njit(cache=True, nogil=True, error_model="numpy",
+                                inline="always" if inline else "never")(fn)
     _DISPATCHERS[f"{fn.__module__.rsplit('.', 1)[-1]}.{fn.__name__}"] = dispatcher
-    return dispatcher  # type: ignore[no-any-return]
+    return dispatcher
 
 
 def _in_cache(dispatcher: Any) -> bool:

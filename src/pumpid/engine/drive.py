@@ -33,14 +33,14 @@ __all__ = ["AS_GIVEN", "BEST_LINEAR", "RESCALE", "cost_items", "evaluate", "outp
 #: scale and offset, or rescale the parameters to the fixed scale.
 AS_GIVEN, BEST_LINEAR, RESCALE = 0, 1, 2
 
-@jit
+@jit(inline=True)
 def _card(data, k):
     t, f, d, bounds, mode, x0, period, uniform = data
     a, b = bounds[k], bounds[k + 1]
     return t[a:b], f[a:b], d[a:b], mode[k], x0[k], period[k], uniform[k]
 
 
-@jit
+@jit(inline=True)
 def _unpack(z, settings, lz):
     """Fill ``lz`` (p,) from z; return (C, offset)."""
     free, lz_base, _log_res, scale_free, scale_fixed, offset_free, offset_fixed = settings
@@ -58,7 +58,7 @@ def _unpack(z, settings, lz):
     return scale, offset
 
 
-@jit
+@jit(inline=True)
 def simulate_at(z, k, data, model, settings, y, dy):
     """Unscaled output (and sensitivities when dy has rows) of card k at z; (ok, C, offset)."""
     code, n, imap, obs, integrator = model
@@ -70,7 +70,7 @@ def simulate_at(z, k, data, model, settings, y, dy):
     return ok, scale, offset
 
 
-@jit
+@jit(inline=True)
 def residual_rows(z, k, data, model, settings, rows):
     """Jacobian columns and residual of card k at z, as rows (q + 1, N); False if not finite."""
     free = settings[0]
@@ -116,7 +116,7 @@ def residual_rows(z, k, data, model, settings, rows):
     return True
 
 
-@jit
+@jit(inline=True)
 def evaluate(z, k, data, model, settings, rows, r_out, c_out):
     """Cost ``0.5 |r|^2`` of card k at z with R and Q^T r of ``[J r]``; NaN when not finite."""
     q = rows.shape[0] - 1
@@ -125,7 +125,7 @@ def evaluate(z, k, data, model, settings, rows, r_out, c_out):
     return lm.householder(rows, q, r_out, c_out)
 
 
-@jit
+@jit(inline=True)
 def residual_vector(z, k, data, model, settings, out):
     """The residual of card k at z (no sensitivities) into ``out``; False if not finite."""
     n_samples = out.size
@@ -161,7 +161,7 @@ def _scaling(q, k, data, settings):
     return out
 
 
-@jit
+@jit(inline=True)
 def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, k, data, model, settings,
            history):
     """Levenberg-Marquardt from z0 for card k. Returns (z, cost, evaluations, accepted,
@@ -384,13 +384,59 @@ def linear_items(cards, z, mode, data, model, settings):
     return out, cost
 
 
+@jit
+def rows_items(cards, z, data, model, settings):
+    """Jacobian columns and residual of many (card, point) items, as one flat buffer.
+
+    Item ``i``'s rows ``(q + 1, n_i)`` (:func:`residual_rows`) are
+    ``buffer[starts[i]:starts[i + 1]].reshape(q + 1, n_i)``. Returns (buffer, starts (m + 1,),
+    ok (m,)): ok False where the point cannot be evaluated. The one compiled function that
+    simulates for both :func:`summary_items` and the uncertainty's diagnosis, so a fresh
+    install compiles the simulation with its sensitivities into one caller less.
+    """
+    m, q = z.shape
+    bounds = data[3]
+    starts = np.zeros(m + 1, np.int64)
+    for i in range(m):
+        k = cards[i]
+        starts[i + 1] = starts[i] + (q + 1) * (bounds[k + 1] - bounds[k])
+    buffer = np.empty(starts[m])
+    ok = np.zeros(m, np.bool_)
+    for i in range(m):
+        k = cards[i]
+        n = bounds[k + 1] - bounds[k]
+        rows = np.empty((q + 1, n))
+        ok[i] = residual_rows(z[i], k, data, model, settings, rows)
+        buffer[starts[i]:starts[i + 1]] = rows.ravel()
+    return buffer, starts, ok
+
+
+def rows_at(z: np.ndarray, k: int, data: tuple, model: tuple, settings: tuple,
+            rows: np.ndarray) -> bool:
+    """:func:`residual_rows` of card k at z into ``rows`` (q + 1, N), called from Python.
+
+    Through :func:`rows_items`, so that Python callers add no compiled entry point (and no
+    compile of the simulation) of their own. False where the point cannot be evaluated.
+    """
+    buffer, starts, ok = rows_items(np.array([k], dtype=np.int64),
+                                    np.ascontiguousarray(z, dtype=np.float64)[None],
+                                    data, model, settings)
+    rows[...] = item_rows(buffer, starts, 0, rows.shape[0] - 1)
+    return bool(ok[0])
+
+
+def item_rows(buffer: np.ndarray, starts: np.ndarray, i: int, q: int) -> np.ndarray:
+    """Item ``i``'s rows ``(q + 1, n_i)`` in :func:`rows_items`' buffer (a view)."""
+    part = buffer[starts[i]:starts[i + 1]]
+    return part.reshape(q + 1, part.size // (q + 1))
+
+
 def column_norms(cards, z, data, model, settings):
     """Norms of the Jacobian's columns (m, q) at points z (NaN rows where not finite):
     :func:`summary_items`' second half (one compiled function for both)."""
     return summary_items(cards, z, data, model, settings)[1]
 
 
-@jit
 def summary_items(cards, z, data, model, settings):
     """At each item's point: cost, RMSE and R^2 of the fitted displacement, the data's noise
     level (from second differences) and the Jacobian's column norms (m, q).
@@ -398,7 +444,14 @@ def summary_items(cards, z, data, model, settings):
     Returns (stats (m, 4): cost, rmse, r2, noise; norms (m, q)); NaN where the point cannot
     be evaluated.
     """
-    m, q = z.shape
+    buffer, starts, ok = rows_items(cards, z, data, model, settings)
+    return _summary_rows(cards, z.shape[1], buffer, starts, ok, data, settings)
+
+
+@jit
+def _summary_rows(cards, q, buffer, starts, ok, data, settings):
+    """:func:`summary_items` from :func:`rows_items`' output (no simulation compiled in)."""
+    m = cards.size
     stats = np.full((m, 4), math.nan)
     norms = np.full((m, q), math.nan)
     bounds = data[3]
@@ -413,15 +466,14 @@ def summary_items(cards, z, data, model, settings):
                 diff2[s] = d[s + 2] - 2.0 * d[s + 1] + d[s]
             med = np.median(diff2)
             stats[i, 3] = 1.4826 * np.median(np.abs(diff2 - med)) / math.sqrt(6.0)
-        rows = np.empty((q + 1, n))
-        if not residual_rows(z[i], k, data, model, settings, rows):
+        if not ok[i]:
             continue
+        rows = buffer[starts[i]:starts[i + 1]].reshape((q + 1, n))
         for j in range(q):
             acc = 0.0
             for s in range(n):
                 acc += rows[j, s] * rows[j, s]
             norms[i, j] = math.sqrt(acc)
-        scale, offset = _unpack(z[i], settings, np.empty(settings[1].size))
         ss = 0.0
         sq = 0.0
         mean = 0.0
@@ -442,7 +494,6 @@ def summary_items(cards, z, data, model, settings):
         stats[i, 0] = 0.5 * sq
         stats[i, 1] = math.sqrt(ss / n)
         stats[i, 2] = 1.0 - ss / sst if sst > 0.0 else math.nan
-        _ = scale + offset
     return stats, norms
 
 

@@ -910,7 +910,7 @@ def walk_valley(problem: Problem, k: int, z: Array, cost: float,
     for _ in range(rounds):
         q = problem.q
         rows = np.empty((q + 1, problem.n_samples(k)))
-        if not drive.residual_rows(z, k, data, model, settings, rows):
+        if not drive.rows_at(z, k, data, model, settings, rows):
             break
         if problem.offset_fixed is None:
             rows[q - 1] *= span

@@ -193,23 +193,8 @@ def analyse_rows(rows, inner, offset_col, span, prewhiten=True, bandwidth=0):
     return s_out, vt_out, cov_s, hac_s, dir_se, stats
 
 
-@jit
-def _one(k, z, inner, span, data, model, settings):
-    q = z.size
-    bounds = data[3]
-    n = bounds[k + 1] - bounds[k]
-    rows = np.empty((q + 1, n))
-    if not drive.residual_rows(z, k, data, model, settings, rows):
-        stats = np.full(6, math.nan)
-        stats[0] = 0.0
-        return (np.full(q, math.nan), np.full((q, q), math.nan), np.full((q, q), math.nan),
-                np.full((q, q), math.nan), np.full(q, math.nan), stats)
-    offset_col = q - 1 if settings[5] else -1
-    return analyse_rows(rows, inner, offset_col, span)
-
-
-@jit
-def diagnose_items(cards, z, inner, span, data, model, settings):
+def diagnose_items(cards: NDArray[np.int64], z: Array, inner: NDArray[np.bool_], span: Array,
+                   data: Any, model: Any, settings: Any) -> tuple[Array, ...]:
     """The numbers behind the uncertainty of many (card, optimum) items.
 
     ``inner`` (m, q): the coordinates analysed (boundary parameters left out); ``span``
@@ -219,15 +204,28 @@ def diagnose_items(cards, z, inner, span, data, model, settings):
     standard error of each direction (m, q) and statistics (m, 6): usable, residual RMS,
     lag-1 autocorrelation, HAC bandwidth, prewhitening persistence, capped.
     """
+    # The rows come from the engine's one compiled simulation with sensitivities (shared
+    # with the fit's summary): a compiled loop here would compile that simulation again,
+    # the largest part of a fresh install's first run, to save microseconds per card.
     m, q = z.shape
+    buffer, starts, ok = drive.rows_items(cards, z, data, model, settings)
     s = np.empty((m, q))
     vt = np.empty((m, q, q))
     cov = np.empty((m, q, q))
     hac = np.empty((m, q, q))
     dse = np.empty((m, q))
     stats = np.empty((m, 6))
+    offset_col = q - 1 if settings[5] else -1
     for i in range(m):
-        out = _one(cards[i], z[i], inner[i], span[i], data, model, settings)
+        if ok[i]:
+            out = analyse_rows(drive.item_rows(buffer, starts, i, q), inner[i], offset_col,
+                               float(span[i]))
+        else:
+            nan_stats = np.full(6, math.nan)
+            nan_stats[0] = 0.0
+            out = (np.full(q, math.nan), np.full((q, q), math.nan),
+                   np.full((q, q), math.nan), np.full((q, q), math.nan),
+                   np.full(q, math.nan), nan_stats)
         s[i], vt[i], cov[i], hac[i], dse[i], stats[i] = out
     return s, vt, cov, hac, dse, stats
 

@@ -189,7 +189,7 @@ def fit_joint(
         for i, k in enumerate(ks):
             rows = rows_of[i]
             z = np.concatenate([x[:p], [x[p + i]]])
-            if not drive.residual_rows(z, k, data, model_code, settings, rows):
+            if not drive.rows_at(z, k, data, model_code, settings, rows):
                 r[at:at + sizes[i]] = 1e150
                 return r, jac
             r[at:at + sizes[i]] = rows[-1]
