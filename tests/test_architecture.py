@@ -138,6 +138,8 @@ def test_no_private_names_imported_across_modules() -> None:
 @pytest.mark.parametrize("upper,lower", [
     ("pumpid.cli", "pumpid.engine"), ("pumpid.cli", "pumpid.models"),
     ("pumpid.report", "pumpid.engine"), ("pumpid.fleet", "pumpid.engine"),
+    ("pumpid.cli", "pumpid.rods"), ("pumpid.fleet", "pumpid.rods"),
+    ("pumpid.job", "pumpid.rods"),
 ])
 def test_lower_layers_do_not_import_upper_ones(upper: str, lower: str) -> None:
     paths = [p for p in SRC.rglob("*.py") if module_name(p).startswith(lower)]

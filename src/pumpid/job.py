@@ -426,12 +426,7 @@ def _check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[_Ca
         if not found[j] or k in restarts:
             continue
         _to_the_limit(problem, k, card, found[j], options)
-        # The limit's words quote the value the card ends at, not the one where the limit
-        # was found (the move to the window's edge changes it: 6.4e8 said, 1.7e9 reported).
-        free_names = [problem.model.param_names()[i] for i in problem.free_idx]
-        found[j] = [dataclasses.replace(b, value=float(np.exp(min(
-            card.z[free_names.index(b.name)], 709.0)))) if b.name in free_names else b
-            for b in found[j]]
+        found[j] = _at_final_values(problem, card, found[j])
         card.status = Status.BOUNDARY
         names = ", ".join(b.name for b in found[j])
         card.reason = (f"{card.reason}; {names} ran to a bound: the solution is a limiting "
@@ -497,6 +492,15 @@ def _to_the_limit(problem: Problem, k: int, card: _Card, limits: Sequence[Limiti
         card.z = out.z[0].copy()
         card.cost = float(out.cost[0])
         card.accepted += int(out.accepted[0])
+
+
+def _at_final_values(problem: Problem, card: _Card, limits: list[Limiting]) -> list[Limiting]:
+    """The limits with the values the card ends at, not those where they were found: the
+    move to the window's edge changes them (6.4e8 said, 1.7e9 reported), and the words must
+    quote the reported value."""
+    free = [problem.model.param_names()[i] for i in problem.free_idx]
+    return [dataclasses.replace(b, value=float(np.exp(min(card.z[free.index(b.name)], 709.0))))
+            if b.name in free else b for b in limits]
 
 
 def _diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[_Card],

@@ -39,6 +39,8 @@ class CardError(ValueError):
     well_id : str or None
     reason : str
         The message without the location prefix.
+    place : str
+        Where in the file: ``"line <n>, field '<name>'"``, the parts that are known.
 
     Notes
     -----
@@ -75,13 +77,19 @@ class CardError(ValueError):
         out.__cause__ = self.__cause__
         return out
 
-    def _compose(self) -> str:
+    @property
+    def place(self) -> str:
+        """Where in its file the problem is: ``"line 39, field 'position_in'"``, either
+        part left out when unknown (``""`` when both are)."""
         where: list[str] = []
-        if self.path:
-            where.append(printable(str(self.path)))
         if self.line is not None:
             where.append(f"line {self.line}")
         if self.field:
             where.append(f"field {self.field!r}")
+        return ", ".join(where)
+
+    def _compose(self) -> str:
+        where = ", ".join(p for p in (printable(str(self.path)) if self.path else "",
+                                       self.place) if p)
         reason = printable(self.reason)
-        return f"{', '.join(where)}: {reason}" if where else reason
+        return f"{where}: {reason}" if where else reason

@@ -50,6 +50,7 @@ __all__ = [
     "exit_status",
     "fmt",
     "initial_state_option",
+    "model_option",
     "parse_assignments",
     "plural",
     "rate_option",
@@ -194,6 +195,41 @@ def add_card_options(p: Any) -> None:
     p.add_argument("--position-unit", help="position unit of the files: in, ft, m")
 
 
+def model_option(cls: Any, values: dict[str, float], flag: str, lead: str, *,
+                 extras: Sequence[str] = ()) -> Any:
+    """The model that ``NAME=VALUE`` assignments give (every parameter, nothing unknown but
+    ``extras``), or a CliError naming the option, what is missing and what is unknown.
+
+    Parameters
+    ----------
+    cls : type of Model
+    values : dict of str to float
+        From :func:`parse_assignments`.
+    flag : str
+        The option, for the message (``--x0``).
+    lead : str
+        What the option must give, said first when something is missing or unknown.
+    extras : sequence of str
+        Names the option may give besides the model's parameters.
+
+    Returns
+    -------
+    Model
+    """
+    names = cls.param_names()
+    missing = [n for n in names if n not in values]
+    unknown = [n for n in values if n not in names and n not in extras]
+    if missing or unknown:
+        raise CliError(f"{flag}: {lead}"
+                       + (f" (missing {', '.join(missing)})" if missing else "")
+                       + (f" (unknown {', '.join(printable(u) for u in unknown)})"
+                          if unknown else ""))
+    try:
+        return cls(**{n: values[n] for n in names})
+    except (TypeError, ValueError) as exc:
+        raise CliError(f"{flag}: {exc}") from None
+
+
 def check_fit_options(cls: Any, *, observe: str | None = None, scale: str | None = None,
                       min_r2: float | None = None, max_nfev: int | None = None,
                       x0: Sequence[str] | None = None, x0_extras: Sequence[str] = (),
@@ -254,18 +290,8 @@ def check_fit_options(cls: Any, *, observe: str | None = None, scale: str | None
         out["max_nfev"] = max_nfev
     if x0:
         values = parse_assignments(x0, "--x0")
-        names = cls.param_names()
-        missing = [n for n in names if n not in values]
-        unknown = [n for n in values if n not in names and n not in x0_extras]
-        if missing or unknown:
-            raise CliError(f"--x0: give all of {', '.join(names)}"
-                           + (f" (missing {', '.join(missing)})" if missing else "")
-                           + (f" (unknown {', '.join(printable(u) for u in unknown)})"
-                              if unknown else ""))
-        try:
-            cls(**{n: values[n] for n in names})
-        except (TypeError, ValueError) as exc:
-            raise CliError(f"--x0: {exc}") from None
+        model_option(cls, values, "--x0", f"give all of {', '.join(cls.param_names())}",
+                     extras=x0_extras)
         out["x0"] = values
     if initial_state is not None:
         out["initial_state"] = initial_state_option(initial_state)

@@ -170,9 +170,7 @@ def _read_file(path: str, setup: FitSetup) -> tuple[list[Card], list[CardError]]
 
 def _refused(error: CardError, path: str) -> Row:
     """The row of a card of ``path`` that its reader refused (file, line and field named)."""
-    where = [f"line {error.line}"] if error.line is not None else []
-    where += [f"field {error.field!r}"] if error.field else []
-    return Row(card_id=error.card_id, source=", ".join([path, *where]),
+    return Row(card_id=error.card_id, source=", ".join(p for p in (path, error.place) if p),
                status="invalid-input", reason=str(error))
 
 

@@ -16,7 +16,7 @@ import numpy as np
 from ..cards import printable
 from ..models import MODELS, model_class
 from ..report.output import OutputError, atomic_write
-from .common import EXIT_OK, CliError, initial_state_option, parse_assignments
+from .common import EXIT_OK, CliError, initial_state_option, model_option, parse_assignments
 
 __all__ = ["cmd_simulate", "read_text", "register"]
 
@@ -105,17 +105,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     cls = model_class(args.model)
     params = parse_assignments(args.param, "--param")
-    missing = [n for n in cls.param_names() if n not in params]
-    unknown = [n for n in params if n not in cls.param_names()]
-    if missing or unknown:
-        raise CliError(f"--param: {cls.__name__} needs {', '.join(cls.param_names())}"
-                       + (f" (missing {', '.join(missing)})" if missing else "")
-                       + (f" (unknown {', '.join(printable(u) for u in unknown)})"
-                          if unknown else ""))
-    try:
-        model = cls(**{n: params[n] for n in cls.param_names()})
-    except (TypeError, ValueError) as exc:
-        raise CliError(f"--param: {exc}") from None
+    model = model_option(cls, params, "--param",
+                         f"{cls.__name__} needs {', '.join(cls.param_names())}")
     if args.observe is not None and args.observe not in cls.outputs:
         raise CliError(f"--observe {printable(args.observe)!r}: {cls.__name__} can observe "
                        f"{', '.join(cls.outputs)}")

@@ -215,15 +215,6 @@ def _is_parquet(path: str) -> bool:
         return False
 
 
-def _where(error: CardError) -> str:
-    parts = []
-    if error.line is not None:
-        parts.append(f"line {error.line}")
-    if error.field:
-        parts.append(f"field {error.field!r}")
-    return ", ".join(parts)
-
-
 def _source(name: str, reader_source: str, base: str) -> str:
     """The reader's source (``"W1.csv, lines 2-101"``) with the file's name in the run."""
     if reader_source.startswith(base):
@@ -322,7 +313,7 @@ def _table_identity(text: str) -> tuple[str | None, str | None]:
 
 def _bad_file(file: InputFile, error: Exception) -> BadItem:
     if isinstance(error, CardError):
-        where = _where(error)
+        where = error.place
         source = f"{file.name}, {where}" if where else file.name
         well, when = None, None
         if not _is_parquet(file.path):
@@ -427,7 +418,7 @@ def _bad_card(error: CardError, file: InputFile, unique: Callable[[str, str], st
     no card is the whole file's."""
     if error.card_id is None:
         return _renamed(_bad_file(file, error), unique)
-    where = _where(error)
+    where = error.place
     well, when = error.well_id, None
     if isinstance(error, ParquetCardError):  # no lines in Parquet: the card names the place
         source = f"{file.name}, card {error.card_id}" + (f", {where}" if where else "")

@@ -338,6 +338,15 @@ def _escaped(value: Any) -> Any:
     return value
 
 
+def _conversion_error(row: dict[str, Any], schema: pa.Schema) -> str | None:
+    """Why Arrow cannot hold ``row`` under ``schema`` (None if it can)."""
+    try:
+        pa.Table.from_pylist([row], schema=schema)
+    except _CONVERSION_ERRORS as exc:
+        return f"{type(exc).__name__}: {exc}"
+    return None
+
+
 def storable_table(rows: list[dict[str, Any]], schema: pa.Schema) -> pa.Table:
     """The Arrow table of a partition's rows, every row kept whatever its values.
 
@@ -366,30 +375,24 @@ def storable_table(rows: list[dict[str, Any]], schema: pa.Schema) -> pa.Table:
         pass
     fixed = []
     for row in rows:
-        try:
-            pa.Table.from_pylist([row], schema=schema)
+        error = _conversion_error(row, schema)
+        if error is None:
             fixed.append(row)
             continue
-        except _CONVERSION_ERRORS as exc:
-            error = f"{type(exc).__name__}: {exc}"
         escaped = {k: _escaped(v) for k, v in row.items()}
         note = f"text that is not valid Unicode stored escaped ({_escaped(error)})"
         escaped["warnings"] = " | ".join(w for w in (escaped.get("warnings"), note) if w)
-        try:
-            pa.Table.from_pylist([escaped], schema=schema)
+        error = _conversion_error(escaped, schema)
+        if error is None:
             fixed.append(escaped)
             continue
-        except _CONVERSION_ERRORS as exc:
-            error = f"{type(exc).__name__}: {exc}"
         keep = ("well_id", "card_id", "time", "source", "file", "item", "partition", "model",
                 "observe")
         bare: dict[str, Any] = dict.fromkeys(schema.names)
         bare.update({k: escaped.get(k) for k in keep})
         bare.update(status="failed", warnings="",
                     reason=f"its result could not be stored ({_escaped(error)})")
-        try:
-            pa.Table.from_pylist([bare], schema=schema)
-        except _CONVERSION_ERRORS:
+        if _conversion_error(bare, schema) is not None:
             bare.update(time=None, item=None, partition=None)
         fixed.append(bare)
     return pa.Table.from_pylist(fixed, schema=schema)

@@ -44,7 +44,7 @@ import numpy as np
 import scipy.signal
 from numpy.typing import NDArray
 
-from .uncertainty import Numbers, Uncertainty, t_quantile
+from .uncertainty import Numbers, Uncertainty, correlation_of, t_quantile
 
 __all__ = [
     "Errors", "calibrate_robust", "robust_covariance", "robust_factor", "shown_errors",
@@ -225,13 +225,7 @@ def shown_errors(unc: Uncertainty | None, serial: bool, robust_cov: Array | None
         with np.errstate(invalid="ignore"):
             robust_cov = unc.correlation * np.outer(se, se)
     cov = np.array(robust_cov, dtype=float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sd = np.sqrt(np.diag(cov))
-        corr = cov / np.outer(sd, sd)
-    corr[~np.isfinite(corr)] = math.nan
-    np.fill_diagonal(corr, [1.0 if np.isfinite(s) else math.nan for s in sd])
-    for a in (cov, corr):
-        a.flags.writeable = False
+    corr = correlation_of(cov)
     base.update(stderr=unc.stderr_hac, ci95=unc.ci95_hac, covariance=cov, correlation=corr,
                 notes=(*unc.notes, _ROBUST_WORDS),
                 assumptions=unc.assumptions + "; SHOWN: the robust errors (serially "

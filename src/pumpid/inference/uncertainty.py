@@ -43,6 +43,7 @@ __all__ = [
     "Numbers",
     "Uncertainty",
     "analyse_rows",
+    "correlation_of",
     "diagnose_items",
     "residual_whiteness",
     "t_quantile",
@@ -368,6 +369,28 @@ class Uncertainty:
         }
 
 
+def correlation_of(cov: Array) -> Array:
+    """The correlation matrix of a covariance (NaN where a variance is not finite); both
+    arrays are made read-only, as a result's parts are.
+
+    Parameters
+    ----------
+    cov : ndarray, shape (q, q)
+
+    Returns
+    -------
+    ndarray, shape (q, q)
+    """
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sd = np.sqrt(np.diag(cov))
+        corr = cov / np.outer(sd, sd)
+    corr[~np.isfinite(corr)] = math.nan
+    np.fill_diagonal(corr, [1.0 if np.isfinite(s) else math.nan for s in sd])
+    for a in (cov, corr):
+        a.flags.writeable = False
+    return corr
+
+
 def _embed(inner_cov: Array, q: int, inner: Sequence[int]) -> Array:
     cov = np.full((q, q), math.nan)
     cov[np.ix_(inner, inner)] = inner_cov
@@ -421,13 +444,7 @@ def uncertainty_of(nums: Numbers, undetermined: Sequence[int], at_bound: Sequenc
         ci95_hac = dict.fromkeys(names)
         hac_meta = None
     whiteness = None if nums.exact else _whiteness(nums.rho, nums.n)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sd = np.sqrt(np.diag(cov))
-        corr = cov / np.outer(sd, sd)
-    corr[~np.isfinite(corr)] = math.nan
-    np.fill_diagonal(corr, [1.0 if np.isfinite(s) else math.nan for s in sd])
-    for a in (cov, corr):
-        a.flags.writeable = False
+    corr = correlation_of(cov)
     return Uncertainty(
         names=names, stderr=MappingProxyType(stderr), ci95=MappingProxyType(ci95),
         stderr_hac=MappingProxyType(stderr_hac), ci95_hac=MappingProxyType(ci95_hac),
