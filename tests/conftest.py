@@ -46,10 +46,9 @@ def compiled_once() -> None:
     tests/engine/test_compiled.py checks on its own)."""
     import pumpid
     from pumpid.engine import compiled
-    from pumpid.pump import fit_card
     from pumpid.pump.synthetic import synthetic_card
 
     if compiled.uncached():
         card = synthetic_card(pumpid.Kelvin(k0=200.0, m=8.8, c1=40.0, k1=130.0), spm=8.0,
                               n_samples=60, observe="u", noise=0.002, seed=0)
-        fit_card(card, pumpid.Kelvin)
+        pumpid.fit(pumpid.Kelvin, card)

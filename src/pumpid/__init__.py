@@ -4,8 +4,9 @@ One way through: data -> problem (with a card axis) -> engine (compiled kernel, 
 loop) -> immutable result -> report::
 
     import pumpid
-    result = pumpid.fit(pumpid.Kelvin(k0=4, m=1, c1=0.2, k1=4), t, load, displacement)
+    result = pumpid.fit(pumpid.Kelvin(k0=4, m=1, c1=0.2, k1=4), (t, load, displacement))
     print(result.report())
+    batch = pumpid.fit("kelvin", pumpid.cards.read_cards("cards.csv", spm=8.5))
 """
 
 from __future__ import annotations
@@ -16,8 +17,18 @@ from typing import TYPE_CHECKING
 from .engine.problem import CardData
 from .engine.simulate import simulate, simulate_sensitivities
 from .engine.solvers import LevenbergMarquardt, PaperNewton, Stop
-from .job import fit, fit_many, fit_records
-from .models import MODELS, FirstOrder, Kelvin, MassSpringDamper, Maxwell, Model, model_class
+from .job import FitOptions, fit
+from .models import (
+    MODELS,
+    FirstOrder,
+    Kelvin,
+    MassSpringDamper,
+    Maxwell,
+    Model,
+    OwnModel,
+    Parameter,
+    model_class,
+)
 from .result import FitBatch, FitResult, Prediction, Status, Units
 
 if TYPE_CHECKING:
@@ -28,20 +39,21 @@ __all__ = [
     "CardData",
     "FirstOrder",
     "FitBatch",
+    "FitOptions",
     "FitResult",
     "Kelvin",
     "LevenbergMarquardt",
     "MassSpringDamper",
     "Maxwell",
     "Model",
+    "OwnModel",
     "PaperNewton",
+    "Parameter",
     "Prediction",
     "Status",
     "Stop",
     "Units",
     "fit",
-    "fit_many",
-    "fit_records",
     "model_class",
     "read_results",
     "simulate",

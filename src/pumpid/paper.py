@@ -31,8 +31,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .engine.simulate import simulate
-from .job import fit
-from .models import FirstOrder, MassSpringDamper
+from .engine.solvers import LevenbergMarquardt, PaperNewton
+from .job import FitOptions, fit
+from .models import FirstOrder, MassSpringDamper, Model
 from .result import FitResult
 
 __all__ = ["PAPER_TABLES", "TABLE3_DESIGN", "reproduce", "table_data"]
@@ -109,6 +110,15 @@ def _summary(res: FitResult) -> dict[str, Any]:
     return out
 
 
+def _fit(model: Model, t: Any, load: Any, data: Any,
+         solver: LevenbergMarquardt | PaperNewton | None, *, x0: Any = None,
+         **options: Any) -> FitResult:
+    """One table's fit through :func:`pumpid.fit` (``options`` are :class:`FitOptions`)."""
+    res = fit(model, (t, load, data), options=FitOptions(**options), solver=solver, x0=x0)
+    assert isinstance(res, FitResult)
+    return res
+
+
 def reproduce(name: str) -> dict[str, Any]:
     """Run one table's case three ways; see the module docstring.
 
@@ -122,16 +132,18 @@ def reproduce(name: str) -> dict[str, Any]:
     case = table_data(name)
     t, load, data, model, opts = (case[k] for k in ("t", "load", "data", "model", "options"))
     runs = {
-        "paper_mode": fit(model, t, load, data, method="newton-fd", integrator="euler", **opts),
-        "exact": fit(model, t, load, data, method="newton-fd", integrator="exact", **opts),
-        "default": fit(model, t, load, data, method="lm", integrator="exact", **opts),
+        "paper_mode": _fit(model, t, load, data, PaperNewton(), integrator="euler", **opts),
+        "exact": _fit(model, t, load, data, PaperNewton(), integrator="exact", **opts),
+        "default": _fit(model, t, load, data, LevenbergMarquardt(), integrator="exact",
+                        **opts),
     }
     out: dict[str, Any] = {"paper": PAPER_TABLES[name]}
     out.update({key: _summary(res) for key, res in runs.items()})
     if name == "table3":
         m, c, k, c0 = TABLE3_DESIGN.paper_start
         paper_opts = {**opts, "x0": {"m": m, "c": c, "k": k, "C": c0}}
-        from_paper = fit(model, t, load, data, method="newton-fd", **paper_opts)
+        from_paper = _fit(model, t, load, data, PaperNewton(), **paper_opts)
         out["paper_method_from_paper_start"] = _summary(from_paper)
-        out["default_from_paper_start"] = _summary(fit(model, t, load, data, **paper_opts))
+        out["default_from_paper_start"] = _summary(_fit(model, t, load, data, None,
+                                                        **paper_opts))
     return out

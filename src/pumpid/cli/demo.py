@@ -20,7 +20,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from importlib import resources
 
     from ..cards import read_cards
-    from ..pump import fit_card, predict_card
+    from ..job import FitOptions, fit
+    from ..pump import predict_card
     from ..report import write_outputs
 
     folder = OutputFolder(args.out)
@@ -33,7 +34,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     first, second = cards[0], cards[1]
     # The polished-rod load acts on the mass: its displacement u is what the card's position
     # measures (stated here so that the demo does not depend on the model's default).
-    res = fit_card(first, "kelvin", observe="u")
+    res = fit("kelvin", first, options=FitOptions.for_cards(observe="u"))
     pred = predict_card(res, second)
     with folder.staging() as stage:
         write_outputs(res, stage, notes=list(first.notes), prediction=pred)

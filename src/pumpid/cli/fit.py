@@ -3,8 +3,8 @@
     pumpid fit CARD_FILE [CARD_FILE ...] [--spm X | --period S] [--model kelvin]
                [--out DIR] [--json | --brief | --verbose]
 
-Cards are fitted one at a time through the batched API (:func:`pumpid.pump.fit_cards`, the
-one ``pumpid batch`` uses, so both give the same answers) and each card's result is
+Cards are fitted one at a time through :func:`pumpid.fit` (the verb ``pumpid batch`` uses,
+so both give the same answers) and each card's result is
 printed, its files written and its row indexed as soon as it is done: an interrupt keeps
 every finished card, and a reader of the output (``| head``) sees each card at once. Nothing
 is kept afterwards, so memory does not grow with the number of cards. A card that cannot be
@@ -34,6 +34,7 @@ from typing import Any
 
 from .. import interrupts
 from ..cards import Card, CardError, printable
+from ..job import FitOptions, LevenbergMarquardt, PaperNewton, fit
 from ..models import MODELS, Model, model_class
 from ..report.output import FILE_MODE, OutputError, OutputFolder, UniqueNames
 from ..report.spreadsheet import LINE_END, neutralise_row
@@ -77,26 +78,27 @@ class FitSetup:
     history: bool
     read: dict[str, Any] = field(default_factory=dict)
 
-    @property
-    def one_by_one(self) -> bool:
-        """Options the batched API does not take: each card is fitted alone."""
-        return (self.options.get("method", "lm") != "lm" or self.history
-                or self.x0_extras is not None or self.auto)
-
     def offset_for(self, card: Card) -> bool:
         """Fit a position offset for this card (auto: for single strokes)."""
         return bool(card.periodic) if self.offset == "auto" else self.offset == "yes"
 
-    def card_options(self) -> dict[str, Any]:
-        """Options for :func:`pumpid.pump.fit_card` (fit one card alone)."""
-        opts = dict(self.options)
-        if self.x0_extras is not None and isinstance(self.model, Model):
-            opts["x0"] = {**self.model.as_dict(), **self.x0_extras}
-        return opts
+    def fit_options(self, card: Card) -> FitOptions:
+        """What the fit of this card means (:meth:`FitOptions.for_cards` with the options)."""
+        state = self.initial_state
+        return FitOptions.for_cards(
+            offset=self.offset_for(card),
+            initial_state=tuple(state) if isinstance(state, list) else state,
+            **{k: v for k, v in self.options.items() if k != "method"})
 
-    def batch_options(self) -> dict[str, Any]:
-        """Options for :func:`pumpid.pump.fit_cards`."""
-        return {k: v for k, v in self.options.items() if k != "method"}
+    def solver(self) -> LevenbergMarquardt | PaperNewton:
+        """The solver object of ``--method``."""
+        return PaperNewton() if self.options.get("method") == "newton-fd" else LevenbergMarquardt()
+
+    def x0(self) -> dict[str, float] | None:
+        """A starting guess with its scale and offset (``--x0`` with C, D or offset)."""
+        if self.x0_extras is not None and isinstance(self.model, Model):
+            return {**self.model.as_dict(), **self.x0_extras}
+        return None
 
 
 def _setup(args: argparse.Namespace) -> FitSetup:
@@ -210,49 +212,32 @@ def _internal(exc: BaseException) -> str:
             "a bug in pumpid, please report it with the card")
 
 
-def _fit_alone(card: Card, setup: FitSetup) -> tuple[FitResult | None, str, str]:
-    from ..pump import choose_model, fit_card
+def fit_one(card: Card, setup: FitSetup) -> tuple[FitResult | None, str, str]:
+    """Fit one card: ``(result or None, status, reason)``.
+
+    Through :func:`pumpid.fit`, the verb ``pumpid batch`` uses, so both give the same
+    answers (a card's answer does not depend on the cards fitted with it). One card at a
+    time: fitting cards in batches of 64 gave the same answers and took no less time (32
+    Kelvin cards of 60 samples on 2 cores: 4.99 s batched, 4.92 s one by one), while it held
+    every card of a batch back from the output until the last was fitted.
+    """
+    from ..pump import choose_model
 
     try:
+        options = setup.fit_options(card)
         if setup.auto:
-            res = choose_model(card, initial_state=setup.initial_state,
-                               offset=setup.offset_for(card), **setup.card_options()).chosen
+            res = choose_model(card, options=options, solver=setup.solver()).chosen
         else:
-            res = fit_card(card, setup.model, initial_state=setup.initial_state,
-                           offset=setup.offset_for(card), **setup.card_options())
+            res = fit(setup.model, card, options=options, solver=setup.solver(),
+                      x0=setup.x0())
     except MemoryError:
         raise
     except ValueError as exc:
         return None, "invalid-input", str(exc)
     except Exception as exc:
         return None, "failed", _internal(exc)
+    assert isinstance(res, FitResult)
     return res, res.status.key, res.reason
-
-
-def fit_one(card: Card, setup: FitSetup) -> tuple[FitResult | None, str, str]:
-    """Fit one card: ``(result or None, status, reason)``.
-
-    Through the batched API with a batch of one: fitting cards in batches of 64 gave the
-    same answers and took no less time (32 Kelvin cards of 60 samples on 2 cores: 4.99 s
-    batched, 4.92 s one by one), while it held every card of a batch back from the output
-    until the last was fitted. Options the batched API does not take fit the card alone;
-    so does a card the batched call fails on for a reason of its own (an error the engine
-    does not catch), so that the row says why.
-    """
-    from ..pump import fit_cards
-
-    if setup.one_by_one:
-        return _fit_alone(card, setup)
-    try:
-        batch = fit_cards([card], setup.model, initial_state=setup.initial_state,
-                          offset=setup.offset_for(card), **setup.batch_options())
-    except MemoryError:
-        raise
-    except Exception:
-        return _fit_alone(card, setup)
-    res = batch.results[0]
-    return ((None, "invalid-input", batch.invalid[0]) if res is None
-            else (res, res.status.key, res.reason))
 
 
 def _one_at_a_time(cards: list[Card]) -> Iterator[Card]:

@@ -2,7 +2,7 @@
 
 The run reads the inputs in a fixed order (:mod:`pumpid.fleet.inputs`), cuts the stream of
 cards into partitions of ``partition_size`` cards, has an engine fit each partition
-(:mod:`pumpid.fleet.engines`: :func:`fit_partition` with :func:`pumpid.pump.fit_cards`) and
+(:mod:`pumpid.fleet.engines`: :func:`fit_partition` with :func:`pumpid.fit`) and
 writes each partition's rows as one Parquet file of the results folder
 (:mod:`pumpid.fleet.store`) as soon as it is back. One row per input card, in input order:
 the columns of :meth:`pumpid.FitResult.to_row` plus ``file``, ``item``, ``partition`` and
@@ -45,6 +45,7 @@ import pyarrow as pa
 
 from pumpid import __version__, interrupts
 from pumpid.cards import printable
+from pumpid.job import FitOptions, LevenbergMarquardt, fit
 from pumpid.models import Model, model_class
 from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
 from pumpid.report.words import plural
@@ -58,14 +59,14 @@ from .store import ResultsFolderError, ResultsStore, results_schema, to_frame
 
 __all__ = ["BatchSummary", "FitSpec", "fit_partition", "run_batch"]
 
-# Options of pumpid.fit_records a spec may carry (x0 is the spec's own field).
+# Options a spec may carry (x0 is the spec's own field): FitOptions' fields and the solver's.
 _FIT_OPTIONS = ("observe", "integrator", "scale", "residual", "fixed", "solver", "multistart",
                 "tol", "max_nfev", "min_r2")
 
 
 @dataclass(frozen=True)
 class FitSpec:
-    """What to fit to every card: the options of :func:`pumpid.pump.fit_cards`.
+    """What to fit to every card (the options of :func:`pumpid.fit`, as a manifest keeps them).
 
     Attributes
     ----------
@@ -79,7 +80,7 @@ class FitSpec:
         Fit a position offset; ``"auto"``: for single-stroke (periodic) cards, as ``pumpid
         fit`` does.
     options : mapping
-        Further options of :func:`pumpid.fit_records` (``observe``, ``integrator``,
+        Further :class:`pumpid.FitOptions` fields (``observe``, ``integrator``,
         ``scale``, ``residual``, ``tol``, ``max_nfev``, ...).
     """
 
@@ -111,6 +112,25 @@ class FitSpec:
                 raise ValueError(f"x0: give exactly the parameters {list(cls.param_names())} "
                                  f"(missing {missing}, unknown {extra})")
             cls(**{n: float(self.x0[n]) for n in cls.param_names()})
+
+    def fit_options(self, offset: bool) -> FitOptions:
+        """What the fit of a card means (:meth:`FitOptions.for_cards` with the spec's)."""
+        given = {k: v for k, v in self.options.items()
+                 if k not in ("solver", "tol", "max_nfev")}
+        if "fixed" in given and given["fixed"] is None:
+            given.pop("fixed")
+        return FitOptions.for_cards(offset=offset, initial_state=self.initial_state, **given)
+
+    def solver(self) -> LevenbergMarquardt | None:
+        """The solver of the spec's ``solver`` / ``tol`` / ``max_nfev`` (None: default)."""
+        given = self.options.get("solver")
+        if given is not None:
+            return given
+        tol, max_nfev = self.options.get("tol"), self.options.get("max_nfev")
+        if tol is None and max_nfev is None:
+            return None
+        return LevenbergMarquardt(**({} if tol is None else {"tol": tol}),
+                                  max_evaluations=max_nfev)
 
     def to_dict(self) -> dict[str, Any]:
         """The manifest's form."""
@@ -189,13 +209,9 @@ def _fit_group(cards: list[Any], model: Any, spec: FitSpec, offset: bool,
     card (each card's answer does not depend on its neighbours), and a card that still
     raises is a ``failed`` row saying what was raised.
     """
-    from pumpid.pump import fit_cards
-
-    initial = spec.initial_state
-    state = list(initial) if isinstance(initial, tuple) else initial
     try:
-        batch = fit_cards(cards, model, initial_state=state, offset=offset, workers=threads,
-                          **dict(spec.options))
+        batch = fit(model, list(cards), options=spec.fit_options(offset),
+                    solver=spec.solver(), workers=threads)
         return [(r, why, None) for r, why in zip(batch.results, batch.invalid, strict=True)]
     except Exception as exc:
         if len(cards) == 1:
@@ -219,7 +235,7 @@ def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: i
     spec : FitSpec
         What to fit.
     threads : int
-        Threads for :func:`pumpid.pump.fit_cards`.
+        Threads for :func:`pumpid.fit`.
     partition, first_item : int
         The partition's index and the run-wide index of its first item.
     downhole : DownholeSpec, optional

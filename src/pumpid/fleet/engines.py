@@ -7,7 +7,7 @@ engine, from its name:
 
 ``"local"`` (:class:`LocalEngine`, the default)
     Threads of this process. Partitions are fitted one after another, each by
-    :func:`pumpid.pump.fit_cards` on every core (its compiled passes release the GIL), while
+    :func:`pumpid.fit` on every core (its compiled passes release the GIL), while
     the run reads the next partition and writes the last one.
 ``"dask"`` (:class:`DaskEngine`)
     A ``dask.distributed`` cluster: an existing one by its scheduler's address, else a
@@ -48,7 +48,7 @@ class Engine(Protocol):
     description: str
     #: Partitions worth keeping in flight (submitted, not yet collected).
     capacity: int
-    #: Threads each task may use (``workers=`` of :func:`pumpid.pump.fit_cards`).
+    #: Threads each task may use (``workers=`` of :func:`pumpid.fit`).
     threads: int
 
     def submit(self, fn: Callable[..., Any], *args: Any) -> Any:

@@ -29,7 +29,7 @@ from ..engine.simulate import simulate, simulate_sensitivities
 from ..engine.solvers import LevenbergMarquardt, run_python
 from ..inference.identifiability import findings_of, whiteness_warning
 from ..inference.uncertainty import Numbers, analyse_rows, uncertainty_of
-from ..job import fit
+from ..job import FitOptions, fit, solver_for
 from ..models import Model
 from ..result import FitResult, Status, Units
 from .pipeflow import Pipe, PowerLawFluid, simulate_pipe_flow
@@ -255,9 +255,11 @@ def fit_flow(
                            max_nfev=fit_options.get("max_nfev"))
     else:
         try:
-            res = fit(start, record.t, u, y, method=method,  # type: ignore[arg-type]
-                      initial_state=state, units=units, fixed=dict(fixed) if fixed else None,
-                      **fit_options)
+            got = fit(start, (record.t, u, y),
+                      options=FitOptions(initial_state=state, fixed=dict(fixed or {})),
+                      solver=solver_for(method, **fit_options), units=units)
+            assert isinstance(got, FitResult)
+            res = got
         except ValueError as exc:
             raise _in_flow_words(exc, record, direction) from None
     return res.with_parts(

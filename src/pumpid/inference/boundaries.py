@@ -52,20 +52,23 @@ class Limiting:
     """A parameter at a boundary: where it runs and the limit it means."""
 
     name: str
-    direction: str  # "infinity" or "zero"
+    direction: str  # "infinity" or "zero"; "lower" or "upper" for a declared bound
     value: float
     limit: str
     #: "push": moving it further leaves the cost unchanged; "nested": the limiting model fits
-    #: as well (likelihood-ratio test).
+    #: as well (likelihood-ratio test); "bound": the fit ended on a bound a model declares.
     evidence: str = "push"
 
     def describe(self) -> str:
         """Plain-language statement."""
-        where = "to infinity" if self.direction == "infinity" else "to zero"
-        why = ("pushing it a further factor 1000 leaves the fit unchanged"
-               if self.evidence == "push"
-               else "the limiting model fits the data as well (likelihood-ratio test, 95 %)")
-        return (f"{self.name} runs {where} (fitted value {self.value:.4g} is arbitrary: {why}); "
+        where = {"infinity": "to infinity", "zero": "to zero", "lower": "to its lower bound",
+                 "upper": "to its upper bound"}[self.direction]
+        why = {"push": "pushing it a further factor 1000 leaves the fit unchanged",
+               "nested": "the limiting model fits the data as well (likelihood-ratio test, "
+                         "95 %)",
+               "bound": "the fit stopped on the bound the model declares"}[self.evidence]
+        said = "is the bound itself" if self.evidence == "bound" else "is arbitrary"
+        return (f"{self.name} runs {where} (fitted value {self.value:.4g} {said}: {why}); "
                 f"the data want the limit {self.limit}")
 
 

@@ -42,7 +42,8 @@ def join_names(names: Sequence[str]) -> str:
     return ", ".join(names[:-1]) + " and " + names[-1]
 
 
-def describe_direction(direction: Array, names: Sequence[str]) -> tuple[str, bool, str]:
+def describe_direction(direction: Array, names: Sequence[str],
+                       additive: Sequence[str] = ()) -> tuple[str, bool, str]:
     """Plain words for a direction in (log-)parameter space the data do not see.
 
     Parameters
@@ -52,6 +53,8 @@ def describe_direction(direction: Array, names: Sequence[str]) -> tuple[str, boo
         of the data range, D as is).
     names : sequence of str
         Names of the components.
+    additive : sequence of str
+        Names on their own scale besides D and the offset (an own model's signed ones).
 
     Returns
     -------
@@ -68,7 +71,7 @@ def describe_direction(direction: Array, names: Sequence[str]) -> tuple[str, boo
     parts = [names[i] for i in sig]
     if len(sig) == 1:
         return parts[0], False, "the data do not depend on it"
-    positive = all(is_positive_quantity(names[i]) for i in sig)
+    positive = all(is_positive_quantity(names[i], additive) for i in sig)
     same = positive and all(abs(v[i] - 1.0) < 0.05 for i in sig)
     if same:
         if "C" in parts and len(parts) > 2:
@@ -84,8 +87,8 @@ def describe_direction(direction: Array, names: Sequence[str]) -> tuple[str, boo
         a, b = parts
         return f"{a} and {b}", True, f"only the product {a}*{b} is"
     ratio = " : ".join(f"{v[i]:+.2f}" for i in sig)
-    coords = " : ".join(f"d ln {names[i]}" if is_positive_quantity(names[i]) else f"d {names[i]}"
-                        for i in sig)
+    coords = " : ".join(f"d ln {names[i]}" if is_positive_quantity(names[i], additive)
+                        else f"d {names[i]}" for i in sig)
     return (f"the trade-off between {join_names(parts)} ({coords} = {ratio})", False,
             "only the combinations unchanged along it are determined")
 
@@ -173,7 +176,7 @@ def findings_of(
     kept = [k for k in range(qi) if rel[k] > STRUCTURAL_TOL]
     sigma = math.sqrt(max(nums.sigma2, 0.0))
     for k in structural:
-        what, plural, det = describe_direction(vt[k], inner_names)
+        what, plural, det = describe_direction(vt[k], inner_names, nums.additive)
         sentences.append(
             f"{_sentence(what, plural, practical=False)} from these data: {det} (structural: "
             f"the sensitivity matrix is singular along this direction, relative singular "
@@ -186,7 +189,7 @@ def findings_of(
             se = max(se, float(nums.direction_se_hac[k]))
         if se <= PRACTICAL_REL_SE:
             continue
-        what, plural, _det = describe_direction(vt[k], inner_names)
+        what, plural, _det = describe_direction(vt[k], inner_names, nums.additive)
         unit = ("relative to the values, the offset in units of the data range"
                 if "offset" in what else "relative to the values")
         if robust:
@@ -204,9 +207,13 @@ def findings_of(
     shown = nums.hac_scaled if robust else nums.cov_scaled
     loose = set()
     for a, i in enumerate(inner):
-        if names[i] in model_names and is_positive_quantity(names[i]):
+        if names[i] in model_names:
+            # Log coordinates: the error is relative already; a signed parameter's is taken
+            # relative to its value.
             var = float(shown[a, a])
-            if not (math.isfinite(var) and math.sqrt(max(var, 0.0)) <= PRACTICAL_REL_SE):
+            size = (1.0 if is_positive_quantity(names[i], nums.additive)
+                    else abs(float(nums.values[i])))
+            if not (math.isfinite(var) and math.sqrt(max(var, 0.0)) <= PRACTICAL_REL_SE * size):
                 loose.add(i)
     for i, name in enumerate(names):
         if name in at_bound:

@@ -276,15 +276,17 @@ def _whiteness(rho: float, n: int) -> dict[str, Any]:
     }
 
 
-def is_positive_quantity(name: str) -> bool:
-    """Physical parameters and C are positive (log coordinates); D and offset are additive."""
-    return name not in ("D", "offset")
+def is_positive_quantity(name: str, additive: Sequence[str] = ()) -> bool:
+    """Physical parameters and C are positive (log coordinates); D, offset and the names in
+    ``additive`` (an own model's signed parameters) are additive."""
+    return name not in ("D", "offset") and name not in additive
 
 
-def _interval(name: str, value: float, se: float, tq: float) -> tuple[float, float] | None:
+def _interval(name: str, value: float, se: float, tq: float,
+              additive: Sequence[str] = ()) -> tuple[float, float] | None:
     if not (math.isfinite(se) and math.isfinite(value)):
         return None
-    if is_positive_quantity(name) and value > 0:
+    if is_positive_quantity(name, additive) and value > 0:
         half = tq * se / value
         if half > 700.0:  # beyond float range: the data bound this value from neither side
             return (0.0, math.inf)
@@ -315,6 +317,9 @@ class Numbers:
     usable: bool
     #: The data's range on the residual's scale (an exact fit's RMS is rounding of it).
     spread: float = 1.0
+    #: Names analysed on their own scale besides D and the offset (an own model's signed
+    #: parameters); every other name is positive, analysed on the log scale.
+    additive: tuple[str, ...] = ()
 
     @property
     def exact(self) -> bool:
@@ -429,7 +434,7 @@ def uncertainty_of(nums: Numbers, undetermined: Sequence[int], at_bound: Sequenc
             val = math.sqrt(var) if math.isfinite(var) and var >= 0 else (
                 math.inf if var == math.inf else math.nan)
             se[name] = val
-            ci[name] = _interval(name, float(nums.values[i]), val, tq)
+            ci[name] = _interval(name, float(nums.values[i]), val, tq, nums.additive)
         return se, ci
 
     stderr, ci95 = errors(cov)

@@ -13,6 +13,7 @@ from .first_order import FirstOrder
 from .kelvin import Kelvin
 from .maxwell import Maxwell
 from .msd import MassSpringDamper
+from .own import OwnModel, Parameter
 
 __all__ = [
     "MODELS",
@@ -23,7 +24,9 @@ __all__ = [
     "MassSpringDamper",
     "Maxwell",
     "Model",
+    "OwnModel",
     "ParamInfo",
+    "Parameter",
     "Term",
     "model_class",
     "param",

@@ -32,9 +32,9 @@ import numpy as np
 import scipy.special
 
 from ..cards import Card
+from ..job import FitOptions, fit
 from ..models import MODELS, model_class
 from ..result import FitResult, Status, model_choice_text
-from .fit import fit_card
 
 __all__ = ["CANDIDATES", "Candidate", "ModelChoice", "NestedTest", "choose_model"]
 
@@ -153,7 +153,8 @@ def choose_model(
     candidates: Sequence[tuple[str, str]] = CANDIDATES,
     *,
     criterion: str = "bic",
-    **fit_options: Any,
+    options: FitOptions | None = None,
+    solver: Any = None,
 ) -> ModelChoice:
     """Fit each candidate structure to a card and choose by an information criterion.
 
@@ -164,9 +165,11 @@ def choose_model(
         Default :data:`CANDIDATES`: mass-spring-dashpot, Kelvin observing u and u2, Maxwell.
     criterion : {"bic", "aicc"}
         What ranks them (both are reported).
-    **fit_options
-        Passed to :func:`pumpid.pump.fit_card` for every candidate (``initial_state``,
-        ``offset``, ``min_r2``, ...; not ``observe``, which each candidate sets).
+    options : FitOptions, optional
+        The fit's options for every candidate (default :meth:`FitOptions.for_cards`); each
+        candidate sets its own observed output, so ``options.observe`` must be None.
+    solver : LevenbergMarquardt or PaperNewton, optional
+        As for :func:`pumpid.fit`.
 
     Returns
     -------
@@ -179,7 +182,8 @@ def choose_model(
     """
     if criterion not in ("bic", "aicc"):
         raise ValueError(f"criterion must be 'bic' or 'aicc', got {criterion!r}")
-    if "observe" in fit_options:
+    options = FitOptions.for_cards() if options is None else options
+    if options.observe is not None:
         raise ValueError("choose_model: each candidate sets its own observed output")
     for key, observe in candidates:
         if key not in MODELS or observe not in model_class(key).outputs:
@@ -187,7 +191,7 @@ def choose_model(
     fits: list[tuple[str, str, FitResult | None, str]] = []
     for key, observe in candidates:
         try:
-            res = fit_card(card, key, observe=observe, **fit_options)
+            res = fit(key, card, options=options.replace(observe=observe), solver=solver)
         except ValueError as exc:
             fits.append((key, observe, None, str(exc)))
             continue

@@ -30,9 +30,9 @@ from ..cards import Card
 from ..engine import drive
 from ..inference.derived import derived_gradient, moved_by_limits
 from ..inference.uncertainty import PRACTICAL_REL_SE, WHITENESS_Z
+from ..job import FitOptions, fit
 from ..models import Kelvin, Model, model_class
 from ..result import Units
-from .fit import fit_cards
 
 __all__ = ["JointFit", "fit_joint"]
 
@@ -162,8 +162,7 @@ def fit_joint(
     if len(units) > 1:
         raise ValueError(f"joint fit: the cards are in different units {sorted(units)}; "
                          "convert them first (Card.to_units)")
-    options: dict[str, Any] = {} if observe is None else {"observe": observe}
-    batch = fit_cards(cards, cls, offset=True, **options)
+    batch = fit(cls, list(cards), options=FitOptions.for_cards(observe=observe))
     results = list(batch.results)
     bad = [c.card_id for c, r in zip(cards, results, strict=True) if r is None
            or not np.all(np.isfinite(list(r.params.values())))]

@@ -9,7 +9,7 @@ from ..result import Units
 __all__ = ["UNSTATED_UNITS", "model_param_units", "unit_text"]
 
 
-#: What :func:`pumpid.pump.fit_card` records as the unit of a card whose file states none.
+#: What :func:`pumpid.fit` records for a card as the unit of a card whose file states none.
 UNSTATED_UNITS = ("load-unit", "position-unit")
 
 

@@ -1,0 +1,180 @@
+"""A card's :class:`~pumpid.result.FitResult` from the job's answer, and the two gates.
+
+The result reports parameters in physical coordinates (the scale C or D, the offset at zero
+load), the fitted response and the Jacobian at the optimum from one evaluation. The gates
+turn an answer into ``undetermined`` (no parameter fixed by the data) or ``poor-fit`` (R^2
+below the quality threshold) without dropping its numbers.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..engine import drive
+from ..engine.problem import Problem
+from ..inference.boundaries import BoundaryInfo
+from ..models import Model, model_class
+from ..result import FitResult, Status, Units
+from .options import JobOptions
+from .state import CardState, gap_gradient, scale_offset, theta_of, true_offset
+
+__all__ = ["build_result", "determination_gate", "quality_gate"]
+
+Array = NDArray[np.float64]
+
+
+def determination_gate(res: FitResult) -> FitResult:
+    """``undetermined`` for an answer (converged or at a boundary) that determines none of
+    the model's parameters: a converged optimum of numbers the data do not fix is not an
+    answer (on real cards: m in the millions, damping ratios of 1e-5)."""
+    if res.status not in (Status.CONVERGED, Status.BOUNDARY) or res.uncertainty is None:
+        return res
+    if any(n in res.params for n in res.determined.get("parameters", ())):
+        return res
+    good = [d.name for d in res.derived.values() if d.determined]
+    said = ("no parameter of the model is determined by these data (each ran to a limit, "
+            "is structurally free or has an error over 100 % of its value): the fitted "
+            "values are one of many that fit as well"
+            + (f"; determined derived quantities: {', '.join(good)}" if good else ""))
+    return dataclasses.replace(res, status=Status.UNDETERMINED,
+                               reason=f"{said} (the solver's own verdict: {res.status.key}: "
+                                      f"{res.reason})",
+                               warnings=(*res.warnings, said))
+
+
+def quality_gate(res: FitResult, min_r2: float) -> FitResult:
+    """``poor-fit`` for an answer (converged, at a boundary or undetermined) below the R^2
+    threshold."""
+    if res.status not in (Status.CONVERGED, Status.BOUNDARY, Status.UNDETERMINED):
+        return res
+    if math.isfinite(res.r2) and res.r2 >= min_r2:
+        return res
+    shown = f"{res.r2:.4g}" if math.isfinite(res.r2) else "not defined"
+    said = (f"poor fit: R^2 = {shown} is below the quality threshold {min_r2:g} (min_r2); "
+            f"the model does not reproduce this record: check the column roles and units, "
+            f"the model structure, or the record itself before using these numbers")
+    return dataclasses.replace(res, status=Status.POOR_FIT,
+                               reason=f"{said} (the solver's own verdict: {res.status.key}: "
+                                      f"{res.reason})",
+                               warnings=(*res.warnings, said))
+
+
+def build_result(problem: Problem, k: int, card: CardState, options: JobOptions, units: Units,
+                 warnings: Sequence[str] = ()) -> FitResult:
+    """One card's :class:`FitResult` from the job's answer."""
+    cls = problem.model
+    t, f, d = problem.card(k)
+    model: Model | None = None
+    status, reason = card.status, card.reason
+    z = card.z
+    if np.all(np.isfinite(z)):
+        theta = theta_of(problem, z)
+        try:
+            model = cls.from_values(theta)
+        except ValueError as exc:
+            status = Status.FAILED
+            reason = f"{reason}; final parameters invalid: {exc}"
+    rmse, r2 = card.rmse, card.r2
+    jac = None
+    if model is not None:
+        scale = scale_offset(problem, z)[0]
+        offset = true_offset(problem, k, z)
+        fitted, jac = _at_optimum(problem, k, z)
+        if jac is not None and problem.offset_fixed is None and problem.shift_of(k) != 0.0:
+            # In the reported coordinates each parameter also moves the offset's meaning.
+            gap0, grads = gap_gradient(problem, k, z)
+            p = problem.n_free
+            jac[:, :p] += grads / np.exp(z[:p])
+            if problem.scale_fixed is None:
+                jac[:, p] += gap0 / scale
+        if not np.all(np.isfinite(fitted)):
+            status = Status.FAILED
+            reason = f"{reason}; the fitted response is not finite"
+    else:
+        fitted = np.full_like(d, np.nan)
+        scale = offset = math.nan
+        if status is not Status.FAILED:
+            status = Status.FAILED
+        reason = reason or "the fit gave no finite parameters"
+    params = model.as_dict() if model is not None else dict.fromkeys(cls.param_names(),
+                                                                      math.nan)
+    history = _history(problem, card, k)
+    text = tuple(w.replace("{position}", units.position) for w in (*warnings, *card.warnings))
+    reduced = card.reduced
+    if reduced is not None:
+        # The reduced model was fitted inside the job, which knows no units: its parameters'
+        # units come from this card's, as the full model's do.
+        info = model_class(reduced.model).param_info()
+        reduced = dataclasses.replace(reduced, units={
+            p.name: p.unit_for(units.load, units.position) for p in info})
+    boundary = (BoundaryInfo(card.limits, reduced) if card.limits else None)
+    state = problem.initial_states[k]
+    return FitResult(
+        model=model, model_name=cls.__name__, status=status, reason=reason, params=params,
+        scale=scale, offset=offset, iterations=card.accepted, nfev=card.evaluations,
+        history=history, rmse=rmse, r2=r2, cost=card.cost if model is not None else math.nan,
+        warnings=text, method=options.method, integrator=problem.integrator,
+        residual=problem.residual, observe=problem.observe, initial_state=state,
+        units=units, free=problem.free_names, t=t, load=f, data=d, fitted=fitted,
+        jacobian=jac, uncertainty=card.uncertainty, identifiability=card.findings,
+        determined=card.determined, derived=card.derived, boundary=boundary,
+        start=card.start,
+        gauge="C = 1" if problem.gauge_fixed else None, problem=problem,
+        options={"method": options.method, "card": k, "solver": options.solver,
+                 "newton": options.newton, "units": units},
+    )
+
+
+def _at_optimum(problem: Problem, k: int, z: Array) -> tuple[Array, Array | None]:
+    """The fitted displacement and d(residual)/d(free values) in physical coordinates
+    (theta, C or D, offset), from one evaluation."""
+    data, model, settings = problem.arrays
+    q = problem.q
+    d = problem.card(k)[2]
+    rows = np.empty((q + 1, problem.n_samples(k)))
+    if not drive.rows_at(z, k, data, model, settings, rows):
+        y, _ok = drive.outputs(np.array([k], dtype=np.int64), np.ascontiguousarray(z[None]),
+                              data, model, settings, d.size)
+        scale, offset = scale_offset(problem, z)
+        return scale * y + offset, None
+    fitted = d * np.exp(rows[q]) if problem.residual == "log" else rows[q] + d
+    jac = rows[:q].T.copy()
+    p = problem.n_free
+    jac[:, :p] /= np.exp(z[:p])
+    if problem.scale_fixed is None and problem.residual == "linear":
+        jac[:, p] /= math.exp(z[p])
+    return fitted, jac
+
+
+def _history(problem: Problem, card: CardState, k: int) -> tuple[Mapping[str, float], ...]:
+    if card.newton_history is not None:
+        return tuple(card.newton_history)
+    if card.history is None or card.history.size == 0:
+        return ()
+    # All rows at once: parameters, scale, offset, cost as columns, then one dict per row.
+    h = card.history
+    p = problem.n_free
+    columns: dict[str, Array] = {"iteration": np.arange(h.shape[0], dtype=float)}
+    with np.errstate(over="ignore"):
+        theta = problem.full_theta(np.exp(h[:, :p]))
+    for i, name in enumerate(problem.model.param_names()):
+        columns[name] = theta[:, i]
+    j = p
+    if problem.scale_fixed is None:
+        columns["D" if problem.residual == "log" else "C"] = (
+            h[:, j] if problem.residual == "log" else np.exp(h[:, j]))
+        j += 1
+    if problem.offset_fixed is None:
+        scale = (np.exp(h[:, p]) if problem.scale_fixed is None
+                 else np.full(h.shape[0], float(problem.scale_fixed)))
+        columns["offset"] = h[:, j] - problem.offset_gap(k, theta, scale)
+    columns["cost"] = h[:, -1]
+    keys = list(columns)
+    values = np.column_stack([columns[k] for k in keys]).tolist()
+    return tuple(dict(zip(keys, row, strict=True)) for row in values)
+

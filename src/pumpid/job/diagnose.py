@@ -1,0 +1,203 @@
+"""Diagnostics of every fitted card: uncertainty that holds, identifiability in words.
+
+Each card's analysis (:func:`pumpid.inference.uncertainty.numbers`, one compiled pass over
+the cards) gives the covariances; where the residuals are serially correlated the errors
+shown are the robust ones, with an AR(1) floor (:mod:`pumpid.inference.serial`). Then the
+findings in words, the derived quantities, the echo of the pumping speed and the offset's
+gauge.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..engine import drive
+from ..engine.problem import Problem
+from ..inference.boundaries import Limiting
+from ..inference.derived import derived_of
+from ..inference.echo import echo_of
+from ..inference.identifiability import findings_of, whiteness_warning
+from ..inference.serial import (
+    Errors,
+    calibrate_robust,
+    robust_covariance,
+    shown_errors,
+    with_ar1_floor,
+)
+from ..inference.uncertainty import Numbers, numbers, uncertainty_of
+from ..result import Units
+from .state import CardState, numbers_for_true_offset, scale_offset, theta_of
+
+__all__ = ["Assessment", "assess", "diagnose"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Assessment:
+    """One fit's errors and findings, as every path reports them."""
+
+    numbers: Numbers
+    serial: bool
+    findings: tuple[str, ...]
+    determined: dict[str, Any]
+    uncertainty: Errors | None
+    #: The residuals' whiteness warning in words ("" when they pass).
+    warning: str
+
+
+def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *,
+           model_names: Sequence[str], gauge_fixed: bool, initial_state: Any, residual: str,
+           limits: Sequence[Limiting], unit: str,
+           transform: Callable[[Numbers], Numbers] | None = None) -> Assessment:
+    """The errors that hold and the identifiability in words for one fit's numbers.
+
+    Where the residuals are serially correlated the robust errors are calibrated (and
+    floored by an AR(1) fit to the residuals, which needs the Jacobian's rows: ``rows_of``
+    computes them only then) and shown by default; the independent-noise ones are kept
+    under their own names.
+
+    Parameters
+    ----------
+    num : Numbers
+        The fit's analysis (covariances in the solver's scaled coordinates).
+    rows_of : callable
+        Returns the (q + 1, N) rows (Jacobian columns, then the residual), or None.
+    offset_col : int
+        The offset's coordinate (-1: none).
+    model_names, gauge_fixed, initial_state, residual
+        What :func:`pumpid.inference.identifiability.findings_of` needs to speak.
+    limits : sequence of Limiting
+        Values at a boundary (left out of the errors).
+    unit : str
+        The unit of the residual variance.
+    transform : callable, optional
+        Applied to the numbers before the findings (a change of reported coordinates).
+    """
+    num, calibration = calibrate_robust(num)
+    serial = not num.exact and not (num.rho <= 2.576 / math.sqrt(max(num.n, 1)))
+    if serial:
+        rows = rows_of()
+        if rows is not None:
+            num, calibration["ar1"] = with_ar1_floor(num, rows, offset_col)
+    if transform is not None:
+        num = transform(num)
+    names = list(num.names)
+    f = findings_of(num, model_names=model_names, gauge_fixed=gauge_fixed,
+                    initial_state=initial_state, residual=residual,
+                    boundaries=[(b.name, b.direction, b.limit) for b in limits], serial=serial)
+    unc = uncertainty_of(num, f.undetermined, [names.index(b.name) for b in limits
+                                               if b.name in names], f.notes, unit)
+    unc = shown_errors(unc, serial, robust_covariance(num, f.undetermined), calibration)
+    warning = ""
+    if unc is not None and unc.whiteness is not None and not unc.whiteness["white"]:
+        warning = whiteness_warning(dict(unc.whiteness), num.n, len(names),
+                                    unc.shown == "robust")
+    return Assessment(num, serial, f.sentences, f.determined, unc, warning)
+
+
+def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
+              units: Sequence[Units]) -> None:
+    """Identifiability, uncertainty and whiteness of every fitted card.
+
+    Parameters
+    ----------
+    problem : Problem
+    cards : array of int
+        The problem's cards that ``fits`` hold, in order.
+    fits : list of CardState
+        Updated in place: findings, what is determined, uncertainty, derived quantities and
+        warnings.
+    units : sequence of Units
+        One per card of the problem (the units the errors and combinations are said in).
+    """
+    idx = [i for i in range(len(fits)) if np.all(np.isfinite(fits[i].z))
+           and math.isfinite(fits[i].cost)]
+    model_names = problem.model.param_names()
+    for i in range(len(fits)):
+        if i not in idx:
+            f = findings_of(None, model_names=model_names, gauge_fixed=problem.gauge_fixed,
+                            initial_state=problem.initial_states[int(cards[i])],
+                            residual=problem.residual)
+            fits[i].findings, fits[i].determined = f.sentences, f.determined
+    if not idx:
+        return
+    names = problem.free_names
+    inner = np.ones((len(idx), len(names)), dtype=bool)
+    for j, i in enumerate(idx):
+        for b in fits[i].limits:
+            if b.name in names:
+                inner[j, names.index(b.name)] = False
+    nums = numbers(problem, cards[idx], np.array([fits[i].z for i in idx]), inner)
+    data, model_code, settings = problem.arrays
+    for j, i in enumerate(idx):
+        card = fits[i]
+        k = int(cards[i])
+
+        def rows_of(z: Array = card.z, k: int = k) -> Array | None:
+            rows = np.empty((problem.q + 1, problem.n_samples(k)))
+            return rows if drive.rows_at(z, k, data, model_code, settings, rows) else None
+
+        said = assess(nums[j], rows_of, problem.q - 1 if problem.offset_fixed is None else -1,
+                      model_names=model_names, gauge_fixed=problem.gauge_fixed,
+                      initial_state=problem.initial_states[k], residual=problem.residual,
+                      limits=card.limits,
+                      unit=("(ln of position)^2, dimensionless" if problem.residual == "log"
+                            else f"{units[k].position}^2"),
+                      transform=lambda n, z=card.z, k=k: numbers_for_true_offset(
+                          problem, k, z, n))
+        num, serial, unc = said.numbers, said.serial, said.uncertainty
+        card.findings, card.determined = said.findings, said.determined
+        card.uncertainty = unc
+        if problem.model.input_map is None:
+            z = card.z
+            scale = scale_offset(problem, z)[0]
+            card.derived = derived_of(
+                problem.model, theta_of(problem, z), observe=problem.observe, scale=scale,
+                nums=num, units=(units[int(cards[i])].load, units[int(cards[i])].position),
+                serial=serial, limits=[(b.name, b.direction) for b in card.limits])
+            _offset_gauge(problem, int(cards[i]), card, units[int(cards[i])])
+            period = (float(problem.period[int(cards[i])])
+                      if problem.initial_states[int(cards[i])] == "periodic" else None)
+            card.derived, echo = echo_of(card.derived, period)
+            if echo is not None:
+                card.warnings.append(echo)
+                card.determined["not_well_property"] = [
+                    n for n, d in card.derived.items() if not d.well_property]
+        if said.warning:
+            card.warnings.append(said.warning)
+
+
+def _offset_gauge(problem: Problem, k: int, card: CardState, units: Units) -> None:
+    """The offset a periodic card fixes, and the one it does not.
+
+    A periodic card's mean position is the offset plus the mean load over the static
+    stiffness: the data fix that sum (the position at the card's mean load, the solver's
+    own offset coordinate), not its parts. Where the static stiffness is not determined,
+    the reported offset (the position at zero load) is not either (on real cards k1 and
+    the offset correlate 1.000); the combination is reported as determined instead.
+    """
+    stiff = card.derived.get("static_stiffness")
+    if (problem.offset_fixed is not None or problem.shift_of(k) == 0.0 or stiff is None
+            or "offset" not in card.determined.get("parameters", [])):
+        return
+    level = scale_offset(problem, card.z)[1]
+    card.determined.setdefault("combinations", []).append(
+        f"the position at the card's mean load, offset + mean load / static stiffness = "
+        f"{level:.6g} {units.position}")
+    card.determined["offset_at_mean_load"] = level
+    if stiff.determined:
+        return
+    card.determined["parameters"].remove("offset")
+    card.determined["not_determined"].append("offset")
+    card.findings = (*card.findings,
+                     "The offset (the position at zero load) is not determined: the card "
+                     "fixes only the position at its mean load, offset + mean load / static "
+                     f"stiffness = {level:.6g} {units.position}, and the static stiffness "
+                     "is not determined, so the offset trades off with it.")

@@ -1,0 +1,376 @@
+"""The main job for a model that brings its own simulator (:class:`~pumpid.models.OwnModel`).
+
+The same solver (the compiled Levenberg-Marquardt state machine, stepped from Python around
+the model's simulator, :func:`pumpid.engine.solvers.run_python`), the same statuses and
+gates, the same diagnostics (:func:`pumpid.job.diagnose.assess`: errors that hold under
+correlated residuals, identifiability in words) and the same :class:`~pumpid.result.FitResult`
+as the lumped models. What differs is only where residuals and sensitivities come from.
+
+Coordinates: a positive parameter is searched on the log scale within a factor
+:data:`WINDOW_FACTOR` of its start (and its declared bounds), a signed one on its own scale
+within its declared bounds. A positive parameter is at a boundary when pushing it a further
+factor 1000 either way leaves the cost within the likelihood-ratio test's 95 % point (the
+data cannot tell it from its limit), or when it ends on the edge of its window; a signed one
+when it ends on a declared bound.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..engine import lm
+from ..engine.solvers import LevenbergMarquardt, PaperNewton, SolverOutcome, run_python
+from ..inference.boundaries import BoundaryInfo, Limiting
+from ..inference.identifiability import findings_of
+from ..inference.uncertainty import Numbers, analyse_rows
+from ..models.own import OwnModel
+from ..result import FitBatch, FitResult, StartInfo, Status, Units
+from .assemble import determination_gate, quality_gate
+from .boundary import LR_95
+from .diagnose import assess
+from .options import FitOptions
+
+__all__ = ["WINDOW_FACTOR", "fit_own"]
+
+Array = NDArray[np.float64]
+#: A positive parameter is searched within this factor of its start either way.
+WINDOW_FACTOR = 1e6
+#: The push test's factor.
+PUSH = 1000.0
+#: Options that mean something only for the lumped models, with their neutral values.
+_LUMPED_ONLY = {"observe": None, "integrator": "exact", "residual": "linear", "scale": 1.0,
+                "offset": False, "initial_state": None, "period": None}
+
+
+def fit_own(model: OwnModel, items: Sequence[Any], *, single: bool, options: FitOptions,
+            solver: LevenbergMarquardt | PaperNewton | None, x0: Any,
+            workers: int | None = None) -> FitResult | FitBatch:
+    """Fit an own model to each data item (see the module's text).
+
+    Parameters
+    ----------
+    model : OwnModel
+    items : sequence
+        The data items, each passed to the model's methods as given.
+    single : bool
+        Return the one item's :class:`FitResult` (its problems raise) rather than a
+        :class:`FitBatch` (an item the model refuses is an ``invalid-input`` row).
+    options : FitOptions
+        ``fixed``, ``multistart``, ``min_r2`` and ``boundaries`` apply; the lumped models'
+        options (observe, integrator, residual, scale, offset, initial state, period) must
+        keep their defaults: an own model states those itself.
+    solver : LevenbergMarquardt, optional
+    x0 : mapping or array, optional
+        Starting values (a mapping by name, or (p,) in the parameters' order).
+    workers : int, optional
+        Accepted for the verb's sake; an own model's simulator runs in Python, one item after
+        another.
+    """
+    _check_options(model, options, solver)
+    lm_solver = solver if isinstance(solver, LevenbergMarquardt) else LevenbergMarquardt()
+    results: list[FitResult | None] = []
+    invalid: list[str] = []
+    for item in items:
+        try:
+            results.append(_fit_item(model, item, options, lm_solver, x0))
+            invalid.append("")
+        except (ValueError, TypeError) as exc:
+            if single:
+                raise
+            results.append(None)
+            invalid.append(str(exc))
+    if single:
+        res = results[0]
+        assert res is not None
+        return res
+    return FitBatch(model_name=model.name, param_names=model.param_names(),
+                    results=tuple(results), invalid=tuple(invalid))
+
+
+def _check_options(model: OwnModel, options: FitOptions, solver: Any) -> None:
+    if not isinstance(model.parameters, tuple | list) or not model.parameters:
+        raise TypeError(f"{type(model).__name__}.parameters must be a non-empty tuple of "
+                        "pumpid.models.Parameter")
+    for key, neutral in _LUMPED_ONLY.items():
+        if getattr(options, key) != neutral:
+            raise ValueError(f"FitOptions.{key} does not apply to an own model ({model.name} "
+                             "defines its own output, initial state and offsets); leave it "
+                             f"at {neutral!r}")
+    unknown = sorted(set(options.fixed) - set(model.param_names()))
+    if unknown:
+        raise ValueError(f"FitOptions.fixed: unknown parameter(s) {unknown}; {model.name} has "
+                         f"{list(model.param_names())}")
+    if isinstance(solver, PaperNewton):
+        raise TypeError("the paper's Newton method fits the lumped models only; an own model "
+                        "is fitted with LevenbergMarquardt")
+
+
+class _Item:
+    """One item's problem: the coordinates, the residual rows and the cost."""
+
+    def __init__(self, model: OwnModel, item: Any, options: FitOptions) -> None:
+        self.model = model
+        self.item = item
+        self.names = model.param_names()
+        self.y = model.observed(item)
+        if self.y.ndim != 1 or self.y.size < 3 or not np.all(np.isfinite(self.y)):
+            raise ValueError(f"{model.name}: the observation must be a finite 1-D series of "
+                             f"at least 3 samples (got shape {self.y.shape}, "
+                             f"{int(np.sum(~np.isfinite(self.y)))} non-finite)")
+        p = len(self.names)
+        self.fixed = {self.names.index(n): v for n, v in options.fixed.items()}
+        free = [i for i in range(p) if i not in self.fixed]
+        # Positive (log) coordinates first: the solver caps the steps of the first ones.
+        self.free = ([i for i in free if model.parameters[i].positive]
+                     + [i for i in free if not model.parameters[i].positive])
+        self.n_log = sum(model.parameters[i].positive for i in self.free)
+        self.q = len(self.free)
+        self.base = np.zeros(p)
+
+    def theta(self, z: Array) -> Array:
+        th = self.base.copy()
+        for i, v in self.fixed.items():
+            th[i] = v
+        zz = np.asarray(z, dtype=float)
+        th[self.free[: self.n_log]] = np.exp(np.clip(zz[: self.n_log], -700.0, 700.0))
+        th[self.free[self.n_log:]] = zz[self.n_log:]
+        return th
+
+    def to_z(self, theta: Array) -> Array:
+        v = np.asarray(theta, dtype=float)[self.free]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.concatenate([np.log(v[: self.n_log]), v[self.n_log:]])
+
+    def simulate(self, z: Array, sens: bool) -> tuple[Array, Array | None] | None:
+        th = self.theta(z)
+        try:
+            with np.errstate(all="ignore"):
+                pred, dy = self.model.simulate(th, self.item, sens)
+        except (ValueError, ArithmeticError):
+            return None
+        pred = np.asarray(pred, dtype=float)
+        if pred.shape != self.y.shape:
+            raise ValueError(f"{self.model.name}.simulate returned shape {pred.shape} for an "
+                             f"observation of {self.y.size} samples")
+        if sens:
+            dy = np.asarray(dy, dtype=float)
+            if dy.shape != (self.y.size, len(self.names)):
+                raise ValueError(f"{self.model.name}.simulate returned sensitivities of shape "
+                                 f"{dy.shape}, expected {(self.y.size, len(self.names))}")
+        return pred, dy
+
+    def cost(self, z: Array) -> float:
+        got = self.simulate(z, False)
+        if got is None:
+            return math.nan
+        r = got[0] - self.y
+        return 0.5 * float(r @ r) if np.all(np.isfinite(r)) else math.nan
+
+    def rows(self, z: Array) -> Array | None:
+        got = self.simulate(z, True)
+        if got is None:
+            return None
+        pred, dy = got
+        assert dy is not None
+        th = self.theta(z)
+        rows = np.empty((self.q + 1, self.y.size))
+        chain = np.concatenate([th[self.free[: self.n_log]], np.ones(self.q - self.n_log)])
+        rows[: self.q] = (dy[:, self.free] * chain).T
+        rows[self.q] = pred - self.y
+        return rows if np.all(np.isfinite(rows)) else None
+
+    def evaluate(self, z: Array) -> tuple[float, Array, Array]:
+        r_fac = np.zeros((self.q, self.q))
+        c = np.zeros(self.q)
+        rows = self.rows(z)
+        if rows is None:
+            return math.nan, r_fac, c
+        return lm.householder(rows, self.q, r_fac, c), r_fac, c
+
+    def window(self, z0: Array) -> tuple[Array, Array]:
+        lo = np.empty(self.q)
+        hi = np.empty(self.q)
+        span = math.log(WINDOW_FACTOR)
+        for a, i in enumerate(self.free):
+            par = self.model.parameters[i]
+            if par.positive:
+                lo[a] = max(z0[a] - span, math.log(par.lower) if par.lower > 0 else -700.0)
+                hi[a] = min(z0[a] + span, math.log(par.upper) if math.isfinite(par.upper)
+                            else 700.0)
+            else:
+                lo[a] = par.lower if math.isfinite(par.lower) else -1e300
+                hi[a] = par.upper if math.isfinite(par.upper) else 1e300
+        return lo, hi
+
+
+def _starts(model: OwnModel, item: Any, x0: Any) -> Array:
+    names = model.param_names()
+    if x0 is None:
+        got = np.asarray(model.start(item), dtype=float)
+    elif isinstance(x0, Mapping):
+        unknown = sorted(set(x0) - set(names))
+        if unknown:
+            raise ValueError(f"x0: unknown parameter(s) {unknown}; {model.name} has "
+                             f"{list(names)}")
+        base = np.asarray(model.start(item), dtype=float)
+        base = base[0] if base.ndim == 2 else base
+        got = np.array([float(x0.get(n, base[i])) for i, n in enumerate(names)])
+    else:
+        got = np.asarray(x0, dtype=float)
+    got = np.atleast_2d(got)
+    if got.shape[1] != len(names) or not np.all(np.isfinite(got)):
+        raise ValueError(f"{model.name}: a start must be {len(names)} finite values "
+                         f"({list(names)}), got shape {got.shape}")
+    return got
+
+
+def _fit_item(model: OwnModel, item: Any, options: FitOptions, solver: LevenbergMarquardt,
+              x0: Any) -> FitResult:
+    prob = _Item(model, item, options)
+    starts = _starts(model, item, x0)
+    prob.base = starts[0].copy()
+    bad = [model.parameters[i].name for i in prob.free[: prob.n_log]
+           if not np.all(starts[:, i] > 0)]
+    if bad:
+        raise ValueError(f"{model.name}: the start of positive parameter(s) {bad} must be > 0")
+    zs = [prob.to_z(s) for s in starts]
+    costs = np.array([prob.cost(z) for z in zs])
+    if not np.any(np.isfinite(costs)):
+        raise ValueError(f"{model.name} cannot be simulated at any of its {len(zs)} "
+                         "starting point(s)")
+    order = np.argsort(np.where(np.isfinite(costs), costs, np.inf))
+    # "auto" and False solve from the best start; True from every start, keeping the best.
+    tries = [int(order[0])] if options.multistart is not True else [
+        int(k) for k in order if np.isfinite(costs[k])]
+    best: tuple[SolverOutcome, Array, Array] | None = None
+    for k in tries:
+        z0 = zs[k]
+        lo, hi = prob.window(z0)
+        out = run_python(prob.evaluate, z0, lo, hi, tol=solver.tol,
+                         max_evaluations=solver.budget(prob.q), n_capped=prob.n_log)
+        if best is None or (math.isfinite(out.cost[0])
+                            and not out.cost[0] >= best[0].cost[0]):
+            best = (out, lo, hi)
+    assert best is not None
+    out, lo, hi = best
+    note = (f"start: {'the given x0' if x0 is not None else model.name + '.start()'}"
+            f"{f', best of {len(zs)} by cost' if len(zs) > 1 else ''}"
+            f"{f', solved from {len(tries)}' if len(tries) > 1 else ''}")
+    return _result(prob, out, lo, hi, options, StartInfo(note, len(zs), len(tries)))
+
+
+def _limits(prob: _Item, z: Array, cost: float, lo: Array, hi: Array,
+            sigma2: float) -> tuple[Limiting, ...]:
+    """The parameters at a boundary (see the module's text)."""
+    found: list[Limiting] = []
+    tol = LR_95 * sigma2 / 2.0 + 1e-12 * max(cost, 1e-300)
+    for a, i in enumerate(prob.free):
+        par = prob.model.parameters[i]
+        value = float(prob.theta(z)[i])
+        edge_lo = z[a] <= lo[a] + 1e-9 * (1.0 + abs(lo[a]))
+        edge_hi = z[a] >= hi[a] - 1e-9 * (1.0 + abs(hi[a]))
+        if not par.positive:
+            if edge_lo or edge_hi:
+                side = "lower" if edge_lo else "upper"
+                found.append(Limiting(par.name, side, value,
+                                      f"{par.name} = {getattr(par, side):g} {par.unit}", "bound"))
+            continue
+        for direction, step in (("zero", -math.log(PUSH)), ("infinity", math.log(PUSH))):
+            at_edge = edge_lo if direction == "zero" else edge_hi
+            zz = z.copy()
+            zz[a] += step
+            pushed = prob.cost(zz)
+            if at_edge or (math.isfinite(pushed) and pushed - cost <= tol):
+                found.append(Limiting(par.name, direction, value,
+                                      f"{par.name} -> {'0' if direction == 'zero' else 'inf'}",
+                                      "push"))
+                break
+    return tuple(found)
+
+
+def _result(prob: _Item, out: SolverOutcome, lo: Array, hi: Array, options: FitOptions,
+            start: StartInfo) -> FitResult:
+    model = prob.model
+    z = out.z[0]
+    theta = prob.theta(z)
+    rows = prob.rows(z)
+    status = Status.CONVERGED if out.stops[0].converged else Status.FAILED
+    reason = out.messages[0]
+    y = prob.y
+    if rows is None:
+        status = Status.FAILED
+        reason += "; the model cannot be simulated at the final values"
+        fitted = np.full_like(y, np.nan)
+    else:
+        fitted = rows[prob.q] + y
+    res = fitted - y
+    finite = bool(np.all(np.isfinite(res)))
+    sst = float(np.sum((y - y.mean()) ** 2))
+    rmse = float(np.sqrt(np.mean(res**2))) if finite else math.nan
+    r2 = 1.0 - float(res @ res) / sst if finite and sst > 0 else math.nan
+    cost = float(out.cost[0]) if finite else math.nan
+    free_names = tuple(prob.names[i] for i in prob.free)
+    warnings: list[str] = []
+    limits: tuple[Limiting, ...] = ()
+    n = y.size
+    if options.boundaries and finite and n > prob.q:
+        limits = _limits(prob, z, cost, lo, hi, 2.0 * cost / (n - prob.q))
+    if limits and status is Status.CONVERGED:
+        status = Status.BOUNDARY
+        reason = (f"{reason}; {', '.join(b.name for b in limits)} ran to a bound: the solution "
+                  "is a limiting model, not an interior optimum")
+        warnings.extend(b.describe() for b in limits)
+    uncertainty = None
+    findings: tuple[str, ...] = ()
+    determined: dict[str, Any] = {}
+    names = prob.model.param_names()
+    if rows is not None:
+        inner = np.array([n not in {b.name for b in limits} for n in free_names])
+        s, vt, cov, hac, dse, stats = analyse_rows(rows.copy(), inner, -1, 1.0)
+        scales = np.concatenate([theta[prob.free[: prob.n_log]], np.ones(prob.q - prob.n_log)])
+        nums = Numbers(names=free_names, inner=tuple(int(i) for i in np.flatnonzero(inner)),
+                       values=theta[prob.free], scales=scales, singular=s, vt=vt,
+                       cov_scaled=cov, hac_scaled=hac, direction_se_hac=dse,
+                       rms=float(stats[1]), rho=float(stats[2]), bandwidth=float(stats[3]),
+                       persistence=float(stats[4]), capped=bool(stats[5] == 1.0), n=n,
+                       cost=0.5 * float(stats[1]) ** 2 * n, usable=bool(stats[0] == 1.0),
+                       spread=float(np.ptp(y)) or 1.0,
+                       additive=tuple(nm for i, nm in zip(prob.free, free_names, strict=True)
+                                      if not model.parameters[i].positive))
+        said = assess(nums, lambda: rows, -1, model_names=names, gauge_fixed=False,
+                      initial_state=model.name, residual="linear", limits=limits,
+                      unit=f"{model.output_unit}^2")
+        uncertainty, findings, determined = said.uncertainty, said.findings, said.determined
+        if said.warning:
+            warnings.append(said.warning)
+    else:
+        f = findings_of(None, model_names=names, gauge_fixed=False, initial_state=model.name,
+                        residual="linear")
+        findings, determined = f.sentences, f.determined
+    t = model.time(prob.item)
+    drive_in = model.driving(prob.item)
+    history = tuple(
+        {"iteration": float(it), **dict(zip(names, prob.theta(h[:-1]).tolist(), strict=True)),
+         "cost": float(h[-1])} for it, h in enumerate(out.history))
+    jac = None
+    if rows is not None:
+        chain = np.concatenate([theta[prob.free[: prob.n_log]], np.ones(prob.q - prob.n_log)])
+        jac = (rows[: prob.q] / chain[:, None]).T
+    result = FitResult(
+        model=model, model_name=model.name, status=status, reason=reason,  # type: ignore[arg-type]
+        params=dict(zip(names, theta.tolist(), strict=True)), scale=1.0, offset=0.0,
+        iterations=int(out.accepted[0]), nfev=int(out.evaluations[0]), history=history,
+        rmse=rmse, r2=r2, cost=cost, warnings=tuple(warnings), method="lm",
+        integrator=f"{model.name}.simulate", residual="linear", observe=model.output,
+        initial_state="defined by the model",
+        units=Units(load="input-unit", position=model.output_unit), free=free_names,
+        t=np.arange(n, dtype=float) if t is None else t,
+        load=np.full(n, np.nan) if drive_in is None else drive_in, data=y, fitted=fitted,
+        jacobian=jac, uncertainty=uncertainty, identifiability=findings,
+        determined=determined, boundary=BoundaryInfo(limits) if limits else None, start=start)
+    return quality_gate(determination_gate(result), options.min_r2)

@@ -1,0 +1,339 @@
+"""The main job as stages: start -> solve -> guard -> widen -> boundaries -> diagnose.
+
+Each stage is a compiled pass over all the cards that need it (spread over threads), with
+Python deciding between the stages on arrays:
+
+1. start: the automatic multistart (:mod:`pumpid.engine.start`), a user's guess, or a guess
+   guarded by the multistart;
+2. solve: Levenberg-Marquardt (or the paper's Newton);
+3. guard: a fit from a user's guess that failed, explains less than 99 % of the data's
+   variance or stays above the data's noise floor is redone with the multistart, and the
+   better of the two is kept;
+4. widen: a wider search where the answer does not explain the data;
+5. boundaries (:mod:`pumpid.job.boundary`), whose reduced-model fits are this same job on the
+   reduced problem, handed in as a function; a reduced model that fits clearly better sends
+   the full fit back to a start next to it;
+6. diagnose (:mod:`pumpid.job.diagnose`), then each card's result and its two gates.
+
+A card's answer does not depend on which other cards share its problem: every stage treats
+each card on its own numbers, so a batch and card-by-card fits agree exactly.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..engine import drive
+from ..engine.problem import Problem
+from ..engine.start import complete, find_starts, search_wider, to_z, walk_valley
+from ..result import FitBatch, FitResult, StartInfo, Status, Units
+from .assemble import build_result, determination_gate, quality_gate
+from .boundary import check_boundaries
+from .diagnose import diagnose
+from .options import NO_START, JobOptions
+from .state import (
+    CardState,
+    apply_outcome,
+    doubtful,
+    mark_edges,
+    scale_offset,
+    start_problem,
+    summarize,
+    theta_of,
+)
+
+__all__ = ["cost_change", "run", "run_batch"]
+
+Array = NDArray[np.float64]
+
+
+def _automatic_start(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
+                     guess: Array | None, options: JobOptions) -> Array:
+    """Stage 1, automatic: the multistart's points (a given guess competes when guarded)."""
+    m = cards.size
+    guarded = guess is not None
+    # Long cards start from a shorter copy of themselves (same coordinates).
+    at = start_problem(problem, cards)
+    on, on_cards = (problem, cards) if at is None else (at, np.arange(m, dtype=np.int64))
+    starts = find_starts(on, on_cards, guess=guess, plan=options.plan,
+                         workers=options.workers)
+    z0 = starts.z.copy()
+    for i in range(m):
+        kind = "automatic start"
+        if guarded:
+            kind = ("start: the given guess, checked against the automatic start"
+                    if starts.from_guess[i] else
+                    "start: automatic (it reached a lower cost than the given guess)")
+        walked = ""
+        if starts.stopped_early[i] and np.all(np.isfinite(z0[i])):
+            zw, cw = walk_valley(on, int(on_cards[i]), z0[i], float(starts.cost[i]))
+            if cw < starts.cost[i]:
+                z0[i] = zw
+                walked = ", then walked along a flat valley"
+        part = ""
+        used = on.n_samples(int(on_cards[i]))
+        if used < problem.n_samples(int(cards[i])):
+            part = f" on {used} of the card's {problem.n_samples(int(cards[i]))} samples"
+        fits[i].start = StartInfo(
+            f"{kind}: equation-error and grid estimates ({int(starts.n_candidates[i])} "
+            f"candidates){part}, best {int(starts.n_polished[i])} polished{walked}",
+            int(starts.n_candidates[i]), int(starts.n_polished[i]))
+    return z0
+
+
+def _given_start(problem: Problem, cards: NDArray[np.int64], guess: Array,
+                 c_start: Array | None, offset_start: Array | None,
+                 options: JobOptions) -> Array:
+    """Stage 1, from a guess: the solver point of each card's given parameters (the scale
+    and offset completed by least squares unless given)."""
+    z0, _c = complete(problem, cards, np.asarray(guess, dtype=float), rescale=False,
+                      workers=options.workers)
+    j = problem.n_free
+    if problem.scale_fixed is None:
+        if c_start is not None:
+            given = np.isfinite(c_start)
+            z0[given, j] = np.log(c_start[given])
+        j += 1
+    if problem.offset_fixed is None and offset_start is not None:
+        # The user's offset is the reported one; the solver's exceeds it by the gap.
+        for i in np.flatnonzero(np.isfinite(offset_start)):
+            k = int(cards[i])
+            gap = problem.offset_gap(k, theta_of(problem, z0[i]),
+                                     scale_offset(problem, z0[i])[0])
+            z0[i, j] = offset_start[i] + float(gap)
+    lost = ~np.all(np.isfinite(z0), axis=1)
+    z0[lost] = to_z(problem, np.asarray(guess, dtype=float))[lost]
+    return np.where(np.isfinite(z0), z0, 0.0)
+
+
+def _solve(problem: Problem, cards: NDArray[np.int64], fits: list[CardState], z0: Array,
+           options: JobOptions) -> None:
+    """Stage 2: the solver from each card's start."""
+    m = cards.size
+    if options.method == "newton-fd":
+        for i in range(m):
+            k = int(cards[i])
+            theta0 = theta_of(problem, z0[i])
+            scale0, offset0 = scale_offset(problem, z0[i])
+            out, hist = options.newton.solve(problem, k, theta0, scale0, offset0)
+            apply_outcome(fits[i], out, 0, problem)
+            fits[i].newton_history = hist
+    else:
+        ok = np.all(np.isfinite(z0), axis=1)
+        run_idx = np.flatnonzero(ok)
+        if run_idx.size:
+            out = options.solver.solve(problem, cards[run_idx], z0[run_idx],
+                                       history=options.history and m == 1,
+                                       workers=options.workers)
+            for j, i in enumerate(run_idx):
+                apply_outcome(fits[i], out, j, problem)
+            mark_edges(problem, cards[run_idx], z0[run_idx], fits, list(run_idx))
+        for i in np.flatnonzero(~ok):
+            # Not run: without this the row would say failed and nothing else.
+            fits[i].message = NO_START
+    for card in fits:
+        card.status = Status.CONVERGED if card.stop.converged else Status.FAILED
+        card.reason = card.message
+    summarize(problem, cards, fits)
+
+
+def _guard(problem: Problem, cards: NDArray[np.int64], fits: list[CardState], guess: Array,
+           options: JobOptions, depth: int) -> None:
+    """Stage 3: a doubtful fit from a user's guess is redone with the multistart."""
+    bad = [i for i in range(cards.size) if doubtful(problem, int(cards[i]), fits[i])]
+    if not bad:
+        return
+    guarded = run(problem, cards[bad], guess=np.asarray(guess, dtype=float)[bad],
+                  options=dataclasses.replace(options, multistart=True), depth=depth)
+    for j, i in enumerate(bad):
+        g = guarded[j]
+        first = fits[i]
+        if math.isfinite(g.cost) and not (g.cost >= first.cost):
+            g.warnings.append(
+                "the fit from the given guess looked wrong (status "
+                f"{first.status.key}, R^2 = {first.r2:.4g}); the automatic multistart found "
+                f"a better solution (cost {first.cost:.6g} -> {g.cost:.6g})")
+            g.evaluations += first.evaluations
+            g.done = True
+            fits[i] = g
+
+
+def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
+           options: JobOptions) -> None:
+    """Stage 4: a wider search where the answer does not explain the data (a wrong basin,
+    or a model that misses part of the response: then other basins compete)."""
+    m = cards.size
+    solver = options.solver
+    hard = [i for i in range(m) if not fits[i].done and np.all(np.isfinite(fits[i].z))
+            and doubtful(problem, int(cards[i]), fits[i])]
+    if not hard or options.wide is None:
+        return
+    z_now = np.array([fits[i].z for i in hard])
+    c_now = np.array([fits[i].cost for i in hard])
+    at = start_problem(problem, cards[hard])
+    if at is None:
+        z_wide, c_wide, counts = search_wider(problem, cards[hard], z_now, c_now,
+                                              plan=options.wide, solver=solver,
+                                              workers=options.workers)
+    else:
+        # Long cards search on their shorter copy, like the start; the whole record's cost
+        # then judges the point found.
+        local = np.arange(len(hard), dtype=np.int64)
+        z_wide, _c, counts = search_wider(at, local, z_now,
+                                          drive.cost_items(local, z_now, *at.arrays),
+                                          plan=options.wide, solver=solver,
+                                          workers=options.workers)
+        c_wide = drive.cost_items(cards[hard], z_wide, *problem.arrays)
+    better = [j for j, i in enumerate(hard) if c_wide[j] < fits[i].cost * (1 - 1e-12)]
+    if not better:
+        return
+    # The improved points are converged already: one more solver run from each gives them
+    # their stop test and history.
+    idx = [hard[j] for j in better]
+    again = solver.solve(problem, cards[idx], z_wide[better],
+                         history=options.history and m == 1, workers=options.workers)
+    for j, i in enumerate(idx):
+        before = fits[i].cost
+        evals = fits[i].evaluations
+        fits[i].evaluations = 0
+        fits[i].accepted = 0
+        apply_outcome(fits[i], again, j, problem)
+        fits[i].evaluations += evals
+        fits[i].status = Status.CONVERGED if fits[i].stop.converged else Status.FAILED
+        fits[i].reason = fits[i].message
+        fits[i].warnings.append(
+            f"the first answer did not explain the data; a wider search "
+            f"({int(counts[better[j]])} more starts) found a better optimum "
+            f"({cost_change(before, fits[i].cost)})")
+    mark_edges(problem, cards[idx], z_wide[better], fits, idx)
+    summarize(problem, cards, fits)
+
+
+def _boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
+                options: JobOptions, depth: int, allow_restart: bool) -> None:
+    """Stage 5: answers at a limit of the model; restarts next to a better reduced model."""
+    todo = [i for i in range(cards.size) if not fits[i].done]
+    if not todo:
+        return
+    reduced_options = JobOptions(method=options.method, solver=options.solver,
+                                 newton=options.newton, plan=options.plan, multistart="auto",
+                                 workers=options.workers, boundaries=True)
+
+    def refit(sub: Problem, guess: Array, c_start: Array | None) -> FitBatch:
+        return run_batch(sub, guess=guess, c_start=c_start, options=reduced_options,
+                         depth=depth + 1)
+
+    restarts = check_boundaries(problem, cards[todo], [fits[i] for i in todo], options, refit)
+    # Cards moved to a limit have a new point: their quality figures follow it.
+    moved = [i for i in todo if fits[i].limits]
+    if moved:
+        summarize(problem, cards[moved], [fits[i] for i in moved])
+    if not (restarts and allow_restart):
+        return
+    again_cards = np.array(sorted(restarts), dtype=np.int64)
+    again = run(problem, again_cards, guess=np.array([restarts[int(k)] for k in again_cards]),
+                options=dataclasses.replace(options, multistart=False), depth=depth,
+                allow_restart=False)
+    position = {int(k): i for i, k in enumerate(cards)}
+    for j, k in enumerate(again_cards):
+        i = position[int(k)]
+        a = again[j]
+        if math.isfinite(a.cost) and a.cost < fits[i].cost:
+            a.warnings.append(
+                "restarted next to a limiting model that fitted better than the first "
+                f"solution (cost {fits[i].cost:.6g} -> {a.cost:.6g})")
+            a.start = fits[i].start
+            a.done = True
+            fits[i] = a
+
+
+def run(problem: Problem, cards: NDArray[np.int64], *, guess: Array | None,
+        c_start: Array | None = None, offset_start: Array | None = None,
+        options: JobOptions, depth: int = 0, allow_restart: bool = True) -> list[CardState]:
+    """The main job's stages 1-5 for the given cards of a problem.
+
+    Parameters
+    ----------
+    problem : Problem
+    cards : array of int
+        The cards to fit.
+    guess : array, shape (cards, p), optional
+        Starting parameters per card (None: the automatic start).
+    c_start, offset_start : array, optional
+        Starting scale and (reported) offset per card (NaN: completed by least squares).
+    options : JobOptions
+    depth : int
+        0 for the user's fit, 1 and more for reduced models fitted by the boundary tests.
+    allow_restart : bool
+        False inside a restart (no second guard, wider search or restart).
+
+    Returns
+    -------
+    list of CardState
+        One per card, in order.
+    """
+    cards = np.asarray(cards, dtype=np.int64)
+    m = cards.size
+    fits = [CardState(z=np.full(problem.q, math.nan)) for _ in range(m)]
+    if m == 0:
+        return fits
+    auto = guess is None
+    lm = options.method == "lm"
+    if auto or (options.multistart is True and lm):
+        z0 = _automatic_start(problem, cards, fits, guess, options)
+    else:
+        z0 = _given_start(problem, cards, guess, c_start, offset_start, options)
+    _solve(problem, cards, fits, z0, options)
+    if not auto and options.multistart == "auto" and lm and allow_restart:
+        _guard(problem, cards, fits, guess, options, depth)
+    if options.multistart is not False and lm and allow_restart:
+        _widen(problem, cards, fits, options)
+    if options.boundaries:
+        _boundaries(problem, cards, fits, options, depth, allow_restart)
+    return fits
+
+
+def cost_change(before: float, after: float) -> str:
+    """``cost A -> B`` with enough digits that A and B differ in print, and the relative
+    change (a claim of a better optimum must show one)."""
+    digits = 6
+    while digits < 17 and f"{before:.{digits}g}" == f"{after:.{digits}g}":
+        digits += 1
+    rel = (before - after) / before if before > 0 else math.nan
+    return (f"cost {before:.{digits}g} -> {after:.{digits}g}, lower by {rel:.2g} of it"
+            if math.isfinite(rel) else f"cost {before:.{digits}g} -> {after:.{digits}g}")
+
+
+def run_batch(problem: Problem, *, guess: Array | None, c_start: Array | None = None,
+              offset_start: Array | None = None, options: JobOptions, depth: int = 0,
+              units: Units | Sequence[Units] | None = None,
+              warnings: Sequence[str] = ()) -> FitBatch:
+    """The whole job over every valid card of a problem, as a :class:`FitBatch`.
+
+    Stages 1-5 (:func:`run`), then (for the user's fit, ``depth`` 0) the diagnostics and
+    each card's result through the determination and quality gates. ``units`` is shared or
+    one per card; ``warnings`` are the option-level warnings every result carries.
+    """
+    valid = np.flatnonzero(problem.valid)
+    fits = run(problem, valid, guess=None if guess is None else np.asarray(guess)[valid],
+               c_start=None if c_start is None else np.asarray(c_start)[valid],
+               offset_start=None if offset_start is None else np.asarray(offset_start)[valid],
+               options=options, depth=depth)
+    per_card = (list(units) if units is not None and not isinstance(units, Units)
+                else [units or Units()] * problem.n_cards)
+    if depth == 0:
+        # A reduced model's fit is summarised (parameters, quality, status): no diagnostics.
+        diagnose(problem, valid, fits, per_card)
+    results: list[FitResult | None] = [None] * problem.n_cards
+    for j, k in enumerate(valid):
+        res = build_result(problem, int(k), fits[j], options, per_card[int(k)], warnings)
+        results[int(k)] = (quality_gate(determination_gate(res), options.min_r2)
+                           if depth == 0 else res)
+    return FitBatch(model_name=problem.model.__name__,
+                    param_names=problem.model.param_names(), results=tuple(results),
+                    invalid=problem.invalid)

@@ -1,0 +1,127 @@
+"""One verb: arrays, a card and a list of cards through ``pumpid.fit``.
+
+``data/pinned/verbs.json`` holds what the old verbs returned on the same data just before
+they were replaced by :func:`pumpid.fit` (``pumpid.fit(model, t, load, displacement, ...)``,
+``pumpid.fit_many``, ``pumpid.pump.fit_card`` and ``fit_cards``): the one verb must give the
+same numbers (the same code runs underneath, so they agree to rounding).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import pumpid
+from pumpid.cards import read_cards
+
+DATA = Path(__file__).parent / "data"
+PINNED = json.loads((DATA / "pinned" / "verbs.json").read_text())
+TRUTH = pumpid.Kelvin(k0=4.0, m=1.0, c1=0.2, k1=4.0)
+
+
+def _row(res: pumpid.FitResult) -> dict[str, Any]:
+    unc = res.uncertainty
+    return {"status": res.status.key, "cost": float(res.cost), "r2": float(res.r2),
+            "params": {k: float(v) for k, v in res.params.items()},
+            "scale": float(res.scale), "offset": float(res.offset),
+            "stderr": {} if unc is None else {k: float(v) for k, v in unc.stderr.items()}}
+
+
+def _same(new: dict[str, Any], old: dict[str, Any]) -> None:
+    assert new["status"] == old["status"]
+    for key in ("cost", "r2", "scale", "offset"):
+        assert new[key] == pytest.approx(old[key], rel=1e-9, abs=1e-12), key
+    for name, value in old["params"].items():
+        assert new["params"][name] == pytest.approx(value, rel=1e-9), name
+    assert set(new["stderr"]) == set(old["stderr"])
+    for name, value in old["stderr"].items():
+        if math.isfinite(value):
+            assert new["stderr"][name] == pytest.approx(value, rel=1e-6), name
+        else:
+            assert not math.isfinite(new["stderr"][name])
+
+
+def _arrays() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    t = np.linspace(0, 20, 400)
+    f = np.sin(0.9 * t) + 0.5 * np.sin(2.3 * t)
+    d = pumpid.simulate(TRUTH, t, f, observe="u")
+    d = d + 0.01 * np.ptp(d) * np.random.default_rng(3).standard_normal(t.size)
+    return t, f, d
+
+
+def test_arrays_give_the_old_answers() -> None:
+    t, f, d = _arrays()
+    u = pumpid.FitOptions(observe="u")
+    _same(_row(pumpid.fit(pumpid.Kelvin(k0=3, m=1.2, c1=0.3, k1=5), (t, f, d), options=u)),
+          PINNED["arrays_guess"])
+    _same(_row(pumpid.fit(pumpid.Kelvin, (t, f, d), options=u)), PINNED["arrays_auto"])
+
+
+def test_periodic_arrays_give_the_old_answers() -> None:
+    period = 6.0
+    tp = np.arange(120) * period / 120
+    w = 2 * np.pi / period
+    fp = (1000 + 400 * np.sin(w * tp) + 120 * np.sin(2 * w * tp + 0.4)) / 300
+    dp = pumpid.simulate(TRUTH, tp, fp, observe="u", initial_state="periodic",
+                         period=period) + 12.0
+    dp = dp + 0.01 * np.ptp(dp) * np.random.default_rng(4).standard_normal(tp.size)
+    res = pumpid.fit("kelvin", (tp, fp, dp),
+                     options=pumpid.FitOptions(observe="u", offset=True,
+                                               initial_state="periodic", period=period))
+    _same(_row(res), PINNED["arrays_periodic"])
+
+
+def test_many_arrays_give_the_old_batch() -> None:
+    t, f, d = _arrays()
+    loads = np.array([f, 1.1 * f, 0.9 * f])
+    disps = np.array([d, pumpid.simulate(TRUTH, t, 1.1 * f, observe="u"),
+                      pumpid.simulate(TRUTH, t, 0.9 * f, observe="u")])
+    batch = pumpid.fit(pumpid.Kelvin, (t, loads, disps),
+                       options=pumpid.FitOptions(observe="u"), workers=1)
+    assert isinstance(batch, pumpid.FitBatch)
+    for res, old in zip(batch.results, PINNED["many"], strict=True):
+        _same(_row(res), old)
+
+
+def test_a_card_a_list_of_cards_and_its_arrays_agree() -> None:
+    cards = read_cards(DATA / "cards" / "controller_export.txt")
+    for card, old in zip(cards[:3], PINNED["card_kelvin"], strict=True):
+        _same(_row(pumpid.fit(pumpid.Kelvin, card)), old)
+    batch = pumpid.fit(pumpid.Kelvin, cards[:3], workers=1)
+    for res, old in zip(batch.results, PINNED["cards_batch"], strict=True):
+        _same(_row(res), old)
+        assert res.card is not None
+    _same(_row(pumpid.fit("maxwell", cards[0], options=pumpid.FitOptions.for_cards(observe="u"))),
+          PINNED["card_maxwell_u"])
+    # The same card as arrays with the card preset gives the card's answer ...
+    card = cards[0]
+    as_arrays = pumpid.fit(pumpid.Kelvin, (card.t, card.load, card.position),
+                           options=pumpid.FitOptions.for_cards(initial_state="periodic",
+                                                               period=card.period))
+    _same(_row(as_arrays), PINNED["card_kelvin"][0])
+    # ... and as plain arrays the plain defaults (from rest, no offset), as before.
+    _same(_row(pumpid.fit(pumpid.Kelvin, (card.t, card.load, card.position))),
+          PINNED["card_arrays_default"])
+
+
+def test_options_are_validated_and_serialisable() -> None:
+    opts = pumpid.FitOptions.for_cards(observe="u", fixed={"m": 2}, initial_state=[0.0, 0.0])
+    assert opts.fixed == {"m": 2.0} and opts.initial_state == (0.0, 0.0)
+    again = pumpid.FitOptions.from_dict(json.loads(json.dumps(opts.to_dict())))
+    assert again == opts
+    for bad in ({"integrator": "rk4"}, {"scale": -1.0}, {"min_r2": 2.0},
+                {"initial_state": "steady"}, {"period": 0.0}, {"multistart": "yes"},
+                {"offset": "yes"}, {"fixed": {"m": "heavy"}}):
+        with pytest.raises(ValueError, match="FitOptions"):
+            pumpid.FitOptions(**bad)
+    with pytest.raises(ValueError, match="unknown option"):
+        pumpid.FitOptions.from_dict({"tol": 1e-8})
+    with pytest.raises(TypeError, match="solver"):
+        pumpid.fit("kelvin", _arrays(), solver="lm")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="data"):
+        pumpid.fit("kelvin", {"t": [1, 2, 3]})  # type: ignore[arg-type]
