@@ -1,0 +1,112 @@
+"""A model that brings its own simulator and sensitivities, through ``pumpid.fit``.
+
+The step response of a first-order system with a signed gain and a baseline,
+y = b + g (1 - exp(-t / tau)): tau positive (log scale), g and b signed. Closed form, so
+the fitted values, their errors and the coverage of the intervals can be checked exactly.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import pumpid
+from pumpid import CardData, OwnModel, Parameter
+
+
+class Step(OwnModel):
+    name = "step response"
+    parameters = (Parameter("tau", "s", start=1.0),
+                  Parameter("g", "V", lower=-math.inf, start=1.0),
+                  Parameter("b", "V", lower=-math.inf, start=0.0))
+    output, output_unit = "voltage", "V"
+
+    def simulate(self, values, data, sensitivities):
+        tau, g, b = values
+        t = np.asarray(data.t, dtype=float)
+        e = np.exp(-t / tau)
+        y = b + g * (1.0 - e)
+        if not sensitivities:
+            return y, None
+        return y, np.column_stack([-g * e * t / tau**2, 1.0 - e, np.ones_like(t)])
+
+
+T = np.linspace(0.0, 10.0, 200)
+TRUTH = np.array([2.0, -3.0, 0.5])
+
+
+def _record(seed: int, noise: float = 0.02) -> CardData:
+    y, _ = Step().simulate(TRUTH, CardData(T, T, T), False)
+    rng = np.random.default_rng(seed)
+    return CardData(T, np.zeros_like(T), y + noise * rng.standard_normal(T.size))
+
+
+def test_an_own_model_is_fitted_with_errors_statuses_and_words() -> None:
+    res = pumpid.fit(Step(), _record(1))
+    assert isinstance(res, pumpid.FitResult)
+    assert res.status is pumpid.Status.CONVERGED
+    assert res.model_name == "step response"
+    assert res.r2 > 0.99
+    for name, truth in zip(("tau", "g", "b"), TRUTH, strict=True):
+        se = res.stderr[name]
+        assert 0 < se < 0.2 * abs(truth)
+        assert abs(res.params[name] - truth) < 5 * se
+        lo, hi = res.ci95[name]
+        assert lo < res.params[name] < hi
+    # A signed parameter's interval is symmetric; a positive one's is on the log scale.
+    lo, hi = res.ci95["g"]
+    assert hi - res.params["g"] == pytest.approx(res.params["g"] - lo)
+    lo, hi = res.ci95["tau"]
+    assert res.params["tau"] / lo == pytest.approx(hi / res.params["tau"])
+    assert res.param_units() == {"tau": "s", "g": "V", "b": "V"}
+    assert set(res.determined["parameters"]) == {"tau", "g", "b"}
+    assert "tau" in res.to_json() and "step response" in res.report()
+
+
+def test_intervals_cover_the_truth_about_95_percent() -> None:
+    hits = np.zeros(3)
+    n = 200
+    for seed in range(n):
+        res = pumpid.fit(Step(), _record(seed))
+        for j, name in enumerate(("tau", "g", "b")):
+            lo, hi = res.ci95[name]
+            hits[j] += lo <= TRUTH[j] <= hi
+    coverage = hits / n
+    assert np.all((coverage > 0.89) & (coverage < 0.995)), coverage
+
+
+def test_correlated_noise_shows_the_robust_errors() -> None:
+    rng = np.random.default_rng(5)
+    e = np.zeros(T.size)
+    for i in range(1, T.size):
+        e[i] = 0.9 * e[i - 1] + 0.02 * rng.standard_normal()
+    rec = _record(0, noise=0.0)
+    rec = CardData(rec.t, rec.load, np.asarray(rec.data) + e)
+    res = pumpid.fit(Step(), rec)
+    assert res.uncertainty.shown == "robust"
+    assert res.stderr["tau"] > 2 * res.uncertainty.stderr_white["tau"]
+
+
+def test_a_parameter_the_data_cannot_see_is_a_boundary() -> None:
+    # A flat record: the response never rises, so tau runs to a limit.
+    rec = CardData(T, np.zeros_like(T), 0.5 + 0.01 * np.random.default_rng(2).standard_normal(T.size))
+    res = pumpid.fit(Step(), rec, x0={"tau": 1.0, "g": 0.0001, "b": 0.5},
+                     options=pumpid.FitOptions(min_r2=-1.0))
+    assert res.status in (pumpid.Status.BOUNDARY, pumpid.Status.UNDETERMINED)
+    assert "tau" not in res.determined.get("parameters", [])
+
+
+def test_many_records_fixed_parameters_and_refusals() -> None:
+    batch = pumpid.fit(Step(), [_record(1), _record(2), CardData(T[:2], T[:2], T[:2])],
+                       options=pumpid.FitOptions(fixed={"b": 0.5}))
+    assert isinstance(batch, pumpid.FitBatch)
+    assert batch.results[0].params["b"] == 0.5 and batch.results[0].free == ("tau", "g")
+    assert batch.results[2] is None and "at least 3 samples" in batch.invalid[2]
+    with pytest.raises(ValueError, match="does not apply to an own model"):
+        pumpid.fit(Step(), _record(1), options=pumpid.FitOptions(observe="u"))
+    with pytest.raises(ValueError, match="unknown parameter"):
+        pumpid.fit(Step(), _record(1), options=pumpid.FitOptions(fixed={"k": 1.0}))
+    with pytest.raises(TypeError, match="LevenbergMarquardt"):
+        pumpid.fit(Step(), _record(1), solver=pumpid.PaperNewton())
