@@ -2,7 +2,7 @@
 
 A steady synthetic well (the bundled example's Kelvin model, 130 samples a card, 0.3 %
 noise, the pumping speed jittered by 1 %) is fitted jointly on its first 1, 2, 4, 8, 16
-and 32 cards (1: the card alone, by ``fit_card``), and the Sandia public pairs (two
+and 32 cards (1: the card alone), and the Sandia public pairs (two
 consecutive strokes of each of two wells, ``../shared/data/raw``, skipped when absent)
 alone and jointly.
 
@@ -18,11 +18,11 @@ import numpy as np
 
 import pumpid
 from pumpid.cards import read_cards
-from pumpid.pump import fit_card, fit_joint
 from pumpid.pump.synthetic import synthetic_card
 
 RAW = Path(__file__).resolve().parents[2] / "shared" / "data" / "raw"
 TRUTH = pumpid.Kelvin(k0=200.0, m=8.8, c1=40.0, k1=130.0)
+JOINT = pumpid.FitOptions.for_cards(joint=True)
 
 
 def main() -> None:
@@ -34,14 +34,10 @@ def main() -> None:
     print(f"steady well, truth {TRUTH.as_dict()}: estimate +/- standard error")
     print(f"{'cards':>6}  " + "  ".join(f"{n:>20}" for n in names) + "   se(m) x sqrt(cards)")
     for n in (1, 2, 4, 8, 16, 32):
-        if n == 1:
-            res = fit_card(well[0])
-            est = dict(res.params)
-            se = {k: res.uncertainty.stderr.get(k, math.nan) if res.uncertainty else math.nan
-                  for k in names}
-        else:
-            joint = fit_joint(well[:n])
-            est, se = joint.params, joint.stderr
+        res = (pumpid.fit(pumpid.Kelvin, well[0]) if n == 1
+               else pumpid.fit(pumpid.Kelvin, well[:n], options=JOINT))
+        est = dict(res.params)
+        se = {k: res.stderr.get(k, math.nan) for k in names}
         print(f"{n:>6}  " + "  ".join(f"{est[k]:>10.4g} +/- {se[k]:<7.2g}" for k in names)
               + f"   {se['m'] * math.sqrt(n):.3g}")
     path = RAW / "sandia_dds" / "surface_cards.csv"
@@ -51,7 +47,8 @@ def main() -> None:
     cards = {c.card_id: c.with_dt(0.075) for c in read_cards(path)}
     for a, b in (("SX6E03A", "SX6E03B"), ("SX6I03A", "SX6I03B")):
         print()
-        print(fit_joint([cards[a], cards[b]]).report())
+        joint = pumpid.fit(pumpid.Kelvin, [cards[a], cards[b]], options=JOINT)
+        print(joint.report())
 
 
 if __name__ == "__main__":

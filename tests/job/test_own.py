@@ -91,7 +91,8 @@ def test_correlated_noise_shows_the_robust_errors() -> None:
 
 def test_a_parameter_the_data_cannot_see_is_a_boundary() -> None:
     # A flat record: the response never rises, so tau runs to a limit.
-    rec = CardData(T, np.zeros_like(T), 0.5 + 0.01 * np.random.default_rng(2).standard_normal(T.size))
+    flat = 0.5 + 0.01 * np.random.default_rng(2).standard_normal(T.size)
+    rec = CardData(T, np.zeros_like(T), flat)
     res = pumpid.fit(Step(), rec, x0={"tau": 1.0, "g": 0.0001, "b": 0.5},
                      options=pumpid.FitOptions(min_r2=-1.0))
     assert res.status in (pumpid.Status.BOUNDARY, pumpid.Status.UNDETERMINED)

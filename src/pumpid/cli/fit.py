@@ -41,10 +41,7 @@ from ..report.spreadsheet import LINE_END, neutralise_row
 from ..result import FitResult
 from .common import (
     EXIT_INTERRUPTED,
-    EXIT_NOT_FITTED,
-    EXIT_OK,
     EXIT_OUTPUT,
-    EXIT_UNDETERMINED,
     CliError,
     add_card_options,
     check_fit_options,
@@ -468,28 +465,38 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
         yield path, chosen, refused
 
 
-def _joint_document(joint: Any, cards: Sequence[Card]) -> dict[str, Any]:
+def _joint_document(joint: FitResult, cards: Sequence[Card]) -> dict[str, Any]:
     """``--joint --json``: the ``{"cards": [...], "summary": {...}}`` every ``--json`` has.
 
-    Each card's element holds what the joint fit says of it (its offset, R^2, RMSE and its
-    own fit's parameters); the summary holds the shared parameters (``summary["joint"]``,
-    :meth:`pumpid.pump.JointFit.to_dict`).
+    Each card's element holds what the joint fit says of it (its level and offset, R^2, RMSE
+    and its own fit's parameters); the summary holds the joint fit itself
+    (``summary["joint"]``, the result's JSON form).
     """
-    elements = [{"status": joint.status, "reason": joint.message,
-                 "card": {"id": card.card_id, "source": card.source},
-                 "offset": joint.offsets[i], "r2": joint.r2[i], "rmse": joint.rmse[i],
-                 "single": dict(joint.single[i]), "output": None}
-                for i, card in enumerate(cards)]
-    summary = {"cards": len(cards), "status": {joint.status: len(cards)},
+    part = joint.application["joint"]["cards"]
+    elements = [{"status": joint.status.key, "reason": joint.reason,
+                 "card": {"id": card.card_id, "source": card.source}, **own, "output": None}
+                for card, own in zip(cards, part, strict=True)]
+    summary = {"cards": len(cards), "status": {joint.status.key: len(cards)},
                "interrupted": False, "output": None, "index": None,
                "model": joint.model_name, "joint": joint.to_dict()}
     return {"cards": elements, "summary": summary}
 
 
-def _cmd_joint(args: argparse.Namespace, setup: FitSetup) -> int:
-    """--joint: one parameter set for every card of the files (pumpid.pump.fit_joint)."""
-    from ..pump import fit_joint
+def _joint_text(joint: FitResult) -> str:
+    """The joint fit's report and a line per card."""
+    pos = joint.units.position
+    lines = [joint.report(), "", "  per card: level (position at its mean load), offset (at "
+             "zero load), R^2, RMSE, and the card's own fit:"]
+    for c in joint.application["joint"]["cards"]:
+        own = ", ".join(f"{k} = {v:.4g}" for k, v in c["single"].items())
+        lines.append(f"  {c['card']}: level = {c['level']:.6g} {pos}, offset = "
+                     f"{c['offset']:.6g} {pos}, R^2 = {c['r2']:.6f}, RMSE = {c['rmse']:.4g} "
+                     f"{pos}; alone: {own}")
+    return "\n".join(lines)
 
+
+def _cmd_joint(args: argparse.Namespace, setup: FitSetup) -> int:
+    """--joint: one parameter set for every card of the files (``FitOptions(joint=True)``)."""
     if setup.auto or setup.x0_extras is not None or args.out or args.predict:
         raise CliError("--joint takes one model (not auto), no --x0, --out or --predict")
     cards: list[Card] = []
@@ -499,7 +506,12 @@ def _cmd_joint(args: argparse.Namespace, setup: FitSetup) -> int:
         if refused:
             raise CliError(f"{printable(path)}: {refused[0].reason}")
         cards.extend(read)
-    joint = fit_joint(cards, setup.cls, observe=setup.options.get("observe"))
+    try:
+        joint = fit(setup.cls, cards, options=setup.fit_options(cards[0]).replace(
+            joint=True, offset=True), solver=setup.solver())
+    except (ValueError, TypeError) as exc:
+        raise CliError(str(exc)) from None
+    assert isinstance(joint, FitResult)
     if args.json:
         import json
 
@@ -507,10 +519,8 @@ def _cmd_joint(args: argparse.Namespace, setup: FitSetup) -> int:
 
         print(json.dumps(jsonable(_joint_document(joint, cards)), indent=2, allow_nan=False))
     else:
-        print(printable_block(joint.report()))
-    if joint.status == "undetermined":
-        return EXIT_UNDETERMINED
-    return EXIT_OK if joint.status in ("converged", "boundary") else EXIT_NOT_FITTED
+        print(printable_block(_joint_text(joint)))
+    return exit_status({joint.status.key: 1})
 
 
 def cmd_fit(args: argparse.Namespace) -> int:

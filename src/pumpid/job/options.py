@@ -110,6 +110,11 @@ class FitOptions:
     boundaries : bool
         Detect answers at a limit of the model (a parameter running to zero or infinity)
         and test the limiting model; off only to study the raw optimum.
+    joint : bool
+        For many cards (or records): one parameter set shared by all of them, each keeping
+        its own position level (:mod:`pumpid.job.joint`); the answer is one
+        :class:`~pumpid.result.FitResult` whose ``application["joint"]`` holds each card's
+        part.
 
     Examples
     --------
@@ -130,6 +135,7 @@ class FitOptions:
     multistart: bool | Literal["auto"] = "auto"
     min_r2: float = MIN_R2
     boundaries: bool = True
+    joint: bool = False
 
     def __post_init__(self) -> None:
         if self.observe is not None and not isinstance(self.observe, str):
@@ -169,6 +175,8 @@ class FitOptions:
             raise _bad("min_r2", self.min_r2, "a number at most 1")
         if not isinstance(self.boundaries, bool):
             raise _bad("boundaries", self.boundaries, "True or False")
+        if not isinstance(self.joint, bool):
+            raise _bad("joint", self.joint, "True or False")
 
     @classmethod
     def for_cards(cls, **changes: Any) -> FitOptions:

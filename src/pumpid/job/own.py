@@ -247,7 +247,7 @@ def _fit_item(model: OwnModel, item: Any, options: FitOptions, solver: Levenberg
     # "auto" and False solve from the best start; True from every start, keeping the best.
     tries = [int(order[0])] if options.multistart is not True else [
         int(k) for k in order if np.isfinite(costs[k])]
-    best: tuple[SolverOutcome, Array, Array] | None = None
+    best: tuple[SolverOutcome, Array, Array, Array] | None = None
     for k in tries:
         z0 = zs[k]
         lo, hi = prob.window(z0)
@@ -255,16 +255,16 @@ def _fit_item(model: OwnModel, item: Any, options: FitOptions, solver: Levenberg
                          max_evaluations=solver.budget(prob.q), n_capped=prob.n_log)
         if best is None or (math.isfinite(out.cost[0])
                             and not out.cost[0] >= best[0].cost[0]):
-            best = (out, lo, hi)
+            best = (out, z0, lo, hi)
     assert best is not None
-    out, lo, hi = best
+    out, z0, lo, hi = best
     note = (f"start: {'the given x0' if x0 is not None else model.name + '.start()'}"
             f"{f', best of {len(zs)} by cost' if len(zs) > 1 else ''}"
             f"{f', solved from {len(tries)}' if len(tries) > 1 else ''}")
-    return _result(prob, out, lo, hi, options, StartInfo(note, len(zs), len(tries)))
+    return _result(prob, out, z0, lo, hi, options, StartInfo(note, len(zs), len(tries)))
 
 
-def _limits(prob: _Item, z: Array, cost: float, lo: Array, hi: Array,
+def _limits(prob: _Item, z: Array, z0: Array, cost: float, lo: Array, hi: Array,
             sigma2: float) -> tuple[Limiting, ...]:
     """The parameters at a boundary (see the module's text)."""
     found: list[Limiting] = []
@@ -280,21 +280,26 @@ def _limits(prob: _Item, z: Array, cost: float, lo: Array, hi: Array,
                 found.append(Limiting(par.name, side, value,
                                       f"{par.name} = {getattr(par, side):g} {par.unit}", "bound"))
             continue
+        flat = []
         for direction, step in (("zero", -math.log(PUSH)), ("infinity", math.log(PUSH))):
             at_edge = edge_lo if direction == "zero" else edge_hi
             zz = z.copy()
             zz[a] += step
             pushed = prob.cost(zz)
             if at_edge or (math.isfinite(pushed) and pushed - cost <= tol):
-                found.append(Limiting(par.name, direction, value,
-                                      f"{par.name} -> {'0' if direction == 'zero' else 'inf'}",
-                                      "push"))
-                break
+                flat.append(direction)
+        if flat:
+            # Flat both ways: the limit is the way the fit went from its start.
+            direction = flat[0] if len(flat) == 1 else (
+                "infinity" if z[a] >= z0[a] else "zero")
+            found.append(Limiting(par.name, direction, value,
+                                  f"{par.name} -> {'0' if direction == 'zero' else 'inf'}",
+                                  "push"))
     return tuple(found)
 
 
-def _result(prob: _Item, out: SolverOutcome, lo: Array, hi: Array, options: FitOptions,
-            start: StartInfo) -> FitResult:
+def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
+            options: FitOptions, start: StartInfo) -> FitResult:
     model = prob.model
     z = out.z[0]
     theta = prob.theta(z)
@@ -319,7 +324,7 @@ def _result(prob: _Item, out: SolverOutcome, lo: Array, hi: Array, options: FitO
     limits: tuple[Limiting, ...] = ()
     n = y.size
     if options.boundaries and finite and n > prob.q:
-        limits = _limits(prob, z, cost, lo, hi, 2.0 * cost / (n - prob.q))
+        limits = _limits(prob, z, z0, cost, lo, hi, 2.0 * cost / (n - prob.q))
     if limits and status is Status.CONVERGED:
         status = Status.BOUNDARY
         reason = (f"{reason}; {', '.join(b.name for b in limits)} ran to a bound: the solution "
@@ -328,6 +333,7 @@ def _result(prob: _Item, out: SolverOutcome, lo: Array, hi: Array, options: FitO
     uncertainty = None
     findings: tuple[str, ...] = ()
     determined: dict[str, Any] = {}
+    derived: Mapping[str, Any] = {}
     names = prob.model.param_names()
     if rows is not None:
         inner = np.array([n not in {b.name for b in limits} for n in free_names])
@@ -346,6 +352,8 @@ def _result(prob: _Item, out: SolverOutcome, lo: Array, hi: Array, options: FitO
                       initial_state=model.name, residual="linear", limits=limits,
                       unit=f"{model.output_unit}^2")
         uncertainty, findings, determined = said.uncertainty, said.findings, said.determined
+        derived = model.derived(theta, said.numbers, said.serial,
+                                [(b.name, b.direction) for b in limits])
         if said.warning:
             warnings.append(said.warning)
     else:
@@ -366,11 +374,12 @@ def _result(prob: _Item, out: SolverOutcome, lo: Array, hi: Array, options: FitO
         params=dict(zip(names, theta.tolist(), strict=True)), scale=1.0, offset=0.0,
         iterations=int(out.accepted[0]), nfev=int(out.evaluations[0]), history=history,
         rmse=rmse, r2=r2, cost=cost, warnings=tuple(warnings), method="lm",
-        integrator=f"{model.name}.simulate", residual="linear", observe=model.output,
-        initial_state="defined by the model",
-        units=Units(load="input-unit", position=model.output_unit), free=free_names,
+        integrator=model.integrator, residual="linear", observe=model.output,
+        initial_state=model.initial_state,
+        units=Units(load=model.input_unit, position=model.output_unit), free=free_names,
         t=np.arange(n, dtype=float) if t is None else t,
         load=np.full(n, np.nan) if drive_in is None else drive_in, data=y, fitted=fitted,
         jacobian=jac, uncertainty=uncertainty, identifiability=findings,
-        determined=determined, boundary=BoundaryInfo(limits) if limits else None, start=start)
+        determined=determined, derived=derived,
+        boundary=BoundaryInfo(limits) if limits else None, start=start)
     return quality_gate(determination_gate(result), options.min_r2)

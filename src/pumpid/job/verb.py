@@ -27,6 +27,7 @@ from ..engine.solvers import LevenbergMarquardt, PaperNewton
 from ..engine.threads import default_workers
 from ..models import Model, OwnModel, model_class
 from ..result import CardInfo, FitBatch, FitResult, Units
+from .joint import StackedCards, joint_part
 from .options import FitOptions, job_options
 from .own import fit_own
 from .run import run_batch
@@ -210,6 +211,8 @@ def fit(
     if isinstance(model, str):
         model = model_class(model)
     unit_rows = _unit_rows(items, units)
+    if options.joint:
+        return _fit_joint(model, items, single, options, solver, x0, unit_rows, workers)
     if single:
         return _fit_one(model, items[0], options, solver, x0, unit_rows[0])
     return _fit_many(model, items, options, solver, x0, unit_rows, workers)
@@ -293,6 +296,46 @@ def _fit_many(model: Model | type[Model], items: Sequence[Any], options: FitOpti
                     else r for r, x in zip(batch.results, items, strict=True))
     return FitBatch(model_name=batch.model_name, param_names=batch.param_names,
                     results=results, invalid=batch.invalid)
+
+
+def _fit_joint(model: Model | type[Model], items: Sequence[Any], single: bool,
+               options: FitOptions, solver: Solver | None, x0: Any, units: list[Units],
+               workers: int | None) -> FitResult:
+    """One parameter set for every item (:mod:`pumpid.job.joint`), started from each item's
+    own fit."""
+    if single or len(items) < 2:
+        raise ValueError("a joint fit needs a sequence of at least two cards or records")
+    if len({(u.load, u.position) for u in units}) > 1:
+        raise ValueError(f"joint fit: the cards are in different units "
+                         f"{sorted({(u.load, u.position) for u in units})}; convert them first "
+                         "(Card.to_units)")
+    if (options.fixed or options.scale != 1.0 or options.offset is not True
+            or options.residual != "linear"):
+        raise ValueError("joint fit: needs the fixed scale C = 1, the linear residual, a "
+                         "fitted offset (FitOptions.for_cards) and no fixed parameters")
+    if isinstance(solver, PaperNewton):
+        raise TypeError("a joint fit is solved with LevenbergMarquardt")
+    alone = options.replace(joint=False)
+    singles = _fit_many(model, items, alone, solver, x0, units, workers)
+    ids = [str(x.card_id) if isinstance(x, Card) else f"record {i + 1}"
+           for i, x in enumerate(items)]
+    bad = [ids[i] for i, r in enumerate(singles.results)
+           if r is None or not np.all(np.isfinite(list(r.params.values())))]
+    if bad:
+        raise ValueError(f"joint fit: {', '.join(bad)} could not be fitted alone; leave them "
+                         "out")
+    records = [card_record(x, alone) if isinstance(x, Card) else _record(x, alone)
+               for x in items]
+    first = singles.results[0]
+    assert first is not None
+    cls = type(model) if isinstance(model, Model) else model
+    stacked = StackedCards(cls, records, first.observe, units[0], singles,
+                           integrator=options.integrator)
+    own = FitOptions(multistart=True if options.multistart is not False else "auto",
+                     min_r2=options.min_r2, boundaries=options.boundaries)
+    res = fit_own(stacked, [records], single=True, options=own, solver=solver, x0=None)
+    assert isinstance(res, FitResult)
+    return res.with_parts(application={"joint": joint_part(stacked, res, ids)})
 
 
 def _batch_guess(cls: type[Model], shared: Array | None, x0: Any, n_cards: int

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import abc
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -104,6 +104,11 @@ class OwnModel(abc.ABC):
     #: What the observation is and its unit (for reports).
     output: str = "output"
     output_unit: str = "1"
+    #: The unit of the input that drives it (for reports).
+    input_unit: str = "1"
+    #: How it simulates and from what state, in words (for reports).
+    integrator: str = "the model's own simulator"
+    initial_state: str = "defined by the model"
 
     @abc.abstractmethod
     def simulate(self, values: Array, data: Any, sensitivities: bool
@@ -161,6 +166,28 @@ class OwnModel(abc.ABC):
             raise ValueError(f"{self.name}: no start for {missing}; give Parameter(start=...) "
                              "or override start()")
         return np.array([float(p.start) for p in self.parameters])  # type: ignore[arg-type]
+
+    def derived(self, values: Array, numbers: Any, serial: bool,
+                limits: Sequence[tuple[str, str]]) -> Mapping[str, Any]:
+        """Quantities derived from the parameters, with their errors (default: none).
+
+        Parameters
+        ----------
+        values : ndarray, shape (p,)
+            The fitted values.
+        numbers : pumpid.inference.uncertainty.Numbers
+            The analysis at the optimum (covariances over the solver's coordinates: the
+            logarithm of each positive parameter, a signed one as it is).
+        serial : bool
+            The residuals are serially correlated (the robust errors are shown).
+        limits : sequence of (name, direction)
+            Parameters at a boundary.
+
+        Returns
+        -------
+        mapping of str to pumpid.inference.derived.Derived
+        """
+        return {}
 
     # What the result needs to describe the fitted values like a lumped model's.
     def param_names(self) -> tuple[str, ...]:

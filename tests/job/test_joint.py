@@ -1,0 +1,85 @@
+"""Joint fits: one parameter set for several strokes of a well, a level per card, through
+``pumpid.fit(..., options=FitOptions.for_cards(joint=True))``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import pumpid
+from pumpid.cards import read_cards
+from pumpid.cli import main
+from pumpid.pump.synthetic import synthetic_card
+
+EXAMPLE = pumpid.__path__[0] + "/data/example_cards.csv"
+TRUTH = pumpid.Kelvin(k0=200.0, m=8.8, c1=40.0, k1=130.0)  # the example's generator
+JOINT = pumpid.FitOptions.for_cards(joint=True)
+
+
+def steady_well(n: int) -> list:
+    rng = np.random.default_rng(0)
+    return [synthetic_card(TRUTH, spm=8.0 * (1 + 0.01 * rng.standard_normal()),
+                           n_samples=130, observe="u", noise=0.003, seed=rng,
+                           card_id=f"s{i}") for i in range(n)]
+
+
+def test_the_example_strokes_give_the_truth_within_their_errors() -> None:
+    joint = pumpid.fit(pumpid.Kelvin, read_cards(EXAMPLE), options=JOINT)
+    assert isinstance(joint, pumpid.FitResult)
+    assert joint.status is pumpid.Status.CONVERGED, joint.reason
+    part = joint.application["joint"]
+    assert [c["card"] for c in part["cards"]] == ["EX-1A", "EX-1B"]
+    for name, value in TRUTH.as_dict().items():
+        assert abs(joint.params[name] - value) <= 3 * joint.stderr[name], name
+    assert joint.derived["static_stiffness"].value == pytest.approx(
+        1 / (1 / 200.0 + 1 / 130.0), rel=0.01)
+    assert all(c["r2"] > 0.9999 for c in part["cards"])
+    # Each card's offset at zero load is its level less the mean response.
+    alone = [pumpid.fit(pumpid.Kelvin, c) for c in read_cards(EXAMPLE)]
+    for c, own in zip(part["cards"], alone, strict=True):
+        assert c["offset"] == pytest.approx(own.offset, abs=0.02 * abs(own.offset) + 1e-3)
+    assert "joint" in joint.to_json() and "(joint, 2 cards)" in joint.report()
+
+
+def test_errors_shrink_about_as_one_over_the_root_of_the_number_of_cards() -> None:
+    well = steady_well(16)
+    few = pumpid.fit(pumpid.Kelvin, well[:4], options=JOINT)
+    many = pumpid.fit(pumpid.Kelvin, well, options=JOINT)
+    for name in ("m", "c1", "k1"):
+        ratio = (many.uncertainty.stderr_white[name] / few.uncertainty.stderr_white[name])
+        assert 0.3 <= ratio <= 0.8, (name, ratio)  # 1 / sqrt(4) = 0.5
+
+
+def test_bad_requests_are_refused() -> None:
+    cards = read_cards(EXAMPLE)
+    with pytest.raises(ValueError, match="at least two"):
+        pumpid.fit(pumpid.Kelvin, cards[:1], options=JOINT)
+    with pytest.raises(ValueError, match="different units"):
+        pumpid.fit(pumpid.Kelvin, [cards[0], cards[1].to_units(position="m")], options=JOINT)
+    with pytest.raises(ValueError, match="fixed scale"):
+        pumpid.fit(pumpid.Kelvin, cards, options=JOINT.replace(scale="free"))
+
+
+def test_the_cli_fits_the_files_cards_jointly(capsys) -> None:
+    assert main(["fit", EXAMPLE, "--joint"]) == 0
+    out = capsys.readouterr().out
+    assert "Kelvin (joint, 2 cards)" in out and "EX-1A" in out
+    assert main(["fit", EXAMPLE, "--joint", "--model", "auto"]) == 2
+
+
+@pytest.mark.realdata
+def test_a_parameter_the_strokes_do_not_hold_is_not_called_converged(shared_raw) -> None:
+    # Sandia's downhole record split into its strokes: the old joint fit stopped anywhere
+    # along the limits and called it converged (on a real well: k0 = 3.6e10 +- 9.3e13).
+    from pumpid.cards import split_strokes
+
+    record = read_cards(shared_raw / "sandia_dds" / "downhole_timeseries.csv")[0]
+    joint = pumpid.fit(pumpid.Kelvin, split_strokes(record), options=JOINT)
+    assert joint.status in (pumpid.Status.BOUNDARY, pumpid.Status.UNDETERMINED), joint.reason
+    assert joint.uncertainty.shown == "robust"
+    determined = set(joint.determined.get("parameters", []))
+    for name in pumpid.Kelvin.param_names():
+        se = joint.stderr[name]
+        if name in determined:
+            assert se <= abs(joint.params[name])
+        assert not joint.uncertainty.stderr_white[name] > se
