@@ -26,7 +26,9 @@ from .common import (
     EXIT_INTERRUPTED,
     EXIT_USAGE,
     CliError,
+    add_fit_options,
     check_fit_options,
+    columns_option,
     err_block,
     exit_status,
     rate_option,
@@ -34,10 +36,6 @@ from .common import (
 
 __all__ = ["cmd_batch", "register"]
 
-
-
-def _column(value: str | None) -> str | int | None:
-    return int(value) if value is not None and value.isdigit() else value
 
 
 def _specs(args: argparse.Namespace) -> tuple[Any, Any]:
@@ -50,11 +48,11 @@ def _specs(args: argparse.Namespace) -> tuple[Any, Any]:
     fit = (FitSpec.from_dict(earlier.get("fit", {})) if earlier else FitSpec()).to_dict()
     read = (ReadOptions.from_dict(earlier.get("read", {})) if earlier
             else ReadOptions()).to_dict()
-    columns = {k: _column(getattr(args, f"{k}_col")) for k in ("t", "load", "position")
-               if getattr(args, f"{k}_col") is not None}
+    columns = columns_option(args.columns, t=args.t_col, load=args.load_col,
+                             position=args.position_col)
     if columns:
         read["columns"] = columns
-    for key in ("format", "position_unit", "load_unit", "spm", "period"):
+    for key in ("format", "position_unit", "load_unit", "spm", "period", "encoding"):
         if getattr(args, key) is not None:
             read[key] = getattr(args, key)
     if args.split_strokes:
@@ -62,8 +60,12 @@ def _specs(args: argparse.Namespace) -> tuple[Any, Any]:
     for key in ("model", "offset"):
         if getattr(args, key) is not None:
             fit[key] = getattr(args, key)
+    auto = fit["model"] == "auto"
+    if auto and (args.observe or args.x0):
+        raise CliError("--model auto compares the structures and their observed outputs "
+                       "itself: give neither --observe nor --x0")
     try:
-        cls = model_class(fit["model"])
+        cls = model_class("kelvin" if auto else fit["model"])
     except ValueError as exc:
         raise CliError(str(exc)) from None
     # The options given are checked as pumpid fit checks them (a resumed run's own options
@@ -76,9 +78,11 @@ def _specs(args: argparse.Namespace) -> tuple[Any, Any]:
     if "x0" in checked:
         fit["x0"] = checked["x0"]
     options = dict(fit["options"])
-    for key in ("integrator", "residual"):
+    for key in ("integrator", "residual", "method"):
         if getattr(args, key) is not None:
             options[key] = getattr(args, key)
+    if options.get("method") == "newton-fd" and "max_nfev" in checked:
+        raise CliError("--max-nfev limits the lm method; newton-fd runs its own iteration limit")
     options.update({k: checked[k] for k in ("observe", "scale", "min_r2", "max_nfev")
                     if k in checked})
     fit["options"] = options
@@ -222,6 +226,9 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     rd.add_argument("--period", type=float, help="stroke period in s (cards without time)")
     rd.add_argument("--load-unit", help="load unit of the files: lbf, klbf, N, kN, kgf")
     rd.add_argument("--position-unit", help="position unit of the files: in, ft, m")
+    rd.add_argument("--encoding", help="text encoding of the files (default: detected)")
+    rd.add_argument("--columns", metavar="ROLE=COL[,...]",
+                    help="column roles, e.g. position=1,load=0 (names or 0-based indices)")
     rd.add_argument("--t-col", help="time column (name, or index for tables without header)")
     rd.add_argument("--load-col", help="load column")
     rd.add_argument("--position-col", help="position column")
@@ -229,21 +236,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                     help="split multi-stroke time records into strokes (ids CARD#0, ...)")
     ft = p.add_argument_group(
         "fitting (as pumpid fit; with --resume, options not given are the run's own)")
-    ft.add_argument("--model", choices=sorted(MODELS), help="model to fit (default kelvin)")
-    ft.add_argument("--observe", help="observed state (Kelvin: u or u2; default the model's)")
-    ft.add_argument("--integrator", choices=["exact", "euler"], help="default exact")
-    ft.add_argument("--residual", choices=["linear", "log"], help="default linear")
-    ft.add_argument("--scale", help="output scale C: a number (default 1) or 'free'")
-    ft.add_argument("--initial-state",
-                    help="rest, equilibrium, periodic, or numbers (default: periodic for a "
-                         "single-stroke card, else rest)")
-    ft.add_argument("--offset", choices=["auto", "yes", "no"],
-                    help="fit a position offset (auto: yes for single-stroke cards)")
-    ft.add_argument("--x0", action="append", metavar="NAME=VALUE[,...]",
-                    help="a starting guess shared by every card (default: automatic start)")
-    ft.add_argument("--max-nfev", type=int, help="model evaluations allowed per card")
-    ft.add_argument("--min-r2", type=float, metavar="R2",
-                    help="quality gate: a fit with R^2 below this is poor-fit (default 0.95)")
+    add_fit_options(ft, sorted(MODELS))
     dh = p.add_argument_group("pump quantities (the downhole card of each card)")
     dh.add_argument("--well-file", metavar="WELLS.json",
                     help="well file (as pumpid downhole --well): add the pump quantities as "

@@ -41,6 +41,7 @@ __all__ = [
     "CliError",
     "WarningCounter",
     "add_card_options",
+    "add_fit_options",
     "check_fit_options",
     "check_paths",
     "columns_option",
@@ -167,6 +168,43 @@ def initial_state_option(text: str | None) -> Any:
     if not all(math.isfinite(v) for v in values):
         raise CliError(f"--initial-state: {printable(text)} has a value that is not finite")
     return values
+
+
+def add_fit_options(p: Any, models: Sequence[str]) -> None:
+    """The fitting options, one set for ``pumpid fit`` and ``pumpid batch``.
+
+    Every default is None ("not given"): ``pumpid fit`` fills in the defaults the help
+    states, ``pumpid batch --resume`` keeps the run's own.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser or argument group
+    models : sequence of str
+        The model names (``auto`` is added).
+    """
+    p.add_argument("--model", choices=[*models, "auto"],
+                   help="model to fit (default kelvin); auto: fit mass-spring-dashpot, "
+                        "Kelvin observing u and u2 and Maxwell, choose by BIC on the "
+                        "residuals' effective sample size")
+    p.add_argument("--method", choices=["lm", "newton-fd"],
+                   help="lm (default: exact sensitivities) or newton-fd (the paper's method)")
+    p.add_argument("--integrator", choices=["exact", "euler"], help="default exact")
+    p.add_argument("--residual", choices=["linear", "log"], help="default linear")
+    p.add_argument("--observe", help="observed state (Kelvin: u2, the paper's, or u, the mass "
+                                     "where the polished-rod load acts; default the model's)")
+    p.add_argument("--scale", help="output scale C: a number (default 1) or 'free'")
+    p.add_argument("--initial-state",
+                   help="rest, equilibrium, periodic, or the state as numbers (default: "
+                        "periodic for a single-stroke card, else rest)")
+    p.add_argument("--offset", choices=["auto", "yes", "no"],
+                   help="fit a position offset (default auto: yes for single-stroke cards)")
+    p.add_argument("--x0", action="append", metavar="NAME=VALUE[,...]",
+                   help="starting guess shared by every card (default: automatic start)")
+    p.add_argument("--max-nfev", type=int, metavar="N",
+                   help="model evaluations allowed per card (lm)")
+    p.add_argument("--min-r2", type=float, metavar="R2",
+                   help="quality gate: a fit with R^2 below this has status poor-fit and "
+                        "the run exits with 5 (default 0.95)")
 
 
 def add_card_options(p: Any) -> None:

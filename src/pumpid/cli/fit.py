@@ -36,6 +36,7 @@ from .. import interrupts
 from ..cards import Card, CardError, printable
 from ..job import FitOptions, LevenbergMarquardt, PaperNewton, fit
 from ..models import MODELS, Model, model_class
+from ..pump.runner import FitSpec, fit_cards_each
 from ..report.output import FILE_MODE, OutputError, OutputFolder, UniqueNames
 from ..report.spreadsheet import LINE_END, neutralise_row
 from ..result import FitResult
@@ -44,6 +45,7 @@ from .common import (
     EXIT_OUTPUT,
     CliError,
     add_card_options,
+    add_fit_options,
     check_fit_options,
     columns_option,
     err,
@@ -53,7 +55,7 @@ from .common import (
 )
 from .render import JsonPrinter, LinePrinter, Row, RunInfo, TextPrinter, printable_block
 
-__all__ = ["add_fit_arguments", "cmd_fit", "register"]
+__all__ = ["cmd_fit", "register"]
 
 #: Names the run writes itself into an output folder of per-card folders.
 INDEX_NAME = "results.csv"
@@ -75,30 +77,38 @@ class FitSetup:
     history: bool
     read: dict[str, Any] = field(default_factory=dict)
 
-    def offset_for(self, card: Card) -> bool:
-        """Fit a position offset for this card (auto: for single strokes)."""
-        return bool(card.periodic) if self.offset == "auto" else self.offset == "yes"
+    @property
+    def spec(self) -> FitSpec:
+        """The card runner's spec (the one ``pumpid batch`` fits with)."""
+        x0 = None
+        if isinstance(self.model, Model):
+            x0 = {**self.model.as_dict(), **(self.x0_extras or {})}
+        state = self.initial_state
+        return FitSpec(model="auto" if self.auto else self.cls.key, x0=x0,
+                       initial_state=tuple(state) if isinstance(state, list) else state,
+                       offset=self.offset, options=dict(self.options))
 
     def fit_options(self, card: Card) -> FitOptions:
         """What the fit of this card means (:meth:`FitOptions.for_cards` with the options)."""
-        state = self.initial_state
-        return FitOptions.for_cards(
-            offset=self.offset_for(card),
-            initial_state=tuple(state) if isinstance(state, list) else state,
-            **{k: v for k, v in self.options.items() if k != "method"})
+        spec = self.spec
+        return spec.fit_options(spec.offset_for(card))
 
     def solver(self) -> LevenbergMarquardt | PaperNewton:
-        """The solver object of ``--method``."""
-        return PaperNewton() if self.options.get("method") == "newton-fd" else LevenbergMarquardt()
+        """The solver object of ``--method``, ``--tol`` and ``--max-nfev``."""
+        return self.spec.solver()
 
-    def x0(self) -> dict[str, float] | None:
-        """A starting guess with its scale and offset (``--x0`` with C, D or offset)."""
-        if self.x0_extras is not None and isinstance(self.model, Model):
-            return {**self.model.as_dict(), **self.x0_extras}
-        return None
+
+#: What ``pumpid fit`` fits with where an option is not given.
+_DEFAULTS = {"model": "kelvin", "method": "lm", "integrator": "exact", "residual": "linear",
+             "offset": "auto"}
 
 
 def _setup(args: argparse.Namespace) -> FitSetup:
+    for key, value in _DEFAULTS.items():
+        if getattr(args, key, None) is None:
+            setattr(args, key, value)
+    if args.method == "newton-fd" and args.max_nfev is not None:
+        raise CliError("--max-nfev limits the lm method; newton-fd runs its own iteration limit")
     auto = args.model == "auto"
     if auto and (args.observe or args.x0):
         raise CliError("--model auto compares the structures and their observed outputs "
@@ -107,12 +117,13 @@ def _setup(args: argparse.Namespace) -> FitSetup:
         raise CliError("--model auto uses the lm method")
     cls = model_class("kelvin" if auto else args.model)
     checked = check_fit_options(cls, observe=args.observe, scale=args.scale,
-                                min_r2=getattr(args, "min_r2", None), x0=args.x0,
+                                min_r2=args.min_r2, max_nfev=args.max_nfev, x0=args.x0,
                                 x0_extras=("C", "D", "offset"),
                                 initial_state=args.initial_state)
     opts: dict[str, Any] = {"method": args.method, "integrator": args.integrator,
                             "residual": args.residual}
-    opts.update({k: checked[k] for k in ("observe", "scale", "min_r2") if k in checked})
+    opts.update({k: checked[k] for k in ("observe", "scale", "min_r2", "max_nfev")
+                 if k in checked})
     model: Model | type[Model] = cls
     extras: dict[str, float] | None = None
     if "x0" in checked:
@@ -204,37 +215,17 @@ def _selected(cards: list[Card], path: str, args: argparse.Namespace,
 
 
 # --------------------------------------------------------------------------- fitting
-def _internal(exc: BaseException) -> str:
-    return (f"the fit stopped with an internal error ({type(exc).__name__}: {exc}); this is "
-            "a bug in pumpid, please report it with the card")
-
-
 def fit_one(card: Card, setup: FitSetup) -> tuple[FitResult | None, str, str]:
     """Fit one card: ``(result or None, status, reason)``.
 
-    Through :func:`pumpid.fit`, the verb ``pumpid batch`` uses, so both give the same
-    answers (a card's answer does not depend on the cards fitted with it). One card at a
-    time: fitting cards in batches of 64 gave the same answers and took no less time (32
-    Kelvin cards of 60 samples on 2 cores: 4.99 s batched, 4.92 s one by one), while it held
-    every card of a batch back from the output until the last was fitted.
+    Through the card runner ``pumpid batch`` uses (:func:`pumpid.pump.runner.fit_cards_each`),
+    so both give the same answers and rows. One card at a time: fitting cards in batches of
+    64 gave the same answers and took no less time (32 Kelvin cards of 60 samples on 2
+    cores: 4.99 s batched, 4.92 s one by one), while it held every card of a batch back from
+    the output until the last was fitted.
     """
-    from ..pump import choose_model
-
-    try:
-        options = setup.fit_options(card)
-        if setup.auto:
-            res = choose_model(card, options=options, solver=setup.solver()).chosen
-        else:
-            res = fit(setup.model, card, options=options, solver=setup.solver(),
-                      x0=setup.x0())
-    except MemoryError:
-        raise
-    except ValueError as exc:
-        return None, "invalid-input", str(exc)
-    except Exception as exc:
-        return None, "failed", _internal(exc)
-    assert isinstance(res, FitResult)
-    return res, res.status.key, res.reason
+    got = fit_cards_each([card], setup.spec, workers=1)[0]
+    return got.result, got.status, got.reason
 
 
 def _one_at_a_time(cards: list[Card]) -> Iterator[Card]:
@@ -589,31 +580,6 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- parser
-def add_fit_arguments(p: argparse.ArgumentParser) -> None:
-    """The model and solver options shared by commands that fit."""
-    p.add_argument("--model", default="kelvin", choices=[*sorted(MODELS), "auto"],
-                   help="model to fit (default kelvin); auto: fit mass-spring-dashpot, "
-                        "Kelvin observing u and u2 and Maxwell, choose by BIC on the "
-                        "residuals' effective sample size, show the ranking")
-    p.add_argument("--method", default="lm", choices=["lm", "newton-fd"],
-                   help="lm (default: exact sensitivities) or newton-fd (the paper's method)")
-    p.add_argument("--integrator", default="exact", choices=["exact", "euler"])
-    p.add_argument("--residual", default="linear", choices=["linear", "log"])
-    p.add_argument("--observe", help="observed state (Kelvin: u2, the paper's, or u, the mass "
-                                     "where the polished-rod load acts)")
-    p.add_argument("--scale", help="output scale C: a number (default 1) or 'free'")
-    p.add_argument("--initial-state",
-                   help="rest, equilibrium, periodic, or the state as numbers (default: "
-                        "periodic for a single-stroke card, else rest)")
-    p.add_argument("--offset", default="auto", choices=["auto", "yes", "no"],
-                   help="fit a position offset (auto: yes for single-stroke cards)")
-    p.add_argument("--x0", action="append", metavar="NAME=VALUE[,...]",
-                   help="starting guess (default: automatic start)")
-    p.add_argument("--min-r2", type=float, metavar="R2",
-                   help="quality gate: a fit with R^2 below this has status poor-fit and "
-                        "the run exits with 5 (default 0.95)")
-
-
 def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``pumpid fit`` to the command's subparsers."""
     p = subparsers.add_parser(
@@ -630,7 +596,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--joint", action="store_true",
                    help="one parameter set for all the cards (strokes of one well), each "
                         "card with its own offset; prints the joint fit")
-    add_fit_arguments(p)
+    add_fit_options(p, sorted(MODELS))
     p.add_argument("--predict", metavar="CARD_OR_FILE",
                    help="predict another card (an id in the same file, or a file) with each fit")
     p.add_argument("--out", help="write figures, result.json and report.html here (one card), "

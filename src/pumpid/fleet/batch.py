@@ -34,7 +34,7 @@ import os
 import re
 import time
 from collections import Counter
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,8 +45,8 @@ import pyarrow as pa
 
 from pumpid import __version__, interrupts
 from pumpid.cards import printable
-from pumpid.job import FitOptions, LevenbergMarquardt, fit
-from pumpid.models import Model, model_class
+from pumpid.models import Model
+from pumpid.pump.runner import FitSpec, fit_cards_each
 from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
 from pumpid.report.words import plural
 
@@ -58,97 +58,6 @@ from .progress import Progress, QuietProgress
 from .store import ResultsFolderError, ResultsStore, results_schema, to_frame
 
 __all__ = ["BatchSummary", "FitSpec", "fit_partition", "run_batch"]
-
-# Options a spec may carry (x0 is the spec's own field): FitOptions' fields and the solver's.
-_FIT_OPTIONS = ("observe", "integrator", "scale", "residual", "fixed", "solver", "multistart",
-                "tol", "max_nfev", "min_r2")
-
-
-@dataclass(frozen=True)
-class FitSpec:
-    """What to fit to every card (the options of :func:`pumpid.fit`, as a manifest keeps them).
-
-    Attributes
-    ----------
-    model : str
-        Model name (``"kelvin"``, ``"maxwell"``, ``"msd"``, ...).
-    x0 : mapping of str to float, optional
-        A shared starting guess (every parameter); default: the automatic start.
-    initial_state : str or tuple of float, optional
-        Default: periodic for single-stroke cards, else rest.
-    offset : {"auto", "yes", "no"}
-        Fit a position offset; ``"auto"``: for single-stroke (periodic) cards, as ``pumpid
-        fit`` does.
-    options : mapping
-        Further :class:`pumpid.FitOptions` fields (``observe``, ``integrator``,
-        ``scale``, ``residual``, ``tol``, ``max_nfev``, ...).
-    """
-
-    model: str = "kelvin"
-    x0: Mapping[str, float] | None = None
-    initial_state: str | tuple[float, ...] | None = None
-    offset: str = "auto"
-    options: Mapping[str, Any] = field(default_factory=dict)
-
-    def model_class(self) -> type[Model]:
-        """The model class (ValueError for an unknown name)."""
-        return model_class(self.model)
-
-    def check(self) -> None:
-        """Refuse options no card could be fitted with, before any work is done."""
-        unknown = sorted(set(self.options) - set(_FIT_OPTIONS))
-        if unknown:
-            raise ValueError(f"unknown fit option(s) {', '.join(unknown)}; known: "
-                             f"{', '.join(_FIT_OPTIONS)}")
-        cls = self.model_class()
-        observe = self.options.get("observe")
-        cls.output_index(observe)  # ValueError naming the choices
-        if self.offset not in ("auto", "yes", "no"):
-            raise ValueError(f"offset must be auto, yes or no, got {self.offset!r}")
-        if self.x0 is not None:
-            missing = [n for n in cls.param_names() if n not in self.x0]
-            extra = [n for n in self.x0 if n not in cls.param_names()]
-            if missing or extra:
-                raise ValueError(f"x0: give exactly the parameters {list(cls.param_names())} "
-                                 f"(missing {missing}, unknown {extra})")
-            cls(**{n: float(self.x0[n]) for n in cls.param_names()})
-
-    def fit_options(self, offset: bool) -> FitOptions:
-        """What the fit of a card means (:meth:`FitOptions.for_cards` with the spec's)."""
-        given = {k: v for k, v in self.options.items()
-                 if k not in ("solver", "tol", "max_nfev")}
-        if "fixed" in given and given["fixed"] is None:
-            given.pop("fixed")
-        return FitOptions.for_cards(offset=offset, initial_state=self.initial_state, **given)
-
-    def solver(self) -> LevenbergMarquardt | None:
-        """The solver of the spec's ``solver`` / ``tol`` / ``max_nfev`` (None: default)."""
-        given = self.options.get("solver")
-        if given is not None:
-            return given
-        tol, max_nfev = self.options.get("tol"), self.options.get("max_nfev")
-        if tol is None and max_nfev is None:
-            return None
-        return LevenbergMarquardt(**({} if tol is None else {"tol": tol}),
-                                  max_evaluations=max_nfev)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The manifest's form."""
-        return {"model": self.model, "x0": None if self.x0 is None else dict(self.x0),
-                "initial_state": (list(self.initial_state)
-                                  if isinstance(self.initial_state, tuple)
-                                  else self.initial_state),
-                "offset": self.offset, "options": dict(self.options)}
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> FitSpec:
-        """The spec of :meth:`to_dict`'s form (a manifest's)."""
-        state = data.get("initial_state")
-        return cls(model=str(data.get("model", "kelvin")), x0=data.get("x0"),
-                   initial_state=tuple(state) if isinstance(state, list) else state,
-                   offset=str(data.get("offset", "auto")),
-                   options=dict(data.get("options") or {}))
-
 
 # --------------------------------------------------------------------------- the task
 def _utc(value: Any) -> pd.Timestamp | None:
@@ -201,27 +110,6 @@ def _bad_row(item: BadItem, cls: type[Model], spec: FitSpec,
     return row
 
 
-def _fit_group(cards: list[Any], model: Any, spec: FitSpec, offset: bool,
-               threads: int) -> list[tuple[Any, str, str | None]]:
-    """Fit cards together; (result or None, reason, status for None) per card.
-
-    An engine error in a batch must not cost the other cards: the batch is redone card by
-    card (each card's answer does not depend on its neighbours), and a card that still
-    raises is a ``failed`` row saying what was raised.
-    """
-    try:
-        batch = fit(model, list(cards), options=spec.fit_options(offset),
-                    solver=spec.solver(), workers=threads)
-        return [(r, why, None) for r, why in zip(batch.results, batch.invalid, strict=True)]
-    except Exception as exc:
-        if len(cards) == 1:
-            return [(None, f"the fit raised {type(exc).__name__}: {exc}", "failed")]
-    out: list[tuple[Any, str, str | None]] = []
-    for card in cards:
-        out.extend(_fit_group([card], model, spec, offset, threads))
-    return out
-
-
 def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: int,
                   partition: int, first_item: int,
                   downhole: DownholeSpec | None = None) -> list[dict[str, Any]]:
@@ -247,23 +135,18 @@ def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: i
         One row per item, in order, with the columns of :func:`results_schema`.
     """
     cls = spec.model_class()
-    schema = results_schema(cls)
-    model: Any = cls
-    if spec.x0 is not None:
-        model = cls(**{n: float(spec.x0[n]) for n in cls.param_names()})
+    schema = results_schema(spec.model_classes())
     rows: list[dict[str, Any] | None] = [None] * len(items)
-    groups: dict[bool, list[int]] = {}
+    idx = [i for i, item in enumerate(items) if isinstance(item, CardItem)]
     for i, item in enumerate(items):
-        if isinstance(item, CardItem):
-            off = item.card.periodic if spec.offset == "auto" else spec.offset == "yes"
-            groups.setdefault(bool(off), []).append(i)
-        else:
+        if not isinstance(item, CardItem):
             rows[i] = _bad_row(item, cls, spec, schema)
-    for off, idx in groups.items():
-        cards = [items[i].card for i in idx]  # type: ignore[union-attr]
-        for i, (res, why, status) in zip(idx, _fit_group(cards, model, spec, off, threads),
-                                         strict=True):
-            rows[i] = _card_row(items[i], res, why, status, cls, spec, schema)  # type: ignore[arg-type]
+    outcomes = fit_cards_each([items[i].card for i in idx], spec,  # type: ignore[union-attr]
+                              workers=threads)
+    for i, got in zip(idx, outcomes, strict=True):
+        status = None if got.result is not None else got.status
+        rows[i] = _card_row(items[i], got.result, got.reason, status, cls, spec,  # type: ignore[arg-type]
+                            schema)
     if downhole is not None:  # the pump quantities (pumpid.fleet.downhole)
         add_pump_columns(items, rows, downhole)
     out: list[dict[str, Any]] = []
@@ -586,8 +469,7 @@ def run_batch(
     except BaseException:
         runner.close()
         raise
-    cls = fit.model_class()
-    schema = results_schema(cls)
+    schema = results_schema(fit.model_classes())
     if downhole is not None:
         schema = pump_schema(schema)
     summary = BatchSummary(results=folder)

@@ -97,19 +97,20 @@ class ReadOptions:
     period: float | None = None
     columns: Mapping[str, str | int | None] | None = None
     split_strokes: bool = False
+    encoding: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The manifest's form."""
         return {"format": self.format, "position_unit": self.position_unit,
                 "load_unit": self.load_unit, "spm": self.spm, "period": self.period,
                 "columns": None if self.columns is None else dict(self.columns),
-                "split_strokes": self.split_strokes}
+                "split_strokes": self.split_strokes, "encoding": self.encoding}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> ReadOptions:
         """The options of :meth:`to_dict`'s form (a manifest's)."""
         known = ("format", "position_unit", "load_unit", "spm", "period", "columns",
-                 "split_strokes")
+                 "split_strokes", "encoding")
         return cls(**{k: data[k] for k in known if k in data})
 
 
@@ -231,7 +232,7 @@ def _cards_of(file: InputFile, options: ReadOptions) -> Iterator[Card | CardErro
     yield from read_cards_and_errors(
         file.path, format=options.format, position_unit=options.position_unit,
         load_unit=options.load_unit, spm=options.spm, period=options.period,
-        columns=options.columns).items
+        columns=options.columns, encoding=options.encoding).items
 
 
 # Column and key names (lower case, units and punctuation dropped) under which the text

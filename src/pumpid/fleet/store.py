@@ -26,7 +26,7 @@ from __future__ import annotations
 import json
 import os
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -65,8 +65,8 @@ class ResultsFolderError(ValueError):
     results folder, a run already there)."""
 
 
-def results_schema(model: type[Model]) -> pa.Schema:
-    """The Arrow schema of a run's results for one model class.
+def results_schema(model: type[Model] | Sequence[type[Model]]) -> pa.Schema:
+    """The Arrow schema of a run's results for one model class (or several).
 
     The columns of :meth:`pumpid.FitResult.to_row` in its order, with :data:`BATCH_COLUMNS`
     after ``source``. Every part of a run has this schema, so a partition whose cards all
@@ -74,7 +74,9 @@ def results_schema(model: type[Model]) -> pa.Schema:
 
     Parameters
     ----------
-    model : Model class
+    model : Model class or sequence of Model classes
+        Several (a run whose structure is chosen per card): every class's parameter and
+        derived columns, each once, in the order first met.
 
     Returns
     -------
@@ -88,12 +90,15 @@ def results_schema(model: type[Model]) -> pa.Schema:
         ("r2", f), ("rmse", f), ("cost", f), ("n_samples", i), ("nfev", i),
         ("position_unit", s), ("load_unit", s),
     ]  # fmt: skip
-    for name in model.param_names():
+    classes = list(model) if isinstance(model, Sequence) else [model]
+    params = list(dict.fromkeys(n for cls in classes for n in cls.param_names()))
+    derived = list(dict.fromkeys(i.name for cls in classes for i in cls.derived_info()))
+    for name in params:
         cols += [(f"p_{name}", f), (f"p_{name}_se", f), (f"p_{name}_se_hac", f),
                  (f"p_{name}_se_white", f)]
     cols += [("scale", f), ("offset", f)]
-    for info in model.derived_info():
-        d = f"d_{info.name}"
+    for name in derived:
+        d = f"d_{name}"
         cols += [(d, f), (f"{d}_se", f), (f"{d}_se_hac", f), (f"{d}_se_white", f),
                  (f"{d}_determined", b), (f"{d}_well_property", b), (f"{d}_unit", s)]
     return pa.schema(cols)
@@ -368,7 +373,18 @@ def storable_table(rows: list[dict[str, Any]], schema: pa.Schema) -> pa.Table:
     -------
     pyarrow.Table
         One row per input row, in order.
+
+    Raises
+    ------
+    ValueError
+        For a row key that is not a column of ``schema`` (Arrow would drop it silently).
     """
+    known = set(schema.names)
+    stray = sorted({k for row in rows for k in row if k not in known})
+    if stray:
+        # Arrow would drop them without a word: a column the schema does not own is a bug.
+        raise ValueError(f"results table: row key(s) {stray} are not columns of the run's "
+                         "schema (results_schema)")
     try:
         return pa.Table.from_pylist(rows, schema=schema)
     except _CONVERSION_ERRORS:
