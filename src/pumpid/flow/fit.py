@@ -7,11 +7,10 @@ from a transient record with the same engine as the cards:
 * a linear or Hammerstein surrogate on one record is :func:`pumpid.fit` itself (the compiled
   kernel, the main job's start guard, boundaries and diagnostics);
 * the nonlinear :class:`~pumpid.flow.surrogates.ShearThinningLag`, and joint fits of one
-  parameter set to several records, run the engine's Levenberg-Marquardt machine
-  (:func:`pumpid.engine.solvers.run_python`) around an evaluator that integrates each record
-  with its exact forward sensitivities; their uncertainty comes from the same analysis as
-  every fit (:func:`pumpid.inference.uncertainty.analyse_rows`), so the same stop tests,
-  counts, statuses and intervals mean the same things everywhere.
+  parameter set to several records, are an own model (:class:`pumpid.models.OwnModel`)
+  whose simulator integrates each record with its exact forward sensitivities, fitted by
+  :func:`pumpid.fit` too: the same solver, stop tests, statuses, gates, boundaries and
+  errors that hold under correlated residuals as every fit.
 """
 
 from __future__ import annotations
@@ -24,14 +23,10 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..engine import lm
 from ..engine.simulate import simulate, simulate_sensitivities
-from ..engine.solvers import LevenbergMarquardt, run_python
-from ..inference.identifiability import findings_of, whiteness_warning
-from ..inference.uncertainty import Numbers, analyse_rows, uncertainty_of
-from ..job import FitOptions, fit, solver_for
-from ..models import Model
-from ..result import FitResult, Status, Units
+from ..job import FitOptions, LevenbergMarquardt, fit, solver_for
+from ..models import Model, OwnModel, Parameter
+from ..result import FitResult, Units
 from .pipeflow import Pipe, PowerLawFluid, simulate_pipe_flow
 from .records import FlowRecord
 from .surrogates import (
@@ -300,138 +295,95 @@ def _simulate_any(
     return simulate(model, t, u, initial_state=state)
 
 
+class _Records(OwnModel):
+    """A surrogate over one or several records end to end, each record's residuals weighted
+    (the engine's own-model path: :mod:`pumpid.job.own`)."""
+
+    def __init__(self, cls: type[Model], records: Sequence[FlowRecord],
+                 states: Sequence[Any], weights: FloatArray, units: Units,
+                 unit: str, label: Any) -> None:
+        self.cls = cls
+        self.records = list(records)
+        self.states = list(states)
+        self.pairs = [_orient(r, "dp->q")[:2] for r in records]
+        self.weights = weights
+        self.name = cls.__name__
+        self.parameters = tuple(Parameter(p.name, p.unit_for(units.load, units.position),
+                                          lower=max(p.lower, 0.0), upper=p.upper, doc=p.doc)
+                                for p in cls.param_info())
+        self.output, self.output_unit, self.input_unit = "q", unit, units.load
+        self.integrator = "solve_ivp (LSODA)" if cls.nonlinear else "exact"
+        self.initial_state = label
+
+    def simulate(self, values: FloatArray, data: Any, sensitivities: bool
+                 ) -> tuple[FloatArray, FloatArray | None]:
+        """Each record integrated with its exact forward sensitivities, weighted."""
+        ys, dys = [], []
+        for rec, (u, _), st in zip(self.records, self.pairs, self.states, strict=True):
+            got = _simulate_any(self.cls, values, rec.t, u, st, sensitivities)
+            y, dy = got if sensitivities else (got, None)
+            ys.append(np.asarray(y, dtype=float))
+            dys.append(dy)
+        y_all = self.weights * np.concatenate(ys)
+        if not sensitivities:
+            return y_all, None
+        return y_all, self.weights[:, None] * np.vstack(dys)
+
+    def observed(self, data: Any) -> FloatArray:
+        """The records' flow rates end to end, weighted."""
+        return self.weights * np.concatenate([y for _, y in self.pairs])
+
+
 def _fit_records(
     start: Model, records: Sequence[FlowRecord], states: Sequence[Any], *,
     fixed: Mapping[str, float] | None, units: Units, tol: float = 1e-10,
     max_nfev: int | None = None, direction: str = "dp->q",
     weights: Sequence[float] | None = None,
 ) -> FitResult:
-    """One parameter set for one or several records (dp -> q), by the engine's solver.
+    """One parameter set for one or several records (dp -> q), through :func:`pumpid.fit`.
 
-    Levenberg-Marquardt on log-parameters (the engine's state machine, driven from Python
-    here because the nonlinear surrogate is integrated by scipy), exact sensitivities, each
-    record's residuals weighted by ``weights``.
+    The surrogate is an own model over the records end to end (each record integrated with
+    its exact forward sensitivities, its residuals weighted by ``weights``), so it gets the
+    solver, statuses, gates, boundaries and errors that hold of every fit; the result holds
+    the unweighted data and fit.
     """
     cls = type(start)
-    names = cls.param_names()
-    fixed = dict(fixed or {})
-    free = [i for i, nm in enumerate(names) if nm not in fixed]
-    theta0 = start.values.copy()
-    for nm, v in fixed.items():
-        theta0[names.index(nm)] = float(v)
-    pairs = [_orient(r, direction)[:2] for r in records]
-    data = np.concatenate([y for _, y in pairs])
     w = np.concatenate([np.full(r.n, 1.0 if weights is None else float(wk))
                         for r, wk in zip(records, weights or [1.0] * len(records),
                                          strict=True)])
-    q = len(free)
-
-    def theta_of(z: FloatArray) -> FloatArray:
-        th = theta0.copy()
-        th[free] = np.exp(np.clip(z, -700.0, 700.0))
-        return th
-
-    def rows_at(z: FloatArray) -> FloatArray | None:
-        th = theta_of(z)
-        ys, dys = [], []
-        try:
-            with np.errstate(all="ignore"):
-                for rec, (u, _), st in zip(records, pairs, states, strict=True):
-                    y, dy = _simulate_any(cls, th, rec.t, u, st, True)
-                    ys.append(y)
-                    dys.append(dy)
-        except (RuntimeError, ValueError, FloatingPointError):
-            return None
-        y_all = np.concatenate(ys)
-        dy_all = np.vstack(dys)
-        rows = np.empty((q + 1, data.size))
-        rows[:q] = (w[:, None] * dy_all[:, free] * th[free]).T
-        rows[q] = w * (y_all - data)
-        return rows if np.all(np.isfinite(rows)) else None
-
-    def evaluate(z: FloatArray) -> tuple[float, FloatArray, FloatArray]:
-        rows = rows_at(z)
-        r_fac = np.zeros((q, q))
-        c = np.zeros(q)
-        if rows is None:
-            return math.nan, r_fac, c
-        cost = lm.householder(rows, q, r_fac, c)
-        return cost, r_fac, c
-
-    z0 = np.log(theta0[free])
-    # The same default budget as every other fit (the solver's own rule).
-    budget = max_nfev if max_nfev is not None else LevenbergMarquardt().budget(q)
-    out = run_python(evaluate, z0, np.full(q, -700.0), np.full(q, 700.0), tol=tol,
-                     max_evaluations=budget, n_capped=q)
-    stop = out.stops[0]
-    z = out.z[0]
-    theta = theta_of(z)
-    model: Model | None = cls.from_values(theta)
-    rows = rows_at(z)
-    status = Status.CONVERGED if stop.converged else Status.FAILED
-    reason = out.messages[0]
-    if rows is None:
-        model, status = None, Status.FAILED
-        reason += "; the fitted model cannot be simulated"
-        fitted = np.full_like(data, np.nan)
-    else:
-        fitted = rows[q] / w + data
+    label = states[0] if len(set(map(str, states))) == 1 else "per record"
+    if isinstance(label, tuple):
+        label = list(label)
+    own = _Records(cls, records, states, w, units,
+                   units.position if weights is None else "(relative)", label)
+    theta0 = start.values.copy()
+    names = cls.param_names()
+    for nm, v in (fixed or {}).items():
+        theta0[names.index(nm)] = float(v)
+    got = fit(own, tuple(records), options=FitOptions(fixed=dict(fixed or {})),
+              solver=LevenbergMarquardt(tol=tol, max_evaluations=max_nfev),
+              x0=dict(zip(names, theta0.tolist(), strict=True)))
+    assert isinstance(got, FitResult)
+    data = np.concatenate([y for _, y in own.pairs])
+    fitted = np.asarray(got.fitted) / w
     res = fitted - data
     finite = bool(np.all(np.isfinite(res)))
     sst = float(np.sum((data - data.mean()) ** 2))
-    rmse = float(np.sqrt(np.mean(res**2))) if finite else math.nan
-    r2 = 1.0 - float(res @ res) / sst if finite and sst > 0 else math.nan
-    uncertainty = None
-    findings: tuple[str, ...] = ()
-    determined: dict[str, Any] = {}
-    warnings: list[str] = []
-    free_names = tuple(names[i] for i in free)
-    if rows is not None:
-        s, vt, cov, hac, dse, stats = analyse_rows(rows.copy(), np.ones(q, dtype=np.bool_),
-                                                   -1, 1.0)
-        spread = float(np.ptp(w * data))
-        nums = Numbers(names=free_names, inner=tuple(range(q)), values=theta[free],
-                       scales=theta[free], singular=s, vt=vt, cov_scaled=cov, hac_scaled=hac,
-                       direction_se_hac=dse, rms=float(stats[1]), rho=float(stats[2]),
-                       bandwidth=float(stats[3]), persistence=float(stats[4]),
-                       capped=bool(stats[5] == 1.0), n=data.size,
-                       cost=0.5 * float(stats[1]) ** 2 * data.size,
-                       usable=bool(stats[0] == 1.0), spread=spread)
-        serial = not nums.exact and not nums.rho <= 2.576 / math.sqrt(data.size)
-        found = findings_of(nums, model_names=names, gauge_fixed=False,
-                            initial_state=states[0], residual="linear", serial=serial)
-        findings, determined = found.sentences, found.determined
-        unit = units.position if weights is None else "(relative)"
-        uncertainty = uncertainty_of(nums, found.undetermined, (), found.notes, f"{unit}^2")
-        if uncertainty is not None and uncertainty.whiteness is not None \
-                and not uncertainty.whiteness["white"]:
-            warnings.append(whiteness_warning(dict(uncertainty.whiteness), data.size, q))
     # Records placed end to end on one time axis (display only; each starts from its own
     # initial state).
-    t_all, u_all, shift = [], [], 0.0
-    for rec, (u, _) in zip(records, pairs, strict=True):
+    t_all, shift = [], 0.0
+    for rec in records:
         t_all.append(rec.t - rec.t[0] + shift)
-        u_all.append(u)
         step = float(rec.t[-1] - rec.t[0])
         shift += step + step / max(rec.n - 1, 1)
-    state_label = states[0] if len(set(map(str, states))) == 1 else "per record"
-    if isinstance(state_label, tuple):
-        state_label = list(state_label)
-    history = tuple(
-        {"iteration": float(it), **dict(zip(names, theta_of(h[:-1]).tolist(), strict=True)),
-         "cost": float(h[-1])} for it, h in enumerate(out.history))
-    jac = None if rows is None else (rows[:q] / theta[free][:, None] / w).T
-    return FitResult(
-        model=model, model_name=cls.__name__, status=status, reason=reason,
-        params=dict(zip(names, theta.tolist(), strict=True)), scale=1.0, offset=0.0,
-        iterations=int(out.accepted[0]), nfev=int(out.evaluations[0]), history=history,
-        rmse=rmse, r2=r2, cost=float(out.cost[0]) if finite else math.nan,
-        warnings=tuple(warnings), method="lm",
-        integrator="solve_ivp (LSODA)" if cls.nonlinear else "exact", residual="linear",
-        observe="q", initial_state=state_label, units=units, free=free_names,
-        t=np.concatenate(t_all), load=np.concatenate(u_all), data=data, fitted=fitted,
-        jacobian=jac, uncertainty=uncertainty, identifiability=findings,
-        determined=determined)
+    theta = np.array([got.params[n] for n in names])
+    return got.with_parts(
+        model=cls.from_values(theta) if np.all(np.isfinite(theta)) else None,
+        units=units, t=np.concatenate(t_all), load=np.concatenate([u for u, _ in own.pairs]),
+        data=data, fitted=fitted,
+        rmse=float(np.sqrt(np.mean(res**2))) if finite else math.nan,
+        r2=1.0 - float(res @ res) / sst if finite and sst > 0 else math.nan,
+        jacobian=None if got.jacobian is None else np.asarray(got.jacobian) / w[:, None])
 
 
 def fit_flow_records(

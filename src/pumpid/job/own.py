@@ -217,9 +217,12 @@ def _starts(model: OwnModel, item: Any, x0: Any) -> Array:
         if unknown:
             raise ValueError(f"x0: unknown parameter(s) {unknown}; {model.name} has "
                              f"{list(names)}")
-        base = np.asarray(model.start(item), dtype=float)
-        base = base[0] if base.ndim == 2 else base
-        got = np.array([float(x0.get(n, base[i])) for i, n in enumerate(names)])
+        if all(n in x0 for n in names):
+            got = np.array([float(x0[n]) for n in names])
+        else:
+            base = np.asarray(model.start(item), dtype=float)
+            base = base[0] if base.ndim == 2 else base
+            got = np.array([float(x0.get(n, base[i])) for i, n in enumerate(names)])
     else:
         got = np.asarray(x0, dtype=float)
     got = np.atleast_2d(got)

@@ -162,7 +162,8 @@ def fit(
         measured output in the user's units (2-D ``load`` / ``displacement``, one card per
         row, fit many cards); a :class:`~pumpid.cards.Card`; a
         :class:`~pumpid.engine.problem.CardData` (a record with its own initial state and
-        period); or a list of cards and records, fitted as one batch.
+        period); or a list of cards and records, fitted as one batch. For an own model,
+        whatever its methods take: a ``list`` is many items, anything else one.
     options : FitOptions, optional
         What the fit means. Default: :meth:`FitOptions.for_cards` when the data hold a
         card, :class:`FitOptions` otherwise.
@@ -199,15 +200,19 @@ def fit(
     >>> res = pumpid.fit("kelvin", card)                                   # doctest: +SKIP
     >>> batch = pumpid.fit(pumpid.Kelvin, cards, workers=2)                # doctest: +SKIP
     """
+    if options is not None and not isinstance(options, FitOptions):
+        raise TypeError(f"options must be a FitOptions, got {type(options).__name__}")
+    if isinstance(model, OwnModel):
+        # An own model's data are its own business: a list is many items, anything else one.
+        own_items = list(data) if isinstance(data, list) else [data]
+        if not own_items:
+            raise ValueError("data: nothing to fit (an empty list)")
+        return fit_own(model, own_items, single=not isinstance(data, list),
+                       options=options or FitOptions(), solver=solver, x0=x0, workers=workers)
     items, single = _items(data)
     has_card = any(isinstance(x, Card) for x in items)
     if options is None:
         options = FitOptions.for_cards() if has_card else FitOptions()
-    elif not isinstance(options, FitOptions):
-        raise TypeError(f"options must be a FitOptions, got {type(options).__name__}")
-    if isinstance(model, OwnModel):
-        return fit_own(model, items, single=single, options=options, solver=solver, x0=x0,
-                       workers=workers)
     if isinstance(model, str):
         model = model_class(model)
     unit_rows = _unit_rows(items, units)
