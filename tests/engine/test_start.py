@@ -178,7 +178,9 @@ def _mixed_problem():
 def test_equation_error_by_kind_equals_card_by_card() -> None:
     # Periodic strokes go to the harmonic estimate, other records to the time-domain one;
     # a mixed call gives each card what it gets alone.
-    from pumpid.engine.start import _bandwidths, _periodic_cards, equation_error_items
+    from pumpid.engine.start import equation_error_items
+    from pumpid.engine.start.equation_error import _periodic_cards
+    from pumpid.engine.start.pool import _bandwidths
 
     problem = _mixed_problem()
     cards = np.array([2, 0, 1], dtype=np.int64)
@@ -205,6 +207,7 @@ def test_a_periodic_card_does_not_compile_the_time_domain_estimate() -> None:
         "import numpy as np\n"
         "from pumpid import Kelvin, simulate\n"
         "from pumpid.engine import start\n"
+        "from pumpid.engine.start import equation_error\n"
         "from pumpid.engine.problem import CardData, build_problem\n"
         "from tests.conftest import well_load\n"
         "t = np.arange(200) * 7.5 / 200\n"
@@ -213,7 +216,8 @@ def test_a_periodic_card_does_not_compile_the_time_domain_estimate() -> None:
         "             initial_state='periodic', period=7.5)\n"
         "p = build_problem(Kelvin, [CardData(t, f, y, 'periodic', 7.5)], offset=True)\n"
         "start.candidates(p, np.zeros(1, dtype=np.int64))\n"
-        "print(len(start._harmonic_items.signatures), len(start._time_items.signatures))\n")
+        "print(len(equation_error._harmonic_items.signatures),\n"
+        "      len(equation_error._time_items.signatures))\n")
     root = Path(__file__).resolve().parents[2]
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=root, check=True)

@@ -34,7 +34,8 @@ COMPILED_MODULES = (
     "engine/kernel.py",
     "engine/lm.py",
     "engine/drive.py",
-    "engine/start.py",
+    "engine/start/equation_error.py",
+    "engine/start/harmonics.py",
     "inference/hac.py",
     "inference/uncertainty.py",
 )

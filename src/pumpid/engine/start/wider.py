@@ -1,0 +1,194 @@
+"""The wider search: a larger multistart for cards whose answer does not explain the data.
+
+The first multistart (:mod:`.multistart`) is cheap and usually enough; when a card's answer
+does not explain its data (the job's test: R^2 below 0.99, or an error above twice the
+data's noise), a wrong local minimum is the first suspect. This search polishes, in rounds,
+the best-ranked shapes of the model's dense grid (ranked by the card's harmonics,
+:mod:`.harmonics`, for a periodic stroke; by its samples otherwise) and random log-uniform
+points around the natural scales, and runs the solver to convergence from the best distinct
+ones. It stops for a card when two independent starts agree on the best cost -- the best
+basin found twice -- so it spends its budget only where the answer is still in doubt. Random
+points are seeded by the card's own samples: a card's search is the same in any batch.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .. import kernel
+from ..problem import Problem
+from ..solvers import LevenbergMarquardt
+from .coordinates import complete
+from .harmonics import harmonic_scan
+from .pool import fundamental
+
+__all__ = ["WidePlan", "search_wider"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class WidePlan:
+    """How far the wide search goes when the first answer does not explain the data.
+
+    Each round polishes ``per_round`` new points -- the best-ranked shapes of the model's
+    dense grid (ranked by the card's harmonics for a periodic stroke, by its samples
+    otherwise) and ``random`` log-uniform points within ``spread`` of the natural scales --
+    then runs the solver to convergence from the best distinct ones. The search stops when
+    two independent starts agree on the best cost (``agree``, relative), or after
+    ``rounds`` rounds.
+    """
+
+    rounds: int = 3
+    per_round: int = 8
+    random: int = 4
+    spread: float = 1e3
+    polish_evaluations: int = 80
+    finals: int = 2
+    agree: float = 1e-6
+    harmonics: int = 64
+
+
+def _card_rng(problem: Problem, k: int) -> np.random.Generator:
+    """A generator seeded by the card's own samples: its search is the same in any batch."""
+    _t, f, d = problem.card(k)
+    seed = zlib.crc32(np.ascontiguousarray(f).tobytes() + np.ascontiguousarray(d).tobytes())
+    return np.random.default_rng(seed)
+
+
+def _ranked_shapes(problem: Problem, k: int, plan: WidePlan) -> Array:
+    """The model's dense shapes on card k, best first, as rescaled parameter rows."""
+    w0 = fundamental(problem, k)
+    shapes = problem.model.shape_grid(w0, dense=True)
+    if problem.fixed:
+        for i, value in problem.fixed:
+            shapes[:, i] = value
+    t, f, d = problem.card(k)
+    periodic = (problem.mode[k] == kernel.PERIODIC and problem.uniform[k]
+                and problem.model.input_map is None
+                and abs(problem.period[k] - t.size * (t[1] - t[0])) <= 1e-6 * problem.period[k])
+    symmetric = bool(problem.model.scale_symmetric and problem.scale_fixed is not None
+                     and not problem.fixed)
+    scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
+    if periodic:
+        code = problem.model.code()
+        costs, factors = harmonic_scan(t, f, d, np.ascontiguousarray(shapes), code,
+                                       problem.model.n_states(), problem.out_index,
+                                       problem.offset_fixed is None, symmetric, float(scale),
+                                       plan.harmonics)
+        if symmetric:
+            shapes = shapes * factors[:, None]
+    else:
+        z, costs = complete(problem, np.full(shapes.shape[0], k, dtype=np.int64), shapes)
+        shapes = problem.full_theta(np.exp(z[:, : problem.n_free]))
+    order = np.argsort(costs)
+    return shapes[order[np.isfinite(costs[order])]]
+
+
+def _distinct(points: list[Array], z: Array, p: int, tol: float = 0.05) -> bool:
+    return all(np.max(np.abs(z[:p] - q[:p])) > tol for q in points)
+
+
+def search_wider(
+    problem: Problem,
+    cards: NDArray[np.int64],
+    z_now: Array,
+    cost_now: Array,
+    *,
+    plan: WidePlan = WidePlan(),
+    solver: LevenbergMarquardt | None = None,
+    workers: int | None = 1,
+) -> tuple[Array, Array, NDArray[np.int64]]:
+    """A wider multistart for cards whose answer does not explain their data.
+
+    The model's dense shape grid (ranked cheaply) and random points within ``plan.spread``
+    of the natural scales are polished in rounds; the solver runs to convergence from the
+    best distinct polished points. Stops for a card when two independent starts agree on
+    its best cost, which then is the global optimum with good confidence.
+
+    Returns the best points (m, q), their costs (m,) and the number of points polished.
+    """
+    solver = solver or LevenbergMarquardt()
+    cards = np.asarray(cards, dtype=np.int64)
+    m = cards.size
+    p = problem.n_free
+    best_z = np.array(z_now, dtype=float).copy()
+    best_cost = np.array(cost_now, dtype=float).copy()
+    polished_count = np.zeros(m, dtype=np.int64)
+    pools = [_ranked_shapes(problem, int(k), plan) for k in cards]
+    rngs = [_card_rng(problem, int(k)) for k in cards]
+    finals: list[list[tuple[float, Array]]] = [[] for _ in range(m)]
+    for i in range(m):
+        if math.isfinite(best_cost[i]):
+            finals[i].append((float(best_cost[i]), best_z[i].copy()))
+    active = list(range(m))
+    polish = LevenbergMarquardt(tol=1e-10)
+    for round_ in range(plan.rounds):
+        if not active:
+            break
+        items_card: list[int] = []
+        items_theta: list[Array] = []
+        owner: list[int] = []
+        for i in active:
+            k = int(cards[i])
+            pool = pools[i][round_ * plan.per_round:(round_ + 1) * plan.per_round]
+            ref = problem.reference[k]
+            rand = ref * np.exp(rngs[i].uniform(-math.log(plan.spread), math.log(plan.spread),
+                                                (plan.random, problem.n_params)))
+            for i_fix, value in problem.fixed:
+                rand[:, i_fix] = value
+            for theta in (*pool, *rand):
+                items_card.append(k)
+                items_theta.append(theta)
+                owner.append(i)
+        if not items_card:
+            break
+        item_cards = np.array(items_card, dtype=np.int64)
+        z0, c0 = complete(problem, item_cards, np.array(items_theta), workers=workers)
+        keep = np.isfinite(c0)
+        owner_arr = np.array(owner)[keep]
+        out = polish.solve(problem, item_cards[keep], z0[keep],
+                           budget=plan.polish_evaluations, workers=workers)
+        # The best distinct polished points of each card go on to convergence.
+        chosen_card: list[int] = []
+        chosen_z: list[Array] = []
+        chosen_owner: list[int] = []
+        for i in active:
+            mine = np.flatnonzero(owner_arr == i)
+            polished_count[i] += mine.size
+            mine = mine[np.isfinite(out.cost[mine])]
+            picked: list[Array] = []
+            for j in mine[np.argsort(out.cost[mine])]:
+                if len(picked) >= plan.finals:
+                    break
+                if _distinct(picked, out.z[j], p):
+                    picked.append(out.z[j])
+            for z in picked:
+                chosen_card.append(int(cards[i]))
+                chosen_z.append(z)
+                chosen_owner.append(i)
+        if chosen_card:
+            full = solver.solve(problem, np.array(chosen_card, dtype=np.int64),
+                                np.array(chosen_z), workers=workers)
+            for j, i in enumerate(chosen_owner):
+                if math.isfinite(full.cost[j]):
+                    finals[i].append((float(full.cost[j]), full.z[j].copy()))
+        still = []
+        for i in active:
+            results = sorted(finals[i], key=lambda item: item[0])
+            if not results:
+                continue
+            top = results[0][0]
+            best_cost[i], best_z[i] = results[0]
+            agreeing = [z for c, z in results if c <= top * (1 + plan.agree) + 1e-300]
+            # Two starts that end on the same best cost from different places: the best
+            # basin has been found twice.
+            if len(agreeing) < 2:
+                still.append(i)
+        active = still
+    return best_z, best_cost, polished_count
