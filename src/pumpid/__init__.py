@@ -19,6 +19,7 @@ from .engine.solvers import LevenbergMarquardt, PaperNewton, Stop
 from .job import fit, fit_many, fit_records
 from .models import MODELS, FirstOrder, Kelvin, MassSpringDamper, Maxwell, Model, model_class
 from .result import FitBatch, FitResult, Prediction, Status, Units
+from .version import __version__ as __version__
 
 if TYPE_CHECKING:
     import pandas
@@ -47,8 +48,6 @@ __all__ = [
     "simulate",
     "simulate_sensitivities",
 ]
-
-__version__ = "0.1.0"
 
 
 def read_results(path: str | os.PathLike[str]) -> pandas.DataFrame:

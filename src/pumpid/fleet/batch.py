@@ -39,9 +39,10 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from pumpid import __version__, interrupts
+from pumpid import interrupts
 from pumpid.models import Model, model_class
 from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
+from pumpid.version import __version__
 
 from .defaults import PARTITION_SIZE
 from .downhole import DownholeSpec, add_pump_columns, pump_schema
