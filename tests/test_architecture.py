@@ -1,19 +1,86 @@
-"""The package's shape: no import cycles, no private names borrowed across modules.
+"""The package's shape: layers, no import cycles, no private names borrowed, no long modules.
 
 Read from the sources with ``ast`` (nothing is imported), so the test sees every module,
-including the ones an import would not reach. Imports made inside functions count for the
-private-name rule but not for cycles: a deferred import is how a lower layer may reach an
-optional upper one at call time (for example a report on demand) without a cycle at import.
+including the ones an import would not reach. Every import counts, wherever it is written:
+at module level, inside a function (a deferred import still ties the two modules together,
+only later) and under ``if TYPE_CHECKING:`` (the annotation still names the other module).
 """
 
 from __future__ import annotations
 
 import ast
+import itertools
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
+# Known violations that work in progress elsewhere removes (the job and the result being
+# restructured into packages, the profile moved above the job). Each entry is expected to
+# fail, and fails loudly once it is fixed, so that it is taken off this list: empty it at
+# merge. An entry is "importer -> imported" (a layer violation, which also closes the
+# cycle result -> inference -> job -> result) or a module's name (too long).
+PENDING: set[str] = {
+    # result.py reads inference's types at module level and runs a profile on demand.
+    "pumpid.result -> pumpid.inference.boundaries",
+    "pumpid.result -> pumpid.inference.derived",
+    "pumpid.result -> pumpid.inference.uncertainty",
+    "pumpid.result -> pumpid.inference.profile",
+    # inference.profile refits through the job.
+    "pumpid.inference.profile -> pumpid.job",
+    # Modules over the limit, being split.
+    "pumpid.job",
+    "pumpid.engine.start",
+    "pumpid.result",
+}
+
+#: The layers, top to bottom. A module may import modules of its own layer and of lower
+#: ones only, in any form of import. A module's layer is named by the first part of its
+#: name after ``pumpid``; ``pumpid`` itself (the public facade, for users) is above all.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("pumpid",),
+    ("cli",),
+    ("fleet",),
+    ("pump",),
+    ("flow", "paper"),
+    ("profile",),
+    ("job",),
+    ("inference",),
+    # The rod string's wave equation needs no fit: above the result and its reports,
+    # below the fleet and the command line, out of reach of the fitting layers.
+    ("rods",),
+    ("report",),
+    ("result",),
+    ("engine",),
+    ("models", "cards"),
+    ("interrupts", "version"),
+)
+
+#: No module may be longer (lines); the compiled kernels are not exempt.
+MAX_LINES = 700
+
 SRC = Path(__file__).resolve().parents[1] / "src" / "pumpid"
+LEVEL = {part: level for level, parts in enumerate(LAYERS) for part in parts}
+
+
+@dataclass(frozen=True)
+class Import:
+    """One module naming another: where, and in which form."""
+
+    importer: str
+    imported: str
+    kind: str  # "module-level", "deferred" (inside a function) or "type-checking"
+    path: Path
+    line: int
+
+    @property
+    def key(self) -> str:
+        return f"{self.importer} -> {self.imported}"
+
+    def __str__(self) -> str:
+        return (f"{self.key} ({self.kind} import, "
+                f"{self.path.relative_to(SRC.parents[1]).as_posix()}:{self.line})")
 
 
 def module_name(path: Path) -> str:
@@ -21,6 +88,11 @@ def module_name(path: Path) -> str:
     if parts[-1] == "__init__":
         parts.pop()
     return ".".join(parts)
+
+
+def layer(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else parts[0]
 
 
 def resolve(module: str, is_package: bool, node: ast.ImportFrom) -> str:
@@ -34,61 +106,80 @@ def resolve(module: str, is_package: bool, node: ast.ImportFrom) -> str:
     return ".".join([*base, *([node.module] if node.module else [])])
 
 
-def imports(path: Path, modules: set[str]) -> tuple[set[str], set[str], list[str]]:
-    """(modules imported at module level, all imported modules, private names borrowed)."""
-    name = module_name(path)
-    is_package = path.name == "__init__.py"
-    tree = ast.parse(path.read_text(encoding="utf-8"))
-    top_level: set[str] = set()
-    everywhere: set[str] = set()
-    private: list[str] = []
-    deferred = {id(n) for f in ast.walk(tree)
-                if isinstance(f, ast.FunctionDef | ast.AsyncFunctionDef)
-                for n in ast.walk(f)}
-    for node in ast.walk(tree):
-        targets: list[str] = []
-        if isinstance(node, ast.Import):
-            targets = [alias.name for alias in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            source = resolve(name, is_package, node)
-            targets = [source]
-            for alias in node.names:
-                sub = f"{source}.{alias.name}"
-                if sub in modules:
-                    targets.append(sub)
-                elif (alias.name.startswith("_") and not alias.name.startswith("__")
-                      and source.startswith("pumpid") and source != name):
-                    private.append(f"{name} imports {alias.name} from {source}")
-        for target in targets:
-            if target.startswith("pumpid") and target != name:
-                everywhere.add(target)
-                if id(node) not in deferred and not _type_checking_only(tree, node):
-                    top_level.add(target)
-    return top_level, everywhere, private
+def is_type_checking(test: ast.expr) -> bool:
+    return ((isinstance(test, ast.Name) and test.id == "TYPE_CHECKING")
+            or (isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"))
 
 
-def _type_checking_only(tree: ast.Module, node: ast.AST) -> bool:
-    for stmt in tree.body:
-        if (isinstance(stmt, ast.If) and isinstance(stmt.test, ast.Name)
-                and stmt.test.id == "TYPE_CHECKING"):
-            if any(n is node for n in ast.walk(stmt)):
-                return True
-    return False
+def import_nodes(nodes: Iterable[ast.AST], kind: str = "module-level",
+                 ) -> Iterator[tuple[ast.Import | ast.ImportFrom, str]]:
+    """Every import statement under ``nodes`` with its kind (type-checking wins)."""
+    for node in nodes:
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            yield node, kind
+        elif isinstance(node, ast.If) and is_type_checking(node.test):
+            yield from import_nodes(node.body, "type-checking")
+            yield from import_nodes(node.orelse, kind)
+        elif isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
+            inner = "deferred" if kind == "module-level" else kind
+            yield from import_nodes(ast.iter_child_nodes(node), inner)
+        else:
+            yield from import_nodes(ast.iter_child_nodes(node), kind)
 
 
-def graph() -> tuple[dict[str, set[str]], list[str]]:
+@dataclass
+class Package:
+    modules: dict[str, Path]
+    imports: list[Import]
+    private: list[str]
+
+
+def read_package() -> Package:
     paths = sorted(SRC.rglob("*.py"))
-    modules = {module_name(p) for p in paths}
-    edges: dict[str, set[str]] = {}
+    modules = {module_name(p): p for p in paths}
+    found: list[Import] = []
     private: list[str] = []
     for path in paths:
-        top, _all, borrowed = imports(path, modules)
-        # Importing pumpid.a.b runs pumpid.a's __init__ too, but that edge is the
-        # package's own business (a package may import its submodules); only edges
-        # between modules are followed.
-        edges[module_name(path)] = {m for m in top if m in modules}
-        private += borrowed
-    return edges, private
+        name = module_name(path)
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node, kind in import_nodes(tree.body):
+            targets: list[str] = []
+            if isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names]
+            else:
+                source = resolve(name, path.name == "__init__.py", node)
+                for alias in node.names:
+                    sub = f"{source}.{alias.name}"
+                    if sub in modules:
+                        targets.append(sub)  # a submodule, not a name of the package
+                        continue
+                    targets.append(source)
+                    if (alias.name.startswith("_") and not alias.name.startswith("__")
+                            and source.startswith("pumpid") and source != name):
+                        private.append(f"{name} imports {alias.name} from {source} "
+                                       f"(line {node.lineno})")
+            for target in dict.fromkeys(targets):
+                if target in modules and target != name:
+                    found.append(Import(name, target, kind, path, node.lineno))
+    return Package(modules, found, private)
+
+
+PACKAGE = read_package()
+
+
+def layer_violations() -> list[Import]:
+    return [i for i in PACKAGE.imports
+            if layer(i.imported) in LEVEL and layer(i.importer) in LEVEL
+            and LEVEL[layer(i.imported)] < LEVEL[layer(i.importer)]]
+
+
+def long_modules() -> dict[str, str]:
+    out = {}
+    for name, path in PACKAGE.modules.items():
+        lines = len(path.read_text(encoding="utf-8").splitlines())
+        if lines > MAX_LINES:
+            out[name] = f"{name}: {lines} lines (at most {MAX_LINES})"
+    return out
 
 
 def find_cycle(edges: dict[str, set[str]]) -> list[str] | None:
@@ -118,32 +209,69 @@ def find_cycle(edges: dict[str, set[str]]) -> list[str] | None:
 
 
 def test_there_are_modules_to_check() -> None:
-    edges, _ = graph()
-    assert len(edges) > 30 and "pumpid.engine.solvers" in edges
+    assert len(PACKAGE.modules) > 30 and "pumpid.engine.solvers" in PACKAGE.modules
+    kinds = {i.kind for i in PACKAGE.imports}
+    assert kinds == {"module-level", "deferred", "type-checking"}
+
+
+def test_every_module_has_a_layer() -> None:
+    missing = sorted({layer(m) for m in PACKAGE.modules} - set(LEVEL))
+    assert missing == [], f"add these to LAYERS: {missing}"
+
+
+def test_lower_layers_do_not_import_upper_ones() -> None:
+    found = [f"{i}: {layer(i.importer)} may not import {layer(i.imported)}, a higher layer"
+             for i in layer_violations() if i.key not in PENDING]
+    assert found == [], "\n".join(found)
 
 
 def test_no_import_cycles() -> None:
-    edges, _ = graph()
-    # A package's __init__ re-exporting its submodules is not a cycle with them.
-    cycle = find_cycle({m: {t for t in ts if not m.startswith(t + ".")}
-                        for m, ts in edges.items()})
-    assert cycle is None, " -> ".join(cycle or [])
+    edges: dict[str, set[str]] = {}
+    for i in PACKAGE.imports:
+        if i.key not in PENDING:
+            edges.setdefault(i.importer, set()).add(i.imported)
+    cycle = find_cycle(edges)
+    if cycle is not None:
+        steps = ["; ".join(str(i) for i in PACKAGE.imports if (i.importer, i.imported) == pair)
+                 for pair in itertools.pairwise(cycle)]
+        pytest.fail("import cycle:\n" + "\n".join(steps))
 
 
 def test_no_private_names_imported_across_modules() -> None:
-    _, private = graph()
-    assert private == [], "\n".join(private)
+    assert PACKAGE.private == [], "\n".join(PACKAGE.private)
 
 
-@pytest.mark.parametrize("upper,lower", [
-    ("pumpid.cli", "pumpid.engine"), ("pumpid.cli", "pumpid.models"),
-    ("pumpid.report", "pumpid.engine"), ("pumpid.fleet", "pumpid.engine"),
-    ("pumpid.cli", "pumpid.rods"), ("pumpid.fleet", "pumpid.rods"),
-    ("pumpid.job", "pumpid.rods"),
-])
-def test_lower_layers_do_not_import_upper_ones(upper: str, lower: str) -> None:
-    paths = [p for p in SRC.rglob("*.py") if module_name(p).startswith(lower)]
-    modules = {module_name(p) for p in SRC.rglob("*.py")}
-    offenders = [module_name(p) for p in paths
-                 if any(m.startswith(upper) for m in imports(p, modules)[1])]
-    assert offenders == []
+def test_no_module_is_too_long() -> None:
+    found = [text for name, text in sorted(long_modules().items()) if name not in PENDING]
+    assert found == [], "\n".join(found)
+
+
+def pending(key: str) -> list[str]:
+    """What is still wrong under a PENDING key, precisely (empty once it is fixed)."""
+    found = [str(i) for i in layer_violations() if i.key == key]
+    return found + [text for name, text in long_modules().items() if name == key]
+
+
+@pytest.mark.parametrize("key", [
+    pytest.param(key, marks=pytest.mark.xfail(
+        strict=True, reason="pending: " + ("; ".join(pending(key)) or "fixed, remove it")))
+    for key in sorted(PENDING)])
+def test_pending_violations_remain_until_fixed(key: str) -> None:
+    """Each pending entry still fails (XPASS, a failure, says: take it off PENDING)."""
+    assert pending(key) == [], "\n".join(pending(key))
+
+
+def test_import_kinds_are_told_apart() -> None:
+    code = ("from typing import TYPE_CHECKING\n"
+            "import pumpid.cards\n"
+            "if TYPE_CHECKING:\n"
+            "    from pumpid import job\n"
+            "def f():\n"
+            "    from pumpid import result\n"
+            "    if TYPE_CHECKING:\n"
+            "        import pumpid.fleet\n"
+            "class C:\n"
+            "    import pumpid.models\n")
+    kinds = [(node.lineno, kind) for node, kind in import_nodes(ast.parse(code).body)]
+    assert kinds == [(1, "module-level"), (2, "module-level"), (4, "type-checking"),
+                     (6, "deferred"), (8, "type-checking"), (10, "module-level")]

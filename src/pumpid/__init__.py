@@ -30,6 +30,7 @@ from .models import (
     model_class,
 )
 from .result import FitBatch, FitResult, Prediction, Status, Units
+from .version import __version__ as __version__
 
 if TYPE_CHECKING:
     import pandas
@@ -59,8 +60,6 @@ __all__ = [
     "simulate",
     "simulate_sensitivities",
 ]
-
-__version__ = "0.1.0"
 
 
 def read_results(path: str | os.PathLike[str]) -> pandas.DataFrame:

@@ -21,8 +21,9 @@ import os
 import sys
 from collections.abc import Sequence
 
-from .. import __version__, interrupts
+from .. import interrupts
 from ..report.output import OutputError
+from ..version import __version__
 from . import batch, demo, downhole, fit, flow, report, reproduce, simulate
 from .common import (
     EXIT_INTERNAL,

@@ -28,14 +28,9 @@ seen so far (to keep them unique) and the summary's counts.
 from __future__ import annotations
 
 import hashlib
-import heapq
-import math
 import os
-import re
 import time
-from collections import Counter
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -43,12 +38,11 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from pumpid import __version__, interrupts
-from pumpid.cards import printable
+from pumpid import interrupts
 from pumpid.models import Model
 from pumpid.pump.runner import FitSpec, fit_cards_each
 from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
-from pumpid.report.words import plural
+from pumpid.version import __version__
 
 from .defaults import PARTITION_SIZE
 from .downhole import DownholeSpec, add_pump_columns, pump_schema
@@ -56,8 +50,9 @@ from .engines import Engine, EngineError, make_engine
 from .inputs import BadItem, CardItem, InputFile, ReadOptions, find_inputs, iter_items
 from .progress import Progress, QuietProgress
 from .store import ResultsFolderError, ResultsStore, results_schema, to_frame
+from .summary import BatchSummary, reason_kind
 
-__all__ = ["BatchSummary", "FitSpec", "fit_partition", "run_batch"]
+__all__ = ["BatchSummary", "FitSpec", "fit_partition", "reason_kind", "run_batch"]
 
 # --------------------------------------------------------------------------- the task
 def _utc(value: Any) -> pd.Timestamp | None:
@@ -156,144 +151,6 @@ def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: i
         row["partition"] = partition
         out.append(row)
     return out
-
-
-# --------------------------------------------------------------------------- summary
-_QUOTED = re.compile(r"'[^']*'|\"[^\"]*\"")
-_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
-
-
-def reason_kind(reason: str) -> str:
-    """A reason with its particulars (quoted names, numbers) blanked, to count alike ones."""
-    return _NUMBER.sub("N", _QUOTED.sub("'…'", reason or "(no reason given)")).strip()
-
-
-#: How many unreadable files and kinds of failure reason the summary names.
-_SHOWN_FILES = 20
-_SHOWN_REASONS = 10
-
-
-@dataclass
-class BatchSummary:
-    """What a run did: counts, what could not be read, the costliest cards, failures.
-
-    Attributes
-    ----------
-    results : Path
-        The results folder.
-    engine : str
-        Where the partitions were fitted, in words.
-    cards, partitions : int
-        Rows and partitions in the results (this run's and any earlier run's).
-    fitted, skipped : int
-        Cards fitted in this run; cards of partitions an earlier run had written.
-    statuses : Counter
-        Rows per status.
-    unreadable : list of (str, str)
-        Files that could not be read at all: name and reason.
-    costliest : list of (str, int, int)
-        The cards with the most model evaluations (card id, evaluations, samples): a fit's
-        time is about proportional to both.
-    failures : list of (str, int, str)
-        Failed and invalid cards grouped by kind of reason: reason, cards, an example card.
-    elapsed : float
-        Seconds of this run, reading and writing included.
-    duplicates : int
-        Cards that repeat an earlier card of the run exactly (``duplicate_of`` set).
-    interrupted : bool
-        The run was stopped before the end; ``discarded`` partitions were dropped.
-    """
-
-    results: Path
-    engine: str = ""
-    cards: int = 0
-    partitions: int = 0
-    fitted: int = 0
-    skipped: int = 0
-    statuses: Counter[str] = field(default_factory=Counter)
-    unreadable: list[tuple[str, str]] = field(default_factory=list)
-    costliest: list[tuple[str, int, int]] = field(default_factory=list)
-    failures: list[tuple[str, int, str]] = field(default_factory=list)
-    elapsed: float = 0.0
-    duplicates: int = 0
-    interrupted: bool = False
-    discarded: int = 0
-    _heap: list[tuple[int, int, str]] = field(default_factory=list, repr=False)
-    _reasons: dict[str, list[Any]] = field(default_factory=dict, repr=False)
-
-    def add(self, table: pa.Table) -> None:
-        """Count one partition's rows."""
-        cols = table.select(["card_id", "status", "reason", "nfev", "n_samples"]).to_pydict()
-        self.partitions += 1
-        self.cards += table.num_rows
-        if "duplicate_of" in table.column_names:
-            self.duplicates += table.num_rows - table.column("duplicate_of").null_count
-        self.statuses.update(cols["status"])
-        for cid, status, reason, nfev, n in zip(cols["card_id"], cols["status"], cols["reason"],
-                                                cols["nfev"], cols["n_samples"], strict=True):
-            if nfev is not None:
-                entry = (int(nfev), int(n or 0), str(cid))
-                if len(self._heap) < 5:
-                    heapq.heappush(self._heap, entry)
-                else:
-                    heapq.heappushpop(self._heap, entry)
-            if status in ("failed", "invalid-input"):
-                kind = f"{status}: {reason_kind(reason)}"
-                slot = self._reasons.setdefault(kind, [0, str(cid)])
-                slot[0] += 1
-
-    def close(self) -> None:
-        """Fix the lists from the counts."""
-        self.costliest = [(cid, nfev, n) for nfev, n, cid in sorted(self._heap, reverse=True)]
-        self.failures = sorted(((k, v[0], v[1]) for k, v in self._reasons.items()),
-                               key=lambda x: (-x[1], x[0]))
-
-    def rate(self) -> float:
-        """Cards fitted per second in this run, end to end."""
-        return self.fitted / self.elapsed if self.elapsed > 0 else math.nan
-
-    def text(self) -> str:
-        """The summary in words, as ``pumpid batch`` prints it and ``_summary.txt`` keeps it.
-
-        Names, card ids and reasons come from the files: control characters, terminal
-        escapes and bidirectional overrides are shown escaped (:func:`pumpid.cards.printable`).
-        """
-        state = "interrupted" if self.interrupted else "complete"
-        lines = [f"pumpid batch: {state}; results in {printable(str(self.results))}",
-                 f"  engine: {printable(self.engine)}",
-                 f"  cards: {self.cards} in {plural(self.partitions, 'partition')} "
-                 f"({self.fitted} fitted in this run in {self.elapsed:.1f} s, "
-                 f"{self.rate():.1f} cards/s end to end; {self.skipped} from an earlier run)"]
-        if self.interrupted:
-            lines.append(f"  partitions dropped at the interrupt: {self.discarded}; "
-                         "continue with: pumpid batch --resume --out RESULTS")
-        statuses = sorted(self.statuses.items(), key=lambda x: -x[1])
-        lines.append("  cards per status: "
-                     + (", ".join(f"{printable(str(s))} {n}" for s, n in statuses) or "none"))
-        if self.duplicates:
-            lines.append(f"  duplicate cards: {self.duplicates} repeat an earlier card of the "
-                         "run exactly (named in duplicate_of; the report counts them once)")
-        lines.append(f"  unreadable files: {len(self.unreadable)}")
-        for name, why in self.unreadable[:_SHOWN_FILES]:
-            lines.append(f"    {printable(str(name))}: {printable(str(why))}")
-        if len(self.unreadable) > _SHOWN_FILES:
-            lines.append(f"    ... and {len(self.unreadable) - _SHOWN_FILES} more (status "
-                         "invalid-input in the results)")
-        if self.failures:
-            lines.append("  failed or invalid cards by reason:")
-            for kind, n, example in self.failures[:_SHOWN_REASONS]:
-                lines.append(f"    {plural(n, 'card')}: {printable(str(kind))} (e.g. "
-                             f"{printable(str(example))})")
-            if len(self.failures) > _SHOWN_REASONS:
-                lines.append(f"    ... and {len(self.failures) - _SHOWN_REASONS} more kinds of "
-                             "reason")
-        if self.costliest:
-            lines.append("  costliest cards (model evaluations; a fit's time grows with them "
-                         "and the samples):")
-            for cid, nfev, n in self.costliest:
-                lines.append(f"    {printable(str(cid))}: {plural(nfev, 'evaluation')} of "
-                             f"{plural(n, 'sample')}")
-        return "\n".join(lines)
 
 
 # --------------------------------------------------------------------------- the run

@@ -94,7 +94,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from pumpid import model_class
+from pumpid.models import model_class
 
 from .detectors import robust_sigma, scan_cusum, scan_two_segments
 from .downhole import is_pump_quantity, pump_quantities, pump_usable

@@ -2,7 +2,8 @@
 
 Records of pressure drop and flow rate (:mod:`~pumpid.flow.records`), the surrogates
 (:mod:`~pumpid.flow.surrogates`), their fits on the shared engine (:mod:`~pumpid.flow.fit`),
-the reference pipe-flow simulator (:mod:`~pumpid.flow.pipeflow`), the step study
+the reference pipe-flow simulator (:mod:`~pumpid.flow.pipeflow`; the pipe, the fluid and
+the closed-form flows in :mod:`~pumpid.flow.pipe`), the step study
 (:mod:`~pumpid.flow.study`) and their reports (:mod:`~pumpid.flow.report`).
 """
 
