@@ -13,12 +13,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..inference.boundaries import BoundaryInfo
-from ..inference.derived import Derived
-from ..inference.uncertainty import Uncertainty
 from ..models import Model
+from .boundaries import BoundaryInfo
+from .derived import Derived
 from .parts import CardInfo, StartInfo, Status, Units, jsonable
 from .text import error_table, fmt, model_choice_text
+from .uncertainty import Uncertainty
 
 if TYPE_CHECKING:
     from ..engine.problem import Problem
