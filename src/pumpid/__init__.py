@@ -18,6 +18,7 @@ from .engine.simulate import simulate, simulate_sensitivities
 from .engine.solvers import LevenbergMarquardt, PaperNewton, Stop
 from .job import fit, fit_many, fit_records
 from .models import MODELS, FirstOrder, Kelvin, MassSpringDamper, Maxwell, Model, model_class
+from .profile import profile as profile_of
 from .result import FitBatch, FitResult, Prediction, Status, Units
 
 if TYPE_CHECKING:
@@ -43,6 +44,7 @@ __all__ = [
     "fit_many",
     "fit_records",
     "model_class",
+    "profile_of",
     "read_results",
     "simulate",
     "simulate_sensitivities",

@@ -22,7 +22,6 @@ from .uncertainty import Uncertainty
 
 if TYPE_CHECKING:
     from ..engine.problem import Problem
-    from ..inference.profile import Profile
 
 __all__ = ["FitResult", "derived_text", "diagnostics_text", "format_report"]
 
@@ -311,17 +310,6 @@ class FitResult:
     def with_parts(self, **changes: Any) -> FitResult:
         """A copy with some parts replaced (e.g. ``card=CardInfo(...)``)."""
         return replace(self, **changes)
-
-    def profile(self, name: str, *, n_points: int = 21, span: float | None = None,
-                level: float = 0.95) -> Profile:
-        """Profile likelihood of one fitted value (refits with it fixed on a grid).
-
-        Returns a :class:`pumpid.inference.profile.Profile` with the interval (one-sided when
-        the parameter is at a boundary) and ``plot()``.
-        """
-        from .inference.profile import profile
-
-        return profile(self, name, n_points=n_points, span=span, level=level)
 
     # ------------------------------------------------------------------ output
     def to_dict(self) -> dict[str, Any]:
