@@ -29,6 +29,7 @@ from .models import (
     Parameter,
     model_class,
 )
+from .profile import profile as profile_of
 from .result import FitBatch, FitResult, Prediction, Status, Units
 from .version import __version__ as __version__
 
@@ -56,6 +57,7 @@ __all__ = [
     "Units",
     "fit",
     "model_class",
+    "profile_of",
     "read_results",
     "simulate",
     "simulate_sensitivities",

@@ -18,9 +18,6 @@ Each model names its limits (:attr:`pumpid.models.base.Model.limits`).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -28,6 +25,7 @@ from numpy.typing import NDArray
 from ..engine import drive
 from ..engine.problem import Problem
 from ..models import Limit
+from ..result import BoundaryInfo, Limiting, ReducedFit
 
 __all__ = [
     "PUSH",
@@ -45,61 +43,6 @@ Array = NDArray[np.float64]
 PUSH = 1e3
 #: Relative log-sensitivity below which a parameter is suspected to be heading to a limit.
 SUSPICION = 1e-2
-
-
-@dataclass(frozen=True)
-class Limiting:
-    """A parameter at a boundary: where it runs and the limit it means."""
-
-    name: str
-    direction: str  # "infinity" or "zero"; "lower" or "upper" for a declared bound
-    value: float
-    limit: str
-    #: "push": moving it further leaves the cost unchanged; "nested": the limiting model fits
-    #: as well (likelihood-ratio test); "bound": the fit ended on a bound a model declares.
-    evidence: str = "push"
-
-    def describe(self) -> str:
-        """Plain-language statement."""
-        where = {"infinity": "to infinity", "zero": "to zero", "lower": "to its lower bound",
-                 "upper": "to its upper bound"}[self.direction]
-        why = {"push": "pushing it a further factor 1000 leaves the fit unchanged",
-               "nested": "the limiting model fits the data as well (likelihood-ratio test, "
-                         "95 %)",
-               "bound": "the fit stopped on the bound the model declares"}[self.evidence]
-        said = "is the bound itself" if self.evidence == "bound" else "is arbitrary"
-        return (f"{self.name} runs {where} (fitted value {self.value:.4g} {said}: {why}); "
-                f"the data want the limit {self.limit}")
-
-
-@dataclass(frozen=True)
-class ReducedFit:
-    """The limiting (reduced) model fitted where the full model ran to a boundary."""
-
-    model: str
-    params: Mapping[str, float]
-    units: Mapping[str, str]
-    scale: float
-    offset: float
-    rmse: float
-    r2: float
-    status: str
-    reason: str
-
-    def to_dict(self) -> dict[str, Any]:
-        """The JSON form."""
-        return {"model": self.model, "params": dict(self.params), "scale": self.scale,
-                "offset": self.offset, "units": dict(self.units), "rmse": self.rmse,
-                "r2": self.r2, "converged": self.status == "converged",
-                "status": self.status, "reason": self.reason}
-
-
-@dataclass(frozen=True)
-class BoundaryInfo:
-    """Parameters that ran to a bound, and the reduced model the data want."""
-
-    limits: tuple[Limiting, ...]
-    reduced: ReducedFit | None = None
 
 
 def spread(problem: Problem, k: int) -> float:

@@ -28,13 +28,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..models import Model
+from ..result import Derived
 from .uncertainty import PRACTICAL_REL_SE, STRUCTURAL_TOL, Numbers
 
 __all__ = ["Derived", "derived_gradient", "derived_of", "moved_by_limits"]
@@ -43,35 +42,6 @@ Array = NDArray[np.float64]
 
 #: Central-difference step in the log of a parameter.
 _STEP = 1e-6
-
-
-@dataclass(frozen=True)
-class Derived:
-    """One derived quantity of a fit.
-
-    ``stderr`` is the error shown: the robust one (``stderr_hac``) where the residuals are
-    serially correlated, else the independent-noise one (``stderr_white``); ``determined``
-    follows it. ``well_property`` is False for a quantity the card's imposed motion sets
-    rather than the well (``note`` says why, see :mod:`pumpid.inference.echo`).
-    """
-
-    name: str
-    value: float
-    unit: str
-    stderr: float
-    stderr_hac: float
-    determined: bool
-    meaning: str
-    stderr_white: float = math.nan
-    well_property: bool = True
-    note: str = ""
-
-    def to_dict(self) -> dict[str, Any]:
-        """The JSON form."""
-        return {"value": self.value, "unit": self.unit, "stderr": self.stderr,
-                "stderr_hac": self.stderr_hac, "stderr_white": self.stderr_white,
-                "determined": self.determined, "well_property": self.well_property,
-                "note": self.note, "meaning": self.meaning}
 
 
 def derived_gradient(cls: type[Model], theta: Array, observe: str, scale: float,

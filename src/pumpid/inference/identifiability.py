@@ -159,7 +159,8 @@ def findings_of(
         sentences.append(
             f"{name} is at a boundary (it runs to {arrow}): the data are described by the "
             f"limiting model {limit}. {name} has no finite estimate and no two-sided "
-            f"interval; only {side} bound exists (result.profile({name!r}) computes it).")
+            f"interval; only {side} bound exists (pumpid.profile_of(result, {name!r}) "
+            "computes it).")
         determined["boundary"].append(name)
     if nums is None or not nums.usable or nums.dof <= 0:
         return Findings(tuple(sentences), determined)

@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
 
@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 from ..engine import drive, lm
 from ..engine.compiled import jit
 from ..engine.problem import Problem
+from ..result import Uncertainty
 from .hac import long_run_rows
 
 __all__ = [
@@ -335,43 +336,6 @@ class Numbers:
     def sigma2(self) -> float:
         """Residual variance SSR / (N - q)."""
         return 2.0 * self.cost / self.dof if self.dof > 0 else math.nan
-
-
-@dataclass(frozen=True)
-class Uncertainty:
-    """Standard errors, intervals and what they assume, for the fitted values (``names``)."""
-
-    names: tuple[str, ...]
-    stderr: Mapping[str, float]
-    ci95: Mapping[str, tuple[float, float] | None]
-    stderr_hac: Mapping[str, float]
-    ci95_hac: Mapping[str, tuple[float, float] | None]
-    covariance: Array
-    correlation: Array
-    sigma2: float
-    dof: int
-    t_quantile: float
-    singular_values: tuple[float, ...]
-    whiteness: Mapping[str, Any] | None
-    hac: Mapping[str, Any] | None
-    notes: tuple[str, ...] = ()
-    sigma2_unit: str = ""
-    assumptions: str = field(default=(
-        "linearised (Wald) intervals at the optimum; noise assumed white (independent "
-        "samples), homoscedastic and Gaussian; sigma^2 = SSR/(N - p) estimated from the "
-        "residuals, Student t quantile; positive parameters (and C) on the log scale, "
-        "value*exp(+-t se/value). stderr_hac and ci95_hac drop the independence and "
-        "equal-variance assumptions (HAC sandwich, see hac)"))
-
-    def to_dict(self) -> dict[str, Any]:
-        """The JSON form (the layout of the result's ``uncertainty`` entry)."""
-        return {
-            "sigma2_unit": self.sigma2_unit, "dof": self.dof, "t_quantile": self.t_quantile,
-            "singular_values": list(self.singular_values), "assumptions": self.assumptions,
-            "notes": list(self.notes),
-            "whiteness": dict(self.whiteness) if self.whiteness is not None else None,
-            "hac": dict(self.hac) if self.hac is not None else None,
-        }
 
 
 def correlation_of(cov: Array) -> Array:

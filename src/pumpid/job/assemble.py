@@ -17,9 +17,8 @@ from numpy.typing import NDArray
 
 from ..engine import drive
 from ..engine.problem import Problem
-from ..inference.boundaries import BoundaryInfo
 from ..models import Model, model_class
-from ..result import FitResult, Status, Units
+from ..result import BoundaryInfo, FitResult, Status, Units
 from .options import JobOptions
 from .state import CardState, gap_gradient, scale_offset, theta_of, true_offset
 

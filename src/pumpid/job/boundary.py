@@ -20,9 +20,8 @@ from numpy.typing import NDArray
 
 from ..engine.problem import CardData, Problem, build_problem
 from ..inference import boundaries as bnd
-from ..inference.boundaries import Limiting, ReducedFit
 from ..models import model_class
-from ..result import FitBatch, FitResult, Status
+from ..result import FitBatch, FitResult, Limiting, ReducedFit, Status
 from .options import JobOptions
 from .state import CardState, scale_offset, theta_of
 

@@ -19,7 +19,6 @@ from numpy.typing import NDArray
 
 from ..engine import drive
 from ..engine.problem import Problem
-from ..inference.boundaries import Limiting
 from ..inference.derived import derived_of
 from ..inference.echo import echo_of
 from ..inference.identifiability import findings_of, whiteness_warning
@@ -31,7 +30,7 @@ from ..inference.serial import (
     with_ar1_floor,
 )
 from ..inference.uncertainty import Numbers, numbers, uncertainty_of
-from ..result import Units
+from ..result import Limiting, Units
 from .state import CardState, numbers_for_true_offset, scale_offset, theta_of
 
 __all__ = ["Assessment", "assess", "diagnose"]

@@ -25,11 +25,10 @@ from numpy.typing import NDArray
 
 from ..engine import lm
 from ..engine.solvers import LevenbergMarquardt, PaperNewton, SolverOutcome, run_python
-from ..inference.boundaries import BoundaryInfo, Limiting
 from ..inference.identifiability import findings_of
 from ..inference.uncertainty import Numbers, analyse_rows
 from ..models.own import OwnModel
-from ..result import FitBatch, FitResult, StartInfo, Status, Units
+from ..result import BoundaryInfo, FitBatch, FitResult, Limiting, StartInfo, Status, Units
 from .assemble import determination_gate, quality_gate
 from .boundary import LR_95
 from .diagnose import assess

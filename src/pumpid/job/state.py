@@ -20,9 +20,8 @@ from numpy.typing import NDArray
 from ..engine import drive, kernel
 from ..engine.problem import Problem
 from ..engine.solvers import SolverOutcome, Stop
-from ..inference.boundaries import Limiting, ReducedFit
 from ..inference.uncertainty import Numbers
-from ..result import StartInfo, Status
+from ..result import Limiting, ReducedFit, StartInfo, Status
 from .options import START_SAMPLES
 
 __all__ = ["CardState", "apply_outcome", "doubtful", "gap_gradient", "mark_edges",

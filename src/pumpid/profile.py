@@ -16,6 +16,9 @@ whiteness check, a note says so (the interval is then too narrow).
 
 The refits use the default solver (``method="lm"``) whatever method produced the result: the
 profile is a property of the cost function, not of the solver.
+
+The module stands above the job (each grid point is a run of it), so a result does not
+profile itself: ``pumpid.profile_of(result, name)`` (this module's :func:`profile`) does.
 """
 
 from __future__ import annotations
@@ -27,12 +30,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .uncertainty import t_quantile
+from .engine.problem import CardData, build_problem
+from .engine.solvers import LevenbergMarquardt
+from .inference.uncertainty import t_quantile
+from .job import JobOptions, run
+from .result import FitResult
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
-
-    from ..result import FitResult
 
 __all__ = ["Profile", "profile"]
 
@@ -192,8 +197,6 @@ class _Refitter:
     """Refits of the result's problem with one value held fixed (continuation starts)."""
 
     def __init__(self, result: FitResult, name: str) -> None:
-        from ..engine.problem import CardData
-
         problem = result.problem
         if problem is None:
             raise ValueError("profile: the result carries no problem to refit")
@@ -218,10 +221,6 @@ class _Refitter:
         self.solver = result.options.get("solver")
 
     def __call__(self, value: float, start: dict[str, float]) -> tuple[float, bool, dict]:
-        from ..engine.problem import build_problem
-        from ..engine.solvers import LevenbergMarquardt
-        from ..job import JobOptions, run
-
         fixed = dict(self.base_fixed)
         scale, offset = self.scale, self.offset
         if self.name == "C":

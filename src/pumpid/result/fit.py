@@ -1,23 +1,11 @@
-"""The one result type, built once: parameters, uncertainty, diagnostics, status, report.
-
-:class:`FitResult` is immutable. Its typed parts are :class:`~pumpid.inference.uncertainty.
-Uncertainty` (standard errors, intervals, what they assume), :class:`BoundaryInfo` (parameters
-that ran to 0 or infinity and the reduced model fitted there), :class:`StartInfo` (how the
-start was found) and :class:`CardInfo` (where the data came from); ``status`` is a
-:class:`Status` member with its message. A prediction is its own object
-(:class:`Prediction`), never written into the fit it was made with.
-
-:class:`FitBatch` holds the fits of many cards as arrays (one entry per card) and builds a
-card's :class:`FitResult` on request.
-"""
+"""The result of one identification, :class:`FitResult`, and its text report."""
 
 from __future__ import annotations
 
-import enum
 import functools
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
@@ -25,143 +13,19 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .inference.boundaries import BoundaryInfo, Limiting, ReducedFit
-from .inference.derived import Derived
-from .inference.uncertainty import Uncertainty
-from .models import Model
+from ..models import Model
+from .boundaries import BoundaryInfo
+from .derived import Derived
+from .parts import CardInfo, StartInfo, Status, Units, jsonable
+from .text import error_table, fmt, model_choice_text
+from .uncertainty import Uncertainty
 
 if TYPE_CHECKING:
-    from .engine.problem import Problem
-    from .inference.profile import Profile
+    from ..engine.problem import Problem
 
-__all__ = [
-    "BoundaryInfo",
-    "CardInfo",
-    "Derived",
-    "FitBatch",
-    "FitResult",
-    "Limiting",
-    "Prediction",
-    "ReducedFit",
-    "StartInfo",
-    "Status",
-    "Units",
-    "model_choice_text",
-]
+__all__ = ["FitResult", "derived_text", "diagnostics_text", "format_report"]
 
 Array = NDArray[np.float64]
-
-
-class Status(enum.StrEnum):
-    """What a fit's answer is, with its meaning in words.
-
-    A member is its name as a string (``Status.CONVERGED == "converged"``), the name JSON,
-    tables and exit codes use.
-    """
-
-    CONVERGED = ("converged", "the solver met a convergence test at an interior optimum")
-    BOUNDARY = ("boundary", "a parameter ran to 0 or infinity: the data want a limiting "
-                "model, whose parameters are reported beside the full model's")
-    UNDETERMINED = ("undetermined", "the solver found its optimum, but the data determine "
-                    "none of the model's parameters (each ran to a limit, is structurally free "
-                    "or has an error over 100 % of its value): the numbers are one point of a "
-                    "wide set of models that fit as well; only derived quantities marked "
-                    "determined, if any, say something")
-    POOR_FIT = ("poor-fit", "the solver found its optimum, but the model explains less of "
-                "the data than the quality threshold asks (R^2 below min_r2): the numbers "
-                "describe a model that does not reproduce this record")
-    FAILED = ("failed", "no converged solution: the solver stopped without meeting a "
-              "convergence test, or the model could not be simulated")
-    INVALID_INPUT = ("invalid-input", "the card could not be read or validated")
-
-    def __new__(cls, key: str, meaning: str) -> Status:
-        obj = str.__new__(cls, key)
-        obj._value_ = key
-        obj.meaning = meaning  # type: ignore[attr-defined]
-        return obj
-
-    @property
-    def key(self) -> str:
-        """The status' name."""
-        return str(self.value)
-
-    def __str__(self) -> str:
-        return str(self.value)
-
-    @classmethod
-    def parse(cls, text: str) -> Status:
-        """The member named ``text``."""
-        try:
-            return cls(text)
-        except ValueError:
-            raise ValueError(f"unknown status {text!r}; one of {[m.value for m in cls]}") \
-                from None
-
-
-@dataclass(frozen=True)
-class Units:
-    """Units of the data a fit was made on (time is always seconds)."""
-
-    load: str = "N"
-    position: str = "m"
-    time: str = "s"
-
-    def to_dict(self) -> dict[str, str]:
-        """As a plain dictionary."""
-        return {"load": self.load, "position": self.position, "time": self.time}
-
-
-@dataclass(frozen=True)
-class CardInfo:
-    """Where a fit's data came from and everything done to them."""
-
-    id: str | None = None
-    well: str | None = None
-    source: str | None = None
-    time_source: str | None = None
-    spm: float | None = None
-    period: float | None = None
-    notes: tuple[str, ...] = ()
-    #: When the card was recorded (ISO 8601), where the file says.
-    time: str | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        """The JSON form."""
-        return {"id": self.id, "well": self.well, "time": self.time, "source": self.source,
-                "time_source": self.time_source, "spm": self.spm, "period": self.period,
-                "notes": list(self.notes)}
-
-
-@dataclass(frozen=True)
-class StartInfo:
-    """How the starting point was found."""
-
-    note: str
-    candidates: int = 0
-    polished: int = 0
-
-
-def _fmt(value: float | None, digits: int = 6) -> str:
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return "n/a"
-    return f"{value:.{digits}g}"
-
-
-def jsonable(value: Any) -> Any:
-    """Turn numpy values, mappings, tuples and non-finite floats into JSON-safe values."""
-    if isinstance(value, Mapping):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return jsonable(value.item())
-    if isinstance(value, enum.Enum):
-        return str(value)
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def _frozen(a: Any) -> Any:
@@ -169,27 +33,6 @@ def _frozen(a: Any) -> Any:
         a = a.view()
         a.flags.writeable = False
     return a
-
-
-@dataclass(frozen=True)
-class Prediction:
-    """A fitted model's prediction of another record (the paper's Fig. 9)."""
-
-    card: str | None
-    t: Array
-    load: Array
-    measured: Array
-    predicted: Array
-    rmse: float
-    r2: float
-
-    def to_dict(self) -> dict[str, Any]:
-        """The scores (no arrays)."""
-        return {"card": self.card, "rmse": self.rmse, "r2": self.r2}
-
-    def __getitem__(self, key: str) -> Any:
-        # Dictionary-style access to the fields (``pred["r2"]``).
-        return getattr(self, key)
 
 
 @dataclass(frozen=True, eq=False)
@@ -468,17 +311,6 @@ class FitResult:
         """A copy with some parts replaced (e.g. ``card=CardInfo(...)``)."""
         return replace(self, **changes)
 
-    def profile(self, name: str, *, n_points: int = 21, span: float | None = None,
-                level: float = 0.95) -> Profile:
-        """Profile likelihood of one fitted value (refits with it fixed on a grid).
-
-        Returns a :class:`pumpid.inference.profile.Profile` with the interval (one-sided when
-        the parameter is at a boundary) and ``plot()``.
-        """
-        from .inference.profile import profile
-
-        return profile(self, name, n_points=n_points, span=span, level=level)
-
     # ------------------------------------------------------------------ output
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dictionary (no arrays of samples)."""
@@ -511,7 +343,7 @@ class FitResult:
         keys = list(self.history[0].keys())
         rows = [[str(k) for k in keys]]
         for row in self.history:
-            rows.append([str(int(row[k])) if k == "iteration" else _fmt(row.get(k), 12)
+            rows.append([str(int(row[k])) if k == "iteration" else fmt(row.get(k), 12)
                          for k in keys])
         widths = [max(len(r[i]) for r in rows) for i in range(len(keys))]
         return "\n".join("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True))
@@ -523,24 +355,6 @@ class FitResult:
 
     def __str__(self) -> str:
         return self.report()
-
-
-# --------------------------------------------------------------------------- text report
-def _error_table(names: Sequence[str], values: Mapping[str, float], units: Mapping[str, str],
-                 stderr: Mapping[str, Any], ci95: Mapping[str, Any]) -> list[str]:
-    lines = [f"  {'value':<15}  {'std. error':<12}  {'rel.':<8}  {'95 % interval':<30}  unit"]
-    for name in names:
-        se = stderr.get(name)
-        se = math.nan if se is None else float(se)
-        v = values[name]
-        rel = abs(se / v) if v and math.isfinite(se) else math.nan
-        ci = ci95.get(name)
-        ci_txt = f"[{ci[0]:.6g}, {ci[1]:.6g}]" if ci else "none"
-        rel_txt = f"{100 * rel:.3g} %" if math.isfinite(rel) else "n/a"
-        se_txt = f"{se:.4g}" if math.isfinite(se) else "n/a"
-        lines.append(f"  {name:<15}  {se_txt:<12}  {rel_txt:<8}  {ci_txt:<30}  "
-                     f"{units.get(name, '')}")
-    return lines
 
 
 def diagnostics_text(result: FitResult) -> str:
@@ -560,13 +374,13 @@ def diagnostics_text(result: FitResult) -> str:
                          f"sample{'s' if m != 1 else ''}, widened by "
                          f"{float(unc.hac.get('factor', 1.0)):.3g} for the estimate's own "
                          "spread; see the warning below):")
-            lines += _error_table(result.free, values, units, unc.stderr, unc.ci95)
+            lines += error_table(result.free, values, units, unc.stderr, unc.ci95)
             lines.append("  assuming independent noise (too narrow for these residuals: "
                          "stderr_white, ci95_white):")
-            lines += _error_table(result.free, values, units, result.stderr_white,
+            lines += error_table(result.free, values, units, result.stderr_white,
                                   result.ci95_white)
         else:
-            lines += _error_table(result.free, values, units, unc.stderr, unc.ci95)
+            lines += error_table(result.free, values, units, unc.stderr, unc.ci95)
         for note in unc.notes:
             lines.append(f"  note: {note}")
         lines.append("  correlation:")
@@ -599,8 +413,8 @@ def derived_text(result: FitResult) -> list[str]:
         if not d.well_property:
             verdict += " (*)"
             notes.append(f"  (*) {d.name}: not a property of the well: {d.note}")
-        lines.append(f"  {d.name:<18}  {_fmt(d.value, 6):<12}  {_fmt(d.stderr, 4):<11}  "
-                     f"{_fmt(d.stderr_white, 4):<11}  {verdict:<10}  {d.unit}")
+        lines.append(f"  {d.name:<18}  {fmt(d.value, 6):<12}  {fmt(d.stderr, 4):<11}  "
+                     f"{fmt(d.stderr_white, 4):<11}  {verdict:<10}  {d.unit}")
     return lines + notes
 
 
@@ -628,23 +442,25 @@ def format_report(result: FitResult, history: bool = False) -> str:
     for name, value in result.params.items():
         se = stderr.get(name)
         se_white = white.get(name)
-        white_txt = (f"; independent-noise +/- {_fmt(se_white, 3)}"
+        white_txt = (f"; independent-noise +/- {fmt(se_white, 3)}"
                      if se_white is not None and math.isfinite(se_white) else "")
         what = "robust " if robust else ""
-        se_txt = f"  ({what}+/- {_fmt(se, 3)}{white_txt})" if se is not None else ""
+        se_txt = f"  ({what}+/- {fmt(se, 3)}{white_txt})" if se is not None else ""
         flag = "  (not determined)" if name in loose else ""
-        lines.append(f"  {name:<15}  {_fmt(value, 10):<15}  {units.get(name, '')}{se_txt}"
+        lines.append(f"  {name:<15}  {fmt(value, 10):<15}  {units.get(name, '')}{se_txt}"
                      f"{flag}")
     scale_state = "fitted" if "C" in result.free or "D" in result.free else "fixed"
-    lines.append(f"  {'C (scale)':<15}  {_fmt(result.scale, 10):<15}  - ({scale_state})")
+    if result.problem is not None or scale_state == "fitted":
+        # A lumped model's output scale; a model with its own simulator has none.
+        lines.append(f"  {'C (scale)':<15}  {fmt(result.scale, 10):<15}  - ({scale_state})")
     if result.residual == "log" and result.scale > 0:
-        lines.append(f"  {'D = ln C':<15}  {_fmt(math.log(result.scale), 10):<15}  -")
+        lines.append(f"  {'D = ln C':<15}  {fmt(math.log(result.scale), 10):<15}  -")
     if "offset" in result.free or result.offset != 0.0:
         off_state = "fitted" if "offset" in result.free else "fixed"
-        lines.append(f"  {'offset':<15}  {_fmt(result.offset, 10):<15}  "
+        lines.append(f"  {'offset':<15}  {fmt(result.offset, 10):<15}  "
                      f"{result.units.position} ({off_state})")
-    lines += ["", f"  fit quality: RMSE = {_fmt(result.rmse, 6)} {result.units.position}, "
-              f"R^2 = {_fmt(result.r2, 8)}"]
+    lines += ["", f"  fit quality: RMSE = {fmt(result.rmse, 6)} {result.units.position}, "
+              f"R^2 = {fmt(result.r2, 8)}"]
     lines += derived_text(result)
     diag = diagnostics_text(result)
     if diag:
@@ -654,10 +470,10 @@ def format_report(result: FitResult, history: bool = False) -> str:
         lines.append("")
         lines.append(f"  reduced model ({reduced.model}, the limit the data want):")
         for name, value in reduced.params.items():
-            lines.append(f"  {name:<15}  {_fmt(value, 10):<15}  {reduced.units.get(name, '')}")
-        lines.append(f"  {'C (scale)':<15}  {_fmt(reduced.scale, 10):<15}  -")
-        lines.append(f"  fit quality: RMSE = {_fmt(reduced.rmse, 6)} {result.units.position}, "
-                     f"R^2 = {_fmt(reduced.r2, 8)}")
+            lines.append(f"  {name:<15}  {fmt(value, 10):<15}  {reduced.units.get(name, '')}")
+        lines.append(f"  {'C (scale)':<15}  {fmt(reduced.scale, 10):<15}  -")
+        lines.append(f"  fit quality: RMSE = {fmt(reduced.rmse, 6)} {result.units.position}, "
+                     f"R^2 = {fmt(reduced.r2, 8)}")
     if result.warnings:
         lines += ["", "  warnings:"]
         lines += [f"  - {w}" for w in result.warnings]
@@ -666,153 +482,4 @@ def format_report(result: FitResult, history: bool = False) -> str:
         lines += ["", *("  " + ln for ln in model_choice_text(choice).splitlines())]
     if history:
         lines += ["", "  history:", result.history_table()]
-    return "\n".join(lines)
-
-
-# --------------------------------------------------------------------------- many cards
-@dataclass(frozen=True, eq=False)
-class FitBatch:
-    """The fits of many cards: arrays with one entry per card, and each card's full result.
-
-    Attributes
-    ----------
-    model_name : str
-        The fitted model class.
-    param_names : tuple of str
-        Parameter names in canonical order.
-    params : mapping of str -> ndarray
-        Fitted parameters by name (NaN for failed cards).
-    scale, offset, rmse, r2, cost : ndarray
-        Per card.
-    status : tuple of Status
-        Per card (``invalid-input`` for a card that failed validation).
-    iterations, nfev : ndarray
-        Per card.
-    """
-
-    model_name: str
-    param_names: tuple[str, ...]
-    results: tuple[FitResult | None, ...]
-    invalid: tuple[str, ...]
-
-    def __len__(self) -> int:
-        return len(self.results)
-
-    def __getitem__(self, i: int) -> FitResult:
-        return self.result(i)
-
-    def result(self, i: int) -> FitResult:
-        """Card ``i``'s full result; ValueError for a card that failed validation."""
-        res = self.results[i]
-        if res is None:
-            raise ValueError(f"card {i} is not valid: {self.invalid[i]}")
-        return res
-
-    def _column(self, get: Any, default: float = math.nan) -> Array:
-        return np.array([get(r) if r is not None else default for r in self.results],
-                        dtype=float)
-
-    @functools.cached_property
-    def params(self) -> Mapping[str, Array]:
-        """Fitted parameters by name, one entry per card."""
-        return MappingProxyType({n: self._column(lambda r, n=n: r.params.get(n, math.nan))
-                                 for n in self.param_names})
-
-    @property
-    def theta(self) -> Array:
-        """Fitted parameters (cards, p) in canonical order."""
-        return np.column_stack([self.params[n] for n in self.param_names])
-
-    @functools.cached_property
-    def status(self) -> tuple[Status, ...]:
-        """Each card's status."""
-        return tuple(r.status if r is not None else Status.INVALID_INPUT
-                     for r in self.results)
-
-    @property
-    def converged(self) -> NDArray[np.bool_]:
-        """Cards with status ``converged``."""
-        return np.array([s is Status.CONVERGED for s in self.status])
-
-    @property
-    def scale(self) -> Array:
-        """Output scale C per card."""
-        return self._column(lambda r: r.scale)
-
-    @property
-    def offset(self) -> Array:
-        """Position offset per card."""
-        return self._column(lambda r: r.offset)
-
-    @property
-    def rmse(self) -> Array:
-        """RMSE per card (position units)."""
-        return self._column(lambda r: r.rmse)
-
-    @property
-    def r2(self) -> Array:
-        """R^2 per card."""
-        return self._column(lambda r: r.r2)
-
-    @property
-    def cost(self) -> Array:
-        """0.5 * sum of squared residuals per card."""
-        return self._column(lambda r: r.cost)
-
-    @property
-    def iterations(self) -> NDArray[np.int64]:
-        """Accepted iterations per card."""
-        return self._column(lambda r: r.iterations, 0).astype(np.int64)
-
-    @property
-    def nfev(self) -> NDArray[np.int64]:
-        """Model evaluations per card."""
-        return self._column(lambda r: r.nfev, 0).astype(np.int64)
-
-    def to_records(self) -> list[dict[str, Any]]:
-        """One flat dictionary per card (parameters as top-level keys)."""
-        out = []
-        for i, r in enumerate(self.results):
-            row: dict[str, Any] = {"card": i, "model": self.model_name,
-                                   "status": self.status[i].key}
-            if r is None:
-                row["reason"] = self.invalid[i]
-                row.update(dict.fromkeys(self.param_names, math.nan))
-            else:
-                row.update(dict(r.params))
-                row.update({"scale": r.scale, "offset": r.offset, "reason": r.reason,
-                            "iterations": r.iterations, "nfev": r.nfev, "rmse": r.rmse,
-                            "r2": r.r2, "cost": r.cost})
-            out.append(row)
-        return out
-
-    def summary(self) -> str:
-        """One line: cards per status and the median R^2."""
-        counts = ", ".join(f"{s.key} {sum(1 for x in self.status if x is s)}" for s in Status
-                           if any(x is s for x in self.status))
-        r2 = self.r2
-        med = float(np.nanmedian(r2)) if np.any(np.isfinite(r2)) else math.nan
-        return f"{self.model_name}: {len(self)} cards ({counts}); median R^2 = {med:.6g}"
-
-
-def model_choice_text(choice: Mapping[str, Any]) -> str:
-    """A model choice's ranking (``application["model_choice"]``) as text."""
-    crit = str(choice["criterion"]).upper()
-    data = choice.get("n_eff_data", choice["n_eff"])
-    data = choice["n_eff"] if data is None or not math.isfinite(data) else float(data)
-    used = (f"n_eff = {data:.1f}" if abs(data - choice["n_eff"]) < 0.05 else
-            f"n_eff = {data:.1f}, counted as {choice['n_eff']:.1f} by the criteria, their "
-            f"smallest usable size")
-    lines = [f"Model choice by {crit} on the effective sample size (n = {choice['n']}, "
-             f"residual lag-1 autocorrelation {choice['rho']:.3f}, {used}); chosen: "
-             f"{choice['chosen']}",
-             f"  {'structure':<18}{'k':>3}{'R^2':>11}{'BIC':>12}{'AICc':>12}"
-             f"{'delta':>9}{'weight':>8}  status"]
-    for c in choice["candidates"]:
-        lines.append(f"  {c['name']:<18}{c['k']:>3}{c['r2']:>11.6f}{c['bic']:>12.2f}"
-                     f"{c['aicc']:>12.2f}{c['delta']:>9.2f}{c['weight']:>8.3f}  {c['status']}")
-    for t in choice["nested_tests"]:
-        lines.append(f"  likelihood ratio {t['big']} against {t['small']} ({t['limit']}): "
-                     f"statistic {t['statistic']:.3g} on {t['dof']} dof, p = "
-                     f"{t['p_value']:.3g}")
     return "\n".join(lines)

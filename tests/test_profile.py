@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
+import pumpid
 from pumpid import Kelvin, MassSpringDamper, fit, simulate
-from pumpid.inference.profile import Profile, profile
+from pumpid.profile import Profile, profile
 
-from ..conftest import well_load
+from .conftest import well_load
 
 T = np.linspace(0.0, 12.0, 801)
 LOAD = well_load(T)
@@ -86,6 +87,12 @@ def test_profile_says_when_the_residuals_are_not_white(kelvin_fit) -> None:
     prof = profile(res, "c1", n_points=5)
     note = next(n for n in prof.notes if "not white" in n)
     assert "too narrow" in note and "ci95_hac" in note
+
+
+def test_profile_is_the_packages_profile_of_and_not_a_result_method(kelvin_fit) -> None:
+    # The profile runs the job, which stands above the result: the result cannot call it.
+    assert pumpid.profile_of is profile
+    assert not hasattr(kelvin_fit, "profile")
 
 
 def test_profile_rejects_unknown_names(kelvin_fit) -> None:
