@@ -16,25 +16,6 @@ from pathlib import Path
 
 import pytest
 
-# Known violations that work in progress elsewhere removes (the job and the result being
-# restructured into packages, the profile moved above the job). Each entry is expected to
-# fail, and fails loudly once it is fixed, so that it is taken off this list: empty it at
-# merge. An entry is "importer -> imported" (a layer violation, which also closes the
-# cycle result -> inference -> job -> result) or a module's name (too long).
-PENDING: set[str] = {
-    # result.py reads inference's types at module level and runs a profile on demand.
-    "pumpid.result -> pumpid.inference.boundaries",
-    "pumpid.result -> pumpid.inference.derived",
-    "pumpid.result -> pumpid.inference.uncertainty",
-    "pumpid.result -> pumpid.inference.profile",
-    # inference.profile refits through the job.
-    "pumpid.inference.profile -> pumpid.job",
-    # Modules over the limit, being split.
-    "pumpid.job",
-    "pumpid.engine.start",
-    "pumpid.result",
-}
-
 #: The layers, top to bottom. A module may import modules of its own layer and of lower
 #: ones only, in any form of import. A module's layer is named by the first part of its
 #: name after ``pumpid``; ``pumpid`` itself (the public facade, for users) is above all.
@@ -221,15 +202,14 @@ def test_every_module_has_a_layer() -> None:
 
 def test_lower_layers_do_not_import_upper_ones() -> None:
     found = [f"{i}: {layer(i.importer)} may not import {layer(i.imported)}, a higher layer"
-             for i in layer_violations() if i.key not in PENDING]
+             for i in layer_violations()]
     assert found == [], "\n".join(found)
 
 
 def test_no_import_cycles() -> None:
     edges: dict[str, set[str]] = {}
     for i in PACKAGE.imports:
-        if i.key not in PENDING:
-            edges.setdefault(i.importer, set()).add(i.imported)
+        edges.setdefault(i.importer, set()).add(i.imported)
     cycle = find_cycle(edges)
     if cycle is not None:
         steps = ["; ".join(str(i) for i in PACKAGE.imports if (i.importer, i.imported) == pair)
@@ -242,36 +222,5 @@ def test_no_private_names_imported_across_modules() -> None:
 
 
 def test_no_module_is_too_long() -> None:
-    found = [text for name, text in sorted(long_modules().items()) if name not in PENDING]
+    found = [text for _name, text in sorted(long_modules().items())]
     assert found == [], "\n".join(found)
-
-
-def pending(key: str) -> list[str]:
-    """What is still wrong under a PENDING key, precisely (empty once it is fixed)."""
-    found = [str(i) for i in layer_violations() if i.key == key]
-    return found + [text for name, text in long_modules().items() if name == key]
-
-
-@pytest.mark.parametrize("key", [
-    pytest.param(key, marks=pytest.mark.xfail(
-        strict=True, reason="pending: " + ("; ".join(pending(key)) or "fixed, remove it")))
-    for key in sorted(PENDING)])
-def test_pending_violations_remain_until_fixed(key: str) -> None:
-    """Each pending entry still fails (XPASS, a failure, says: take it off PENDING)."""
-    assert pending(key) == [], "\n".join(pending(key))
-
-
-def test_import_kinds_are_told_apart() -> None:
-    code = ("from typing import TYPE_CHECKING\n"
-            "import pumpid.cards\n"
-            "if TYPE_CHECKING:\n"
-            "    from pumpid import job\n"
-            "def f():\n"
-            "    from pumpid import result\n"
-            "    if TYPE_CHECKING:\n"
-            "        import pumpid.fleet\n"
-            "class C:\n"
-            "    import pumpid.models\n")
-    kinds = [(node.lineno, kind) for node, kind in import_nodes(ast.parse(code).body)]
-    assert kinds == [(1, "module-level"), (2, "module-level"), (4, "type-checking"),
-                     (6, "deferred"), (8, "type-checking"), (10, "module-level")]

@@ -42,6 +42,8 @@ from pumpid import interrupts
 from pumpid.models import Model
 from pumpid.pump.runner import FitSpec, fit_cards_each
 from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
+from pumpid.result import CardInfo
+from pumpid.result.table import fit_row, identity_of, unfitted_row
 from pumpid.version import __version__
 
 from .defaults import PARTITION_SIZE
@@ -68,21 +70,17 @@ def _utc(value: Any) -> pd.Timestamp | None:
     return stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
 
 
-def _blank(schema: pa.Schema) -> dict[str, Any]:
-    return dict.fromkeys(schema.names)
-
-
 def _card_row(item: CardItem, result: Any, reason: str, status: str | None,
-              cls: type[Model], spec: FitSpec, schema: pa.Schema) -> dict[str, Any]:
+              cls: type[Model], spec: FitSpec) -> dict[str, Any]:
     card = item.card
     if result is not None:
-        row = {**_blank(schema), **result.to_row()}
+        row = fit_row(result)
     else:
-        row = _blank(schema)
-        row.update(model=cls.__name__, observe=spec.options.get("observe") or cls.default_output,
-                   status=status or "invalid-input", reason=reason, warnings="",
-                   n_samples=card.n, position_unit=card.position_unit,
-                   load_unit=card.load_unit)
+        row = unfitted_row(None, model=cls.__name__,
+                           observe=spec.options.get("observe") or cls.default_output,
+                           status=status or "invalid-input", reason=reason,
+                           n_samples=card.n, position_unit=card.position_unit,
+                           load_unit=card.load_unit)
     meta = card.metadata
     stamp = meta.get("time", meta.get("timestamp"))
     time_value = _utc(stamp)
@@ -90,18 +88,19 @@ def _card_row(item: CardItem, result: Any, reason: str, status: str | None,
     warnings += [w for w in card.warnings if w not in warnings]
     if stamp is not None and time_value is None:
         warnings.append(f"card time {stamp!r} is not a date and time: left out")
-    row.update(well_id=card.well_id, card_id=item.card_id, source=item.source,
-               file=item.file, time=time_value, warnings=" | ".join(warnings))
+    # The batch's identity of the card: the reader's id and source, the file, the UTC time.
+    row.update(identity_of(CardInfo(id=item.card_id, well=card.well_id, source=item.source),
+                           file=item.file, time=time_value))
+    row["warnings"] = " | ".join(warnings)
     return row
 
 
-def _bad_row(item: BadItem, cls: type[Model], spec: FitSpec,
-             schema: pa.Schema) -> dict[str, Any]:
-    row = _blank(schema)
-    row.update(well_id=item.well_id, card_id=item.card_id, source=item.source, file=item.file,
-               time=_utc(item.time), model=cls.__name__,
-               observe=spec.options.get("observe") or cls.default_output,
-               status="invalid-input", reason=item.reason, warnings="")
+def _bad_row(item: BadItem, cls: type[Model], spec: FitSpec) -> dict[str, Any]:
+    row = unfitted_row(CardInfo(id=item.card_id, well=item.well_id, source=item.source),
+                       model=cls.__name__,
+                       observe=spec.options.get("observe") or cls.default_output,
+                       status="invalid-input", reason=item.reason)
+    row.update(file=item.file, time=_utc(item.time))
     return row
 
 
@@ -130,18 +129,17 @@ def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: i
         One row per item, in order, with the columns of :func:`results_schema`.
     """
     cls = spec.model_class()
-    schema = results_schema(spec.model_classes())
     rows: list[dict[str, Any] | None] = [None] * len(items)
     idx = [i for i, item in enumerate(items) if isinstance(item, CardItem)]
     for i, item in enumerate(items):
         if not isinstance(item, CardItem):
-            rows[i] = _bad_row(item, cls, spec, schema)
+            rows[i] = _bad_row(item, cls, spec)
     outcomes = fit_cards_each([items[i].card for i in idx], spec,  # type: ignore[union-attr]
                               workers=threads)
     for i, got in zip(idx, outcomes, strict=True):
         status = None if got.result is not None else got.status
-        rows[i] = _card_row(items[i], got.result, got.reason, status, cls, spec,  # type: ignore[arg-type]
-                            schema)
+        rows[i] = _card_row(items[i], got.result, got.reason, status, cls,  # type: ignore[arg-type]
+                            spec)
     if downhole is not None:  # the pump quantities (pumpid.fleet.downhole)
         add_pump_columns(items, rows, downhole)
     out: list[dict[str, Any]] = []

@@ -37,6 +37,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from pumpid.models import Model
+from pumpid.result.table import check_row
+from pumpid.result.table import results_schema as table_schema
 
 __all__ = [
     "BATCH_COLUMNS",
@@ -66,42 +68,18 @@ class ResultsFolderError(ValueError):
 
 
 def results_schema(model: type[Model] | Sequence[type[Model]]) -> pa.Schema:
-    """The Arrow schema of a run's results for one model class (or several).
-
-    The columns of :meth:`pumpid.FitResult.to_row` in its order, with :data:`BATCH_COLUMNS`
-    after ``source``. Every part of a run has this schema, so a partition whose cards all
-    failed to read still has every column (all null).
+    """The Arrow schema of a run's results (:func:`pumpid.result.table.results_schema`, the
+    one owner of the table's columns; :data:`BATCH_COLUMNS` are among its identity columns).
 
     Parameters
     ----------
     model : Model class or sequence of Model classes
-        Several (a run whose structure is chosen per card): every class's parameter and
-        derived columns, each once, in the order first met.
 
     Returns
     -------
     pyarrow.Schema
     """
-    s, f, i, b = pa.string(), pa.float64(), pa.int64(), pa.bool_()
-    cols: list[tuple[str, pa.DataType]] = [
-        ("well_id", s), ("card_id", s), ("time", pa.timestamp("ns", tz="UTC")), ("source", s),
-        ("file", s), ("item", i), ("partition", i), ("duplicate_of", s),
-        ("model", s), ("observe", s), ("status", s), ("reason", s), ("warnings", s),
-        ("r2", f), ("rmse", f), ("cost", f), ("n_samples", i), ("nfev", i),
-        ("position_unit", s), ("load_unit", s),
-    ]  # fmt: skip
-    classes = list(model) if isinstance(model, Sequence) else [model]
-    params = list(dict.fromkeys(n for cls in classes for n in cls.param_names()))
-    derived = list(dict.fromkeys(i.name for cls in classes for i in cls.derived_info()))
-    for name in params:
-        cols += [(f"p_{name}", f), (f"p_{name}_se", f), (f"p_{name}_se_hac", f),
-                 (f"p_{name}_se_white", f)]
-    cols += [("scale", f), ("offset", f)]
-    for name in derived:
-        d = f"d_{name}"
-        cols += [(d, f), (f"{d}_se", f), (f"{d}_se_hac", f), (f"{d}_se_white", f),
-                 (f"{d}_determined", b), (f"{d}_well_property", b), (f"{d}_unit", s)]
-    return pa.schema(cols)
+    return table_schema(model)
 
 
 def _now() -> str:
@@ -379,12 +357,9 @@ def storable_table(rows: list[dict[str, Any]], schema: pa.Schema) -> pa.Table:
     ValueError
         For a row key that is not a column of ``schema`` (Arrow would drop it silently).
     """
-    known = set(schema.names)
-    stray = sorted({k for row in rows for k in row if k not in known})
-    if stray:
-        # Arrow would drop them without a word: a column the schema does not own is a bug.
-        raise ValueError(f"results table: row key(s) {stray} are not columns of the run's "
-                         "schema (results_schema)")
+    for row in rows:
+        # Arrow would drop a stray key without a word: a column the table does not own.
+        check_row(row, schema.names)
     try:
         return pa.Table.from_pylist(rows, schema=schema)
     except _CONVERSION_ERRORS:

@@ -1,7 +1,7 @@
 """The main job: one verb (:func:`fit`), its options (:class:`FitOptions`) and its stages.
 
 :mod:`~pumpid.job.verb` turns the data (arrays, a card, many cards) into a problem;
-:mod:`~pumpid.job.run` runs the stages (start, solve, guard, widen, boundaries, diagnose) on
+:mod:`~pumpid.job.stages` runs the stages (start, solve, guard, widen, boundaries, diagnose) on
 every card at once; :mod:`~pumpid.job.assemble` makes each card's result;
 :mod:`~pumpid.job.own` runs the same solver and diagnostics for a model that brings its own
 simulator.
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from ..engine.solvers import LevenbergMarquardt, PaperNewton
 from .options import MIN_R2, START_SAMPLES, FitOptions, JobOptions, job_options, solver_for
-from .run import cost_change, run, run_batch
+from .stages import cost_change, run, run_batch
 from .state import start_problem
 from .verb import card_info, card_record, card_units, fit
 

@@ -171,8 +171,10 @@ class FitOptions:
         if self.multistart not in ("auto", True, False) or (isinstance(self.multistart, int) \
                 and not isinstance(self.multistart, bool)):
             raise _bad("multistart", self.multistart, "'auto', True or False")
-        if not (_is_number(self.min_r2) and self.min_r2 <= 1):
-            raise _bad("min_r2", self.min_r2, "a number at most 1")
+        if not (isinstance(self.min_r2, int | float | np.integer | np.floating)
+                and not isinstance(self.min_r2, bool) and self.min_r2 <= 1):
+            # -inf is allowed: the gate open (every answer passes).
+            raise _bad("min_r2", self.min_r2, "a number at most 1 (-inf: no gate)")
         if not isinstance(self.boundaries, bool):
             raise _bad("boundaries", self.boundaries, "True or False")
         if not isinstance(self.joint, bool):

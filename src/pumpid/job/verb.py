@@ -30,7 +30,7 @@ from ..result import CardInfo, FitBatch, FitResult, Units
 from .joint import StackedCards, joint_part
 from .options import FitOptions, job_options
 from .own import fit_own
-from .run import run_batch
+from .stages import run_batch
 
 __all__ = ["card_info", "card_record", "card_units", "fit"]
 

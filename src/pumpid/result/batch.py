@@ -7,12 +7,15 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .fit import FitResult
+
+if TYPE_CHECKING:
+    import pandas
 from .parts import Status
 
 __all__ = ["FitBatch"]
@@ -119,22 +122,18 @@ class FitBatch:
         """Model evaluations per card."""
         return self._column(lambda r: r.nfev, 0).astype(np.int64)
 
-    def to_records(self) -> list[dict[str, Any]]:
-        """One flat dictionary per card (parameters as top-level keys)."""
-        out = []
-        for i, r in enumerate(self.results):
-            row: dict[str, Any] = {"card": i, "model": self.model_name,
-                                   "status": self.status[i].key}
-            if r is None:
-                row["reason"] = self.invalid[i]
-                row.update(dict.fromkeys(self.param_names, math.nan))
-            else:
-                row.update(dict(r.params))
-                row.update({"scale": r.scale, "offset": r.offset, "reason": r.reason,
-                            "iterations": r.iterations, "nfev": r.nfev, "rmse": r.rmse,
-                            "r2": r.r2, "cost": r.cost})
-            out.append(row)
-        return out
+    def to_frame(self) -> pandas.DataFrame:
+        """The batch as the results table (:mod:`pumpid.result.table`): one row per card, in
+        order, every column of the table; a card that failed validation is an
+        ``invalid-input`` row with its reason."""
+        from .table import fit_row, rows_frame, unfitted_row
+
+        rows = [fit_row(r) if r is not None else
+                unfitted_row(None, model=self.model_name, observe=None,
+                             status="invalid-input", reason=self.invalid[i])
+                for i, r in enumerate(self.results)]
+        models = [r.model for r in self.results if r is not None and r.model is not None]
+        return rows_frame(rows, models or [_Named(self.param_names)])
 
     def summary(self) -> str:
         """One line: cards per status and the median R^2."""
@@ -143,3 +142,13 @@ class FitBatch:
         r2 = self.r2
         med = float(np.nanmedian(r2)) if np.any(np.isfinite(r2)) else math.nan
         return f"{self.model_name}: {len(self)} cards ({counts}); median R^2 = {med:.6g}"
+
+
+class _Named:
+    """Parameter names standing in for a model class (a batch none of whose cards fitted)."""
+
+    def __init__(self, names: tuple[str, ...]) -> None:
+        self.names = tuple(names)
+
+    def param_names(self) -> tuple[str, ...]:
+        return self.names

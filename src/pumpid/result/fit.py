@@ -263,49 +263,12 @@ class FitResult:
         return MappingProxyType(out)
 
     def to_row(self) -> dict[str, Any]:
-        """One flat row for a results table (the fleet's layout).
+        """One flat row of the results table (:mod:`pumpid.result.table` owns its columns:
+        the card's identity, the fit, ``p_NAME`` with its errors, ``scale``, ``offset``,
+        ``d_NAME`` with its errors, whether determined and its unit)."""
+        from .table import fit_row
 
-        Keys: ``well_id``, ``card_id``, ``time``, ``source``, ``model``, ``observe``,
-        ``status``, ``reason``, ``warnings`` (joined by " | "), ``r2``, ``rmse``, ``cost``,
-        ``n_samples``, ``nfev``, ``position_unit``, ``load_unit``; per parameter
-        ``p_NAME``, ``p_NAME_se`` (the error shown: robust where the residuals are serially
-        correlated), ``p_NAME_se_hac``, ``p_NAME_se_white``; ``scale`` and ``offset``; per
-        derived quantity ``d_NAME``, ``d_NAME_se`` (shown), ``d_NAME_se_hac``,
-        ``d_NAME_se_white``, ``d_NAME_determined``, ``d_NAME_well_property`` (False when the
-        card's imposed motion, not the well, sets it), ``d_NAME_unit``. Standard errors are
-        NaN where not computed.
-        """
-        card = self.card
-        row: dict[str, Any] = {
-            "well_id": card.well if card else None,
-            "card_id": card.id if card else None,
-            "time": card.time if card else None,
-            "source": card.source if card else None,
-            "model": self.model_name, "observe": self.observe, "status": self.status.key,
-            "reason": self.reason, "warnings": " | ".join(self.warnings),
-            "r2": self.r2, "rmse": self.rmse, "cost": self.cost,
-            "n_samples": int(self.t.size), "nfev": self.nfev,
-            "position_unit": self.units.position, "load_unit": self.units.load,
-        }
-        se = self.stderr
-        se_hac = self.stderr_hac
-        se_white = self.stderr_white
-        for name, value in self.params.items():
-            row[f"p_{name}"] = value
-            row[f"p_{name}_se"] = float(se.get(name, math.nan))
-            row[f"p_{name}_se_hac"] = float(se_hac.get(name, math.nan))
-            row[f"p_{name}_se_white"] = float(se_white.get(name, math.nan))
-        row["scale"] = self.scale
-        row["offset"] = self.offset
-        for name, d in self.derived.items():
-            row[f"d_{name}"] = d.value
-            row[f"d_{name}_se"] = d.stderr
-            row[f"d_{name}_se_hac"] = d.stderr_hac
-            row[f"d_{name}_se_white"] = d.stderr_white
-            row[f"d_{name}_determined"] = d.determined
-            row[f"d_{name}_well_property"] = d.well_property
-            row[f"d_{name}_unit"] = d.unit
-        return row
+        return fit_row(self)
 
     def with_parts(self, **changes: Any) -> FitResult:
         """A copy with some parts replaced (e.g. ``card=CardInfo(...)``)."""
