@@ -2,7 +2,7 @@
 
 A steady synthetic well (the bundled example's Kelvin model, 130 samples a card, 0.3 %
 noise, the pumping speed jittered by 1 %) is fitted jointly on its first 1, 2, 4, 8, 16
-and 32 cards (1: the card alone, by ``fit_card``), and the Sandia public pairs (two
+and 32 cards (1: the card alone, by ``pumpid.fit``), and the Sandia public pairs (two
 consecutive strokes of each of two wells, ``../shared/data/raw``, skipped when absent)
 alone and jointly.
 
@@ -18,7 +18,7 @@ import numpy as np
 
 import pumpid
 from pumpid.cards import read_cards
-from pumpid.pump import fit_card, fit_joint
+from pumpid.pump import fit_joint
 from pumpid.pump.synthetic import synthetic_card
 
 RAW = Path(__file__).resolve().parents[2] / "shared" / "data" / "raw"
@@ -35,7 +35,7 @@ def main() -> None:
     print(f"{'cards':>6}  " + "  ".join(f"{n:>20}" for n in names) + "   se(m) x sqrt(cards)")
     for n in (1, 2, 4, 8, 16, 32):
         if n == 1:
-            res = fit_card(well[0])
+            res = pumpid.fit(pumpid.Kelvin, well[0])
             est = dict(res.params)
             se = {k: res.uncertainty.stderr.get(k, math.nan) if res.uncertainty else math.nan
                   for k in names}
