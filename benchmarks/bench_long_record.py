@@ -3,11 +3,12 @@
     python benchmarks/bench_long_record.py [--samples 10000,100000,1000000] [--periodic]
                                            [--model-error 0.02]
 
-One record per size through ``pumpid.fit(Kelvin, t, load, displacement, observe="u")``: the
-record of ``bench_memory.py`` (a two-tone load sampled every 0.01 s, the displacement of a
-known Kelvin model plus 0.1 % noise), from rest; with ``--periodic`` one periodic stroke of
-that many samples instead (``initial_state="periodic"``, a fitted offset), as a single card
-of a controller export would be. ``--model-error`` distorts the displacement a little, as
+One record per size through ``pumpid.fit(Kelvin, (t, load, displacement),
+options=FitOptions(observe="u"))``: the record of ``bench_memory.py`` (a two-tone load
+sampled every 0.01 s, the displacement of a known Kelvin model plus 0.1 % noise), from rest;
+with ``--periodic`` one periodic stroke of that many samples instead
+(``initial_state="periodic"``, a fitted offset), as a single card of a controller export
+would be. ``--model-error`` distorts the displacement a little, as
 model error does on a real card, so that the wider search and the boundary refits run.
 The job's stages are timed with :mod:`cProfile` (the cumulative time of the automatic
 start, the solver runs, the wider search, the boundary checks and the diagnostics), so
@@ -40,9 +41,9 @@ STAGES = (
     ("start", "engine/start.py", "find_starts"),
     ("solve", "engine/solvers.py", "solve"),
     ("wider search", "engine/start.py", "search_wider"),
-    ("boundaries", "pumpid/job.py", "_check_boundaries"),
-    ("diagnostics", "pumpid/job.py", "_diagnose"),
-    ("result", "pumpid/job.py", "build_result"),
+    ("boundaries", "pumpid/job/boundary.py", "check_boundaries"),
+    ("diagnostics", "pumpid/job/diagnose.py", "diagnose"),
+    ("result", "pumpid/job/assemble.py", "build_result"),
 )
 
 
@@ -75,12 +76,13 @@ def fit_once(n: int, periodic: bool, model_error: float = 0.0
              ) -> tuple[float, dict[str, float], object]:
     """Wall time, stage times (s) and the result of one fit of ``n`` samples."""
     t, load, disp, period = record(n, periodic, model_error)
-    kwargs = ({"initial_state": "periodic", "period": period, "offset": True}
-              if periodic else {})
+    options = pumpid.FitOptions(observe="u")
+    if periodic:
+        options = options.replace(initial_state="periodic", period=period, offset=True)
     prof = cProfile.Profile()
     start = time.perf_counter()
     prof.enable()
-    res = pumpid.fit(pumpid.Kelvin, t, load, disp, observe="u", **kwargs)
+    res = pumpid.fit(pumpid.Kelvin, (t, load, disp), options=options)
     prof.disable()
     wall = time.perf_counter() - start
     stats = pstats.Stats(prof).stats  # type: ignore[attr-defined]

@@ -13,11 +13,11 @@ Sections:
   the three families of ``tests/families.py``: (a) periodic strokes with a fitted offset,
   (b) three strokes from rest with a slow creep mode still running, (c) controller-like cards
   of 130 samples; Kelvin parameters log-uniform over a factor 10. For each family:
-  ``fit_card`` one card at a time (median and p90 ms per card, statuses); ``fit_cards`` on the
-  same cards with 2 threads and the comparison of its answers with the per-card ones
-  (statuses identical, determined parameters to 1e-8); ``fit_cards`` on 10,000 cards (cards
-  per second) and the growth of the process's peak resident memory from a tenth of that
-  number to all of it.
+  ``pumpid.fit(Kelvin, card)`` one card at a time (median and p90 ms per card, statuses);
+  ``pumpid.fit(Kelvin, cards)`` on the same cards as one list with 2 threads and the
+  comparison of its answers with the per-card ones (statuses identical, determined
+  parameters to 1e-8); the list of 10,000 cards (cards per second) and the growth of the
+  process's peak resident memory from a tenth of that number to all of it.
 * **real**: the same per-card measurement on real cards, every public set under
   ``../shared/data/raw`` (beside the repository; skipped when absent) that holds strokes of
   one well: Sandia's surface cards and the strokes of its two downhole records (split with
@@ -26,9 +26,10 @@ Sections:
   (the wider search, the boundary refits, a limit reached), the work the synthetic cards
   rarely need.
 * **single**: one Kelvin fit of 2001 samples from a start about 30 % off
-  (``pumpid.fit(..., multistart=False)``; no automatic start), noiseless and with 1 % noise,
-  beside ``least_squares`` with the exact sensitivity Jacobian over ``scipy.signal.lsim``
-  (``_baselines.lsq_lsim_fit``) on the same data: times, accuracy, ratio.
+  (``pumpid.fit(guess, data, options=FitOptions(multistart=False))``; no automatic
+  start), noiseless and with 1 % noise, beside ``least_squares`` with the exact sensitivity
+  Jacobian over ``scipy.signal.lsim`` (``_baselines.lsq_lsim_fit``) on the same data:
+  times, accuracy, ratio.
 * **cli**: wall time of a whole ``pumpid fit CARD`` process (no ``--out``) on the bundled
   example card, with a warm compiled cache (median of 5) and with an empty one (cold).
 
@@ -64,7 +65,6 @@ from tests.families import family  # noqa: E402
 import pumpid  # noqa: E402
 from pumpid import Kelvin  # noqa: E402
 from pumpid.cards import read_cards  # noqa: E402
-from pumpid.pump import fit_card, fit_cards  # noqa: E402
 
 Array = np.ndarray
 PERIOD = 7.5  # s, one stroke at 8 strokes per minute
@@ -114,11 +114,11 @@ def section_families(quick: bool) -> None:
     per_card_rows, batch_rows, equal_rows = [], [], []
     for name in ("periodic", "rest", "controller"):
         cards = family(name, n_each, seed=1)
-        fit_card(cards[0])  # compiled code loaded, caches warm
+        pumpid.fit(Kelvin, cards[0])  # compiled code loaded, caches warm
         times, alone = [], []
         for card in cards:
             t0 = time.perf_counter()
-            alone.append(fit_card(card))
+            alone.append(pumpid.fit(Kelvin, card))
             times.append(time.perf_counter() - t0)
         ms = np.array(times) * 1e3
         counts = collections.Counter(r.status.value for r in alone)
@@ -126,27 +126,29 @@ def section_families(quick: bool) -> None:
             name, str(n_each), f"{np.median(ms):.1f}", f"{np.percentile(ms, 90):.1f}",
             f"{ms.mean():.1f}", f"{np.median([r.nfev for r in alone]):.0f}",
             ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))])
-        together = fit_cards(cards, workers=2).results
+        together = pumpid.fit(Kelvin, cards, workers=2).results
         s_diff, p_diff, worst = compare(alone, list(together))
         equal_rows.append([name, str(n_each), str(s_diff), str(p_diff), f"{worst:.1e}"])
 
         big = family(name, n_big, seed=2)
         small = big[: n_big // 10]
-        fit_cards(small, workers=2)
+        pumpid.fit(Kelvin, small, workers=2)
         rss_small = peak_rss_mib()
         t0 = time.perf_counter()
-        fit_cards(big, workers=2)
+        pumpid.fit(Kelvin, big, workers=2)
         sec = time.perf_counter() - t0
         rss_big = peak_rss_mib()
         batch_rows.append([name, f"{n_big:,}", f"{sec:.1f}", f"{n_big / sec:,.0f}",
                            f"{rss_small:.0f} -> {rss_big:.0f}"])
-    table("(1) fit_card, one card at a time (the main job end to end, no plots)",
+    table("(1) pumpid.fit(Kelvin, card), one card at a time (the main job end to end, no "
+          "plots)",
           ["family", "cards", "median ms", "p90 ms", "mean ms", "median evals", "statuses"],
           per_card_rows)
-    table("(2) fit_cards (2 threads) against fit_card on the same cards",
+    table("(2) pumpid.fit(Kelvin, cards) (one list, 2 threads) against one card at a time "
+          "on the same cards",
           ["family", "cards", "status differs", "params differ > 1e-8", "worst rel diff"],
           equal_rows)
-    table("(3) fit_cards, 2 threads, one call",
+    table("(3) pumpid.fit(Kelvin, cards), 2 threads, one call",
           ["family", "cards", "seconds", "cards/s",
            "peak RSS MiB (tenth of the cards -> all)"], batch_rows)
 
@@ -170,14 +172,14 @@ def section_real(quick: bool) -> None:
     if not sets:
         print("\n(1r) real cards: skipped (no ../shared/data/raw beside the repository)")
         return
-    fit_card(next(iter(sets.values()))[0])  # compiled code loaded, caches warm
+    pumpid.fit(Kelvin, next(iter(sets.values()))[0])  # compiled code loaded, caches warm
     rows = []
     for name, cards in sets.items():
         times, nfev, counts, guards = [], [], collections.Counter(), collections.Counter()
         for card in cards:
             t0 = time.perf_counter()
             try:
-                res = fit_card(card)
+                res = pumpid.fit(Kelvin, card)
             except ValueError:
                 counts["not fitted"] += 1
                 continue
@@ -192,7 +194,8 @@ def section_real(quick: bool) -> None:
             f"{ms.mean():.1f}", f"{np.median(nfev):.0f}",
             ", ".join(f"{k} {v}" for k, v in sorted(guards.items())),
             ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))])
-    table("(1r) fit_card on real cards, one at a time (the main job end to end, no plots)",
+    table("(1r) pumpid.fit(Kelvin, card) on real cards, one at a time (the main job end to "
+          "end, no plots)",
           ["set", "cards", "median ms", "p90 ms", "mean ms", "median evals",
            "guards that changed the answer", "statuses"], rows)
 
@@ -239,8 +242,8 @@ def section_single(quick: bool) -> None:
         data = clean + level * np.ptp(clean) * rng.standard_normal(t.size)
 
         def ours(data: Array = data) -> pumpid.FitResult:
-            return pumpid.fit(Kelvin.from_values(guess), t, load, data, observe=observe,
-                              multistart=False)
+            return pumpid.fit(Kelvin.from_values(guess), (t, load, data),
+                              options=pumpid.FitOptions(observe=observe, multistart=False))
 
         times, res = timed(ours, repeats)
         assert isinstance(res, pumpid.FitResult)

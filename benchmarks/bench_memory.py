@@ -6,7 +6,7 @@ Each measurement runs in a fresh process and reads that process's peak resident 
 (``resource.getrusage(RUSAGE_CHILDREN).ru_maxrss`` in a wrapper process that runs nothing
 else), so the figures include the interpreter, numpy, numba and the compiled kernels.
 
-1. **One long record through the API**: ``pumpid.fit(Kelvin, t, load, displacement)`` on
+1. **One long record through the API**: ``pumpid.fit(Kelvin, (t, load, displacement))`` on
    one card of ``--samples`` samples (a multi-sine load, the displacement of a known Kelvin
    model plus noise). Printed: the peak of a process that only builds the arrays (the
    baseline), the peak with the fit, and the difference per sample.
@@ -54,7 +54,8 @@ _LONG_FIT = textwrap.dedent("""
     disp = pumpid.simulate(true, t, load, observe="u")
     disp += 0.001 * np.ptp(disp) * rng.standard_normal(n)
     if fit:
-        res = pumpid.fit(pumpid.Kelvin, t, load, disp, observe="u")
+        res = pumpid.fit(pumpid.Kelvin, (t, load, disp),
+                         options=pumpid.FitOptions(observe="u"))
         print(res.status, file=sys.stderr)
 """)
 

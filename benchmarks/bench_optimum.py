@@ -1,11 +1,12 @@
 """Does the main job find the best optimum? Against a brute-force search, on every card.
 
-For each card the default main job (``pumpid.pump.fit_card``: automatic start, boundaries,
-the default model and options) is compared with a brute-force search on the same problem:
-hundreds of starts drawn log-uniformly over each parameter's natural scale times or divided
-by 1000 (the whole search window's core), each run by the engine's Levenberg-Marquardt to
-convergence with a large budget. The brute force's best sum of squares is the reference;
-the job passes a card when its own is within 1e-6 relative of it (or below it).
+For each card the default main job (``pumpid.fit(Kelvin, card)``: automatic start,
+boundaries, the default model and options) is compared with a brute-force search on the
+same problem: hundreds of starts drawn log-uniformly over each parameter's natural scale
+times or divided by 1000 (the whole search window's core), each run by the engine's
+Levenberg-Marquardt to convergence with a large budget. The brute force's best sum of
+squares is the reference; the job passes a card when its own is within 1e-6 relative of it
+(or below it).
 
 Cards: every real card in ``../shared/data/raw`` (the folder beside the repository; skipped
 when absent) and synthetic periodic Kelvin cards with each parameter spread log-uniformly
@@ -33,7 +34,6 @@ import pumpid
 from pumpid.cards import Card, read_cards, split_strokes
 from pumpid.engine.problem import WINDOW
 from pumpid.engine.solvers import LevenbergMarquardt
-from pumpid.pump import fit_card
 
 RAW = Path(__file__).resolve().parents[2] / "shared" / "data" / "raw"
 #: A card within this relative gap of the brute force's best has found the best optimum.
@@ -125,7 +125,7 @@ def main() -> None:
         for card in cards:
             t0 = time.perf_counter()
             try:
-                res = fit_card(card)
+                res = pumpid.fit(pumpid.Kelvin, card)
             except ValueError as exc:
                 print(f"  {card.card_id}: not fitted ({exc})")
                 continue

@@ -1,8 +1,8 @@
 """Can the numbers be trended? Spread of parameters and derived quantities on steady wells.
 
 A quantity worth trending is stable while the well is steady. This script fits consecutive
-cards of steady wells with the default main job (``fit_card``: Kelvin observing u) and
-prints, for every raw parameter and every derived quantity, the card-to-card spread
+cards of steady wells with the default main job (``pumpid.fit(Kelvin, card)``: observing u)
+and prints, for every raw parameter and every derived quantity, the card-to-card spread
 (coefficient of variation, or the relative difference for a pair) beside the median
 relative standard error the fits report, and how often the quantity was called determined.
 
@@ -32,7 +32,6 @@ import numpy as np
 
 import pumpid
 from pumpid.cards import read_cards, split_strokes
-from pumpid.pump import fit_card
 from pumpid.pump.synthetic import synthetic_card
 
 RAW = Path(__file__).resolve().parents[2] / "shared" / "data" / "raw"
@@ -112,13 +111,14 @@ def sandia_strokes() -> None:
         strokes = split_strokes(record)
         got = target_table(f"Sandia record {record.card_id}, {len(strokes)} consecutive "
                            "strokes (target: CV <= 2 x median rel. error)",
-                           [fit_card(s) for s in strokes])
+                           [pumpid.fit(pumpid.Kelvin, s) for s in strokes])
         met, total = met + got[0], total + got[1]
     surface = RAW / "sandia_dds" / "surface_cards.csv"
     cards = {c.card_id: c.with_dt(0.075) for c in read_cards(surface)}
     for a, b in (("SX6E03A", "SX6E03B"), ("SX6I03A", "SX6I03B")):
-        got = target_table(f"Sandia surface pair {a}, {b}", [fit_card(cards[a]),
-                                                               fit_card(cards[b])])
+        got = target_table(f"Sandia surface pair {a}, {b}",
+                           [pumpid.fit(pumpid.Kelvin, cards[a]),
+                            pumpid.fit(pumpid.Kelvin, cards[b])])
         met, total = met + got[0], total + got[1]
     print(f"\ntarget met by {met} of {total} quantities reported as determined")
 
@@ -152,7 +152,7 @@ def sandia() -> None:
     cards = {c.card_id: c.with_dt(0.075) for c in read_cards(path)}
     for a, b in (("SX6E03A", "SX6E03B"), ("SX6I03A", "SX6I03B")):
         spread_table(f"Sandia well, strokes {a} and {b} (spread: relative difference)",
-                     [fit_card(cards[a]), fit_card(cards[b])])
+                     [pumpid.fit(pumpid.Kelvin, cards[a]), pumpid.fit(pumpid.Kelvin, cards[b])])
 
 
 def steady_well(model: pumpid.Kelvin, n: int, seed: int) -> list[pumpid.FitResult]:
@@ -162,7 +162,7 @@ def steady_well(model: pumpid.Kelvin, n: int, seed: int) -> list[pumpid.FitResul
         card = synthetic_card(model, spm=8.0 * (1 + 0.005 * rng.standard_normal()),
                               n_samples=130, observe="u", noise=0.003, seed=rng,
                               card_id=f"w{seed}-{i}")
-        fits.append(fit_card(card))
+        fits.append(pumpid.fit(pumpid.Kelvin, card))
     return fits
 
 

@@ -3,11 +3,12 @@
 Prints, on the same seeded starts and noiseless data, how often each method reaches the
 global minimum (every parameter within 1e-6 of the truth):
 
-* default: ``fit(guess, ...)``: lm from the guess, retried with the automatic start's
+* default: ``fit(guess, data)``: lm from the guess, retried with the automatic start's
   multistart (the guess joins it) when the first result failed, stopped on a boundary or
   has R^2 < 0.99 (``multistart="auto"``);
-* always guarded (``multistart=True``) and lm from the guess alone (``multistart=False``);
-* the paper's Newton-Raphson with finite differences (``method="newton-fd"``).
+* always guarded (``FitOptions(multistart=True)``) and lm from the guess alone
+  (``FitOptions(multistart=False)``);
+* the paper's Newton-Raphson with finite differences (``solver=PaperNewton()``).
 
 Run from the repository root: ``python benchmarks/stat_basin.py [--n 200]``.
 """
@@ -32,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.conftest import well_load  # noqa: E402
 from tests.test_statistics import guarded_fit, max_rel_error  # noqa: E402
 
-from pumpid import Kelvin, Maxwell, fit, simulate  # noqa: E402
+from pumpid import FitOptions, Kelvin, Maxwell, PaperNewton, fit, simulate  # noqa: E402
 
 
 def main() -> None:
@@ -56,11 +57,11 @@ def main() -> None:
             "default fit(guess) (multistart='auto')":
                 lambda g, d=data: guarded_fit(g, t, load, d),
             "always guarded (multistart=True)":
-                lambda g, d=data: fit(g, t, load, d, multistart=True),
+                lambda g, d=data: fit(g, (t, load, d), options=FitOptions(multistart=True)),
             "lm from the guess alone (multistart=False)":
-                lambda g, d=data: fit(g, t, load, d, multistart=False),
-            "paper newton-fd": lambda g, d=data: fit(g, t, load, d, method="newton-fd",
-                                                     max_iter=args.max_iter),
+                lambda g, d=data: fit(g, (t, load, d), options=FitOptions(multistart=False)),
+            "paper newton-fd": lambda g, d=data: fit(g, (t, load, d),
+                                                     solver=PaperNewton(max_iter=args.max_iter)),
         }
         for label, run in runs.items():
             hits = 0

@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from tests.conftest import well_load  # noqa: E402
 
-from pumpid import Kelvin, Maxwell, fit, simulate  # noqa: E402
+from pumpid import FitOptions, Kelvin, Maxwell, fit, simulate  # noqa: E402
 
 
 def ar1_noise(rng: np.random.Generator, rho: float, n: int) -> np.ndarray:
@@ -53,8 +53,8 @@ def ar1_noise(rng: np.random.Generator, rho: float, n: int) -> np.ndarray:
 
 def count_coverage(truth, t, load, opts, n, seed, rho=0.0, level=0.01):
     """Replicates inside the white and the robust intervals, by parameter."""
-    clean = simulate(truth, t, load, initial_state=opts.get("initial_state", "rest"),
-                     period=opts.get("period"))
+    clean = simulate(truth, t, load, initial_state=opts.initial_state or "rest",
+                     period=opts.period)
     rng = np.random.default_rng(seed)
     names = truth.param_names()
     inside = {kind: dict.fromkeys(names, 0) for kind in ("ci95", "ci95_white", "ci95_hac")}
@@ -64,7 +64,7 @@ def count_coverage(truth, t, load, opts, n, seed, rho=0.0, level=0.01):
     rel_se = dict.fromkeys(names, 0.0)
     for _ in range(n):
         data = clean + level * np.ptp(clean) * ar1_noise(rng, rho, t.size)
-        res = fit(truth, t, load, data, **opts)
+        res = fit(truth, (t, load, data), options=opts)
         known = set(res.determined.get("parameters", ()))
         for kind in ("ci95", "ci95_white", "ci95_hac"):
             intervals = res.extra.get(kind, {})
@@ -113,14 +113,14 @@ def main() -> None:
     print(f"coverage of 95 % intervals: {args.n} replicates, 1 % white Gaussian noise")
     t = np.linspace(0.0, 20.0, 801)
     load = well_load(t)
-    rest = [(f"{type(truth).__name__} from rest", truth, t, load, {})
+    rest = [(f"{type(truth).__name__} from rest", truth, t, load, FitOptions())
             for truth in (Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0),
                           Maxwell(k0=90.0, m=2.0, c1=40.0, k1=70.0))]
     period = 7.5
     tc = np.arange(500) * period / 500
     loadc = well_load(tc, period=period, seed=3)
     card = ("Kelvin periodic card + offset", Kelvin(k0=400.0, m=5.0, c1=40.0, k1=80.0),
-            tc, loadc, {"initial_state": "periodic", "period": period, "offset": True})
+            tc, loadc, FitOptions(initial_state="periodic", period=period, offset=True))
     for label, truth, tt, ff, opts in [*rest, card]:
         inside, rel_se = count_coverage(truth, tt, ff, opts, args.n, args.seed)
         cover = ", ".join(f"{k} {100 * v / args.n:.1f} % (se {100 * rel_se[k]:.2g} %)"
@@ -142,7 +142,7 @@ def short_cards(args: argparse.Namespace, card: tuple) -> None:
     print(f"\nshort cards ({card[0]}, 1 % noise, a stroke of --short samples): "
           f"{args.n} replicates; ci95 against ci95_hac")
     _label, truth, _tt, _ff, opts = card
-    period = opts["period"]
+    period = opts.period
     for n_samples in args.short:
         tt = np.arange(n_samples) * period / n_samples
         ff = well_load(tt, period=period, seed=3)

@@ -2,7 +2,8 @@
 
 For Kelvin and Maxwell, periodic cards with an offset and records from rest, draws
 ``--n`` parameter sets (see ``tests.test_statistics.well_like_case``), fits with the model
-class (``pumpid.fit(Kelvin, t, load, displacement, ...)``) and counts recoveries to 1e-6.
+class (``pumpid.fit(Kelvin, (t, load, displacement), options=...)``) and counts recoveries
+to 1e-6.
 Sets whose truth is conditioned beyond double precision (relative smallest singular value
 of the log-scaled Jacobian below 1e-8) are counted separately, never silently dropped.
 
@@ -52,7 +53,7 @@ def main() -> None:
                 case = well_like_case(rng, model_cls, mode)
                 cond = conditioning(case)
                 t0 = time.perf_counter()
-                res = fit(model_cls, case.t, case.load, case.data, **case.options)
+                res = fit(model_cls, (case.t, case.load, case.data), options=case.options)
                 times.append(time.perf_counter() - t0)
                 ok = max_rel_error(res.params, case.truth) < 1e-6
                 if cond < ILL_CONDITIONED:

@@ -27,7 +27,7 @@ DISP = pumpid.simulate(pumpid.Kelvin(k0=4, m=1, c1=2, k1=4), T, LOAD, observe="u
 def _fit(t: np.ndarray, load: np.ndarray, disp: np.ndarray) -> pumpid.FitResult | None:
     """The fit, or None when it raised the documented ValueError."""
     try:
-        return pumpid.fit(pumpid.Kelvin, t, load, disp, observe="u")
+        return pumpid.fit(pumpid.Kelvin, (t, load, disp), options=pumpid.FitOptions(observe="u"))
     except ValueError as exc:
         assert str(exc)  # a message, naming the problem
         return None
@@ -72,19 +72,20 @@ def test_bad_arrays_raise_value_errors_naming_the_field(field: str, bad: np.ndar
     args = {"t": T, "load": LOAD, "disp": DISP}
     args[field] = bad
     with pytest.raises(ValueError) as info:
-        pumpid.fit(pumpid.Kelvin, args["t"], args["load"], args["disp"], observe="u")
+        pumpid.fit(pumpid.Kelvin, (args["t"], args["load"], args["disp"]),
+                   options=pumpid.FitOptions(observe="u"))
     name = {"disp": "displacement"}.get(field, field)
     assert str(info.value).startswith(name) or name in str(info.value)
     assert words in str(info.value)
 
 
-def test_fit_many_keeps_going_past_bad_rows() -> None:
+def test_a_batch_keeps_going_past_bad_rows() -> None:
     loads = np.tile(LOAD, (5, 1))
     disps = np.tile(DISP, (5, 1))
     loads[1, 3] = np.nan
     loads[2, :] = 1.0
     disps[3, 10] = np.inf
-    batch = pumpid.fit_many(pumpid.Kelvin, T, loads, disps, observe="u")
+    batch = pumpid.fit(pumpid.Kelvin, (T, loads, disps), options=pumpid.FitOptions(observe="u"))
     assert [s.key for s in batch.status] == ["converged", "invalid-input", "invalid-input",
                                              "invalid-input", "converged"]
     assert batch.invalid[1].startswith("load:") and "index 3" in batch.invalid[1]
@@ -96,4 +97,4 @@ def test_fit_many_keeps_going_past_bad_rows() -> None:
 
 def test_wrong_kind_of_model_is_a_type_error() -> None:
     with pytest.raises(TypeError, match="model must be"):
-        pumpid.fit("kelvin", T, LOAD, DISP)  # type: ignore[arg-type]
+        pumpid.fit({"k0": 4.0}, (T, LOAD, DISP))  # type: ignore[arg-type]

@@ -8,7 +8,6 @@ import pytest
 
 import pumpid
 from pumpid.cards import Card, CardError
-from pumpid.pump import fit_card, fit_cards
 
 TH = np.linspace(0.0, 2 * np.pi, 40, endpoint=False)
 POS = 50 * (1 - np.cos(TH))
@@ -41,30 +40,27 @@ def test_dates_as_time_are_refused_not_read_as_epoch_counts(t) -> None:
         Card(position=POS, load=LOAD, t=t)
     assert info.value.field == "t"
     with pytest.raises(ValueError, match="t: dates, times or durations are not numbers"):
-        pumpid.fit(pumpid.Kelvin, t, LOAD, POS)
+        pumpid.fit(pumpid.Kelvin, (t, LOAD, POS))
 
 
 def test_aware_datetime_series_is_refused_too() -> None:
     t = pd.Series(STAMPS).dt.tz_localize("UTC")
     with pytest.raises(ValueError, match="dates, times or durations"):
-        pumpid.fit(pumpid.Kelvin, t, LOAD, POS)
+        pumpid.fit(pumpid.Kelvin, (t, LOAD, POS))
 
 
-def test_fit_cards_names_an_item_that_is_not_a_card() -> None:
+def test_fit_names_an_item_that_is_not_a_card() -> None:
     card = Card(position=POS, load=LOAD, t=np.arange(40) * 0.2)
-    with pytest.raises(TypeError, match=r"cards\[1\] must be a pumpid.cards.Card, got NoneType"):
-        fit_cards([card, None])
-    with pytest.raises(TypeError, match="cards must be a sequence"):
-        fit_cards(card)
-    with pytest.raises(TypeError, match=r"card must be a pumpid\.cards\.Card, got dict"):
-        fit_card({"position": POS})
+    with pytest.raises(TypeError, match=r"data\[1\] is a NoneType: a sequence to fit holds Card"):
+        pumpid.fit(pumpid.Kelvin, [card, None])
+    with pytest.raises(TypeError, match=r"a pumpid\.cards\.Card.*got dict"):
+        pumpid.fit(pumpid.Kelvin, {"position": POS})  # type: ignore[arg-type]
 
 
 def test_subnormal_data_are_refused_by_name() -> None:
     card = Card(position=POS * 1e-321, load=LOAD, t=np.arange(40) * 0.2, period=8.0,
                 periodic=True, time_source="file")
     with pytest.raises(ValueError, match="outside the floating-point range; rescale"):
-        fit_card(card)
-    batch = fit_cards([card, Card(position=POS, load=LOAD, t=np.arange(40) * 0.2)],
-                      "msd")
+        pumpid.fit(pumpid.Kelvin, card)
+    batch = pumpid.fit("msd", [card, Card(position=POS, load=LOAD, t=np.arange(40) * 0.2)])
     assert "floating-point range" in batch.invalid[0]

@@ -1,5 +1,6 @@
-"""The main job: fit() and fit_many() -- recovery, both methods, scale symmetry and gauge,
-failures, bad input, and the batch agreeing with card-by-card fits."""
+"""The main job through ``pumpid.fit``: one record and many (a batch) -- recovery, both
+solvers, scale symmetry and gauge, failures, bad input, and the batch agreeing with
+card-by-card fits."""
 
 from __future__ import annotations
 
@@ -9,15 +10,18 @@ import numpy as np
 import pytest
 
 import pumpid
+import pumpid.result.table
 from pumpid import (
     FirstOrder,
     FitBatch,
+    FitOptions,
     FitResult,
     Kelvin,
+    LevenbergMarquardt,
     MassSpringDamper,
     Maxwell,
+    PaperNewton,
     fit,
-    fit_many,
     simulate,
 )
 
@@ -39,7 +43,7 @@ def _start(model, factor=1.3):
                          [(KELVIN, "u2"), (KELVIN, "u"), (MAXWELL, "u")])
 def test_lm_recovers_all_parameters_from_noiseless_data(model, observe) -> None:
     data = simulate(model, T, LOAD, observe=observe)
-    res = fit(_start(model), T, LOAD, data, observe=observe)
+    res = fit(_start(model), (T, LOAD, data), options=FitOptions(observe=observe))
     assert res.converged, res.reason
     assert res.status == "converged"
     for name, value in model.as_dict().items():
@@ -50,7 +54,7 @@ def test_lm_recovers_all_parameters_from_noiseless_data(model, observe) -> None:
 
 def test_result_interface() -> None:
     data = simulate(KELVIN, T, LOAD)
-    res = fit(_start(KELVIN), T, LOAD, data)
+    res = fit(_start(KELVIN), (T, LOAD, data))
     assert isinstance(res, FitResult)
     assert res.scale == 1.0 and res.iterations > 0 and res.nfev >= res.iterations
     assert res.history[0]["iteration"] == 0 and "cost" in res.history[-1]
@@ -66,7 +70,7 @@ def test_result_interface() -> None:
 
 def test_newton_fd_on_kelvin_with_close_start() -> None:
     data = simulate(KELVIN, T, LOAD)
-    res = fit(_start(KELVIN, 1.02), T, LOAD, data, method="newton-fd")
+    res = fit(_start(KELVIN, 1.02), (T, LOAD, data), solver=PaperNewton())
     assert res.converged, res.reason
     for name, value in KELVIN.as_dict().items():
         assert res.params[name] == pytest.approx(value, rel=1e-6)
@@ -75,11 +79,12 @@ def test_newton_fd_on_kelvin_with_close_start() -> None:
 
 @pytest.mark.parametrize("model", [KELVIN, MAXWELL, MassSpringDamper(m=2.0, c=3.0, k=40.0)],
                          ids=lambda m: type(m).__name__)
-@pytest.mark.parametrize("method", ["lm", "newton-fd"])
-def test_scale_symmetry_is_gauged_and_said(model, method) -> None:
+@pytest.mark.parametrize("solver", [LevenbergMarquardt(), PaperNewton()],
+                         ids=["lm", "newton-fd"])
+def test_scale_symmetry_is_gauged_and_said(model, solver) -> None:
     data = 3.0 * simulate(model, T, LOAD)
-    res = fit(_start(model, 1.01), T, LOAD, data, scale="free", method=method,
-              x0={**_start(model, 1.01).as_dict(), "C": 2.9})
+    res = fit(_start(model, 1.01), (T, LOAD, data), options=FitOptions(scale="free"),
+              solver=solver, x0={**_start(model, 1.01).as_dict(), "C": 2.9})
     assert res.converged, res.reason
     assert any("scale symmetry" in w and "gauge C = 1" in w for w in res.warnings)
     assert res.scale == 1.0 and "C" not in res.free
@@ -92,11 +97,12 @@ def test_scale_symmetry_is_gauged_and_said(model, method) -> None:
 
 def test_no_symmetry_warning_when_c_fixed_or_state_given() -> None:
     data = simulate(KELVIN, T, LOAD)
-    res = fit(_start(KELVIN), T, LOAD, data)
+    res = fit(_start(KELVIN), (T, LOAD, data))
     assert not any("symmetry" in w for w in res.warnings)
     x0 = [0.5, 0.0, 0.1]
     data = 2.0 * simulate(KELVIN, T, LOAD, initial_state=x0)
-    res = fit(_start(KELVIN, 1.05), T, LOAD, data, scale="free", initial_state=x0)
+    res = fit(_start(KELVIN, 1.05), (T, LOAD, data),
+              options=FitOptions(scale="free", initial_state=x0))
     assert not any("symmetry" in w for w in res.warnings)
     assert res.converged and res.scale == pytest.approx(2.0, rel=1e-7)
     assert res.params["k0"] == pytest.approx(KELVIN.k0, rel=1e-7)
@@ -106,7 +112,7 @@ def test_first_order_scale_is_identifiable() -> None:
     t = np.linspace(0, 10, 501)
     f = np.sin(t) + 2
     data = 1.7 * simulate(FirstOrder(tau=0.8), t, f)
-    res = fit(FirstOrder(tau=2.0), t, f, data, scale="free")
+    res = fit(FirstOrder(tau=2.0), (t, f, data), options=FitOptions(scale="free"))
     assert res.converged and not res.warnings
     assert res.params["tau"] == pytest.approx(0.8, rel=1e-9)
     assert res.scale == pytest.approx(1.7, rel=1e-9)
@@ -114,24 +120,25 @@ def test_first_order_scale_is_identifiable() -> None:
 
 def test_offset_is_fitted() -> None:
     data = simulate(KELVIN, T, LOAD) + 12.5
-    res = fit(_start(KELVIN), T, LOAD, data, offset=True)
+    res = fit(_start(KELVIN), (T, LOAD, data), options=FitOptions(offset=True))
     assert res.converged and res.offset == pytest.approx(12.5, rel=1e-9)
     assert res.params["m"] == pytest.approx(KELVIN.m, rel=1e-8)
 
 
 def test_log_residual_and_its_checks() -> None:
     data = simulate(KELVIN, T, LOAD, initial_state="equilibrium")
-    res = fit(_start(KELVIN), T, LOAD, data, residual="log", initial_state="equilibrium")
+    log = FitOptions(residual="log", initial_state="equilibrium")
+    res = fit(_start(KELVIN), (T, LOAD, data), options=log)
     assert res.converged and res.params["k1"] == pytest.approx(KELVIN.k1, rel=1e-8)
     with pytest.raises(ValueError, match="positive data"):
-        fit(KELVIN, T, LOAD, data - data.mean(), residual="log", initial_state="equilibrium")
+        fit(KELVIN, (T, LOAD, data - data.mean()), options=log)
     with pytest.raises(ValueError, match="offset"):
-        fit(KELVIN, T, LOAD, data, residual="log", offset=True, initial_state="equilibrium")
+        fit(KELVIN, (T, LOAD, data), options=log.replace(offset=True))
 
 
 def test_divergent_newton_reports_instead_of_raising() -> None:
     data = simulate(KELVIN, T, LOAD)
-    res = fit(_start(KELVIN, 30.0), T, LOAD, data, method="newton-fd")
+    res = fit(_start(KELVIN, 30.0), (T, LOAD, data), solver=PaperNewton())
     assert not res.converged
     assert res.status == "failed"
     assert res.reason
@@ -141,7 +148,7 @@ def test_divergent_newton_reports_instead_of_raising() -> None:
 
 def test_automatic_start_from_the_class() -> None:
     data = simulate(KELVIN, T, LOAD)
-    res = fit(Kelvin, T, LOAD, data)
+    res = fit(Kelvin, (T, LOAD, data))
     assert res.converged, res.reason
     for name, value in KELVIN.as_dict().items():
         assert res.params[name] == pytest.approx(value, rel=1e-7)
@@ -160,19 +167,21 @@ def test_automatic_start_from_the_class() -> None:
 )
 def test_bad_input_raises_value_error_naming_the_problem(t, load, disp, message) -> None:
     with pytest.raises(ValueError, match=message):
-        fit(KELVIN, t, load, disp)
+        fit(KELVIN, (t, load, disp))
 
 
 def test_bad_options_raise() -> None:
     data = simulate(KELVIN, T, LOAD)
-    with pytest.raises(ValueError, match="method"):
-        fit(KELVIN, T, LOAD, data, method="bfgs")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="solver"):
+        fit(KELVIN, (T, LOAD, data), solver="bfgs")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="scale"):
-        fit(KELVIN, T, LOAD, data, scale=-1.0)
+        fit(KELVIN, (T, LOAD, data), options=FitOptions(scale=-1.0))
     with pytest.raises(ValueError, match="unknown names"):
-        fit(KELVIN, T, LOAD, data, x0={"k2": 1.0})
+        fit(KELVIN, (T, LOAD, data), x0={"k2": 1.0})
     with pytest.raises(TypeError, match="model instance"):
-        fit("kelvin", T, LOAD, data)  # type: ignore[arg-type]
+        fit(3.0, (T, LOAD, data))  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="unknown model 'kelvn'"):
+        fit("kelvn", (T, LOAD, data))
 
 
 def test_a_start_the_model_cannot_simulate_fails_with_a_reason() -> None:
@@ -182,13 +191,13 @@ def test_a_start_the_model_cannot_simulate_fails_with_a_reason() -> None:
     load = 10.0 + np.sin(t) + 0.5 * np.sin(2.7 * t)
     data = simulate(Kelvin(k0=4.0, m=1.0, c1=0.2, k1=4.0), t, load)
     with np.errstate(all="ignore"):
-        res = fit(Kelvin(k0=4e6, m=1e-6, c1=0.2, k1=4.0), t, load, data, integrator="euler",
-                  multistart=False)
+        res = fit(Kelvin(k0=4e6, m=1e-6, c1=0.2, k1=4.0), (t, load, data),
+                  options=FitOptions(integrator="euler", multistart=False))
     assert not res.converged and res.status == "failed"
     assert "not finite at the starting point" in res.reason
 
 
-# --------------------------------------------------------------------------- fit_many
+# --------------------------------------------------------------------------- many cards
 PERIOD = 7.5
 T_CARD = np.linspace(0.0, PERIOD, 300, endpoint=False)
 BASE = np.array([8000.0, 40.0, 900.0, 5000.0])
@@ -225,11 +234,12 @@ def test_the_batch_is_the_single_fit_card_by_card(cls, state, offset, noise, sta
     theta, loads, disp = make_cards(cls, 6, state, offset=0.02 if offset else 0.0,
                                     noise=noise, seed=1)
     x0 = theta * STARTS if start == "guess" else None
-    batch = fit_many(cls, T_CARD, loads, disp, initial_state=state, offset=offset, x0=x0)
+    options = FitOptions(initial_state=state, offset=offset)
+    batch = fit(cls, (T_CARD, loads, disp), options=options, x0=x0)
     assert isinstance(batch, FitBatch) and len(batch) == 6
     for i in range(6):
         model = cls.from_values(x0[i]) if x0 is not None else cls
-        ref = fit(model, T_CARD, loads[i], disp[i], initial_state=state, offset=offset)
+        ref = fit(model, (T_CARD, loads[i], disp[i]), options=options)
         one = batch.result(i)
         # The same engine on the same numbers: identical answers, not merely close ones.
         assert one.status == ref.status and one.reason == ref.reason
@@ -244,8 +254,8 @@ def test_the_batch_is_the_single_fit_card_by_card(cls, state, offset, noise, sta
 def test_threads_do_not_change_answers() -> None:
     theta, loads, disp = make_cards(Kelvin, 7, noise=0.005, seed=3)
     x0 = theta * STARTS
-    one = fit_many(Kelvin, T_CARD, loads, disp, x0=x0, workers=1)
-    two = fit_many(Kelvin, T_CARD, loads, disp, x0=x0, workers=2)
+    one = fit(Kelvin, (T_CARD, loads, disp), x0=x0, workers=1)
+    two = fit(Kelvin, (T_CARD, loads, disp), x0=x0, workers=2)
     np.testing.assert_array_equal(one.theta, two.theta)
     assert one.status == two.status
     np.testing.assert_array_equal(one.nfev, two.nfev)
@@ -253,11 +263,13 @@ def test_threads_do_not_change_answers() -> None:
 
 def test_free_scale_uses_the_gauge_and_records() -> None:
     theta, loads, disp = make_cards(Kelvin, 3, seed=5)
-    res = fit_many(Kelvin, T_CARD, loads, disp, scale="free", x0=theta * STARTS)
+    res = fit(Kelvin, (T_CARD, loads, disp), options=FitOptions(scale="free"),
+              x0=theta * STARTS)
     assert np.all(res.scale == 1.0)
     assert all(any("gauge C = 1" in w for w in r.warnings) for r in res.results)
-    rows = res.to_records()
-    assert len(rows) == 3 and rows[0]["status"] == "converged" and "k0" in rows[0]
+    rows = res.to_frame()
+    assert len(rows) == 3 and rows["status"][0] == "converged" and "p_k0" in rows
+    assert list(rows.columns) == [n for n, _ in pumpid.result.table.columns(Kelvin)]
     assert res.result(2).params["m"] == pytest.approx(theta[2, 1], rel=1e-9)
     assert "converged 3" in res.summary()
 
@@ -268,7 +280,7 @@ def test_cards_of_different_lengths_and_times() -> None:
     f_rows = [loads[0], loads[1][::2], loads[2]]
     d_rows = [disp[0], simulate(Kelvin.from_values(theta[1]), T_CARD[::2], loads[1][::2]),
               simulate(Kelvin.from_values(theta[2]), T_CARD * 1.5, loads[2])]
-    res = fit_many(Kelvin, t_rows, f_rows, d_rows, x0=theta * STARTS)
+    res = fit(Kelvin, (t_rows, f_rows, d_rows), x0=theta * STARTS)
     assert res.converged.all(), res.summary()
     np.testing.assert_allclose(res.theta, theta, rtol=1e-7)
 
@@ -278,7 +290,7 @@ def test_a_bad_card_is_a_failed_row_not_the_end_of_the_batch() -> None:
     bad = disp.copy()
     bad[2, 10] = np.nan
     bad[4] = 1.0  # constant
-    res = fit_many(Kelvin, T_CARD, loads, bad, x0=theta * STARTS)
+    res = fit(Kelvin, (T_CARD, loads, bad), x0=theta * STARTS)
     assert [s.value for s in res.status] == ["converged", "converged", "invalid-input",
                                               "converged", "invalid-input"]
     assert "non-finite" in res.invalid[2] and "constant" in res.invalid[4]
@@ -286,22 +298,23 @@ def test_a_bad_card_is_a_failed_row_not_the_end_of_the_batch() -> None:
     np.testing.assert_allclose(res.theta[[0, 1, 3]], theta[[0, 1, 3]], rtol=1e-7)
     with pytest.raises(ValueError, match="card 2 is not valid"):
         res.result(2)
-    rows = res.to_records()
-    assert rows[2]["status"] == "invalid-input" and "non-finite" in rows[2]["reason"]
+    rows = res.to_frame()
+    assert rows["status"][2] == "invalid-input" and "non-finite" in rows["reason"][2]
+    assert np.isnan(rows["p_k0"][2]) and rows["p_k0"][0] == pytest.approx(theta[0, 0])
 
 
 def test_bad_options_of_a_batch_raise() -> None:
     _, loads, disp = make_cards(Kelvin, 4, seed=7)
     with pytest.raises(ValueError, match="cards"):
-        fit_many(Kelvin, T_CARD, loads[:3], disp)
+        fit(Kelvin, (T_CARD, loads[:3], disp))
     with pytest.raises(ValueError, match="x0"):
-        fit_many(Kelvin, T_CARD, loads, disp, x0=np.ones((3, 4)))
+        fit(Kelvin, (T_CARD, loads, disp), x0=np.ones((3, 4)))
     with pytest.raises(ValueError, match="x0"):
-        fit_many(Kelvin, T_CARD, loads, disp, x0=-np.ones(4))
+        fit(Kelvin, (T_CARD, loads, disp), x0=-np.ones(4))
     with pytest.raises(ValueError, match="cannot observe"):
-        fit_many(Kelvin, T_CARD, loads, disp, observe="F0")
+        fit(Kelvin, (T_CARD, loads, disp), options=FitOptions(observe="F0"))
     with pytest.raises(TypeError, match="model"):
-        fit_many("kelvin", T_CARD, loads, disp)  # type: ignore[arg-type]
+        fit(3.0, (T_CARD, loads, disp))  # type: ignore[arg-type]
 
 
 # --------------------------------------------------------------------------- quality gate
@@ -315,7 +328,7 @@ def _unrelated_record() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def test_a_fit_below_the_quality_threshold_is_poor_fit_with_a_warning() -> None:
     t, load, d = _unrelated_record()
-    res = pumpid.fit(pumpid.Kelvin, t, load, d, offset=True)
+    res = pumpid.fit(pumpid.Kelvin, (t, load, d), options=FitOptions(offset=True))
     assert res.status is pumpid.Status.POOR_FIT
     assert res.r2 < pumpid.job.MIN_R2
     assert any(w.startswith("poor fit: R^2 = ") and "0.95" in w for w in res.warnings)
@@ -327,12 +340,15 @@ def test_a_fit_below_the_quality_threshold_is_poor_fit_with_a_warning() -> None:
 
 def test_the_quality_threshold_is_configurable_and_changes_nothing_else() -> None:
     t, load, d = _unrelated_record()
-    gated = pumpid.fit(pumpid.Kelvin, t, load, d, offset=True)
-    open_gate = pumpid.fit(pumpid.Kelvin, t, load, d, offset=True, min_r2=-np.inf)
+    gated = pumpid.fit(pumpid.Kelvin, (t, load, d), options=FitOptions(offset=True))
+    # The gate open: the lowest threshold FitOptions takes (it takes finite numbers only).
+    lowest = -np.finfo(float).max
+    open_gate = pumpid.fit(pumpid.Kelvin, (t, load, d),
+                           options=FitOptions(offset=True, min_r2=lowest))
     assert open_gate.status in (pumpid.Status.CONVERGED, pumpid.Status.BOUNDARY)
     assert open_gate.params == gated.params and open_gate.cost == gated.cost
     with pytest.raises(ValueError, match="min_r2"):
-        pumpid.fit(pumpid.Kelvin, t, load, d, min_r2=1.5)
+        pumpid.fit(pumpid.Kelvin, (t, load, d), options=FitOptions(min_r2=1.5))
 
 
 def test_a_good_fit_passes_the_quality_gate() -> None:
@@ -340,5 +356,5 @@ def test_a_good_fit_passes_the_quality_gate() -> None:
     load = 5000.0 + 2000.0 * np.sin(2 * np.pi * t / 7.5)
     truth = pumpid.Kelvin(k0=5200.0, m=20.0, c1=900.0, k1=5200.0)
     d = pumpid.simulate(truth, t, load, observe="u")
-    res = pumpid.fit(pumpid.Kelvin, t, load, d, observe="u")
+    res = pumpid.fit(pumpid.Kelvin, (t, load, d), options=FitOptions(observe="u"))
     assert res.status is not pumpid.Status.POOR_FIT and res.r2 > 0.999

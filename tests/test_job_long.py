@@ -3,6 +3,8 @@ the whole record reaches the same optimum as a start over every sample."""
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 
@@ -10,8 +12,14 @@ import pumpid
 from pumpid import Kelvin, job
 from pumpid.engine import drive
 from pumpid.engine.problem import CardData, build_problem
+from pumpid.engine.start import search_wider as plain_search_wider
+from pumpid.job import state as job_state
 
 from .conftest import well_load
+
+#: The module that runs the stages (``pumpid.job.run`` the attribute is its function ``run``):
+#: the wider search is looked up there.
+JOB_RUN = importlib.import_module("pumpid.job.stages")
 
 TRUE = Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0)
 
@@ -34,8 +42,10 @@ def _record(n: int, periodic: bool, model_error: float = 0.0
 
 def _fit(n: int, periodic: bool, model_error: float = 0.0) -> pumpid.FitResult:
     t, load, disp, period = _record(n, periodic, model_error)
-    kwargs = {"initial_state": "periodic", "period": period, "offset": True} if periodic else {}
-    return pumpid.fit(Kelvin, t, load, disp, observe="u", **kwargs)
+    options = pumpid.FitOptions(observe="u")
+    if periodic:
+        options = options.replace(initial_state="periodic", period=period, offset=True)
+    return pumpid.fit(Kelvin, (t, load, disp), options=options)
 
 
 @pytest.mark.parametrize(("periodic", "model_error"), [(False, 0.0), (True, 0.0), (True, 0.1)])
@@ -43,16 +53,15 @@ def test_a_long_card_starts_from_a_shorter_copy_and_reaches_the_same_optimum(
         periodic, model_error, monkeypatch) -> None:
     n = 1500
     searched: list[int] = []
-    plain = job.search_wider
 
     def search_wider(problem, cards, *args, **kwargs):
         searched.extend(problem.n_samples(int(k)) for k in cards)
-        return plain(problem, cards, *args, **kwargs)
+        return plain_search_wider(problem, cards, *args, **kwargs)
 
-    monkeypatch.setattr(job, "search_wider", search_wider)
+    monkeypatch.setattr(JOB_RUN, "search_wider", search_wider)
     whole = _fit(n, periodic, model_error)
     assert searched == ([n] if model_error else [])
-    monkeypatch.setattr(job, "START_SAMPLES", 400)
+    monkeypatch.setattr(job_state, "START_SAMPLES", 400)
     searched.clear()
     short = _fit(n, periodic, model_error)
     used = 400 if not periodic else len(range(0, n, -(-n // 400)))
@@ -72,7 +81,7 @@ def test_a_long_card_starts_from_a_shorter_copy_and_reaches_the_same_optimum(
 def test_the_start_problem_keeps_the_coordinates(monkeypatch) -> None:
     # A point costs on the shortened card what it costs on the same samples of the whole
     # card: scale, offset and load shift mean the same in both problems.
-    monkeypatch.setattr(job, "START_SAMPLES", 300)
+    monkeypatch.setattr(job_state, "START_SAMPLES", 300)
     cards = []
     for periodic in (False, True):
         t, load, disp, period = _record(900, periodic)
@@ -82,7 +91,7 @@ def test_the_start_problem_keeps_the_coordinates(monkeypatch) -> None:
     cards.append(CardData(t, load, disp))
     problem = build_problem(Kelvin, cards, observe="u", offset=True)
     order = np.array([2, 1, 0], dtype=np.int64)
-    sub = job._start_problem(problem, order)
+    sub = job.start_problem(problem, order)
     assert sub is not None
     assert [sub.n_samples(i) for i in range(3)] == [200, 300, 300]
     z = np.log(np.r_[TRUE.values, 1.0])[None].repeat(3, axis=0)
@@ -95,4 +104,4 @@ def test_the_start_problem_keeps_the_coordinates(monkeypatch) -> None:
                          observe="u", offset=True)
     assert part[2] == pytest.approx(
         drive.cost_items(np.zeros(1, dtype=np.int64), z[2:], *head.arrays)[0], rel=1e-12)
-    assert job._start_problem(problem, np.array([2], dtype=np.int64)) is None
+    assert job.start_problem(problem, np.array([2], dtype=np.int64)) is None

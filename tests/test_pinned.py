@@ -24,7 +24,6 @@ import pytest
 
 import pumpid
 from pumpid.cards import read_cards
-from pumpid.pump import fit_card
 
 from .conftest import SHARED_RAW, well_load
 
@@ -83,8 +82,10 @@ def _compare(res: Any, pinned: dict[str, Any]) -> None:
          for c in PINNED["synthetic"]])
 def test_synthetic_answers_are_kept(case: dict[str, Any]) -> None:
     start, t, load, data, period = _synthetic(case)
-    res = pumpid.fit(start, t, load, data, observe=case["observe"],
-                     initial_state=case["initial_state"], offset=case["offset"], period=period)
+    res = pumpid.fit(start, (t, load, data),
+                     options=pumpid.FitOptions(observe=case["observe"],
+                                               initial_state=case["initial_state"],
+                                               offset=case["offset"], period=period))
     _compare(res, case["answer"])
 
 
@@ -96,7 +97,8 @@ def test_real_card_answers_are_kept(case: dict[str, Any]) -> None:
         pytest.skip("third-party cards (../shared/data/raw) are not available")
     cards = {c.card_id: c for c in read_cards(path, **case["options"])}
     # The answers were taken when the paper's u2 was the default observed output.
-    res = fit_card(cards[case["card"]], "kelvin", observe="u2")
+    res = pumpid.fit("kelvin", cards[case["card"]],
+                     options=pumpid.FitOptions.for_cards(observe="u2"))
     gap = case.get("accepted_gap")
     if gap is not None:
         assert gap["why"]

@@ -9,7 +9,7 @@ import pytest
 from matplotlib.figure import Figure
 
 import pumpid
-from pumpid import Kelvin, MassSpringDamper, fit, simulate
+from pumpid import FitOptions, Kelvin, MassSpringDamper, fit, simulate
 from pumpid.profile import Profile, profile
 
 from .conftest import well_load
@@ -27,7 +27,7 @@ def _noisy(model, seed):
 
 @pytest.fixture(scope="module")
 def kelvin_fit():
-    res = fit(KELVIN, T, LOAD, _noisy(KELVIN, 0), offset=True)
+    res = fit(KELVIN, (T, LOAD, _noisy(KELVIN, 0)), options=FitOptions(offset=True))
     return res
 
 
@@ -68,7 +68,7 @@ def test_plot_is_a_figure_with_units(kelvin_fit) -> None:
 def test_boundary_parameter_gets_a_one_sided_interval() -> None:
     # Mass-spring-dashpot data: the Kelvin series spring k0 is not bounded above.
     msd = MassSpringDamper(m=2.0, c=60.0, k=90.0)
-    res = fit(Kelvin(k0=500.0, m=2.0, c1=60.0, k1=90.0), T, LOAD, _noisy(msd, 1))
+    res = fit(Kelvin(k0=500.0, m=2.0, c1=60.0, k1=90.0), (T, LOAD, _noisy(msd, 1)))
     assert res.status == "boundary"
     prof = profile(res, "k0", n_points=7)
     assert prof.upper is None and prof.lower is not None
@@ -82,7 +82,7 @@ def test_profile_says_when_the_residuals_are_not_white(kelvin_fit) -> None:
     # Slow model error on top of the noise: the profile interval inherits the white-noise
     # assumption, and says so.
     data = _noisy(KELVIN, 2) + 0.02 * np.ptp(simulate(KELVIN, T, LOAD)) * np.sin(0.7 * T)
-    res = fit(KELVIN, T, LOAD, data)
+    res = fit(KELVIN, (T, LOAD, data))
     assert not res.extra["uncertainty"]["whiteness"]["white"]
     prof = profile(res, "c1", n_points=5)
     note = next(n for n in prof.notes if "not white" in n)

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pumpid import Kelvin, Maxwell, Model, fit, simulate, simulate_sensitivities
+from pumpid import FitOptions, Kelvin, Maxwell, Model, fit, simulate, simulate_sensitivities
 
 from .conftest import well_load
 
@@ -37,7 +37,7 @@ class Case:
     t: np.ndarray
     load: np.ndarray
     data: np.ndarray
-    options: dict[str, Any]
+    options: FitOptions
 
 
 def _log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
@@ -76,14 +76,13 @@ def well_like_case(rng: np.random.Generator, model_cls: type[Model], mode: str) 
         load = well_load(t, period=period, seed=seed)
         offset = rng.uniform(-50.0, 50.0)
         data = simulate(truth, t, load, initial_state="periodic", period=period) + offset
-        options: dict[str, Any] = {"initial_state": "periodic", "period": period,
-                                   "offset": True}
+        options = FitOptions(initial_state="periodic", period=period, offset=True)
     elif mode == "rest":
         n = int(rng.integers(600, 2001))
         t = np.linspace(0.0, 3 * period, n)
         load = well_load(t, period=period, seed=seed)
         data = simulate(truth, t, load)
-        options = {}
+        options = FitOptions()
     else:
         raise ValueError(mode)
     return Case(truth, t, load, data, options)
@@ -93,10 +92,10 @@ def conditioning(case: Case) -> float:
     """Relative smallest singular value of the log-scaled Jacobian at the truth."""
     opts = case.options
     _y, dy = simulate_sensitivities(case.truth, case.t, case.load,
-                                    initial_state=opts.get("initial_state", "rest"),
-                                    period=opts.get("period"))
+                                    initial_state=opts.initial_state or "rest",
+                                    period=opts.period)
     cols = [dy * case.truth.values]
-    if opts.get("offset"):
+    if opts.offset:
         cols.append(np.full((dy.shape[0], 1), float(np.ptp(case.data))))
     s = np.linalg.svd(np.column_stack(cols), compute_uv=False)
     return float(s[-1] / s[0])
@@ -107,13 +106,13 @@ def max_rel_error(params: dict[str, float], truth: Model) -> float:
     return max(abs(params[k] / v - 1.0) for k, v in truth.as_dict().items())
 
 
-def guarded_fit(guess: Model, t, load, data, **options) -> Any:
+def guarded_fit(guess: Model, t, load, data, options: FitOptions | None = None) -> Any:
     """The default fit from a user's guess: ``fit(guess, ...)`` with ``multistart="auto"``.
 
     lm runs from the guess first; a failed, boundary or poor (R^2 < 0.99) result is retried
     with the automatic start's multistart, which the guess joins.
     """
-    return fit(guess, t, load, data, **options)
+    return fit(guess, (t, load, data), options=options)
 
 
 # --------------------------------------------------------------------------- tests
@@ -145,7 +144,7 @@ def test_no_guess_recovers_well_like_sets(model_cls, mode) -> None:
     for _ in range(8):
         case = well_like_case(rng, model_cls, mode)
         assert conditioning(case) > ILL_CONDITIONED
-        res = fit(model_cls, case.t, case.load, case.data, **case.options)
+        res = fit(model_cls, (case.t, case.load, case.data), options=case.options)
         assert max_rel_error(res.params, case.truth) < 1e-6, (case.truth, res.params)
 
 
@@ -160,7 +159,7 @@ def test_coverage_of_95_percent_intervals() -> None:
     inside = dict.fromkeys(truth.param_names(), 0)
     for _ in range(n):
         data = clean + 0.01 * np.ptp(clean) * rng.standard_normal(t.size)
-        res = fit(truth, t, load, data)
+        res = fit(truth, (t, load, data))
         for name, value in truth.as_dict().items():
             low, high = res.ci95[name]
             inside[name] += low <= value <= high
@@ -188,7 +187,7 @@ def test_robust_intervals_hold_under_autocorrelated_noise() -> None:
         for k in range(1, t.size):
             noise[k] = rho * noise[k - 1] + shocks[k]
         data = clean + 0.01 * np.ptp(clean) * math.sqrt(1.0 - rho**2) * noise
-        res = fit(truth, t, load, data)
+        res = fit(truth, (t, load, data))
         for kind, hits in inside.items():
             for name, value in truth.as_dict().items():
                 low, high = res.extra[kind][name]

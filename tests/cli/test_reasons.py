@@ -44,9 +44,9 @@ def test_a_start_that_is_not_finite_fails_with_a_reason(two_cards: Path, capsys,
 def test_x0_that_is_not_numbers_is_named(two_cards: Path, x0: object) -> None:
     card = read_cards(two_cards)[0]
     with pytest.raises(ValueError, match=r"^x0: .* is not a number"):
-        pumpid.pump.fit_card(card, pumpid.Kelvin, x0=x0)
+        pumpid.fit(pumpid.Kelvin, card, x0=x0)
     with pytest.raises(ValueError, match=r"^x0: .* is not a number"):
-        pumpid.pump.fit_cards([card], pumpid.Kelvin, x0=x0)
+        pumpid.fit(pumpid.Kelvin, [card], x0=x0)
 
 
 def test_x0_option_that_is_not_a_number_is_named(two_cards: Path, capsys) -> None:

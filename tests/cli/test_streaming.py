@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-import pumpid.pump
+import pumpid.pump.runner as runner
 from pumpid.cli import main
 from tests.cli.conftest import write_cards
 
@@ -20,28 +20,22 @@ N_CARDS = 12
 
 
 class _Counted:
-    """``fit_cards`` and ``fit_card`` counting the cards they fit; a KeyboardInterrupt (as
-    Ctrl-C raises it) once ``stop_at`` cards have been fitted, when given."""
+    """``pumpid.fit`` as ``pumpid fit`` calls it, counting the cards it fits; a
+    KeyboardInterrupt (as Ctrl-C raises it) once ``stop_at`` cards have been fitted, when
+    given."""
 
     def __init__(self, monkeypatch: pytest.MonkeyPatch, stop_at: int | None = None) -> None:
         self.fitted = 0
         self.stop_at = stop_at
-        batch, alone = pumpid.pump.fit_cards, pumpid.pump.fit_card
+        plain = runner.fit
 
-        def fit_cards(cards: Any, *args: Any, **kwargs: Any) -> Any:
+        def fit(model: Any, data: Any, *args: Any, **kwargs: Any) -> Any:
             self._starting()
-            out = batch(cards, *args, **kwargs)
-            self.fitted += len(cards)
+            out = plain(model, data, *args, **kwargs)
+            self.fitted += len(data) if isinstance(data, list) else 1
             return out
 
-        def fit_card(card: Any, *args: Any, **kwargs: Any) -> Any:
-            self._starting()
-            out = alone(card, *args, **kwargs)
-            self.fitted += 1
-            return out
-
-        monkeypatch.setattr(pumpid.pump, "fit_cards", fit_cards)
-        monkeypatch.setattr(pumpid.pump, "fit_card", fit_card)
+        monkeypatch.setattr(runner, "fit", fit)
 
     def _starting(self) -> None:
         if self.stop_at is not None and self.fitted >= self.stop_at:

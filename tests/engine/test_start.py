@@ -8,7 +8,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pumpid import FirstOrder, Kelvin, LevenbergMarquardt, MassSpringDamper, Maxwell, fit, simulate
+from pumpid import (
+    FirstOrder,
+    FitOptions,
+    Kelvin,
+    LevenbergMarquardt,
+    MassSpringDamper,
+    Maxwell,
+    fit,
+    simulate,
+)
 from pumpid.engine.problem import CardData, build_problem
 from pumpid.engine.start import candidates, complete, find_starts, walk_valley
 
@@ -35,7 +44,7 @@ def _problem(cls, t, load, data, **opts):
                          ids=lambda m: type(m).__name__)
 def test_model_class_means_automatic_start(truth) -> None:
     data = simulate(truth, T, LOAD)
-    res = fit(type(truth), T, LOAD, data)
+    res = fit(type(truth), (T, LOAD, data))
     assert res.converged, res.reason
     assert _err(res.params, truth) < 1e-7
     assert res.start.note.startswith("automatic start") and res.start.candidates > 10
@@ -45,7 +54,7 @@ def test_first_order_automatic_start() -> None:
     t = np.linspace(0, 10, 501)
     f = np.sin(t) + 2
     data = simulate(FirstOrder(tau=0.8), t, f)
-    res = fit(FirstOrder, t, f, data)
+    res = fit(FirstOrder, (t, f, data))
     assert res.params["tau"] == pytest.approx(0.8, rel=1e-8)
     # The equation-error form itself finds the time constant of noiseless data.
     problem = _problem(FirstOrder, t, f, data)
@@ -83,15 +92,17 @@ def test_a_poor_guess_joins_the_multistart_and_loses() -> None:
     # A guess far away (factors 0.005 to 1.4): plain lm from it ends in another minimum,
     # not at the truth.
     guess = KELVIN.values * np.array([0.0052, 1.3856, 0.6288, 0.0068])
-    plain = fit(Kelvin.from_values(guess), T, LOAD, data, observe="u2", multistart=False)
+    plain = fit(Kelvin.from_values(guess), (T, LOAD, data),
+                options=FitOptions(observe="u2", multistart=False))
     assert _err(plain.params, KELVIN) > 1e-3
     starts = find_starts(_problem(Kelvin, T, LOAD, data, observe="u2"), ONE, guess=guess[None])
     assert not starts.from_guess[0]
-    guarded = fit(Kelvin.from_values(guess), T, LOAD, data, observe="u2", multistart=True)
+    guarded = fit(Kelvin.from_values(guess), (T, LOAD, data),
+                  options=FitOptions(observe="u2", multistart=True))
     assert _err(guarded.params, KELVIN) < 1e-7
     assert "automatic" in guarded.start.note
     # The default ("auto") sees the first fit's poor quality and falls back to the same.
-    auto = fit(Kelvin.from_values(guess), T, LOAD, data, observe="u2")
+    auto = fit(Kelvin.from_values(guess), (T, LOAD, data), options=FitOptions(observe="u2"))
     assert _err(auto.params, KELVIN) < 1e-7
 
 
@@ -147,7 +158,7 @@ def test_valley_walk_reaches_the_truth_on_a_weak_maxwell_arm(jump) -> None:
     zw, cw = walk_valley(problem, 0, z, cost)
     assert cw < 1e-15 * cost
     assert _err(dict(zip(names, np.exp(zw[:4]), strict=True)), truth) < 1e-9
-    res = fit(Maxwell, t, load, data, **opts)
+    res = fit(Maxwell, (t, load, data), options=FitOptions(**opts))
     assert _err(res.params, truth) < 1e-6
 
 
@@ -155,7 +166,7 @@ def test_valley_walk_stays_put_on_noisy_data() -> None:
     # With noise the valley floor is flat at the noise level: nothing to gain by walking.
     truth, t, load, data, opts = _weak_arm_card(noise=0.01)
     problem = _problem(Maxwell, t, load, data, **opts)
-    res = fit(truth, t, load, data, **opts)
+    res = fit(truth, (t, load, data), options=FitOptions(**opts))
     z = np.r_[np.log(res.model.values),
               res.offset + float(problem.offset_gap(0, res.model.values, 1.0))]
     _zw, cw = walk_valley(problem, 0, z, res.cost)

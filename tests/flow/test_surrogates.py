@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pumpid import fit, simulate, simulate_sensitivities
+from pumpid import FitOptions, fit, simulate, simulate_sensitivities
 from pumpid.flow import fit_flow, flow_record
 from pumpid.flow.surrogates import (
     FirstOrderLag,
@@ -113,7 +113,8 @@ def test_power_law_lag_recovers_tau_gain_n_from_its_own_data():
         for name, value in truth.as_dict().items():
             assert res.params[name] == pytest.approx(value, rel=1e-6), (method, name)
     # Through pumpid.fit directly, from a rough instance of the bound class.
-    direct = fit(cls(tau=0.5, gain=1e-10, n=0.8), T, dp, q, initial_state="rest")
+    direct = fit(cls(tau=0.5, gain=1e-10, n=0.8), (T, dp, q),
+                 options=FitOptions(initial_state="rest"))
     assert direct.params["n"] == pytest.approx(0.45, rel=1e-6)
 
 

@@ -55,7 +55,7 @@ def test_delta_method_error_of_an_identity_equals_the_parameters() -> None:
     truth = pumpid.MassSpringDamper(m=0.02, c=0.1, k=1.0)
     clean = pumpid.simulate(truth, t, load)
     data = clean + 0.01 * np.ptp(clean) * np.random.default_rng(0).standard_normal(t.size)
-    res = pumpid.fit(pumpid.MassSpringDamper, t, load, data)
+    res = pumpid.fit(pumpid.MassSpringDamper, (t, load, data))
     d = res.derived["static_stiffness"]
     assert d.value == pytest.approx(res.params["k"], rel=1e-9)
     assert d.stderr == pytest.approx(res.stderr["k"], rel=1e-4)
@@ -76,7 +76,7 @@ def test_quantities_stay_determined_where_parameters_are_not() -> None:
     truth = pumpid.MassSpringDamper(m=20.0, c=300.0, k=5000.0)
     clean = pumpid.simulate(truth, t, load)
     data = clean + 0.005 * np.ptp(clean) * np.random.default_rng(2).standard_normal(t.size)
-    res = pumpid.fit(pumpid.Kelvin, t, load, data, observe="u")
+    res = pumpid.fit(pumpid.Kelvin, (t, load, data), options=pumpid.FitOptions(observe="u"))
     assert res.status in (pumpid.Status.BOUNDARY, pumpid.Status.CONVERGED)
     assert not res.stderr["k0"] < res.params["k0"] / 3
     d = res.derived
@@ -89,12 +89,11 @@ def test_quantities_stay_determined_where_parameters_are_not() -> None:
 
 def test_a_quantity_that_follows_a_boundary_parameter_is_not_determined() -> None:
     """k0 -> infinity: the third pole's time constant only says where k0 stopped."""
-    from pumpid.pump import fit_card
     from pumpid.pump.synthetic import synthetic_card
 
     rigid = pumpid.Kelvin(k0=1e9, m=20.0, c1=900.0, k1=5200.0)
     card = synthetic_card(rigid, spm=8.0, n_samples=400, observe="u", noise=0.0005, seed=4)
-    res = fit_card(card)
+    res = pumpid.fit(pumpid.Kelvin, card)
     assert res.boundary is not None
     assert ("k0", "infinity") in {(b.name, b.direction) for b in res.boundary.limits}
     tau = res.derived["time_constant"]

@@ -8,12 +8,21 @@ import math
 import numpy as np
 import pytest
 
-from pumpid import Kelvin, MassSpringDamper, Maxwell, fit, simulate, simulate_sensitivities
+from pumpid import (
+    FitOptions,
+    Kelvin,
+    LevenbergMarquardt,
+    MassSpringDamper,
+    Maxwell,
+    PaperNewton,
+    fit,
+    simulate,
+    simulate_sensitivities,
+)
 from pumpid.cards import read_cards
 from pumpid.inference.hac import long_run_covariance
 from pumpid.inference.identifiability import describe_direction, findings_of
 from pumpid.inference.uncertainty import Numbers, analyse_rows, residual_whiteness, uncertainty_of
-from pumpid.pump import fit_card
 from pumpid.result import diagnostics_text
 
 from ..conftest import well_load
@@ -23,16 +32,14 @@ LOAD = well_load(T)
 KELVIN = Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0)
 MAXWELL = Maxwell(k0=90.0, m=2.0, c1=40.0, k1=70.0)
 SYMMETRY = "C and the overall scale of k0, m, c1, k1 are not separately identifiable from rest"
+#: The quality gate open: the lowest threshold FitOptions takes (finite numbers only).
+OPEN_GATE = -np.finfo(float).max
 
 
 def _noisy(model, level=0.01, seed=0, **kw):
     data = simulate(model, T, LOAD, **kw)
     rng = np.random.default_rng(seed)
     return data + level * np.ptp(data) * rng.standard_normal(data.size)
-
-
-def _diagnosed(*args, **kw):
-    return fit(*args, **kw)
 
 
 def _scaled_rows(model, names, with_scale=True):
@@ -59,7 +66,7 @@ def _numbers(rows, names, values, scales):
 
 def test_uncertainty_fields_for_an_ordinary_fit() -> None:
     data = _noisy(KELVIN)
-    res = _diagnosed(KELVIN, T, LOAD, data, offset=True)
+    res = fit(KELVIN, (T, LOAD, data), options=FitOptions(offset=True))
     assert res.converged
     names = list(res.free)
     assert names == ["k0", "m", "c1", "k1", "offset"]
@@ -138,14 +145,14 @@ def test_structured_residuals_are_flagged_with_the_widening() -> None:
     # Model error: a slow disturbance the model cannot produce, plus a little white noise.
     clean = simulate(KELVIN, T, LOAD)
     data = _noisy(KELVIN, level=0.002) + 0.02 * np.ptp(clean) * np.sin(0.7 * T)
-    res = fit(KELVIN, T, LOAD, data)
+    res = fit(KELVIN, (T, LOAD, data))
     check = res.extra["uncertainty"]["whiteness"]
     assert not check["white"] and check["interval_factor"] > 2.0
     warning = next(w for w in res.warnings if "not white noise" in w)
     assert f"{check['interval_factor']:.1f} times wider" in warning
     assert "too narrow" in res.report()
     # An exact fit has rounding for residuals: no check, no warning.
-    exact = fit(KELVIN, T, LOAD, clean)
+    exact = fit(KELVIN, (T, LOAD, clean))
     assert exact.extra["uncertainty"]["whiteness"] is None
     assert not any("not white" in w for w in exact.warnings)
 
@@ -156,7 +163,7 @@ def test_robust_errors_widen_for_autocorrelated_noise() -> None:
     rng = np.random.default_rng(12)
     clean = simulate(KELVIN, T, LOAD)
     noise = _ar1(rng, 0.8, T.size)
-    res = fit(KELVIN, T, LOAD, clean + 0.01 * np.ptp(clean) * noise / noise.std())
+    res = fit(KELVIN, (T, LOAD, clean + 0.01 * np.ptp(clean) * noise / noise.std()))
     check = res.extra["uncertainty"]["whiteness"]
     assert not check["white"] and check["interval_factor"] == pytest.approx(3.0, rel=0.15)
     for name in res.free:
@@ -174,22 +181,22 @@ def test_robust_errors_widen_for_autocorrelated_noise() -> None:
     json.loads(res.to_json(allow_nan=False))
 
 
-@pytest.mark.parametrize("options", [{"offset": True},
-                                     {"residual": "log", "initial_state": "equilibrium"},
-                                     {"scale": "free", "initial_state": "periodic"}],
+@pytest.mark.parametrize("options", [FitOptions(offset=True),
+                                     FitOptions(residual="log", initial_state="equilibrium"),
+                                     FitOptions(scale="free", initial_state="periodic")],
                          ids=["offset", "log", "periodic-gauge"])
 def test_robust_covariance_is_the_sandwich(options) -> None:
     # With a basis-independent meat (no prewhitening, fixed bandwidth) the robust covariance
     # must equal the textbook sandwich (J^T J)^-1 J^T Omega J (J^T J)^-1 * N / dof, computed
     # here in physical coordinates from the fit's own Jacobian and residuals.
     rng = np.random.default_rng(13)
-    state = options.get("initial_state", "rest")
+    state = options.initial_state or "rest"
     clean = simulate(KELVIN, T, LOAD, initial_state=state, period=T[-1] + T[1]
                      if state == "periodic" else None)
     data = clean + 0.01 * np.ptp(clean) * _ar1(rng, 0.6, T.size) + 5.0
     if state == "periodic":
-        options = {**options, "period": T[-1] + T[1]}
-    res = fit(KELVIN, T, LOAD, data, **options)
+        options = options.replace(period=T[-1] + T[1])
+    res = fit(KELVIN, (T, LOAD, data), options=options)
     assert res.converged, res.reason
     jac = res.jacobian
     r = np.log(res.fitted / res.data) if res.residual == "log" else res.residuals
@@ -214,7 +221,7 @@ def test_robust_errors_that_cannot_be_computed_are_nan_and_not_shown() -> None:
     from pumpid.report import render_html
 
     clean = simulate(KELVIN, T, LOAD)
-    res = fit(KELVIN, T, LOAD, clean + 0.02 * np.ptp(clean) * np.sin(0.7 * T))
+    res = fit(KELVIN, (T, LOAD, clean + 0.02 * np.ptp(clean) * np.sin(0.7 * T)))
     names = list(res.free)
     rows = np.vstack([np.zeros((len(names), T.size)), res.residuals])
     nums = _numbers(rows, names, [res.params[n] for n in names],
@@ -246,11 +253,12 @@ def test_robust_covariance_of_an_undetermined_direction_is_infinite() -> None:
 
 
 @pytest.mark.parametrize("model", [KELVIN, MAXWELL], ids=lambda m: type(m).__name__)
-@pytest.mark.parametrize("method", ["lm", "newton-fd"])
-def test_scale_symmetry_is_named_with_c_free_from_rest(model, method) -> None:
+@pytest.mark.parametrize("solver", [LevenbergMarquardt(), PaperNewton()],
+                         ids=["lm", "newton-fd"])
+def test_scale_symmetry_is_named_with_c_free_from_rest(model, solver) -> None:
     data = _noisy(model, seed=1)
     start = type(model).from_values(model.values * 1.01)
-    res = _diagnosed(start, T, LOAD, data, scale="free", method=method)
+    res = fit(start, (T, LOAD, data), options=FitOptions(scale="free"), solver=solver)
     assert res.converged, res.reason
     assert any(SYMMETRY in f and "only their ratios are" in f for f in res.identifiability)
     assert res.extra["determined"]["gauge"] == "C = 1"
@@ -261,11 +269,12 @@ def test_scale_symmetry_is_named_with_c_free_from_rest(model, method) -> None:
 
 def test_scale_symmetry_not_reported_when_c_fixed_or_state_breaks_it() -> None:
     data = _noisy(KELVIN, seed=2)
-    res = _diagnosed(KELVIN, T, LOAD, data)
+    res = fit(KELVIN, (T, LOAD, data))
     assert not any("overall scale" in f for f in res.identifiability)
     x0 = [0.5, 0.0, 0.1]
     data = 2.0 * simulate(KELVIN, T, LOAD, initial_state=x0)
-    res = _diagnosed(KELVIN.replace(k0=125.0), T, LOAD, data, scale="free", initial_state=x0)
+    res = fit(KELVIN.replace(k0=125.0), (T, LOAD, data),
+              options=FitOptions(scale="free", initial_state=x0))
     assert res.converged and "C" in res.free
     assert not res.identifiability
     assert res.extra["determined"]["gauge"] is None
@@ -309,7 +318,7 @@ def test_boundary_parameter_is_named_with_its_limit_and_gets_no_interval() -> No
     # Data from a mass-spring-dashpot: the Kelvin model's series spring k0 runs to infinity.
     msd = MassSpringDamper(m=2.0, c=60.0, k=90.0)
     data = simulate(msd, T, LOAD)
-    res = _diagnosed(Kelvin(k0=500.0, m=2.0, c1=60.0, k1=90.0), T, LOAD, data)
+    res = fit(Kelvin(k0=500.0, m=2.0, c1=60.0, k1=90.0), (T, LOAD, data))
     assert res.status == "boundary", res.reason
     assert any(f.startswith("k0 is at a boundary") and "mass-spring-dashpot" in f
                and "lower bound" in f for f in res.identifiability)
@@ -324,7 +333,7 @@ def test_practical_non_identifiability_is_reported() -> None:
     # Heavy noise on a short record: the weakest combination is not pinned down (on the
     # paper's observed output u2, where k0 is weakest).
     data = _noisy(KELVIN, level=0.5, seed=3, observe="u2")
-    res = _diagnosed(KELVIN, T[:300], LOAD[:300], data[:300], observe="u2")
+    res = fit(KELVIN, (T[:300], LOAD[:300], data[:300]), options=FitOptions(observe="u2"))
     assert any("practically not" in f and "identifiable" in f for f in res.identifiability), (
         res.identifiability)
 
@@ -338,8 +347,8 @@ def test_practical_identifiability_is_judged_on_robust_errors_when_residuals_fol
     noise = _ar1(rng, 0.9, T.size)
     # Noise this large leaves R^2 below the default quality gate, which is not what this
     # test is about: the gate is opened.
-    res = fit(KELVIN, T, LOAD, clean + 0.2 * np.ptp(clean) * noise / noise.std(),
-              observe="u2", min_r2=-np.inf)
+    res = fit(KELVIN, (T, LOAD, clean + 0.2 * np.ptp(clean) * noise / noise.std()),
+              options=FitOptions(observe="u2", min_r2=OPEN_GATE))
     assert res.converged and not res.extra["uncertainty"]["whiteness"]["white"]
     names = list(res.free)
     values = np.array([res.params[n] for n in names])
@@ -356,8 +365,8 @@ def test_practical_identifiability_is_judged_on_robust_errors_when_residuals_fol
 
 def test_failed_fit_gets_empty_uncertainty() -> None:
     data = simulate(KELVIN, T, LOAD)
-    res = _diagnosed(type(KELVIN).from_values(KELVIN.values * [30, 1 / 30, 30, 1 / 30]), T,
-                     LOAD, data, method="newton-fd", max_iter=3)
+    res = fit(type(KELVIN).from_values(KELVIN.values * [30, 1 / 30, 30, 1 / 30]),
+              (T, LOAD, data), solver=PaperNewton(max_iter=3))
     assert not res.converged
     if res.model is None:
         assert res.stderr == {} and res.ci95 == {}
@@ -367,8 +376,8 @@ def test_failed_fit_gets_empty_uncertainty() -> None:
 
 def test_paper_method_gets_the_same_uncertainties() -> None:
     data = _noisy(KELVIN, seed=4)
-    lm = _diagnosed(KELVIN, T, LOAD, data)
-    nfd = _diagnosed(KELVIN.replace(k0=121.0), T, LOAD, data, method="newton-fd")
+    lm = fit(KELVIN, (T, LOAD, data))
+    nfd = fit(KELVIN.replace(k0=121.0), (T, LOAD, data), solver=PaperNewton())
     assert nfd.converged, nfd.reason
     for name in lm.free:
         assert nfd.stderr[name] == pytest.approx(lm.stderr[name], rel=1e-3)
@@ -379,7 +388,7 @@ def test_paper_method_gets_the_same_uncertainties() -> None:
 def test_sandia_cards_state_what_is_identifiable(shared_raw) -> None:
     cards = read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")
     for card in cards[:2]:
-        res = fit_card(card, "kelvin")
+        res = fit("kelvin", card)
         assert res.extra["determined"]["parameters"], res.identifiability
         if res.extra.get("boundaries"):
             for b in res.extra["boundaries"]:

@@ -69,7 +69,7 @@ def test_bad_requests_are_refused() -> None:
     with pytest.raises(ValueError, match="criterion"):
         choose_model(EXAMPLE[0], criterion="aic")
     with pytest.raises(ValueError, match="observed output"):
-        choose_model(EXAMPLE[0], observe="u")
+        choose_model(EXAMPLE[0], options=pumpid.FitOptions.for_cards(observe="u"))
     with pytest.raises(ValueError, match="unknown candidate"):
         choose_model(EXAMPLE[0], candidates=[("kelvin", "v2")])
 

@@ -9,7 +9,7 @@ import pytest
 
 import pumpid
 from pumpid.cards import Card, read_cards
-from pumpid.pump import evaluate_prediction, fit_card, predict, predict_card
+from pumpid.pump import evaluate_prediction, predict, predict_card
 
 from ..conftest import REPORTED
 
@@ -23,7 +23,7 @@ def _example_cards() -> list[Card]:
 def test_bundled_example_is_fitted_and_the_next_stroke_predicted() -> None:
     first, second = _example_cards()
     assert first.periodic and first.time_source == "spm"
-    res = fit_card(first, "kelvin", observe="u")
+    res = pumpid.fit("kelvin", first, options=pumpid.FitOptions.for_cards(observe="u"))
     assert res.converged, res.reason
     assert res.initial_state == "periodic" and "offset" in res.free
     assert res.units.position == "in" and res.units.load == "lbf"
@@ -66,8 +66,8 @@ def test_bundled_example_looks_like_a_real_card() -> None:
 def test_card_without_time_needs_spm() -> None:
     card = Card(position=np.sin(np.linspace(0, 6, 50)) + 2, load=np.cos(np.linspace(0, 6, 50)))
     with pytest.raises(ValueError, match="spm"):
-        fit_card(card)
-    res = fit_card(card.with_spm(8.0), "msd")
+        pumpid.fit(pumpid.Kelvin, card)
+    res = pumpid.fit("msd", card.with_spm(8.0))
     assert res.initial_state == "periodic"
 
 
@@ -76,8 +76,9 @@ def test_mass_spring_data_drive_kelvin_k0_to_its_bound() -> None:
     load = 9000 + 3000 * np.sin(2 * np.pi * t / 8) + 800 * np.sin(4 * np.pi * t / 8 + 0.4)
     disp = pumpid.simulate(pumpid.MassSpringDamper(m=2, c=60, k=90), t, load,
                            initial_state="periodic") + 5.0
-    res = pumpid.fit(pumpid.Kelvin(k0=100, m=2.5, c1=50, k1=80), t, load, disp,
-                     observe="u", initial_state="periodic", offset=True)
+    res = pumpid.fit(pumpid.Kelvin(k0=100, m=2.5, c1=50, k1=80), (t, load, disp),
+                     options=pumpid.FitOptions(observe="u", initial_state="periodic",
+                                               offset=True))
     assert res.status == "boundary" and not res.converged
     assert res.extra["boundaries"][0]["name"] == "k0"
     assert res.extra["boundaries"][0]["direction"] == "infinity"
@@ -93,7 +94,7 @@ def test_predict_reuses_scale_and_offset() -> None:
     load = 5 + np.sin(t)
     model = pumpid.Kelvin(k0=4, m=1, c1=2, k1=4)
     data = pumpid.simulate(model, t, load, observe="u") + 1.5
-    res = pumpid.fit(model, t, load, data, observe="u", offset=True)
+    res = pumpid.fit(model, (t, load, data), options=pumpid.FitOptions(observe="u", offset=True))
     np.testing.assert_allclose(predict(res, t, load), data, atol=1e-9)
     assert evaluate_prediction(data, data)["r2"] == 1.0
 
@@ -111,7 +112,7 @@ def sandia_cards():
 @pytest.mark.realdata
 @pytest.mark.parametrize("card_id", ["SX6E03A", "SX6E03B", "SX6I03A", "SX6I03B"])
 def test_every_sandia_card_fits_kelvin_with_r2_above_099(sandia_cards, card_id) -> None:
-    res = fit_card(sandia_cards[card_id], "kelvin")
+    res = pumpid.fit("kelvin", sandia_cards[card_id])
     REPORTED.append(f"{card_id}: Kelvin (periodic, offset) R^2 = {res.r2:.5f}, status "
                     f"{res.status}")
     assert res.r2 >= 0.99
@@ -122,7 +123,7 @@ def test_every_sandia_card_fits_kelvin_with_r2_above_099(sandia_cards, card_id) 
 
 @pytest.mark.realdata
 def test_sandia_fit_one_stroke_predict_the_next(sandia_cards) -> None:
-    res = fit_card(sandia_cards["SX6E03A"], "kelvin")
+    res = pumpid.fit("kelvin", sandia_cards["SX6E03A"])
     pred = predict_card(res, sandia_cards["SX6E03B"])
     REPORTED.append(f"SX6E03A fitted (R^2 = {res.r2:.5f}); SX6E03B predicted with it: "
                     f"R^2 = {pred['r2']:.5f}, RMSE = {pred['rmse']:.3f} {res.units.position}")

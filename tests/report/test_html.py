@@ -97,8 +97,8 @@ def result() -> FitResult:
     true = pumpid.Kelvin(k0=120, m=2.0, c1=60, k1=90)
     disp = pumpid.simulate(true, t, load, initial_state="periodic")
     disp = disp + 0.2 * np.random.default_rng(0).standard_normal(t.size)
-    return pumpid.fit(pumpid.Kelvin(k0=100, m=2.5, c1=50, k1=80), t, load, disp,
-                      initial_state="periodic", offset=True,
+    return pumpid.fit(pumpid.Kelvin(k0=100, m=2.5, c1=50, k1=80), (t, load, disp),
+                      options=pumpid.FitOptions(initial_state="periodic", offset=True),
                       units=pumpid.Units(load="lbf", position="in"))
 
 

@@ -1,7 +1,7 @@
 """The batched main job gives each card the answer it gets alone.
 
-``pump.fit_cards`` shares the work of many cards (one solver loop, finished slots refilled,
-threads); it must not change any card's answer. On cards of the three families the
+``pumpid.fit`` on a list of cards shares their work (one solver loop, finished slots
+refilled, threads); it must not change any card's answer. On cards of the three families the
 benchmark measures (periodic strokes with an offset, records from rest with a slow creep,
 controller-like cards), statuses are identical and every parameter the data determine (by
 the fit's own identifiability analysis) agrees to 1e-8. ``benchmarks/bench_main_job.py``
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import pytest
 
-from pumpid.pump import fit_card, fit_cards
+import pumpid
 
 from ..families import family
 
@@ -27,10 +27,10 @@ def determined(res) -> list[str]:
 @pytest.mark.parametrize("name", sorted(N_CARDS))
 def test_batch_equals_each_card_alone(name: str) -> None:
     cards = family(name, N_CARDS[name], seed=11)
-    batch = fit_cards(cards, workers=2)
+    batch = pumpid.fit(pumpid.Kelvin, cards, workers=2)
     assert len(batch.results) == len(cards)
     for card, together in zip(cards, batch.results, strict=True):
-        alone = fit_card(card)
+        alone = pumpid.fit(pumpid.Kelvin, card)
         assert together.status == alone.status, card.card_id
         assert together.card is not None and together.card.id == card.card_id
         for p in determined(alone):
