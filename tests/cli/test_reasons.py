@@ -62,8 +62,9 @@ def test_joint_json_has_the_shape_of_every_json(two_cards: Path, capsys) -> None
     assert set(doc) == {"cards", "summary"}
     assert [c["card"]["id"] for c in doc["cards"]] == ["W-1", "W-2"]
     assert all(c["status"] == doc["summary"]["joint"]["status"] for c in doc["cards"])
-    assert doc["summary"]["cards"] == 2 and doc["summary"]["joint"]["joint"] is True
-    assert set(doc["summary"]["joint"]["params"]) == {"k0", "m", "c1", "k1"}
+    assert doc["summary"]["cards"] == 2 and "(joint, 2 cards)" in doc["summary"]["joint"]["model"]
+    assert set(doc["summary"]["joint"]["params"]) == {"k0", "m", "c1", "k1", "level_1", "level_2"}
+    assert all({"level", "offset", "r2", "rmse", "single"} <= set(c) for c in doc["cards"])
 
 
 @pytest.mark.parametrize("argv", [["fit", "{cards}", "--out", ""],

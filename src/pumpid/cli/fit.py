@@ -465,7 +465,8 @@ def _joint_document(joint: FitResult, cards: Sequence[Card]) -> dict[str, Any]:
     """
     part = joint.application["joint"]["cards"]
     elements = [{"status": joint.status.key, "reason": joint.reason,
-                 "card": {"id": card.card_id, "source": card.source}, **own, "output": None}
+                 "card": {"id": card.card_id, "source": card.source},
+                 **{k: v for k, v in own.items() if k != "card"}, "output": None}
                 for card, own in zip(cards, part, strict=True)]
     summary = {"cards": len(cards), "status": {joint.status.key: len(cards)},
                "interrupted": False, "output": None, "index": None,

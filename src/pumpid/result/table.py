@@ -31,8 +31,6 @@ if TYPE_CHECKING:
     import pandas
     import pyarrow
 
-    from .fit import FitResult
-
 __all__ = ["FIT", "IDENTITY", "check_row", "columns", "fit_row", "identity_of",
            "results_schema", "rows_frame", "unfitted_row"]
 
@@ -94,9 +92,14 @@ def identity_of(card: CardInfo | None, **batch: Any) -> dict[str, Any]:
     return row
 
 
-def fit_row(result: FitResult) -> dict[str, Any]:
+def fit_row(result: Any) -> dict[str, Any]:
     """A fit's row: its card's identity, the fit's columns, its parameters (with the errors
-    shown, robust and white) and its derived quantities."""
+    shown, robust and white) and its derived quantities.
+
+    ``result`` is a :class:`~pumpid.result.FitResult` (not named in the annotation: the
+    result imports this module to make its own row, and the two must not import each
+    other).
+    """
     row = identity_of(result.card)
     row.update({
         "model": result.model_name, "observe": result.observe, "status": result.status.key,
