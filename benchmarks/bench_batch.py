@@ -47,12 +47,13 @@ CARDS_PER_WELL = 100
 
 def make_field(folder: Path, cards: int, model: str) -> None:
     """A field of ``cards`` cards (wells of 100 cards, four cards a day)."""
-    from pumpid.pump.synthetic import synthetic_field
+    from pumpid.pump.synthetic import FieldCards, synthetic_field
 
     synthetic_field(folder, n_wells=cards // CARDS_PER_WELL, days=CARDS_PER_WELL // 4,
                     cards_per_day=4, formats=("csv", "scada", "json", "parquet"), seed=1,
-                    model=model, observe="u" if model == "kelvin" else None,
-                    broken_fraction=0.01, n_samples=100, hold="none")
+                    model=model, broken_fraction=0.01,
+                    cards=FieldCards(observe="u" if model == "kelvin" else None, n_samples=100,
+                                     hold="none"))
 
 
 def child(args: argparse.Namespace) -> None:

@@ -18,7 +18,7 @@ import numpy as np
 
 import pumpid
 from pumpid.cards import read_cards
-from pumpid.pump.synthetic import synthetic_card
+from pumpid.pump.synthetic import CardLabel, synthetic_card
 
 RAW = Path(__file__).resolve().parents[2] / "shared" / "data" / "raw"
 TRUTH = pumpid.Kelvin(k0=200.0, m=8.8, c1=40.0, k1=130.0)
@@ -29,7 +29,7 @@ def main() -> None:
     rng = np.random.default_rng(0)
     well = [synthetic_card(TRUTH, spm=8.0 * (1 + 0.01 * rng.standard_normal()),
                            n_samples=130, observe="u", noise=0.003, seed=rng,
-                           card_id=f"s{i}") for i in range(32)]
+                           label=CardLabel(card_id=f"s{i}")) for i in range(32)]
     names = TRUTH.param_names()
     print(f"steady well, truth {TRUTH.as_dict()}: estimate +/- standard error")
     print(f"{'cards':>6}  " + "  ".join(f"{n:>20}" for n in names) + "   se(m) x sqrt(cards)")

@@ -93,7 +93,7 @@ def bench_long(samples: int) -> None:
 def bench_cli(counts: list[int], with_out: bool) -> None:
     """``pumpid fit`` over synthetic fields of the given numbers of cards."""
     sys.path.insert(0, str(SRC))
-    from pumpid.pump.synthetic import synthetic_field
+    from pumpid.pump.synthetic import FieldCards, synthetic_field
 
     root = Path(tempfile.mkdtemp(prefix="pumpid-bench-memory-"))
     try:
@@ -101,7 +101,8 @@ def bench_cli(counts: list[int], with_out: bool) -> None:
             wells = max(1, n_cards // 20)
             field_dir = root / f"field{n_cards}"
             synthetic_field(field_dir, n_wells=wells, days=n_cards // wells, formats=["csv"],
-                            model="kelvin", observe="u", n_samples=100, seed=1)
+                            model="kelvin", cards=FieldCards(observe="u", n_samples=100),
+                            seed=1)
             files = sorted(str(p) for p in (field_dir / "csv").glob("*.csv"))
             cmd = [sys.executable, "-m", "pumpid.cli", "fit", *files, "--observe", "u",
                    "--brief"]

@@ -27,7 +27,7 @@ import scipy.special
 
 import pumpid
 from pumpid.pump import choose_model
-from pumpid.pump.synthetic import synthetic_card
+from pumpid.pump.synthetic import CardLabel, synthetic_card
 
 CENTRES = {
     ("msd", "u"): (pumpid.MassSpringDamper, np.array([20.0, 300.0, 2600.0])),
@@ -62,7 +62,7 @@ def main() -> None:
             model = cls.from_values(centre * np.exp(rng.uniform(-half, half, centre.size)))
             card = synthetic_card(model, spm=float(rng.uniform(5, 10)), n_samples=200,
                                   observe=observe, noise=args.noise, seed=rng,
-                                  card_id=f"{key}-{observe}-{i}")
+                                  label=CardLabel(card_id=f"{key}-{observe}-{i}"))
             choice = choose_model(card)
             picked = choice.candidates[0].name
             picks[picked] += 1

@@ -32,7 +32,7 @@ import numpy as np
 
 import pumpid
 from pumpid.cards import read_cards, split_strokes
-from pumpid.pump.synthetic import synthetic_card
+from pumpid.pump.synthetic import CardLabel, synthetic_card
 
 RAW = Path(__file__).resolve().parents[2] / "shared" / "data" / "raw"
 
@@ -161,7 +161,7 @@ def steady_well(model: pumpid.Kelvin, n: int, seed: int) -> list[pumpid.FitResul
     for i in range(n):
         card = synthetic_card(model, spm=8.0 * (1 + 0.005 * rng.standard_normal()),
                               n_samples=130, observe="u", noise=0.003, seed=rng,
-                              card_id=f"w{seed}-{i}")
+                              label=CardLabel(card_id=f"w{seed}-{i}"))
         fits.append(pumpid.fit(pumpid.Kelvin, card))
     return fits
 

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 import pumpid
-from pumpid.pump.synthetic import synthetic_card
+from pumpid.pump.synthetic import CardLabel, synthetic_card
 
 TRUE = pumpid.Kelvin(k0=200.0, m=8.8, c1=40.0, k1=130.0)
 OBSERVE = "u"
@@ -53,7 +53,7 @@ def make_cards() -> list[pumpid.cards.Card]:
     rng = np.random.default_rng(SEED)
     return [synthetic_card(TRUE, spm=spm, n_samples=N_SAMPLES, stroke=STROKE_IN,
                            observe=OBSERVE, rod_weight=ROD_WEIGHT_LBF, noise=NOISE, seed=rng,
-                           card_id=card_id, well_id="EX-1")
+                           label=CardLabel(well_id="EX-1", card_id=card_id))
             for card_id, spm in STROKES]
 
 

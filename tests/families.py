@@ -19,7 +19,7 @@ import numpy as np
 
 import pumpid
 from pumpid.cards import Card
-from pumpid.pump.synthetic import synthetic_card
+from pumpid.pump.synthetic import CardLabel, synthetic_card
 
 from .conftest import well_load
 
@@ -67,7 +67,8 @@ def controller_card(i: int, rng: np.random.Generator) -> Card:
     """Family (c): a controller-export-like card of 130 samples."""
     model = pumpid.Kelvin.from_values(_theta(rng))
     return synthetic_card(model, spm=rng.uniform(5.0, 10.0), n_samples=130, stroke=100.0,
-                          observe="u", noise=0.003, seed=i, card_id=f"c{i}")
+                          observe="u", noise=0.003, seed=i,
+                          label=CardLabel(card_id=f"c{i}"))
 
 
 FAMILIES: dict[str, Callable[[int, np.random.Generator], Card]] = {

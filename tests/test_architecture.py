@@ -1,4 +1,5 @@
-"""The package's shape: layers, no import cycles, no private names borrowed, no long modules.
+"""The package's shape: layers, no import cycles, no private names borrowed, no long modules,
+no public function with a long parameter list.
 
 Read from the sources with ``ast`` (nothing is imported), so the test sees every module,
 including the ones an import would not reach. Every import counts, wherever it is written:
@@ -40,6 +41,13 @@ LAYERS: tuple[tuple[str, ...], ...] = (
 
 #: No module may be longer (lines); the compiled kernels are not exempt.
 MAX_LINES = 700
+
+#: No public function or method may take more parameters (self and cls not counted; ``*args``
+#: and ``**kwargs`` count one each). Settings that belong together go in one object instead.
+#: Compiled kernels (decorated with ``pumpid.engine.compiled.jit``) are exempt: numba takes
+#: arrays and scalars, not objects, so their arguments are spelt out.
+MAX_PARAMETERS = 12
+COMPILED = "pumpid.engine.compiled"
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "pumpid"
 LEVEL = {part: level for level, parts in enumerate(LAYERS) for part in parts}
@@ -224,3 +232,89 @@ def test_no_private_names_imported_across_modules() -> None:
 def test_no_module_is_too_long() -> None:
     found = [text for _name, text in sorted(long_modules().items())]
     assert found == [], "\n".join(found)
+
+
+def compiled_decorators(name: str, path: Path, tree: ast.Module) -> set[str]:
+    """The names under which a module sees the compiled-kernel decorator."""
+    names = {"jit"} if name == COMPILED else set()
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.ImportFrom)
+                and resolve(name, path.name == "__init__.py", node) == COMPILED):
+            names |= {alias.asname or alias.name for alias in node.names if alias.name == "jit"}
+    return names
+
+
+def is_compiled(fn: ast.FunctionDef | ast.AsyncFunctionDef, decorators: set[str]) -> bool:
+    for dec in fn.decorator_list:
+        target = dec.func if isinstance(dec, ast.Call) else dec
+        if isinstance(target, ast.Name) and target.id in decorators:
+            return True
+    return False
+
+
+def parameter_count(fn: ast.FunctionDef | ast.AsyncFunctionDef, method: bool) -> int:
+    a = fn.args
+    positional = [*a.posonlyargs, *a.args]
+    static = any(isinstance(d, ast.Name) and d.id == "staticmethod" for d in fn.decorator_list)
+    if method and not static and positional:
+        positional = positional[1:]  # self or cls
+    return (len(positional) + len(a.kwonlyargs) + (a.vararg is not None)
+            + (a.kwarg is not None))
+
+
+def functions(body: Iterable[ast.AST], method: bool = False,
+              ) -> Iterator[tuple[ast.FunctionDef | ast.AsyncFunctionDef, bool]]:
+    """Functions and methods defined in ``body`` (also under ``if`` or ``try``), not the ones
+    nested inside functions (those are no one's interface)."""
+    for node in body:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            yield node, method
+        elif isinstance(node, ast.ClassDef):
+            yield from functions(node.body, method=True)
+        else:
+            yield from functions(ast.iter_child_nodes(node), method)
+
+
+def long_signatures() -> list[str]:
+    found = []
+    for name, path in PACKAGE.modules.items():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        decorators = compiled_decorators(name, path, tree)
+        for fn, method in functions(tree.body):
+            if fn.name.startswith("_") or is_compiled(fn, decorators):
+                continue
+            count = parameter_count(fn, method)
+            if count > MAX_PARAMETERS:
+                found.append(f"{name}.{fn.name} ({path.relative_to(SRC.parents[1]).as_posix()}:"
+                             f"{fn.lineno}): {count} parameters (at most {MAX_PARAMETERS})")
+    return found
+
+
+def test_no_public_function_has_a_long_parameter_list() -> None:
+    found = long_signatures()
+    assert found == [], "\n".join(found)
+
+
+def test_the_parameter_rule_sees_what_it_should() -> None:
+    """The scan counts keyword-only and variadic parameters, skips self, private names
+    and compiled kernels only: checked on made-up sources, so the rule cannot pass by
+    seeing nothing."""
+    source = """
+from pumpid.engine.compiled import jit as kernel
+def wide(a, b, c, d, e, f, g, *, h, i, j, k, l, m): ...
+def spread(a, *args, b, c, d, e, f, g, h, i, j, k, **kw): ...
+def _hidden(a, b, c, d, e, f, g, h, i, j, k, l, m): ...
+@kernel
+def fast(a, b, c, d, e, f, g, h, i, j, k, l, m): ...
+class Thing:
+    def method(self, a, b, c, d, e, f, g, h, i, j, k, l): ...
+    def wider(self, a, b, c, d, e, f, g, h, i, j, k, l, m): ...
+    @staticmethod
+    def static(a, b, c, d, e, f, g, h, i, j, k, l, m): ...
+"""
+    tree = ast.parse(source)
+    decorators = compiled_decorators("pumpid.somewhere", SRC / "somewhere.py", tree)
+    counts = {fn.name: parameter_count(fn, method) for fn, method in functions(tree.body)
+              if not fn.name.startswith("_") and not is_compiled(fn, decorators)}
+    assert counts == {"wide": 13, "spread": 13, "method": 12, "wider": 13, "static": 13}
+    assert any(fn.name == "fast" for fn, _m in functions(tree.body))

@@ -280,3 +280,27 @@ def test_a_column_named_like_the_readers_record_does_not_replace_it():
     (card,) = parse_cards(text, name="c.csv")
     assert card.metadata["column_roles"]["method"] == "header names"
     assert card.metadata["column_roles (column)"].shape == (30,)
+
+
+class TestInMemoryOptions:
+    """parse_cards takes exactly read_cards' keywords, checked: no list to drift."""
+
+    def test_same_cards_as_the_file_reader(self, tmp_path: Path) -> None:
+        pos, load = stroke()
+        text = table(pos, load)
+        f = tmp_path / "c.csv"
+        f.write_text(text)
+        opts = {"spm": 6.0, "well_id": "W1", "min_samples": 10}
+        (a,) = read_cards(f, **opts)
+        (b,) = parse_cards(text, name=str(f), **opts)
+        np.testing.assert_array_equal(a.t, b.t)
+        np.testing.assert_array_equal(a.load, b.load)
+        assert (a.well_id, a.spm) == (b.well_id, b.spm) == ("W1", 6.0)
+
+    @pytest.mark.parametrize("fn", ["parse_cards", "parse_cards_and_errors"])
+    def test_unknown_keyword_is_named_with_the_known_ones(self, fn: str) -> None:
+        import pumpid.cards as cards
+
+        pos, load = stroke()
+        with pytest.raises(TypeError, match=rf"{fn}\(\).*'min_sample'.*min_samples.*encoding"):
+            getattr(cards, fn)(table(pos, load), min_sample=10)

@@ -12,7 +12,9 @@ import pumpid
 from pumpid.cards import CardError, read_cards
 from pumpid.fleet.dataset import read_parquet_cards
 from pumpid.pump.synthetic import (
+    CardLabel,
     CrankRocker,
+    FieldCards,
     StepChange,
     periodic_load,
     polished_rod_position,
@@ -104,7 +106,7 @@ def test_band_limited_load_is_the_continuous_models(model: pumpid.Model,
 def test_synthetic_card_fields() -> None:
     model = pumpid.Kelvin(k0=200.0, m=8.8, c1=40.0, k1=130.0)
     card = synthetic_card(model, spm=8.0, n_samples=120, noise=(0.001, 0.004), seed=4,
-                          well_id="W9", card_id="W9-1", time="2024-03-01 06:00")
+                          label=CardLabel(well_id="W9", card_id="W9-1", time="2024-03-01 06:00"))
     assert card.n == 120 and card.periodic and card.time_source == "spm"
     assert card.period == pytest.approx(7.5)
     np.testing.assert_allclose(card.t, np.arange(120) * 7.5 / 120)
@@ -114,6 +116,11 @@ def test_synthetic_card_fields() -> None:
     assert card.metadata["parameters"] == model.as_dict()
     again = synthetic_card(model, spm=8.0, n_samples=120, noise=(0.001, 0.004), seed=4)
     np.testing.assert_array_equal(card.load, again.load)
+    assert (again.well_id, again.card_id, again.metadata["time"]) == (None, "synthetic", None)
+    with pytest.raises(ValueError, match="time"):
+        CardLabel(time="not a time")
+    with pytest.raises(ValueError, match="card_id"):
+        CardLabel(card_id=3)  # type: ignore[arg-type]
     # a position with content at half the sampling rate is still followed exactly
     zigzag = np.tile([0.0, 1.0], 8) + np.sin(2 * np.pi * np.arange(16) / 16)
     load = periodic_load(model, zigzag, 7.5, observe="u")
@@ -147,7 +154,7 @@ def _card_time(card: pumpid.cards.Card) -> pd.Timestamp:
 
 def test_field_reads_back(tmp_path: Path) -> None:
     truth = synthetic_field(tmp_path, n_wells=5, days=3, cards_per_day=2, seed=11,
-                            broken_fraction=0.15, n_samples=60,
+                            broken_fraction=0.15, cards=FieldCards(n_samples=60),
                             change=StepChange(well=2, parameter="k0", factor=1.3, at=4))
     assert len(truth) == 5 * 6 and truth["card_id"].is_unique
     assert set(truth["format"]) == {"csv", "scada", "json", "whitespace", "parquet"}
@@ -183,7 +190,7 @@ def test_field_reads_back(tmp_path: Path) -> None:
 
 def test_field_parameters_and_errors(tmp_path: Path) -> None:
     truth = synthetic_field(tmp_path, n_wells=3, days=2, model="msd", formats=("parquet",),
-                            seed=1, n_samples=40)
+                            seed=1, cards=FieldCards(n_samples=40))
     assert {"p_m", "p_c", "p_k"} <= set(truth.columns)
     assert truth["broken"].isna().all()
     assert len(read_parquet_cards(tmp_path / "parquet")) == 6
@@ -193,6 +200,11 @@ def test_field_parameters_and_errors(tmp_path: Path) -> None:
         synthetic_field(tmp_path, change=StepChange(0, "k9", 1.2, 1))
     with pytest.raises(ValueError, match="first-order"):
         synthetic_field(tmp_path, model="first-order")
+    for bad, match in (({"n_samples": 0}, "n_samples"), ({"noise": -0.1}, "noise"),
+                       ({"hold": "cubic"}, "hold"), ({"start": None}, "start"),
+                       ({"spread": 0.5}, "spread")):
+        with pytest.raises(ValueError, match=match):
+            FieldCards(**bad)
 
 
 def test_field_truth_feeds_change_detection(tmp_path: Path) -> None:
@@ -200,7 +212,7 @@ def test_field_truth_feeds_change_detection(tmp_path: Path) -> None:
     from pumpid.fleet.changes import detect_changes
 
     truth = synthetic_field(tmp_path, n_wells=4, days=20, cards_per_day=4, seed=5,
-                            formats=("parquet",), n_samples=32, hold="none",
+                            formats=("parquet",), cards=FieldCards(n_samples=32, hold="none"),
                             change=StepChange(well=1, parameter="k1", factor=0.7, at=45),
                             broken_fraction=0.02)
     table = truth.assign(status=np.where(truth["broken"].isna(), "converged", "invalid-input"))

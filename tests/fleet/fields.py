@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from pumpid.pump.synthetic import StepChange, synthetic_field
+from pumpid.pump.synthetic import FieldCards, StepChange, synthetic_field
 
 #: Formats of the test fields: every layout that says which card is which and when.
 #: (The whitespace layout has no place for ids, rate or time; it has its own test.)
@@ -28,8 +28,8 @@ def make_field(folder: Path, *, n_wells: int = 25, days: int = 20, cards_per_day
     """
     truth = synthetic_field(folder, n_wells=n_wells, days=days, cards_per_day=cards_per_day,
                             formats=FORMATS, seed=seed, model=model,
-                            broken_fraction=broken_fraction, n_samples=n_samples,
-                            hold="none", change=change)
+                            broken_fraction=broken_fraction,
+                            cards=FieldCards(n_samples=n_samples, hold="none"), change=change)
     scada = sorted(f for f in truth.loc[truth["format"] == "scada", "file"].unique()
                    if Path(f).stem.startswith("W") and "_" not in Path(f).stem)
     lines: list[str] = []

@@ -19,7 +19,13 @@ from pumpid.fleet import FitSpec, ReadOptions, detect_changes, read_results, run
 from pumpid.fleet.batch import reason_kind
 from pumpid.fleet.progress import make_progress
 from pumpid.fleet.store import BATCH_COLUMNS, MANIFEST, ResultsFolderError, results_schema
-from pumpid.pump.synthetic import StepChange, synthetic_card, synthetic_field
+from pumpid.pump.synthetic import (
+    CardLabel,
+    FieldCards,
+    StepChange,
+    synthetic_card,
+    synthetic_field,
+)
 
 from .conftest import PARTS
 from .fields import make_field
@@ -136,8 +142,8 @@ def test_resume_skips_what_is_written_and_refuses_other_runs(field, local_run,
 
 def test_changed_inputs_are_refused(tmp_path: Path) -> None:
     field = tmp_path / "field"
-    synthetic_field(field, n_wells=2, days=2, formats=("csv",), seed=1, n_samples=40,
-                    hold="none")
+    synthetic_field(field, n_wells=2, days=2, formats=("csv",), seed=1,
+                    cards=FieldCards(n_samples=40, hold="none"))
     out = tmp_path / "out"
     run_batch([field], out, fit=FitSpec("msd"))
     with pytest.raises(ResultsFolderError, match="holds a complete batch run"):
@@ -164,8 +170,8 @@ def test_changed_inputs_are_refused(tmp_path: Path) -> None:
 
 def test_ids_unique_and_the_same_on_every_run(tmp_path: Path) -> None:
     field = tmp_path / "field"
-    truth = synthetic_field(field, n_wells=1, days=3, formats=("csv",), seed=2, n_samples=40,
-                            hold="none")
+    truth = synthetic_field(field, n_wells=1, days=3, formats=("csv",), seed=2,
+                            cards=FieldCards(n_samples=40, hold="none"))
     shutil.copy(field / "csv" / "W000.csv", field / "csv" / "W000_copy.csv")
     # a long-layout file with one bad card among good ones: the others are read
     card = synthetic_card(pumpid.MassSpringDamper(m=8.8, c=25, k=80), n_samples=30,
@@ -197,7 +203,7 @@ def test_whitespace_cards_need_their_rate_and_columns(tmp_path: Path) -> None:
     # The whitespace layout has no ids, rate or time: the rate and the columns are given.
     field = tmp_path / "field"
     truth = synthetic_field(field, n_wells=1, days=4, formats=("whitespace",), seed=3,
-                            n_samples=50, hold="none")
+                            cards=FieldCards(n_samples=50, hold="none"))
     spm = float(truth["spm"].iloc[0])
     out = tmp_path / "given"
     run_batch([field], out, fit=FitSpec("msd"),
@@ -214,14 +220,15 @@ def test_whitespace_cards_need_their_rate_and_columns(tmp_path: Path) -> None:
 def test_schema_is_to_row_and_kelvin_rows(tmp_path: Path) -> None:
     for name, model in (("kelvin", pumpid.Kelvin(k0=200, m=8.8, c1=40, k1=130)),
                         ("msd", pumpid.MassSpringDamper(m=8.8, c=25, k=80))):
-        card = synthetic_card(model, observe="u", well_id="W", card_id="c", n_samples=60,
-                              noise=0.003, seed=1)
+        card = synthetic_card(model, observe="u", label=CardLabel(well_id="W", card_id="c"),
+                              n_samples=60, noise=0.003, seed=1)
         row = pumpid.fit(name, card, options=pumpid.FitOptions.for_cards(observe="u")).to_row()
         cols = [c for c in results_schema(type(model)).names if c not in BATCH_COLUMNS]
         assert cols == list(row), f"{name}: the results layout is FitResult.to_row's"
     field = tmp_path / "field"
     synthetic_field(field, n_wells=3, days=3, formats=("json", "parquet", "scada"), seed=4,
-                    observe="u", n_samples=60, hold="none", broken_fraction=0.1)
+                    cards=FieldCards(observe="u", n_samples=60, hold="none"),
+                    broken_fraction=0.1)
     out = tmp_path / "kelvin"
     run_batch([field], out, fit=FitSpec("kelvin", options={"observe": "u"}))
     table = read_results(out)
@@ -239,8 +246,8 @@ def test_schema_is_to_row_and_kelvin_rows(tmp_path: Path) -> None:
 def test_a_card_the_engine_cannot_fit_does_not_cost_the_others(tmp_path: Path,
                                                                monkeypatch) -> None:
     field = tmp_path / "field"
-    synthetic_field(field, n_wells=1, days=4, formats=("json",), seed=5, n_samples=40,
-                    hold="none")
+    synthetic_field(field, n_wells=1, days=4, formats=("json",), seed=5,
+                    cards=FieldCards(n_samples=40, hold="none"))
     import pumpid.pump.runner
 
     real = pumpid.pump.runner.fit

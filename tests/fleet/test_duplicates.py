@@ -8,13 +8,13 @@ from pathlib import Path
 from pumpid.fleet import FitSpec, read_results, run_batch
 from pumpid.fleet.changes import detect_changes, summarise_wells
 from pumpid.fleet.report import write_fleet_report
-from pumpid.pump.synthetic import synthetic_field
+from pumpid.pump.synthetic import FieldCards, synthetic_field
 
 
 def test_exact_repeats_are_flagged_and_counted_once(tmp_path: Path) -> None:
     field = tmp_path / "field"
     synthetic_field(field, n_wells=2, days=2, cards_per_day=4, formats=("json",), seed=5,
-                    n_samples=40, hold="none")
+                    cards=FieldCards(n_samples=40, hold="none"))
     path = field / "json" / "W000.json"
     data = json.loads(path.read_text(encoding="utf-8"))
     full = data["cards"][2]

@@ -9,14 +9,14 @@ import pumpid.fleet.batch as batch
 from pumpid.fleet import FitSpec, read_results, run_batch
 from pumpid.fleet.store import results_schema, storable_table
 from pumpid.models import MassSpringDamper
-from pumpid.pump.synthetic import synthetic_field
+from pumpid.pump.synthetic import FieldCards, synthetic_field
 
 
 def test_a_row_that_cannot_be_stored_keeps_its_partition_and_the_later_ones(
         tmp_path: Path, monkeypatch) -> None:
     field = tmp_path / "field"
     synthetic_field(field, n_wells=1, days=3, cards_per_day=4, formats=("json",), seed=5,
-                    n_samples=40, hold="none")
+                    cards=FieldCards(n_samples=40, hold="none"))
     real = batch.fit_partition
 
     def hostile(items, spec, threads, partition, first_item, *rest):

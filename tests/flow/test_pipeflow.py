@@ -10,6 +10,7 @@ import pytest
 from pumpid.flow.pipeflow import (
     J01,
     Pipe,
+    PipeNumerics,
     PowerLawFluid,
     newtonian_slowest_time_constant,
     power_law_time_scale,
@@ -183,9 +184,10 @@ def test_truncated_regularization_agrees_with_carreau():
     dp = 1e5
     ts = power_law_time_scale(dp, fluid, POLYMER_PIPE)
     t = np.linspace(0.0, 4 * ts, 80)
-    common = {"fluid": fluid, "pipe": POLYMER_PIPE, "n_radial": 100}
-    a = simulate_pipe_flow(t, dp, regularization="carreau", **common)
-    b = simulate_pipe_flow(t, dp, regularization="truncated", **common)
+    common = {"fluid": fluid, "pipe": POLYMER_PIPE}
+    a = simulate_pipe_flow(t, dp, numerics=PipeNumerics(n_radial=100), **common)
+    b = simulate_pipe_flow(t, dp, numerics=PipeNumerics(n_radial=100, regularization="truncated"),
+                           **common)
     assert a.info["gamma_reg"] == b.info["gamma_reg"] > 0.0
     np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-6 * a.q.max())
 
@@ -202,7 +204,8 @@ def test_grid_refinement_changes_q_by_less_than_tolerance(n):
     ts = power_law_time_scale(dp, fluid, POLYMER_PIPE)
     t = np.concatenate([[0.0], np.geomspace(0.01 * ts, 10.0 * ts, 120)])
     qs = {
-        m: simulate_pipe_flow(t, dp, fluid=fluid, pipe=POLYMER_PIPE, n_radial=m).q[1:]
+        m: simulate_pipe_flow(t, dp, fluid=fluid, pipe=POLYMER_PIPE,
+                              numerics=PipeNumerics(n_radial=m)).q[1:]
         for m in (100, 200, 400)
     }
     d1 = np.max(np.abs(qs[200] / qs[100] - 1.0))
@@ -217,10 +220,11 @@ def test_time_tolerance_is_not_limiting():
     dp = 1e5
     ts = power_law_time_scale(dp, fluid, POLYMER_PIPE)
     t = np.linspace(0.0, 6 * ts, 150)
-    common = {"fluid": fluid, "pipe": POLYMER_PIPE, "n_radial": 100}
-    a = simulate_pipe_flow(t, dp, **common)
-    b = simulate_pipe_flow(t, dp, rtol=1e-10, **common)
-    c = simulate_pipe_flow(t, dp, rtol=1e-10, method="Radau", **common)
+    common = {"fluid": fluid, "pipe": POLYMER_PIPE}
+    a = simulate_pipe_flow(t, dp, numerics=PipeNumerics(n_radial=100), **common)
+    b = simulate_pipe_flow(t, dp, numerics=PipeNumerics(n_radial=100, rtol=1e-10), **common)
+    c = simulate_pipe_flow(t, dp, numerics=PipeNumerics(n_radial=100, rtol=1e-10, method="Radau"),
+                           **common)
     np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-6 * b.q.max())
     np.testing.assert_allclose(c.q, b.q, rtol=0, atol=1e-8 * b.q.max())
 
@@ -275,7 +279,8 @@ def test_linear_superposition_newtonian():
     def dp2(s):
         return -4e4 * math.sin(2.0 * math.pi * s / (3.0 * tau)) + 2e4
 
-    common = {"fluid": fluid, "pipe": POLYMER_PIPE, "rtol": 1e-10, "n_radial": 100}
+    common = {"fluid": fluid, "pipe": POLYMER_PIPE,
+              "numerics": PipeNumerics(n_radial=100, rtol=1e-10)}
     q1 = simulate_pipe_flow(t, dp1, **common).q
     q2 = simulate_pipe_flow(t, dp2, **common).q
     q12 = simulate_pipe_flow(t, lambda s: dp1(s) + dp2(s), **common).q
@@ -399,13 +404,7 @@ def test_dataclasses_are_frozen_and_normalized():
         ([0.0, 1.0, 2.0], [1.0, 2.0], {}, "aligned"),
         ([0.0, 1.0, 2.0], [1.0, math.inf, 2.0], {}, "finite"),
         ([0.0, 1.0], ([1.0, 0.5], [0.0, 1.0]), {}, "increasing"),
-        ([0.0, 1.0], 1e4, {"n_radial": 2}, "n_radial"),
-        ([0.0, 1.0], 1e4, {"n_radial": 10.5}, "n_radial"),
-        ([0.0, 1.0], 1e4, {"rtol": 0.5}, "rtol"),
-        ([0.0, 1.0], 1e4, {"regularization": "papanastasiou"}, "regularization"),
-        ([0.0, 1.0], 1e4, {"method": "RK45"}, "method"),
-        ([0.0, 1.0], 1e4, {"gamma_reg": -1.0}, "gamma_reg"),
-        ([0.0, 1.0], 1e4, {"wall_clustering": 1.0}, "wall_clustering"),
+        ([0.0, 1.0], 1e4, {"numerics": {"n_radial": 100}}, "PipeNumerics"),
         ([0.0, 1.0], 1e4, {"initial_velocity": np.zeros(7)}, "initial_velocity"),
         ([0.0, 1.0], lambda s: math.nan, {}, "non-finite"),
     ],
@@ -413,3 +412,35 @@ def test_dataclasses_are_frozen_and_normalized():
 def test_simulate_validation(t, dp, kwargs, match):
     with pytest.raises(ValueError, match=match):
         simulate_pipe_flow(t, dp, fluid=PowerLawFluid(10.0, 0.5, RHO), pipe=POLYMER_PIPE, **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"n_radial": 2}, "n_radial"),
+        ({"n_radial": 10.5}, "n_radial"),
+        ({"rtol": 0.5}, "rtol"),
+        ({"regularization": "papanastasiou"}, "regularization"),
+        ({"method": "RK45"}, "method"),
+        ({"gamma_reg": -1.0}, "gamma_reg"),
+        ({"gamma_reg_factor": 0.0}, "gamma_reg_factor"),
+        ({"wall_clustering": 1.0}, "wall_clustering"),
+    ],
+)
+def test_numerics_validation(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        PipeNumerics(**kwargs)
+
+
+def test_numerics_defaults_are_the_simulators():
+    fluid = PowerLawFluid(K=30.0, n=0.6, rho=RHO)
+    t = np.linspace(0.0, 3 * power_law_time_scale(1e5, fluid, POLYMER_PIPE), 40)
+    default = simulate_pipe_flow(t, 1e5, fluid=fluid, pipe=POLYMER_PIPE)
+    given = simulate_pipe_flow(t, 1e5, fluid=fluid, pipe=POLYMER_PIPE,
+                               numerics=PipeNumerics(n_radial=200.0, rtol=1e-7))
+    np.testing.assert_array_equal(default.q, given.q)
+    info = default.info
+    assert (info["n_radial"], info["rtol"], info["method"], info["wall_clustering"]) == (
+        200, 1e-7, "BDF", 0.5)
+    with pytest.raises(AttributeError):
+        PipeNumerics().n_radial = 10  # type: ignore[misc]

@@ -9,7 +9,7 @@ import pytest
 import pumpid
 from pumpid.cards import read_cards
 from pumpid.cli import main
-from pumpid.pump.synthetic import synthetic_card
+from pumpid.pump.synthetic import CardLabel, synthetic_card
 
 EXAMPLE = pumpid.__path__[0] + "/data/example_cards.csv"
 TRUTH = pumpid.Kelvin(k0=200.0, m=8.8, c1=40.0, k1=130.0)  # the example's generator
@@ -20,7 +20,7 @@ def steady_well(n: int) -> list:
     rng = np.random.default_rng(0)
     return [synthetic_card(TRUTH, spm=8.0 * (1 + 0.01 * rng.standard_normal()),
                            n_samples=130, observe="u", noise=0.003, seed=rng,
-                           card_id=f"s{i}") for i in range(n)]
+                           label=CardLabel(card_id=f"s{i}")) for i in range(n)]
 
 
 def test_the_example_strokes_give_the_truth_within_their_errors() -> None:

@@ -12,6 +12,7 @@ memory of a large file is not held while its cards are built.
 
 from __future__ import annotations
 
+import inspect
 import math
 import os
 import re
@@ -385,26 +386,22 @@ def _first_error(items: list[Card | CardError], companion: str) -> list[Card]:
                     card_id=errors[0].card_id, well_id=errors[0].well_id) from errors[0]
 
 
-def parse_cards(
-    data: bytes | str,
-    *,
-    name: str = "<data>",
-    format: str | None = None,
-    position_unit: str | None = None,
-    load_unit: str | None = None,
-    spm: float | None = None,
-    period: float | None = None,
-    columns: ColumnSpec | None = None,
-    well_id: str | None = None,
-    min_samples: int = 20,
-    drop_closing_point: bool = True,
-    scada_cards: str = "surface",
-    encoding: str | None = None,
-) -> list[Card]:
+def parse_cards(data: bytes | str, *, name: str = "<data>", **options: Any) -> list[Card]:
     """Read cards from file content already in memory.
 
-    Same as :func:`read_cards` (see there for all parameters), but takes the bytes or text
-    of the file and a ``name`` used in messages and in :attr:`Card.source`.
+    Same as :func:`read_cards`, but takes the bytes or text of the file and a ``name`` used
+    in messages and in :attr:`Card.source`.
+
+    Parameters
+    ----------
+    data : bytes or str
+        The content of a card file.
+    name : str, default "<data>"
+        What to call the content in messages and in :attr:`Card.source`.
+    **options
+        Exactly the keywords of :func:`read_cards` (``format``, ``position_unit``,
+        ``load_unit``, ``spm``, ``period``, ``columns``, ``well_id``, ``min_samples``,
+        ``drop_closing_point``, ``scada_cards``, ``encoding``), with the same defaults.
 
     Returns
     -------
@@ -413,9 +410,13 @@ def parse_cards(
     Raises
     ------
     CardError
-        For every problem with the content or the options.
+        For every problem with the content or the options' values.
+    TypeError
+        For a keyword that :func:`read_cards` does not take (the message names it and lists
+        the known ones).
     """
-    return _first_error(list(parse_cards_and_errors(data, name=name, **_options(locals())).items),
+    _reading_options(options, "parse_cards")  # so a misspelt keyword names this function
+    return _first_error(list(parse_cards_and_errors(data, name=name, **options).items),
                         "parse_cards_and_errors")
 
 
@@ -424,23 +425,36 @@ def _options(scope: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in scope.items() if k not in ("data", "name", "path")}
 
 
-def parse_cards_and_errors(
-    data: bytes | str,
-    *,
-    name: str = "<data>",
-    format: str | None = None,
-    position_unit: str | None = None,
-    load_unit: str | None = None,
-    spm: float | None = None,
-    period: float | None = None,
-    columns: ColumnSpec | None = None,
-    well_id: str | None = None,
-    min_samples: int = 20,
-    drop_closing_point: bool = True,
-    scada_cards: str = "surface",
-    encoding: str | None = None,
-) -> CardsRead:
+def _reading_defaults() -> dict[str, Any]:
+    """The keyword-only parameters of :func:`read_cards` and their defaults: the one list of
+    reading options, so the in-memory readers cannot drift from the file readers."""
+    return {n: p.default for n, p in inspect.signature(read_cards).parameters.items()
+            if p.kind is inspect.Parameter.KEYWORD_ONLY}
+
+
+def _reading_options(options: dict[str, Any], who: str) -> dict[str, Any]:
+    """``options`` over :func:`read_cards`' defaults; a keyword it does not take is a
+    TypeError, as Python gives for a misspelt keyword of a function that declares them."""
+    known = _reading_defaults()
+    unknown = [k for k in options if k not in known]
+    if unknown:
+        raise TypeError(f"{who}() got an unexpected keyword argument {unknown[0]!r} "
+                        f"(known: name, {', '.join(known)})")
+    return known | options
+
+
+def parse_cards_and_errors(data: bytes | str, *, name: str = "<data>",
+                           **options: Any) -> CardsRead:
     """Read cards from content in memory, each on its own (see :func:`read_cards_and_errors`).
+
+    Parameters
+    ----------
+    data : bytes or str
+        The content of a card file.
+    name : str, default "<data>"
+        What to call the content in messages and in :attr:`Card.source`.
+    **options
+        Exactly the keywords of :func:`read_cards`, with the same defaults.
 
     Returns
     -------
@@ -449,27 +463,16 @@ def parse_cards_and_errors(
     Raises
     ------
     CardError
-        Only for a problem of the whole content or of the options.
+        Only for a problem of the whole content or of the options' values.
+    TypeError
+        For a keyword that :func:`read_cards` does not take (named, with the known ones).
     """
+    reading = _reading_options(options, "parse_cards_and_errors")
     if not isinstance(data, bytes | bytearray | memoryview | str):
         raise CardError(f"data must be bytes or str, got {type(data).__name__}", path=name)
     if not isinstance(name, str):
         raise CardError(f"name must be a string, got {type(name).__name__}")
-    return CardsRead(tuple(_read(
-        [data],
-        name,
-        format=format,
-        position_unit=position_unit,
-        load_unit=load_unit,
-        spm=spm,
-        period=period,
-        columns=columns,
-        well_id=well_id,
-        min_samples=min_samples,
-        drop_closing_point=drop_closing_point,
-        scada_cards=scada_cards,
-        encoding=encoding,
-    )))
+    return CardsRead(tuple(_read([data], name, **reading)))
 
 
 def read_cards(

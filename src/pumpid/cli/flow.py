@@ -77,7 +77,7 @@ def _fmt(value: Any, digits: int = 8) -> str:
 def cmd_flow_simulate(args: argparse.Namespace) -> int:
     """Simulate the reference pipe flow for a pressure-drop step or history; write t, dp, q."""
     from ..flow import simulate_flow_record
-    from ..flow.pipeflow import power_law_time_scale
+    from ..flow.pipeflow import PipeNumerics, power_law_time_scale
 
     fluid, pipe = _fluid_pipe(args)
     if (args.dp is None) == (args.dp_file is None):
@@ -98,7 +98,8 @@ def cmd_flow_simulate(args: argparse.Namespace) -> int:
     if args.output is not None and Path(args.output).is_dir():
         raise OutputError(f"-o {printable(args.output)}: is a folder; give the name of the "
                           "CSV file to write")
-    rec = simulate_flow_record(t, dp, fluid=fluid, pipe=pipe, n_radial=args.n_radial)
+    rec = simulate_flow_record(t, dp, fluid=fluid, pipe=pipe,
+                               numerics=PipeNumerics(n_radial=args.n_radial))
     text = rec.to_csv()
     if args.output is None:
         sys.stdout.write(text)

@@ -27,7 +27,7 @@ from typing import Any
 
 import pandas as pd
 
-from pumpid.pump.synthetic import StepChange, synthetic_field
+from pumpid.pump.synthetic import FieldCards, StepChange, synthetic_field
 
 __all__ = ["DEMO_FIELD", "main", "make_demo_field"]
 
@@ -35,7 +35,7 @@ __all__ = ["DEMO_FIELD", "main", "make_demo_field"]
 DEMO_FIELD: dict[str, Any] = {
     "n_wells": 6, "days": 3, "cards_per_day": 24,
     "formats": ("csv", "scada", "json", "parquet"), "seed": 7, "model": "kelvin",
-    "observe": "u", "broken_fraction": 0.01, "n_samples": 100, "hold": "none",
+    "broken_fraction": 0.01, "cards": FieldCards(observe="u", n_samples=100, hold="none"),
     "change": StepChange(well=3, parameter="k1", factor=1.3, at=40),
 }  # fmt: skip
 

@@ -8,6 +8,7 @@ the closed-form flows in :mod:`~pumpid.flow.pipe`), the step study
 """
 
 from .fit import fit_flow, fit_flow_records, simulate_flow_record, simulate_surrogate
+from .pipeflow import PipeNumerics
 from .records import (
     FLOW_UNITS,
     PRESSURE_UNITS,
@@ -23,6 +24,7 @@ __all__ = [
     "FLOW_UNITS",
     "PRESSURE_UNITS",
     "FlowRecord",
+    "PipeNumerics",
     "StepStudy",
     "convert_flow",
     "convert_pressure",

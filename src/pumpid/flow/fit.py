@@ -487,7 +487,8 @@ def simulate_flow_record(
         (piecewise linear, as the surrogates see them).
     fluid, pipe : PowerLawFluid, Pipe
     **options
-        Passed to ``simulate_pipe_flow`` (``n_radial``, ``rtol``, ...).
+        Passed to ``simulate_pipe_flow`` (``numerics=PipeNumerics(n_radial=...)``,
+        ``initial_velocity``, ``breakpoints``, ...).
     """
     tt = np.asarray(t, dtype=float)
     dd = np.broadcast_to(np.asarray(dp, dtype=float), tt.shape).astype(float)

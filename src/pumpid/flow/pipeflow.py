@@ -71,6 +71,7 @@ __all__ = [
     "J01",
     "Pipe",
     "PipeFlowResult",
+    "PipeNumerics",
     "PowerLawFluid",
     "newtonian_slowest_time_constant",
     "power_law_time_scale",
@@ -320,21 +321,100 @@ def _as_dp_function(dp: DpInput, t_out: FloatArray) -> tuple[Callable[[float], f
     return dp_interp, np.interp(t_out, ts, ps)
 
 
+@dataclass(frozen=True)
+class PipeNumerics:
+    """Numerical settings of :func:`simulate_pipe_flow`: the grid, the integrator and the
+    zero-shear regularization. Frozen and checked on construction.
+
+    Parameters
+    ----------
+    n_radial : int, default 200
+        Number of radial finite-volume cells (>= 3). The scheme is second order: with the
+        default the flow rate after a step from rest is within ~1e-5 relative of the exact
+        Newtonian solution from 1 % of the slowest time constant on, and steady power-law flow
+        rates for n = 0.3 ... 0.8 are within ~1e-5 of the closed form. The error falls by
+        about 4 per doubling of ``n_radial``.
+    rtol : float, default 1e-7
+        Relative tolerance of the time integrator, in [1e-13, 1e-2]; the absolute tolerance is
+        ``1e-3 * rtol`` times the velocity scale (the steady centre-line velocity at the
+        largest ``|dp|``), so that small early flow rates are resolved too. The default keeps
+        the time-integration error well below the spatial error (~1e-7 relative).
+    regularization : {"carreau", "truncated"}, default "carreau"
+        Zero-shear regularization of the viscosity (ignored for ``n = 1``, where
+        ``eta = K`` exactly):
+
+        * ``"carreau"``: ``eta = K (gamma^2 + gamma_reg^2)^((n - 1)/2)``. It is smooth
+          (C-infinity) and the shear stress stays a strictly increasing function of the shear
+          rate, which the Newton iterations and the error estimator of the implicit
+          integrator need; it tends to the power law for ``gamma >> gamma_reg``.
+        * ``"truncated"``: ``eta = K max(gamma, gamma_reg)^(n - 1)``, the Newtonian plateau
+          cut-off used by many CFD codes (kink at ``gamma_reg``; slower to integrate).
+    gamma_reg : float, optional
+        Regularization shear rate in 1/s. By default ``gamma_reg_factor`` times the steady
+        wall shear rate at the largest ``|dp|``. In steady flow the relative effect on ``Q``
+        is about ``(gamma_reg / gamma_wall)^(3n + 1)``, i.e. below 1e-9 for the defaults at
+        ``n >= 0.3``; transients that pass through rest are affected a little more. Tying the
+        default to the driving pressure keeps the model exactly self-similar in ``dp`` (see
+        :func:`power_law_time_scale`); give an absolute ``gamma_reg`` to model a fluid with
+        a real zero-shear plateau instead. For callables, ``|dp|`` is sampled at ``t`` only.
+    gamma_reg_factor : float, default 1e-5
+        See ``gamma_reg`` (used only when ``gamma_reg`` is None).
+    wall_clustering : float, default 0.5
+        Grid clustering toward the wall in [0, 1); see :func:`radial_grid`. Moderate values
+        are best: stronger clustering starves the core, where the transient and (for
+        ``n < 1``) the nearly plug-like centre carry most of the discretization error.
+    method : {"BDF", "Radau"}, default "BDF"
+        Implicit integrator of :func:`scipy.integrate.solve_ivp` (see the module notes).
+
+    Raises
+    ------
+    ValueError
+        For a setting out of its range.
+    """
+
+    n_radial: int = 200
+    rtol: float = 1e-7
+    regularization: Literal["carreau", "truncated"] = "carreau"
+    gamma_reg: float | None = None
+    gamma_reg_factor: float = 1e-5
+    wall_clustering: float = 0.5
+    method: Literal["BDF", "Radau"] = "BDF"
+
+    def __post_init__(self) -> None:
+        n_radial, rtol = self.n_radial, self.rtol
+        if isinstance(n_radial, bool) or int(n_radial) != n_radial or n_radial < 3:
+            raise ValueError(f"n_radial must be an integer >= 3, got {n_radial!r}")
+        rtol = float(rtol)
+        if not (1e-13 <= rtol <= 1e-2):
+            raise ValueError(f"rtol must be in [1e-13, 1e-2], got {self.rtol!r}")
+        if self.regularization not in ("carreau", "truncated"):
+            raise ValueError("regularization must be 'carreau' or 'truncated', "
+                             f"got {self.regularization!r}")
+        if self.method not in ("Radau", "BDF"):
+            raise ValueError(f"method must be 'Radau' or 'BDF', got {self.method!r}")
+        if self.gamma_reg is not None:
+            object.__setattr__(self, "gamma_reg", check_positive_finite("gamma_reg",
+                                                                        self.gamma_reg))
+        factor = check_positive_finite("gamma_reg_factor", self.gamma_reg_factor)
+        c = float(self.wall_clustering)
+        if not (0.0 <= c < 1.0):
+            raise ValueError(f"wall_clustering must be in [0, 1), got {self.wall_clustering!r}")
+        # the normalised values are what the simulator uses and reports in ``info``
+        object.__setattr__(self, "n_radial", int(n_radial))
+        object.__setattr__(self, "rtol", rtol)
+        object.__setattr__(self, "gamma_reg_factor", factor)
+        object.__setattr__(self, "wall_clustering", c)
+
+
 def simulate_pipe_flow(
     t: ArrayLike,
     dp: DpInput,
     *,
     fluid: PowerLawFluid,
     pipe: Pipe,
-    n_radial: int = 200,
-    rtol: float = 1e-7,
+    numerics: PipeNumerics = PipeNumerics(),
     initial_velocity: Callable[[FloatArray], ArrayLike] | ArrayLike | None = None,
     return_profile: bool = False,
-    regularization: Literal["carreau", "truncated"] = "carreau",
-    gamma_reg: float | None = None,
-    gamma_reg_factor: float = 1e-5,
-    wall_clustering: float = 0.5,
-    method: Literal["BDF", "Radau"] = "BDF",
     breakpoints: Sequence[float] = (),
 ) -> PipeFlowResult:
     """Simulate transient laminar flow of a power-law fluid in a pipe under a pressure drop.
@@ -350,49 +430,15 @@ def simulate_pipe_flow(
         constant outside their range.
     fluid : PowerLawFluid
     pipe : Pipe
-    n_radial : int
-        Number of radial finite-volume cells. The scheme is second order: with the default
-        (200 cells) the flow rate after a step from rest is within ~1e-5 relative of the exact
-        Newtonian solution from 1 % of the slowest time constant on, and steady power-law flow
-        rates for n = 0.3 ... 0.8 are within ~1e-5 of the closed form. The error falls by
-        about 4 per doubling of ``n_radial``.
-    rtol : float
-        Relative tolerance of the time integrator; the absolute tolerance is
-        ``1e-3 * rtol`` times the velocity scale (the steady centre-line velocity at the
-        largest ``|dp|``), so that small early flow rates are resolved too. The default keeps
-        the time-integration error well below the spatial error (~1e-7 relative).
+    numerics : PipeNumerics, optional
+        Grid, integrator and regularization settings (see :class:`PipeNumerics`); the
+        defaults give ~1e-5 relative accuracy of the flow rate.
     initial_velocity : callable, array_like or None
         Initial axial velocity (m/s). ``None`` means rest. A callable ``w0(r)`` is evaluated at
         the cell nodes; an array must have ``n_radial`` entries on the nodes returned by
         :func:`radial_grid` (e.g. a row of a previous result's ``w``).
     return_profile : bool
         Also return the radial nodes and velocity profiles.
-    regularization : {"carreau", "truncated"}
-        Zero-shear regularization of the viscosity (ignored for ``n = 1``, where
-        ``eta = K`` exactly):
-
-        * ``"carreau"`` (default): ``eta = K (gamma^2 + gamma_reg^2)^((n - 1)/2)``. It is smooth
-          (C-infinity) and the shear stress stays a strictly increasing function of the shear
-          rate, which the Newton iterations and the error estimator of the implicit
-          integrator need; it tends to the power law for ``gamma >> gamma_reg``.
-        * ``"truncated"``: ``eta = K max(gamma, gamma_reg)^(n - 1)``, the Newtonian plateau
-          cut-off used by many CFD codes (kink at ``gamma_reg``; slower to integrate).
-    gamma_reg : float, optional
-        Regularization shear rate in 1/s. By default ``gamma_reg_factor`` times the steady
-        wall shear rate at the largest ``|dp|``. In steady flow the relative effect on ``Q``
-        is about ``(gamma_reg / gamma_wall)^(3n + 1)``, i.e. below 1e-9 for the defaults at
-        ``n >= 0.3``; transients that pass through rest are affected a little more. Tying the
-        default to the driving pressure keeps the model exactly self-similar in ``dp`` (see
-        :func:`power_law_time_scale`); pass an absolute ``gamma_reg`` to model a fluid with
-        a real zero-shear plateau instead. For callables, ``|dp|`` is sampled at ``t`` only.
-    gamma_reg_factor : float
-        See ``gamma_reg``.
-    wall_clustering : float
-        Grid clustering toward the wall in [0, 1); see :func:`radial_grid`. Moderate values
-        are best: stronger clustering starves the core, where the transient and (for
-        ``n < 1``) the nearly plug-like centre carry most of the discretization error.
-    method : {"BDF", "Radau"}
-        Implicit integrator of :func:`scipy.integrate.solve_ivp` (see the module notes).
     breakpoints : sequence of float
         Times at which a callable ``dp`` is discontinuous (e.g. a step); integration is
         restarted there so that the jump is not smeared by the step-size control.
@@ -420,16 +466,10 @@ def simulate_pipe_flow(
         raise ValueError("t must be finite")
     if t_out.size > 1 and np.any(np.diff(t_out) <= 0.0):
         raise ValueError("t must be strictly increasing")
-    if int(n_radial) != n_radial or n_radial < 3:
-        raise ValueError(f"n_radial must be an integer >= 3, got {n_radial!r}")
-    n_radial = int(n_radial)
-    rtol = float(rtol)
-    if not (1e-13 <= rtol <= 1e-2):
-        raise ValueError(f"rtol must be in [1e-13, 1e-2], got {rtol!r}")
-    if regularization not in ("carreau", "truncated"):
-        raise ValueError(f"regularization must be 'carreau' or 'truncated', got {regularization!r}")
-    if method not in ("Radau", "BDF"):
-        raise ValueError(f"method must be 'Radau' or 'BDF', got {method!r}")
+    if not isinstance(numerics, PipeNumerics):
+        raise ValueError(f"numerics must be a PipeNumerics, got {type(numerics).__name__}")
+    n_radial, rtol, method = numerics.n_radial, numerics.rtol, numerics.method
+    regularization, wall_clustering = numerics.regularization, numerics.wall_clustering
 
     dp_of_t, dp_out = _as_dp_function(dp, t_out)
     R, L, K, n = pipe.radius, pipe.length, fluid.K, fluid.n
@@ -465,11 +505,10 @@ def simulate_pipe_flow(
         gamma_wall = 1.0 / R
     else:
         gamma_wall = max(gamma_wall if dp_max > 0.0 else 0.0, u_scale / R)
-    if gamma_reg is None:
-        gamma_reg_factor = check_positive_finite("gamma_reg_factor", gamma_reg_factor)
-        gamma_reg_used = gamma_reg_factor * gamma_wall
+    if numerics.gamma_reg is None:
+        gamma_reg_used = numerics.gamma_reg_factor * gamma_wall
     else:
-        gamma_reg_used = check_positive_finite("gamma_reg", gamma_reg)
+        gamma_reg_used = numerics.gamma_reg
 
     disc = _Discretization(
         fluid, pipe, n_radial, wall_clustering, gamma_reg_used, regularization, u_scale, dp_of_t

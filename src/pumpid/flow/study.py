@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..result import FitResult
 from .fit import fit_flow, fit_flow_records, simulate_flow_record, simulate_surrogate
-from .pipeflow import Pipe, PowerLawFluid, power_law_time_scale
+from .pipeflow import Pipe, PipeNumerics, PowerLawFluid, power_law_time_scale
 from .records import FlowRecord
 
 __all__ = ["StepStudy", "step_response_study"]
@@ -183,7 +183,7 @@ def step_response_study(
         t_end = periods * (scales.max() if window == "common" else scale)
         t = np.linspace(0.0, t_end, int(samples))
         records.append(simulate_flow_record(
-            t, a, fluid=fluid, pipe=pipe, n_radial=n_radial,
+            t, a, fluid=fluid, pipe=pipe, numerics=PipeNumerics(n_radial=n_radial),
             source=f"pipe-flow start-up, dp = {a:g} Pa"))
     linear = [fit_flow(r, "first-order") for r in records]
     joint_fits: dict[str, FitResult] = {}

@@ -45,15 +45,17 @@ The file layouts and the kinds of broken card are described in
 
 from __future__ import annotations
 
-from .card import periodic_load, synthetic_card
-from .field import StepChange, synthetic_field
+from .card import CardLabel, periodic_load, synthetic_card
+from .field import FieldCards, StepChange, synthetic_field
 from .kinematics import CrankRocker, polished_rod_position
 from .layouts import BROKEN_KINDS, FIELD_FORMATS
 
 __all__ = [
     "BROKEN_KINDS",
     "FIELD_FORMATS",
+    "CardLabel",
     "CrankRocker",
+    "FieldCards",
     "StepChange",
     "periodic_load",
     "polished_rod_position",

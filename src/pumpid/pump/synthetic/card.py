@@ -7,6 +7,7 @@ back, is told in :mod:`pumpid.pump.synthetic`.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,7 @@ from pumpid.models import Model, model_class
 
 from .kinematics import CrankRocker, polished_rod_position
 
-__all__ = ["as_timestamp", "model_key", "periodic_load", "synthetic_card"]
+__all__ = ["CardLabel", "as_timestamp", "model_key", "periodic_load", "synthetic_card"]
 
 # Alias terms summed explicitly on each side; the rest comes from the asymptote in closed
 # form. 64 leaves a residual far below 1e-12 of the response for the rod-pump models.
@@ -179,6 +180,42 @@ def as_timestamp(value: Any) -> pd.Timestamp | None:
     return ts.tz_localize("UTC") if ts.tzinfo is None else ts.tz_convert("UTC")
 
 
+@dataclass(frozen=True)
+class CardLabel:
+    """The identity a synthetic card is given: its well, its id and its time.
+
+    Parameters
+    ----------
+    well_id : str, optional
+        Well identifier stored on the card.
+    card_id : str, default "synthetic"
+        Card identifier stored on the card.
+    time : datetime-like, optional
+        The card's time (naive means UTC); kept as a UTC ``pandas.Timestamp`` (None for
+        None or NaT).
+
+    Raises
+    ------
+    ValueError
+        For an identifier that is not a string, or a time pandas cannot read.
+    """
+
+    well_id: str | None = None
+    card_id: str = "synthetic"
+    time: Any = None
+
+    def __post_init__(self) -> None:
+        if self.well_id is not None and not isinstance(self.well_id, str):
+            raise ValueError(f"well_id must be a string or None, got {self.well_id!r}")
+        if not isinstance(self.card_id, str):
+            raise ValueError(f"card_id must be a string, got {self.card_id!r}")
+        try:
+            stamp = as_timestamp(self.time)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"time must be a date or time, got {self.time!r}") from exc
+        object.__setattr__(self, "time", stamp)
+
+
 def synthetic_card(
     model: Model,
     *,
@@ -189,9 +226,7 @@ def synthetic_card(
     rod_weight: float = 6000.0,
     noise: float | tuple[float, float] = 0.0,
     seed: int | np.random.Generator | None = None,
-    well_id: str | None = None,
-    card_id: str = "synthetic",
-    time: Any = None,
+    label: CardLabel = CardLabel(),
     units: tuple[str, str] = ("in", "lbf"),
     geometry: CrankRocker | None = None,
     hold: str = "linear",
@@ -221,11 +256,10 @@ def synthetic_card(
         range, ``(position, load)``; one number applies to both.
     seed : int or numpy.random.Generator, optional
         For the noise.
-    well_id, card_id : str
-        Identifiers stored on the card.
-    time : datetime-like, optional
-        The card's time (naive means UTC); stored as a UTC ``pandas.Timestamp`` in
-        ``card.metadata["time"]``.
+    label : CardLabel, default CardLabel()
+        The card's ``well_id`` and ``card_id`` (stored on the card) and its ``time``
+        (stored as a UTC ``pandas.Timestamp`` in ``card.metadata["time"]``); by default no
+        well, id ``"synthetic"``, no time.
     units : (str, str), default ("in", "lbf")
         Position and load units.
     geometry : CrankRocker, optional
@@ -247,6 +281,8 @@ def synthetic_card(
     """
     if not isinstance(model, Model):
         raise ValueError(f"model must be a pumpid model instance, got {type(model).__name__}")
+    if not isinstance(label, CardLabel):
+        raise ValueError(f"label must be a CardLabel, got {type(label).__name__}")
     spm = float(spm)
     if not (math.isfinite(spm) and spm > 0):
         raise ValueError(f"spm must be positive and finite, got {spm}")
@@ -272,8 +308,8 @@ def synthetic_card(
         position_unit=units[0],
         load_unit=units[1],
         source="synthetic",
-        card_id=card_id,
-        well_id=well_id,
+        card_id=label.card_id,
+        well_id=label.well_id,
         spm=spm,
         period=period,
         time_source="spm",
@@ -284,7 +320,7 @@ def synthetic_card(
             f"noise {pos_noise:g} / {load_noise:g} of the range on position / load",
         ),
         metadata={
-            "time": as_timestamp(time),
+            "time": label.time,
             "model": model_key(type(model)),
             "observe": obs,
             "parameters": model.as_dict(),

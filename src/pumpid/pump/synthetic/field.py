@@ -17,7 +17,7 @@ from .card import as_timestamp, model_key, periodic_load
 from .kinematics import polished_rod_position
 from .layouts import BROKEN_KINDS, FIELD_FORMATS, break_card, write_cards, write_unreadable
 
-__all__ = ["StepChange", "synthetic_field"]
+__all__ = ["FieldCards", "StepChange", "synthetic_field"]
 
 
 @dataclass(frozen=True)
@@ -40,6 +40,66 @@ class StepChange:
     parameter: str
     factor: float
     at: int
+
+
+@dataclass(frozen=True)
+class FieldCards:
+    """What each card of a synthetic field looks like: samples, noise, scatter, times.
+
+    Parameters
+    ----------
+    observe : str, optional
+        The model state that follows the polished rod (default: the model's own).
+    n_samples : int, default 100
+        Samples per card (>= 1).
+    noise : float or (float, float), default 0.003
+        As for :func:`synthetic_card` (>= 0).
+    jitter : float, default 0.02
+        Card-to-card log-normal scatter of each parameter (0.02: about 2 %; >= 0).
+    spread : float, default 1.5
+        Wells' parameters lie within ``centre / spread`` and ``centre * spread`` (>= 1).
+    start : datetime-like, default "2024-01-01"
+        Time of the first card (naive means UTC); kept as a UTC ``pandas.Timestamp``.
+    hold : {"linear", "none"}, default "linear"
+        See :func:`periodic_load`.
+
+    Raises
+    ------
+    ValueError
+        For a setting out of its range or a start that is not a time.
+    """
+
+    observe: str | None = None
+    n_samples: int = 100
+    noise: float | tuple[float, float] = 0.003
+    jitter: float = 0.02
+    spread: float = 1.5
+    start: Any = "2024-01-01"
+    hold: str = "linear"
+
+    def __post_init__(self) -> None:
+        if self.observe is not None and not isinstance(self.observe, str):
+            raise ValueError(f"observe must be a state name or None, got {self.observe!r}")
+        n = self.n_samples
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+            raise ValueError(f"n_samples must be a positive integer, got {n!r}")
+        noise = np.broadcast_to(np.asarray(self.noise, dtype=float), (2,))
+        if not (np.all(np.isfinite(noise)) and np.all(noise >= 0)):
+            raise ValueError(f"noise must be >= 0 and finite, got {self.noise!r}")
+        if not (math.isfinite(self.jitter) and self.jitter >= 0):
+            raise ValueError(f"jitter must be >= 0 and finite, got {self.jitter!r}")
+        if not (math.isfinite(self.spread) and self.spread >= 1):
+            raise ValueError(f"spread must be >= 1 and finite, got {self.spread!r}")
+        if self.hold not in ("linear", "none"):
+            raise ValueError(f"hold must be 'linear' or 'none', got {self.hold!r}")
+        try:
+            start = as_timestamp(self.start)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"start must be a date or time, got {self.start!r}") from exc
+        if start is None:
+            raise ValueError("start must be a date or time")
+        object.__setattr__(self, "n_samples", int(n))
+        object.__setattr__(self, "start", start)
 
 
 #: Centre values of the field's parameters per model (inches, pounds-force, seconds).
@@ -69,22 +129,16 @@ def synthetic_field(
     formats: Sequence[str] = FIELD_FORMATS,
     seed: int = 0,
     model: str | type[Model] = "kelvin",
-    observe: str | None = None,
-    n_samples: int = 100,
-    noise: float | tuple[float, float] = 0.003,
-    jitter: float = 0.02,
-    spread: float = 1.5,
-    start: Any = "2024-01-01",
-    hold: str = "linear",
+    cards: FieldCards = FieldCards(),
 ) -> pd.DataFrame:
     """Write a field of synthetic wells to files and return the truth table.
 
-    Each well gets parameters drawn log-uniformly within a factor ``spread`` of realistic
-    centre values (inches, pounds-force), its own rod weight (4,000-9,000 lbf), stroke
-    (64-144 in) and SPM (5-10), and a file layout (``formats`` in turn). Its cards come
-    at regular times (``cards_per_day`` a day from ``start``, for ``days`` days); each
-    card's parameters are the well's times independent log-normal factors of standard
-    deviation ``jitter`` (a steady well's card-to-card scatter), and after a
+    Each well gets parameters drawn log-uniformly within a factor ``cards.spread`` of
+    realistic centre values (inches, pounds-force), its own rod weight (4,000-9,000 lbf),
+    stroke (64-144 in) and SPM (5-10), and a file layout (``formats`` in turn). Its cards
+    come at regular times (``cards_per_day`` a day from ``cards.start``, for ``days``
+    days); each card's parameters are the well's times independent log-normal factors of
+    standard deviation ``cards.jitter`` (a steady well's card-to-card scatter), and after a
     :class:`StepChange` the changed parameter is multiplied by its factor. Layouts and
     broken cards are described in
     :mod:`pumpid.pump.synthetic.layouts`.
@@ -106,20 +160,10 @@ def synthetic_field(
         Everything random derives from it.
     model : str or model class, default "kelvin"
         ``"kelvin"``, ``"maxwell"`` or ``"msd"``.
-    observe : str, optional
-        The model state that follows the polished rod (default: the model's own).
-    n_samples : int, default 100
-        Samples per card.
-    noise : float or (float, float), default 0.003
-        As for :func:`synthetic_card`.
-    jitter : float, default 0.02
-        Card-to-card log-normal scatter of each parameter (0.02: about 2 %).
-    spread : float, default 1.5
-        Wells' parameters lie within ``centre / spread`` and ``centre * spread``.
-    start : datetime-like, default "2024-01-01"
-        Time of the first card (naive means UTC).
-    hold : {"linear", "none"}, default "linear"
-        See :func:`periodic_load`.
+    cards : FieldCards, default FieldCards()
+        What each card looks like: the observed state, samples per card, noise, card-to-card
+        scatter, the spread of the wells' parameters, the first card's time and the load's
+        hold (see :class:`FieldCards`).
 
     Returns
     -------
@@ -145,8 +189,11 @@ def synthetic_field(
     bad = [f for f in formats if f not in FIELD_FORMATS]
     if bad or not formats:
         raise ValueError(f"unknown layout(s) {bad}; choose from {', '.join(FIELD_FORMATS)}")
-    if min(n_wells, days, cards_per_day, n_samples) < 1:
-        raise ValueError("n_wells, days, cards_per_day and n_samples must be positive")
+    if not isinstance(cards, FieldCards):
+        raise ValueError(f"cards must be a FieldCards, got {type(cards).__name__}")
+    observe, n_samples, noise, hold = cards.observe, cards.n_samples, cards.noise, cards.hold
+    if min(n_wells, days, cards_per_day) < 1:
+        raise ValueError("n_wells, days and cards_per_day must be positive")
     if not 0.0 <= broken_fraction <= 1.0:
         raise ValueError(f"broken_fraction must be in [0, 1], got {broken_fraction}")
     out = Path(out_dir)
@@ -165,9 +212,7 @@ def synthetic_field(
             raise ValueError(f"{key} has no parameter {ch.parameter!r}; it has {names}")
         steps.setdefault(wid, []).append(ch)
     n_cards = days * cards_per_day
-    t0 = as_timestamp(start)
-    if t0 is None:
-        raise ValueError("start must be a date or time")
+    t0 = cards.start
     times = [t0 + pd.Timedelta(days=1) * (i / cards_per_day) for i in range(n_cards)]
     n_total = n_wells * n_cards
     n_broken = 0 if broken_fraction == 0 else max(1, round(broken_fraction * n_total))
@@ -176,8 +221,9 @@ def synthetic_field(
     kinds = {j: ("unreadable" if r == 0 else BROKEN_KINDS[(r - 1) % 3])
              for r, j in enumerate(broken_order)}  # fmt: skip
     rows: list[dict[str, Any]] = []
+    jitter = cards.jitter
     for w, wid in enumerate(well_ids):
-        base = {p: _log_uniform(rng, c, spread) for p, c in _CENTRES[key].items()}
+        base = {p: _log_uniform(rng, c, cards.spread) for p, c in _CENTRES[key].items()}
         spm = float(rng.uniform(5.0, 10.0))
         stroke = _log_uniform(rng, 96.0, 1.5)
         rod_weight = _log_uniform(rng, 6000.0, 1.5)
