@@ -7,6 +7,7 @@ the fitted values, their errors and the coverage of the intervals can be checked
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -111,3 +112,14 @@ def test_many_records_fixed_parameters_and_refusals() -> None:
         pumpid.fit(Step(), _record(1), options=pumpid.FitOptions(fixed={"k": 1.0}))
     with pytest.raises(TypeError, match="LevenbergMarquardt"):
         pumpid.fit(Step(), _record(1), solver=pumpid.PaperNewton())
+
+
+def test_an_own_models_report_speaks_of_its_own_output(tmp_path) -> None:
+    from pumpid.report import write_outputs
+
+    res = pumpid.fit(Step(), _record(1))
+    write_outputs(res, tmp_path)
+    html = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert "step response" in html and "input 1, output V" in html
+    assert "output scale factor" not in html and "additive position offset" not in html
+    assert json.loads((tmp_path / "result.json").read_text())["params"]["g"] < 0

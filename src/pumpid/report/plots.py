@@ -23,6 +23,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
+from ..models import OwnModel
 from ..result import FitResult
 from .output import atomic_write
 from .units import UNSTATED_UNITS, model_param_units, unit_text
@@ -142,8 +143,10 @@ def plot_displacement(result: FitResult) -> Figure:
     else:
         _note(ax, "no finite fitted response (the fit failed)")
     ax.set_xlabel(_label("time", u.time))
-    ax.set_ylabel(_label("displacement", u.position))
-    ax.set_title(f"{result.model_name}: measured vs fitted displacement, {_r2_text(result.r2)}")
+    # A lumped model's output is the displacement; an own model names its own.
+    what = result.observe if isinstance(result.model, OwnModel) else "displacement"
+    ax.set_ylabel(_label(what, u.position))
+    ax.set_title(f"{result.model_name}: measured vs fitted {what}, {_r2_text(result.r2)}")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best")
     return fig

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..models import Model, ParamInfo, model_class
+from ..models import Model, OwnModel, ParamInfo, model_class
 from ..result import FitResult, Prediction
 from .markup import bullet_list, escape, interval, number, table, value_html
 from .plots import (
@@ -44,7 +44,10 @@ _PREDICTION_KEYS = ("t", "load", "measured", "predicted")
 
 
 def _model_cls(result: FitResult) -> type[Model] | None:
-    """The model class, also for a failed fit whose ``model`` is None."""
+    """The lumped model's class, also for a failed fit whose ``model`` is None (None for a
+    model that brings its own simulator)."""
+    if isinstance(result.model, OwnModel):
+        return None
     if result.model is not None:
         return type(result.model)
     if result.problem is not None:
@@ -56,6 +59,9 @@ def _model_cls(result: FitResult) -> type[Model] | None:
 
 
 def _param_infos(result: FitResult) -> dict[str, ParamInfo]:
+    if isinstance(result.model, OwnModel):
+        # An own model's Parameter has the same name, unit, doc and bounds a ParamInfo has.
+        return {p.name: p for p in result.model.param_info()}  # type: ignore[misc]
     cls = _model_cls(result)
     return {p.name: p for p in cls.param_info()} if cls is not None else {}
 
@@ -160,8 +166,11 @@ def summary_html(result: FitResult) -> str:
         ("initial state", str(result.initial_state)),
         ("fitted values", ", ".join(result.free) or "none"),
         ("data", f"{t.size} samples over {number(duration)} {result.units.time}"),
-        ("units", f"load {unit_text(result.units.load)}, position "
-                  f"{unit_text(result.units.position)}, time {result.units.time}"),
+        ("units", f"input {unit_text(result.units.load)}, output "
+                  f"{unit_text(result.units.position)}, time {result.units.time}"
+         if isinstance(result.model, OwnModel) else
+         f"load {unit_text(result.units.load)}, position "
+         f"{unit_text(result.units.position)}, time {result.units.time}"),
     ]
     if result.extra.get("gauge"):
         rows.append(("gauge fixed", str(result.extra["gauge"])))
@@ -254,13 +263,14 @@ def params_html(result: FitResult) -> str:
         info = infos.get(name)
         rows.append(row(name, value, _param_unit(result, infos, name),
                         "fitted" if name in free else "fixed", info.doc if info else ""))
-    scale_status = "fitted" if ({"C", "D"} & free) else "fixed"
-    rows.append(row("C", result.scale, "-", scale_status, "output scale factor"))
-    if result.residual == "log":
-        d = math.log(result.scale) if result.scale > 0 else math.nan
-        rows.append(row("D", d, "-", scale_status, "D = ln C (log residual)"))
-    rows.append(row("offset", result.offset, result.units.position,
-                    "fitted" if "offset" in free else "fixed", "additive position offset"))
+    if not isinstance(result.model, OwnModel):  # an own model has no lumped scale or offset
+        scale_status = "fitted" if ({"C", "D"} & free) else "fixed"
+        rows.append(row("C", result.scale, "-", scale_status, "output scale factor"))
+        if result.residual == "log":
+            d = math.log(result.scale) if result.scale > 0 else math.nan
+            rows.append(row("D", d, "-", scale_status, "D = ln C (log residual)"))
+        rows.append(row("offset", result.offset, result.units.position,
+                        "fitted" if "offset" in free else "fixed", "additive position offset"))
     value_cols = range(1, len(headers) - 2)
     return table(headers, rows, cls="params", num_cols=[i for i in value_cols if i != 2])
 
