@@ -140,6 +140,11 @@ class _Item:
         th[self.free[self.n_log:]] = zz[self.n_log:]
         return th
 
+    def chain(self, theta: Array) -> Array:
+        """d value / d coordinate of each free parameter: the value on the log scale, 1 on
+        its own scale (the analysis' scales, and the Jacobian's chain rule)."""
+        return np.concatenate([theta[self.free[: self.n_log]], np.ones(self.q - self.n_log)])
+
     def to_z(self, theta: Array) -> Array:
         v = np.asarray(theta, dtype=float)[self.free]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -178,8 +183,7 @@ class _Item:
         assert dy is not None
         th = self.theta(z)
         rows = np.empty((self.q + 1, self.y.size))
-        chain = np.concatenate([th[self.free[: self.n_log]], np.ones(self.q - self.n_log)])
-        rows[: self.q] = (dy[:, self.free] * chain).T
+        rows[: self.q] = (dy[:, self.free] * self.chain(th)).T
         rows[self.q] = pred - self.y
         return rows if np.all(np.isfinite(rows)) else None
 
@@ -340,7 +344,7 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
     if rows is not None:
         inner = np.array([n not in {b.name for b in limits} for n in free_names])
         s, vt, cov, hac, dse, stats = analyse_rows(rows.copy(), inner, -1, 1.0)
-        scales = np.concatenate([theta[prob.free[: prob.n_log]], np.ones(prob.q - prob.n_log)])
+        scales = prob.chain(theta)
         nums = Numbers(names=free_names, inner=tuple(int(i) for i in np.flatnonzero(inner)),
                        values=theta[prob.free], scales=scales, singular=s, vt=vt,
                        cov_scaled=cov, hac_scaled=hac, direction_se_hac=dse,
@@ -369,8 +373,7 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
          "cost": float(h[-1])} for it, h in enumerate(out.history))
     jac = None
     if rows is not None:
-        chain = np.concatenate([theta[prob.free[: prob.n_log]], np.ones(prob.q - prob.n_log)])
-        jac = (rows[: prob.q] / chain[:, None]).T
+        jac = (rows[: prob.q] / prob.chain(theta)[:, None]).T
     result = FitResult(
         model=model, model_name=model.name, status=status, reason=reason,  # type: ignore[arg-type]
         params=dict(zip(names, theta.tolist(), strict=True)), scale=1.0, offset=0.0,

@@ -87,6 +87,12 @@ def _record(item: CardData, options: FitOptions) -> CardData:
     return CardData(item.t, item.load, item.data, state, period)
 
 
+def _as_record(item: Card | CardData, options: FitOptions) -> CardData:
+    """A card or a record as the engine's record under ``options`` (ValueError for a card
+    that cannot be fitted as asked)."""
+    return card_record(item, options) if isinstance(item, Card) else _record(item, options)
+
+
 def _items(data: Any) -> tuple[list[Any], bool]:
     """The data as a list of records/cards, and whether it was one (a single fit)."""
     if isinstance(data, Card | CardData):
@@ -235,7 +241,7 @@ def _unit_rows(items: Sequence[Any], units: Units | Sequence[Units] | None) -> l
 
 def _fit_one(model: Model | type[Model], item: Any, options: FitOptions,
              solver: Solver | None, x0: Any, units: Units) -> FitResult:
-    record = card_record(item, options) if isinstance(item, Card) else _record(item, options)
+    record = _as_record(item, options)
     cls, theta0, extras = _start_theta(model, x0)
     warnings: list[str] = []
     problem = build_problem(cls, [record], observe=options.observe,
@@ -280,7 +286,7 @@ def _fit_many(model: Model | type[Model], items: Sequence[Any], options: FitOpti
                 records.append(CardData(np.arange(10.0), np.ones(10), np.ones(10)))
                 reasons.append(str(exc))
         else:
-            records.append(_record(item, options))
+            records.append(_as_record(item, options))
             reasons.append("")
     warnings: list[str] = []
     problem = build_problem(cls, records, observe=options.observe,
@@ -329,8 +335,7 @@ def _fit_joint(model: Model | type[Model], items: Sequence[Any], single: bool,
     if bad:
         raise ValueError(f"joint fit: {', '.join(bad)} could not be fitted alone; leave them "
                          "out")
-    records = [card_record(x, alone) if isinstance(x, Card) else _record(x, alone)
-               for x in items]
+    records = [_as_record(x, alone) for x in items]
     first = singles.results[0]
     assert first is not None
     cls = type(model) if isinstance(model, Model) else model

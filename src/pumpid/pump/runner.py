@@ -172,9 +172,8 @@ def _alone(card: Card, spec: FitSpec, offset: bool) -> CardOutcome:
         if spec.auto:
             res: Any = choose_model(card, options=options, solver=spec.solver()).chosen
         else:
-            x0 = None
-            if spec.extras() is not None:
-                x0 = {**(spec.x0 or {})}
+            # x0 with a starting scale or offset: the whole mapping starts this card.
+            x0 = dict(spec.x0) if spec.extras() is not None and spec.x0 else None
             res = fit(spec.start(), card, options=options, solver=spec.solver(), x0=x0)
     except MemoryError:
         raise
