@@ -56,11 +56,14 @@ def test_fillage_and_fluid_load_come_back(trip, index: int, name: str) -> None:
     assert abs(got.fillage - truth.fillage) < 0.02
     assert got.fluid_load == pytest.approx(truth.fluid_load, rel=0.02)
     assert truth.fluid_load == pytest.approx(fluid_load, rel=0.02)
-    # The card's fillage is at or somewhat below the liquid fraction the pump model admits
-    # (the load picks up over some travel, and gas left in the dead space re-expands first);
+    # The card's fillage is near the liquid fraction the pump model admits: somewhat below
+    # it (the load picks up over some travel, and gas left in the dead space re-expands
+    # first) or up to about ratio^(1/gamma) of the gas volume above it (gas compressed to the
+    # discharge pressure still takes that room: 1 point at 50 % liquid and ratio 0.01);
     # gas interference lowers the load gradually, so its midpoint crossing comes earlier.
     admitted = CASES[name][0]
     if name != "gas":
-        assert admitted - 0.1 < truth.fillage <= admitted + 0.001
+        room = (1 - admitted) * CASES[name][1] ** (1 / 1.2)
+        assert admitted - 0.1 < truth.fillage <= admitted + room + 0.001
     else:
         assert truth.fillage < 0.95

@@ -38,6 +38,7 @@ COMPILED_MODULES = (
     "engine/start/harmonics.py",
     "inference/hac.py",
     "inference/uncertainty.py",
+    "rods/march.py",
 )
 
 

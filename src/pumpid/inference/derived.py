@@ -36,7 +36,7 @@ from ..models import Model
 from ..result import Derived
 from .uncertainty import PRACTICAL_REL_SE, STRUCTURAL_TOL, Numbers
 
-__all__ = ["Derived", "derived_gradient", "derived_of", "moved_by_limits"]
+__all__ = ["Derived", "delta_errors", "derived_gradient", "derived_of", "moved_by_limits"]
 
 Array = NDArray[np.float64]
 
@@ -75,6 +75,49 @@ def derived_gradient(cls: type[Model], theta: Array, observe: str, scale: float,
         vals = cls.derived_values(np.array(thetas), observe, np.array(scales))
         grad[:, moved] = ((vals[0::2] - vals[1::2]) / (2 * _STEP)).T
     return grad
+
+
+def delta_errors(grad: Array, nums: Numbers) -> tuple[Array, Array]:
+    """Standard errors (independent-noise, robust) of quantities by the delta method.
+
+    Parameters
+    ----------
+    grad : ndarray, shape (k, qi)
+        d(quantity)/d(coordinate) over the coordinates analysed at the optimum
+        (``nums.inner``, in order), in the analysis' scaled coordinates: the logarithm of a
+        positive parameter, an additive one as it is.
+    nums : Numbers
+        The analysis at the optimum.
+
+    Returns
+    -------
+    se, se_hac : ndarray, shape (k,)
+        Infinite for a quantity that moves along a structurally undetermined direction,
+        NaN where its gradient is not finite.
+    """
+    k = grad.shape[0]
+    se = np.full(k, math.nan)
+    se_hac = np.full(k, math.nan)
+    qi = len(nums.inner)
+    cov = nums.cov_scaled[:qi, :qi]
+    hac = nums.hac_scaled[:qi, :qi]
+    s = nums.singular[:qi]
+    vt = nums.vt[:qi, :qi]
+    weak = [r for r in range(qi) if not (s[r] > STRUCTURAL_TOL * s[0])]
+    for j in range(k):
+        g = grad[j]
+        if not np.all(np.isfinite(g)):
+            continue
+        size = float(np.linalg.norm(g))
+        if any(abs(float(vt[r] @ g)) > 1e-6 * size for r in weak):
+            se[j] = se_hac[j] = math.inf
+            continue
+        with np.errstate(invalid="ignore", over="ignore"):
+            var = float(g @ cov @ g)
+            var_hac = float(g @ hac @ g)
+        se[j] = math.sqrt(var) if var >= 0 else math.nan
+        se_hac[j] = math.sqrt(var_hac) if var_hac >= 0 else math.nan
+    return se, se_hac
 
 
 def moved_by_limits(cls: type[Model], theta: Array, observe: str, scale: float,
@@ -120,28 +163,9 @@ def derived_of(
     se = np.full(len(infos), math.nan)
     se_hac = np.full(len(infos), math.nan)
     if nums is not None and nums.usable and nums.dof > 0:
-        inner = list(nums.inner)
-        qi = len(inner)
-        coords = [nums.names[i] for i in inner]
+        coords = [nums.names[i] for i in nums.inner]
         grad = derived_gradient(cls, theta, observe, scale, coords)
-        cov = nums.cov_scaled[:qi, :qi]
-        hac = nums.hac_scaled[:qi, :qi]
-        s = nums.singular[:qi]
-        vt = nums.vt[:qi, :qi]
-        weak = [r for r in range(qi) if not (s[r] > STRUCTURAL_TOL * s[0])]
-        for k in range(len(infos)):
-            g = grad[k]
-            if not np.all(np.isfinite(g)):
-                continue
-            size = float(np.linalg.norm(g))
-            if any(abs(float(vt[r] @ g)) > 1e-6 * size for r in weak):
-                se[k] = se_hac[k] = math.inf
-                continue
-            with np.errstate(invalid="ignore", over="ignore"):
-                var = float(g @ cov @ g)
-                var_hac = float(g @ hac @ g)
-            se[k] = math.sqrt(var) if var >= 0 else math.nan
-            se_hac[k] = math.sqrt(var_hac) if var_hac >= 0 else math.nan
+        se, se_hac = delta_errors(grad, nums)
     moved = moved_by_limits(cls, theta, observe, scale, values, limits)
     se[moved] = math.inf
     se_hac[moved] = math.inf

@@ -331,11 +331,16 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
     n = y.size
     if options.boundaries and finite and n > prob.q:
         limits = _limits(prob, z, z0, cost, lo, hi, 2.0 * cost / (n - prob.q))
-    if limits and status is Status.CONVERGED:
+    closed = {p.name for p in model.parameters if p.closed}
+    open_limits = [b for b in limits if b.name not in closed]
+    if open_limits and status is Status.CONVERGED:
         status = Status.BOUNDARY
-        reason = (f"{reason}; {', '.join(b.name for b in limits)} ran to a bound: the solution "
-                  "is a limiting model, not an interior optimum")
-        warnings.extend(b.describe() for b in limits)
+        reason = (f"{reason}; {', '.join(b.name for b in open_limits)} ran to a bound: the "
+                  "solution is a limiting model, not an interior optimum")
+        warnings.extend(b.describe() for b in open_limits)
+    for b in limits:
+        if b.name in closed:
+            reason = f"{reason}; {b.name} at its bound {b.value:g} (a state the model allows)"
     uncertainty = None
     findings: tuple[str, ...] = ()
     determined: dict[str, Any] = {}
@@ -386,5 +391,5 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
         load=np.full(n, np.nan) if drive_in is None else drive_in, data=y, fitted=fitted,
         jacobian=jac, uncertainty=uncertainty, identifiability=findings,
         determined=determined, derived=derived,
-        boundary=BoundaryInfo(limits) if limits else None, start=start)
+        boundary=BoundaryInfo(tuple(open_limits)) if open_limits else None, start=start)
     return quality_gate(determination_gate(result), options.min_r2)

@@ -56,6 +56,10 @@ class Parameter:
         one).
     doc : str
         What it means, in words.
+    closed : bool
+        Its bounds are states the modelled system can be in (a pump's fillage of 1: a full
+        pump), not the edge of a search: a fit that sits on one is a fit of that state
+        (status ``converged``, the parameter held there and said so), not a limiting model.
     """
 
     name: str
@@ -64,6 +68,7 @@ class Parameter:
     upper: float = math.inf
     start: float | None = None
     doc: str = ""
+    closed: bool = False
 
     def __post_init__(self) -> None:
         if not (isinstance(self.name, str) and self.name.isidentifier()):

@@ -18,8 +18,12 @@ fourier_diagnostic, fd_diagnostic, fourier_predict, string_transfer, StringArray
     transfer matrix per harmonic.
 PumpModel, predict_surface, Prediction
     The predictive solver with a valve pump model (surface position -> surface load).
-measure_pump_card, PumpMeasure
-    Pump quantities of a pump card.
+measure_pump_card, measure_pump_cards, pump_measure, PumpMeasure
+    Pump quantities of a pump card (or of its load lines and fillage).
+quantity_units
+    The unit each pump quantity is shown in, by the card and the well file.
+surface_arrays
+    A surface card in SI units with its period, as the solvers take it.
 """
 
 from .diagnose import (
@@ -30,6 +34,8 @@ from .diagnose import (
     diagnose_card,
     diagnose_cards,
     loop_work,
+    quantity_units,
+    surface_arrays,
 )
 from .fd import fd_diagnostic
 from .fourier import (
@@ -40,7 +46,7 @@ from .fourier import (
     string_transfer,
 )
 from .predict import Prediction, PumpModel, predict_surface
-from .quantities import PumpMeasure, measure_pump_card
+from .quantities import PumpMeasure, measure_pump_card, measure_pump_cards, pump_measure
 from .well import MATERIALS, Fluid, Pump, Taper, Tubing, Well, WellError
 from .wellfile import WellFile, read_well_file, wells_from_dict
 
@@ -69,8 +75,12 @@ __all__ = [
     "harmonic_count",
     "loop_work",
     "measure_pump_card",
+    "measure_pump_cards",
     "predict_surface",
+    "pump_measure",
+    "quantity_units",
     "read_well_file",
     "string_transfer",
+    "surface_arrays",
     "wells_from_dict",
 ]

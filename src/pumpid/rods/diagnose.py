@@ -27,7 +27,7 @@ from .well import GRAVITY, Well
 from .wellfile import WellFile
 
 __all__ = ["CONVENTIONS", "DEFAULT_DAMPING", "METHODS", "DownholeResult", "diagnose_card",
-           "diagnose_cards", "loop_work"]
+           "diagnose_cards", "loop_work", "quantity_units", "surface_arrays"]
 
 Array = NDArray[np.float64]
 
@@ -121,25 +121,14 @@ class DownholeResult:
         """Each pump quantity as ``{"value", "unit"}`` (empty when not computed)."""
         if self.pump is None or self.well is None:
             return {}
-        pu, lu = self.card.position_unit or "m", self.card.load_unit or "N"
-        kp, kl = POSITION_UNITS[pu], LOAD_UNITS[lu]
-        flow_unit, kf = _FLOW_UNITS[self.well.system]
-        p_unit, kpr = _PRESSURE_UNITS[self.well.system]
+        units = quantity_units(self.well, self.card)
         m = self.pump
-
-        def q(value: float | None, unit: str, k: float = 1.0) -> dict[str, Any]:
-            return {"value": None if value is None else float(value) / k, "unit": unit}
-
-        return {
-            "gross_stroke": q(m.gross_stroke, pu, kp),
-            "net_stroke": q(m.net_stroke, pu, kp),
-            "fluid_load": q(m.fluid_load, lu, kl),
-            "fillage": q(m.fillage, "fraction"),
-            "upper_load_line": q(m.upper_load, lu, kl),
-            "lower_load_line": q(m.lower_load, lu, kl),
-            "displacement": q(m.displacement, flow_unit, kf),
-            "intake_pressure": q(m.intake_pressure, p_unit, kpr),
-        }
+        values = {"gross_stroke": m.gross_stroke, "net_stroke": m.net_stroke,
+                  "fluid_load": m.fluid_load, "fillage": m.fillage,
+                  "upper_load_line": m.upper_load, "lower_load_line": m.lower_load,
+                  "displacement": m.displacement, "intake_pressure": m.intake_pressure}
+        return {name: {"value": None if v is None else float(v) / units[name][1],
+                       "unit": units[name][0]} for name, v in values.items()}
 
     def to_row(self) -> dict[str, Any]:
         """A flat dict for tables: status, reason, method, damping, and each pump quantity
@@ -185,6 +174,18 @@ class DownholeResult:
         return out
 
 
+def quantity_units(well: Well, card: Card) -> dict[str, tuple[str, float]]:
+    """Each pump quantity's unit as shown and its size in SI (``value_shown = SI / size``):
+    lengths and loads in the card's units, fillage as a fraction, displacement in bbl/d or
+    m3/d and pressure in psi or kPa by the well file's unit system."""
+    pu, lu = card.position_unit or "m", card.load_unit or "N"
+    length, load = (pu, POSITION_UNITS[pu]), (lu, LOAD_UNITS[lu])
+    return {"gross_stroke": length, "net_stroke": length, "fluid_load": load,
+            "fillage": ("fraction", 1.0), "upper_load_line": load, "lower_load_line": load,
+            "displacement": _FLOW_UNITS[well.system],
+            "intake_pressure": _PRESSURE_UNITS[well.system]}
+
+
 def loop_work(position: Array, load: Array) -> Any:
     """Signed area of the closed card loop (last axis), load times position step summed.
 
@@ -209,8 +210,16 @@ def _upward_passes(position: Array) -> int:
     return int(np.count_nonzero((band[1:] == 1) & (band[:-1] == -1)))
 
 
-def _prepare(card: Card) -> tuple[Array, Array, float, list[str]]:
-    """SI position and load, the period, notes (ValueError when the card cannot be used)."""
+def surface_arrays(card: Card) -> tuple[Array, Array, float, list[str]]:
+    """A surface card as the wave equation takes it: SI position (m) and load (N), the stroke
+    period (s) and notes on what was assumed.
+
+    Raises
+    ------
+    ValueError
+        Naming why the card cannot be used (no units, no time, too few samples, several
+        strokes, non-uniform time).
+    """
     notes: list[str] = []
     if card.position_unit is None or card.load_unit is None:
         missing = " and ".join(k for k, u in (("position", card.position_unit),
@@ -314,7 +323,7 @@ def diagnose_cards(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well
             results[i] = DownholeResult(card=card, status="invalid-input", reason=str(well))
             continue
         try:
-            y, f, period, notes = _prepare(card)
+            y, f, period, notes = surface_arrays(card)
         except ValueError as exc:
             results[i] = DownholeResult(card=card, status="invalid-input", reason=str(exc),
                                         well=well)

@@ -23,9 +23,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .fourier import trig_refine
+from .march import march
 from .well import Well
 
-__all__ = ["Prediction", "PumpModel", "predict_surface"]
+__all__ = ["Prediction", "PumpModel", "Run", "StringGrid", "predict_surface", "pump_vector"]
 
 Array = NDArray[np.float64]
 
@@ -87,60 +88,6 @@ class PumpModel:
         return out
 
 
-class _PumpState:
-    """Barrel content and pressure of B pumps, stepped with the plunger position."""
-
-    def __init__(self, model: PumpModel, count: int, start: Array) -> None:
-        p = model.arrays(count)
-        self.fo, self.fill, self.ri = p["fluid_load"], p["fillage"], p["intake_ratio"]
-        self.delta, self.dead, self.inv = p["transfer"], p["dead_space"], 1.0 / model.gamma
-        self.span = 1.0 - self.ri
-        self.floor = start.copy()         # the plunger's lowest position so far
-        self.liquid = self.dead.copy()    # liquid volume at intake pressure (travel units)
-        self.gas = np.zeros(count)        # gas volume at intake pressure (travel units)
-        self.p = self.ri.copy()
-
-    def _excess(self, p: Array, volume: Array) -> Array:
-        """Content volume at pressure p minus the barrel volume (decreasing in p)."""
-        return (self.liquid + self.gas * (self.ri / p) ** self.inv
-                - self.delta * (p - self.ri) / self.span - volume)
-
-    def load(self, y: Array) -> Array:
-        """Pump load (N) for plunger positions ``y`` (m), updating valves and content."""
-        self.floor = np.minimum(self.floor, y)
-        volume = y - self.floor + self.dead
-        low = self._excess(self.ri, volume)
-        high = self._excess(np.ones_like(volume), volume)
-        filling = low <= 0
-        emptying = high >= 0
-        # Standing valve open: the deficit enters as liquid and gas at intake pressure.
-        deficit = np.where(filling, -low, 0.0)
-        self.liquid = self.liquid + self.fill * deficit
-        self.gas = self.gas + (1.0 - self.fill) * deficit
-        # Traveling valve open: the excess leaves, liquid and gas in proportion.
-        at_top = self.liquid + self.gas * self.ri**self.inv
-        keep = np.where(emptying, 1.0 - high / np.maximum(at_top, 1e-300), 1.0)
-        self.liquid, self.gas = self.liquid * keep, self.gas * keep
-        shut = ~(filling | emptying)
-        p = np.where(filling, self.ri, np.where(emptying, 1.0, self.p))
-        if np.any(shut):
-            # Both valves closed: solve excess(p) = 0; it is convex and decreasing in p, so
-            # Newton converges from either side; bounded to the valves' pressures.
-            q = np.clip(self.p, self.ri, 1.0)
-            for _ in range(12):
-                f = self._excess(q, volume)
-                slope = (-self.gas * self.inv * (self.ri / q) ** self.inv / q
-                         - self.delta / self.span)
-                step = np.clip(q - f / slope, self.ri, 1.0)
-                done = np.max(np.abs(step - q)) < 1e-13
-                q = step
-                if done:
-                    break
-            p = np.where(shut, q, p)
-        self.p = p
-        return np.asarray(self.fo * (1.0 - p) / self.span, dtype=float)
-
-
 @dataclass(frozen=True)
 class Prediction:
     """What :func:`predict_surface` returns, at the card's sample times.
@@ -200,58 +147,87 @@ def predict_surface(well: Well, position: ArrayLike, period: float, pump: PumpMo
     if not nu > 0:
         raise ValueError("the predictive solver needs some damping (nu > 0) to reach a "
                          "periodic state")
-    arr = well.arrays()
-    seg = well.rod_length / elements
-    counts = np.maximum(2, np.rint(arr["length"] / seg)).astype(int)
-    dx = np.repeat(arr["length"] / counts, counts)
-    ea = np.repeat(arr["stiffness"], counts)
-    rho_a = np.repeat(arr["density"] * arr["area"], counts)
-    stiff = ea / dx                                            # per element, N/m
-    mass = np.zeros(dx.size + 1)
-    mass[:-1] += rho_a * dx / 2
-    mass[1:] += rho_a * dx / 2
-    dt_max = float(np.min(dx / np.repeat(arr["wave_speed"], counts)))
-    factor = max(1, math.ceil(period / n / dt_max))
-    dt = period / (n * factor)
-    c = well.damping_coefficient(nu)
-    sf = trig_refine(s, factor)
-    steps = n * factor
-    state = _PumpState(pump, b, s[:, 0].copy())
-    u_prev = np.repeat(s[:, :1], mass.size, axis=1)
-    u = u_prev.copy()
-    m = mass[1:]
-    damp = 0.5 * c * dt
-    last: Array | None = None
-    change = math.inf
-    cycles = 0
+    params = pump.arrays(b)
     out_load = np.empty((b, n))
     out_pos = np.empty((b, n))
     out_pump = np.empty((b, n))
-    while cycles < max_cycles:
-        cycles += 1
-        for step in range(steps):
-            tension = stiff * (u[:, :-1] - u[:, 1:])
-            pload = state.load(u[:, -1])
-            force = np.empty_like(u[:, 1:])
-            force[:, :-1] = tension[:, :-1] - tension[:, 1:]
-            force[:, -1] = tension[:, -1] - pload
-            if step % factor == 0:
-                k = step // factor
-                acc0 = (sf[:, (step + 1) % steps] - 2 * sf[:, step] + sf[:, step - 1]) / dt**2
-                vel0 = (sf[:, (step + 1) % steps] - sf[:, step - 1]) / (2 * dt)
-                out_load[:, k] = tension[:, 0] + mass[0] * (acc0 + c * vel0)
-                out_pos[:, k] = u[:, -1]
-                out_pump[:, k] = pload
-            new = np.empty_like(u)
-            new[:, 0] = sf[:, (step + 1) % steps]
-            new[:, 1:] = (force * dt**2 / m + 2 * u[:, 1:] - (1 - damp) * u_prev[:, 1:]) / (
-                1 + damp)
-            u_prev, u = u, new
-        if last is not None:
-            span = np.maximum(np.ptp(out_load, axis=-1), 1e-12)
-            change = float(np.max(np.max(np.abs(out_load - last), axis=-1) / span))
-            if change < tol:
-                break
-        last = out_load.copy()
+    cycles, change = 0, 0.0
+    grid = StringGrid.of(well, period, n, elements)
+    for i in range(b):
+        run = grid.march(s[i], pump_vector(params, i, pump.gamma), nu, None, max_cycles, tol)
+        out_load[i], out_pos[i], out_pump[i] = run.out
+        cycles = max(cycles, run.cycles)
+        change = max(change, run.change)
     return Prediction(surface_load=out_load, pump_position=out_pos, pump_load=out_pump,
                       cycles=cycles, change=change)
+
+
+def pump_vector(params: dict[str, Array], i: int, gamma: float) -> Array:
+    """The march's pump vector of card ``i`` (see :func:`pumpid.rods.march.march`)."""
+    return np.array([params["fluid_load"][i], params["fillage"][i], params["intake_ratio"][i],
+                     params["transfer"][i], params["dead_space"][i], 1.0 / gamma])
+
+
+@dataclass(frozen=True)
+class Run:
+    """One march: its last stroke (surface load, plunger position, pump load; (3, N)), the
+    state it ended in (for a warm start), the strokes stepped and the last change."""
+
+    out: Array
+    nodes: Array
+    state: Array
+    cycles: int
+    change: float
+
+
+@dataclass(frozen=True)
+class StringGrid:
+    """A well's string cut into elements, with the time step for a card's sampling.
+
+    Build with :meth:`of`; :meth:`march` steps one card.
+    """
+
+    well: Well
+    stiff: Array
+    mass: Array
+    factor: int
+    dt: float
+    n: int
+
+    @classmethod
+    def of(cls, well: Well, period: float, n: int, elements: int = 60) -> StringGrid:
+        """About ``elements`` elements (at least two per taper), the time step at the
+        stiffest element's stability limit, a whole number of steps per sample."""
+        arr = well.arrays()
+        seg = well.rod_length / elements
+        counts = np.maximum(2, np.rint(arr["length"] / seg)).astype(int)
+        dx = np.repeat(arr["length"] / counts, counts)
+        ea = np.repeat(arr["stiffness"], counts)
+        rho_a = np.repeat(arr["density"] * arr["area"], counts)
+        mass = np.zeros(dx.size + 1)
+        mass[:-1] += rho_a * dx / 2
+        mass[1:] += rho_a * dx / 2
+        dt_max = float(np.min(dx / np.repeat(arr["wave_speed"], counts)))
+        factor = max(1, math.ceil(period / n / dt_max))
+        return cls(well=well, stiff=ea / dx, mass=mass, factor=factor,
+                   dt=period / (n * factor), n=n)
+
+    def march(self, position: Array, pump: Array, nu: float, warm: Run | None,
+              max_cycles: int = 80, tol: float = 1e-7) -> Run:
+        """Step one card (``position``: its N surface positions, m) until periodic.
+
+        ``pump`` is the march's pump vector (:func:`pump_vector`); ``warm`` a previous run
+        of the same card to start from (None: the string at rest at the first position, the
+        barrel holding its dead space of liquid at intake pressure).
+        """
+        sf = trig_refine(position, self.factor)
+        if warm is None:
+            nodes = np.full((2, self.mass.size), float(position[0]))
+            state = np.array([float(position[0]), float(pump[4]), 0.0, float(pump[2])])
+        else:
+            nodes, state = warm.nodes.copy(), warm.state.copy()
+        out = np.empty((3, self.n))
+        c = self.well.damping_coefficient(nu)
+        cycles, change = march(sf, self.factor, self.stiff, self.mass, c, self.dt, pump,
+                               nodes[0], nodes[1], state, max_cycles, tol, out)
+        return Run(out=out, nodes=nodes, state=state, cycles=int(cycles), change=float(change))

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from .well import Well
 
-__all__ = ["PumpMeasure", "measure_pump_card", "measure_pump_cards"]
+__all__ = ["PumpMeasure", "measure_pump_card", "measure_pump_cards", "pump_measure"]
 
 Array = NDArray[np.float64]
 
@@ -162,12 +162,17 @@ def measure_pump_cards(position: Array, load: Array, wells: list[Well],
     lower = _band_median(h, f, down, _DOWN_BAND[0], top_band)
     transfer = _transfer(y, f, down_rel, down, 0.5 * (upper + lower))
     fillage = np.clip((transfer - low) / gross, 0.0, 1.0)
-    return [_finish(wells[i], float(gross[i]), float(upper[i]), float(lower[i]),
+    return [pump_measure(wells[i], float(gross[i]), float(upper[i]), float(lower[i]),
                     float(fillage[i]), float(transfer[i]), spm[i]) for i in range(b)]
 
 
-def _finish(well: Well, gross: float, upper: float, lower: float, fillage: float,
-            transfer: float, spm: float | None) -> PumpMeasure:
+def pump_measure(well: Well, gross: float, upper: float, lower: float, fillage: float,
+                 transfer: float, spm: float | None) -> PumpMeasure:
+    """The pump quantities from a card's gross stroke, load lines and fillage (SI).
+
+    The net stroke, pump displacement and intake pressure follow as the module's text says;
+    ``transfer`` is only recorded. Used on measured pump cards and on fitted ones alike.
+    """
     notes: list[str] = []
     fluid = upper - lower
     if not fluid > 0:

@@ -1,0 +1,343 @@
+"""The pump identified from the surface card: the system model fitted through the engine.
+
+For each card, :func:`identify_cards` fits :class:`~pumpid.pump.system.PumpSystem` (rod
+string and valve pump driven by the measured position, predicting the measured load) with
+:func:`pumpid.fit`: the same solver, statuses, boundary marks, errors that hold under
+correlated residuals and identifiability in words as every other fit. It then
+
+* computes the diagnostic pump card (Gibbs' Fourier method) with the damping the card chose
+  (or the one given), so the downhole path uses the data's damping too, and says which;
+* checks the fitted pump card against that diagnostic one (RMS difference over the load
+  range, after a constant: the load offset is a constant at the pump as at the surface);
+* gives each pump quantity with its standard error and unit, the damping likewise, the
+  surface-load fit's R^2 and its residuals' lag-1 autocorrelation, and the card's energy
+  balance (the surface card's work per stroke, the pump card's, and what the string lost).
+
+A card whose fitted liquid fraction is near 1 is also fitted as a full pump: its barrel then
+holds no gas, so the intake ratio (how hard the gas is to compress) cannot move the card;
+both are held (liquid fraction 1, intake ratio at its start value). The full pump is kept when
+it fits as well (a likelihood-ratio test at 95 %), and said so.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..cards import Card
+from ..job import FitOptions, fit
+from ..result import FitResult
+from ..rods import (
+    DEFAULT_DAMPING,
+    DownholeResult,
+    Well,
+    WellFile,
+    diagnose_cards,
+    loop_work,
+    quantity_units,
+)
+from .system import PumpSystem, SurfaceCard
+
+__all__ = ["SHOWN", "PumpFit", "identify_card", "identify_cards"]
+
+Array = NDArray[np.float64]
+
+#: The pump quantities of a card, in the order output gives them.
+SHOWN = ("fluid_load", "fillage", "gross_stroke", "net_stroke", "displacement",
+         "intake_pressure")
+_DAMPING_UNIT = "dimensionless (Gibbs' nu)"
+#: A fitted liquid fraction from which the card is also tried as a full pump.
+FULL_PUMP = 0.98
+#: 95 % quantile of chi-square with two degrees of freedom (the full pump holds two).
+LR_TWO = 5.991
+
+
+@dataclass(frozen=True, eq=False)
+class PumpFit:
+    """The pump identified from one surface card.
+
+    Attributes
+    ----------
+    card : Card
+    status : str
+        The fit's status (``converged``, ``boundary``, ``poor-fit``, ...), or
+        ``invalid-input`` / ``failed`` when the card could not be fitted.
+    reason : str
+    well : Well or None
+    fit : FitResult or None
+        The system model's fit (parameters, errors, identifiability, residuals).
+    model : PumpSystem or None
+        The fitted model (its pump card, its march).
+    downhole : DownholeResult or None
+        The diagnostic pump card at the damping used.
+    damping_rule : str
+        Where the diagnostic's damping came from.
+    agreement : float
+        RMS difference between the fitted and the diagnostic pump loads, after a constant,
+        over the diagnostic pump card's load range (NaN when not computed).
+    full_pump : bool
+        The card was fitted as a full pump (liquid fraction held at 1).
+    notes : tuple of str
+    """
+
+    card: Card
+    status: str
+    reason: str = ""
+    well: Well | None = None
+    fit: FitResult | None = None
+    model: PumpSystem | None = None
+    downhole: DownholeResult | None = None
+    damping_rule: str = ""
+    agreement: float = math.nan
+    full_pump: bool = False
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def ok(self) -> bool:
+        """The system model was fitted (whatever its status says of the fit)."""
+        return self.fit is not None and self.model is not None
+
+    def quantities(self) -> dict[str, dict[str, Any]]:
+        """Each pump quantity as ``{"value", "stderr", "unit"}``: the fluid load is the fitted
+        parameter, the others are measured on the fitted pump card (errors by the delta
+        method). Empty when the card was not fitted."""
+        if not self.ok or self.well is None:
+            return {}
+        assert self.fit is not None
+        units = quantity_units(self.well, self.card)
+        out: dict[str, dict[str, Any]] = {}
+        for name in SHOWN:
+            if name == "fluid_load":
+                value, se = self.fit.params[name], _stderr(self.fit, name)
+            else:
+                d = self.fit.derived.get(name)
+                value = math.nan if d is None else d.value
+                se = math.nan if d is None else d.stderr
+            out[name] = {"value": _num(value), "stderr": _num(se), "unit": units[name][0]}
+        return out
+
+    def damping(self) -> dict[str, Any]:
+        """The damping used, ``{"value", "stderr", "unit", "rule"}`` (stderr None when given
+        or not identified)."""
+        if self.downhole is not None:
+            value = self.downhole.damping
+        elif self.fit is not None:
+            value = self.fit.params["damping"]
+        else:
+            value = math.nan
+        se = _stderr(self.fit, "damping") if self.fit is not None else math.nan
+        return {"value": _num(value), "stderr": _num(se), "unit": _DAMPING_UNIT,
+                "rule": self.damping_rule}
+
+    def energy(self) -> dict[str, Any]:
+        """The energy balance of the stroke, in the card's load x position unit: the
+        measured surface card's work, the fitted surface card's, the fitted pump card's,
+        and the share of the surface work the string lost (by the fit)."""
+        if not self.ok:
+            return {}
+        assert self.fit is not None and self.model is not None
+        s = self.model.surface
+        kl, kp = s.load_factor, s.position_factor
+        unit = f"{self.card.load_unit}*{self.card.position_unit}"
+        values = np.array(list(self.fit.params.values()))
+        pos, load = self.model.pump_card(values)
+        measured = loop_work(s.position, s.load) / (kl * kp)
+        fitted = loop_work(s.position, np.asarray(self.fit.fitted) * kl) / (kl * kp)
+        pump = loop_work(pos, load) / (kl * kp)
+        return {"surface_work": _num(measured), "fitted_surface_work": _num(fitted),
+                "pump_work": _num(pump),
+                "string_loss": _num((fitted - pump) / fitted if fitted else math.nan),
+                "unit": unit}
+
+    def pump_card(self) -> tuple[Array, Array] | None:
+        """The fitted pump card in the card's units: plunger position (from its lowest
+        point) and effective pump load, at the card's samples in time order."""
+        if not self.ok:
+            return None
+        assert self.fit is not None and self.model is not None
+        pos, load = self.model.pump_card(np.array(list(self.fit.params.values())))
+        return pos / self.model.surface.position_factor, load / self.model.surface.load_factor
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form: status, the pump quantities with errors, the damping, the
+        surface-load fit (R^2, lag-1 autocorrelation of its residuals) and the parameters."""
+        out: dict[str, Any] = {"status": self.status, "reason": self.reason}
+        if not self.ok:
+            return out
+        assert self.fit is not None
+        f = self.fit
+        white = f.uncertainty.whiteness if f.uncertainty is not None else None
+        units = {p.name: p.unit for p in self.model.parameters} if self.model else {}
+        out.update({
+            "pump": self.quantities(),
+            "damping": self.damping(),
+            "r2": _num(f.r2),
+            "rmse": {"value": _num(f.rmse), "unit": self.card.load_unit},
+            "residual_autocorrelation": None if white is None else _num(
+                white.get("lag1_autocorrelation", math.nan)),
+            "parameters": {n: {"value": _num(v), "stderr": _num(_stderr(f, n)),
+                               "unit": units.get(n, ""),
+                               "determined": n in f.determined.get("parameters", ())}
+                           for n, v in f.params.items()},
+            "full_pump": self.full_pump,
+            "agreement": _num(self.agreement),
+            "energy": self.energy(),
+            "identifiability": list(f.identifiability),
+            "warnings": list(f.warnings),
+            "notes": list(self.notes),
+        })
+        return out
+
+
+def _num(value: float | None) -> float | None:
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+def _stderr(result: FitResult | None, name: str) -> float:
+    if result is None or result.uncertainty is None:
+        return math.nan
+    u = result.uncertainty
+    # The error shown: the robust one where the residuals are serially correlated.
+    serial = u.whiteness is not None and not u.whiteness.get("white", True)
+    table = u.stderr_hac if serial else u.stderr
+    value = table.get(name, math.nan)
+    return math.nan if value is None else float(value)
+
+
+def _wells_of(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well]
+              ) -> list[Well | Exception]:
+    if isinstance(wells, Well):
+        return [wells] * len(cards)
+    if isinstance(wells, WellFile):
+        out: list[Well | Exception] = []
+        for card in cards:
+            try:
+                out.append(wells.for_card(card.well_id, card.card_id))
+            except ValueError as exc:
+                out.append(exc)
+        return out
+    listed = list(wells)
+    if len(listed) != len(cards):
+        raise ValueError(f"{len(cards)} cards but {len(listed)} wells")
+    return list(listed)
+
+
+def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, FitResult, bool]:
+    model = PumpSystem(surface)
+    fixed = {} if damping is None else {"damping": float(damping)}
+    x0 = None
+    if damping is not None:
+        x0 = model.start(surface)
+        x0[:, 1] = float(damping)
+    res = fit(model, surface, options=FitOptions(fixed=fixed), x0=x0)
+    if not res.params["liquid_fraction"] >= FULL_PUMP:
+        return model, res, False
+    # Nearly full: fitted again as a full pump (no gas, so the intake ratio moves nothing;
+    # both held), kept when it fits as well (likelihood ratio, 95 %, two parameters fewer).
+    start = np.array(list(res.params.values()))
+    start[2] = 1.0
+    start[3] = float(np.median(model.start(surface)[:, 3]))
+    full = fit(model, surface, options=FitOptions(fixed={
+        **fixed, "liquid_fraction": 1.0, "intake_ratio": float(start[3])}), x0=start)
+    n, q = np.asarray(res.data).size, len(res.free)
+    sigma2 = 2.0 * res.cost / max(n - q, 1)
+    if math.isfinite(full.cost) and 2.0 * (full.cost - res.cost) <= LR_TWO * sigma2:
+        return model, full, True
+    return model, res, False
+
+
+def identify_cards(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well], *,
+                   damping: float | None = None, harmonics: int | None = None,
+                   method: str = "fourier", convention: str = "effective") -> list[PumpFit]:
+    """Identify the pump of each surface card (see the module's text).
+
+    Parameters
+    ----------
+    cards : sequence of Card
+        Surface cards with units and time (one stroke each, uniform in time).
+    wells : Well, WellFile or sequence of Well
+        One well for every card, a well file (matched by well id), or one well per card.
+    damping : float, optional
+        Hold Gibbs' damping factor at this value instead of identifying it.
+    harmonics, method, convention
+        Options of the diagnostic pump card computed with the damping used
+        (:func:`pumpid.rods.diagnose_cards`).
+
+    Returns
+    -------
+    list of PumpFit
+        One per card, in order; a card that cannot be fitted has status ``invalid-input``
+        or ``failed`` and the reason, and never stops the others.
+    """
+    if damping is not None and not (math.isfinite(damping) and damping > 0):
+        raise ValueError(f"damping must be a positive number to hold it in the fit, got "
+                         f"{damping}")
+    out: list[PumpFit] = []
+    for card, well in zip(cards, _wells_of(cards, wells), strict=True):
+        if isinstance(well, Exception):
+            out.append(PumpFit(card=card, status="invalid-input", reason=str(well)))
+            continue
+        try:
+            surface = SurfaceCard.of(card, well)
+        except ValueError as exc:
+            out.append(PumpFit(card=card, status="invalid-input", reason=str(exc), well=well))
+            continue
+        try:
+            model, res, full = _fit_one(surface, damping)
+        except MemoryError:
+            raise
+        except (ValueError, ArithmeticError) as exc:
+            out.append(PumpFit(card=card, status="failed", well=well,
+                               reason=f"the system model could not be fitted: {exc}"))
+            continue
+        out.append(_finish(card, well, surface, model, res, full, damping,
+                           dict(harmonics=harmonics, method=method, convention=convention)))
+    return out
+
+
+def identify_card(card: Card, well: Well | WellFile, **options: Any) -> PumpFit:
+    """The pump of one surface card (see :func:`identify_cards` for the options)."""
+    return identify_cards([card], well, **options)[0]
+
+
+def _finish(card: Card, well: Well, surface: SurfaceCard, model: PumpSystem, res: FitResult,
+            full: bool, damping: float | None, diag: dict[str, Any]) -> PumpFit:
+    notes = list(surface.notes)
+    nu = float(res.params["damping"])
+    se = _stderr(res, "damping")
+    usable = str(res.status) in ("converged", "boundary")
+    if damping is not None:
+        rule = f"given: nu = {damping:g}"
+    elif usable and "damping" in res.determined.get("parameters", ()):
+        rule = f"identified from the card: nu = {nu:.4g} +- {se:.2g}"
+    elif usable:
+        rule = (f"identified from the card, not determined by it: nu = {nu:.4g} (standard "
+                f"error {se:.2g}); the card cannot tell the damping")
+    else:
+        nu = DEFAULT_DAMPING
+        rule = (f"default rule: nu = {DEFAULT_DAMPING:g} (the identification's status is "
+                f"{res.status}, so its damping is not used)")
+    if full:
+        notes.append("a full pump: fitted with the liquid fraction held at 1 (it fits as well "
+                     "as with it free); the barrel then holds no gas, so the intake ratio "
+                     "cannot move the card and is held too")
+    down = diagnose_cards([card], well, damping=nu, **diag)[0]
+    down = DownholeResult(**{**down.__dict__, "damping_rule": rule})
+    agreement = math.nan
+    if down.ok and down.pump_load is not None:
+        got = model.pump_card(np.array(list(res.params.values())))[1] / surface.load_factor
+        ref = np.asarray(down.pump_load, dtype=float)
+        if surface.reversed:
+            ref = ref[::-1]
+        if diag.get("convention") == "effective":
+            diff = got - ref
+            agreement = float(np.sqrt(np.mean((diff - diff.mean()) ** 2)) / np.ptp(ref))
+    return PumpFit(card=card, status=str(res.status),
+                   reason=res.reason, well=well, fit=res, model=model, downhole=down,
+                   damping_rule=rule, agreement=agreement, full_pump=full,
+                   notes=tuple(dict.fromkeys(notes)))

@@ -1,0 +1,354 @@
+"""The whole pumping system as a model of the surface card: rod string and valve pump.
+
+The measured polished-rod position drives the damped, tapered rod string, cut into about
+:data:`ELEMENTS` elements and stepped in time (:class:`pumpid.rods.StringGrid`); at its
+bottom a pump with a traveling and a standing valve (:class:`pumpid.rods.PumpModel`): the
+valves open and close from the barrel's pressure, which follows the plunger's motion, so a
+full pump, an incomplete fill (fluid pound) and gas compression are the same model at
+different parameters and no valve timing is prescribed. The march runs until the stroke
+repeats itself; the model predicts the polished-rod load, compared with the measured one.
+
+Parameters (:class:`PumpSystem`): the fluid load on the plunger, Gibbs' damping factor of the
+string, the liquid fraction of what the standing valve admits (1 is a full pump: a state the
+model can be in rather than the edge of a search), the pump intake pressure over the
+discharge pressure (how hard the barrel's gas is to compress: low for fluid pound, higher
+for gas interference), the plunger travel over which the load transfers (the liquid's, the
+pump's and free tubing's elasticity) and a load offset (the dynamometer's zero and whatever
+the well file's rod weights miss). The pump quantities (fillage, strokes, displacement,
+intake pressure) are measured on the fitted pump card as on a diagnostic one, with errors
+by the delta method.
+
+The march treats the pump's spring (the barrel's content while both valves are shut)
+implicitly: a stiff transfer (a few centimetres of travel for the whole fluid load) is
+beyond the explicit step's stability limit and would make the stroke never repeat.
+
+Sensitivities are forward differences of the march, each perturbed march started from the
+unperturbed one's final state (a warm start): it is then periodic again within a few
+strokes. A closed-form tangent march would be exact and about twice as fast; the
+differences' relative error (about 1e-4, set by :data:`TOL` against :data:`STEP`) is far
+below what the solver and the errors need.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..cards import LOAD_UNITS, POSITION_UNITS, Card
+from ..inference.derived import delta_errors
+from ..inference.uncertainty import PRACTICAL_REL_SE
+from ..models import OwnModel, Parameter
+from ..result import Derived
+from ..rods import (
+    PumpMeasure,
+    StringArrays,
+    Well,
+    fourier_diagnostic,
+    loop_work,
+    measure_pump_cards,
+    quantity_units,
+    surface_arrays,
+)
+from ..rods.predict import Run, StringGrid
+
+__all__ = ["ELEMENTS", "QUANTITIES", "PumpSystem", "SurfaceCard"]
+
+Array = NDArray[np.float64]
+
+#: Elements of the string in the predictive march: 30 keep the march's own error near
+#: 0.15 % of the load range on a 4,900 ft three-taper string at 200 samples (60: 0.05 %, at
+#: about 2.5 times the cost), well below a dynamometer's noise.
+ELEMENTS = 30
+#: Stop a march when the surface load changes less than this over a stroke (of its range).
+TOL = 1e-9
+#: Strokes a march may take (a lightly damped string needs the most).
+MAX_CYCLES = 300
+#: The pump quantities each fit derives from its pump card, with errors.
+QUANTITIES = ("fillage", "gross_stroke", "net_stroke", "displacement", "intake_pressure")
+MEANINGS = {
+    "fillage": "effective over gross plunger travel of the fitted pump card, the effective "
+               "travel starting where the load transfers on the downstroke",
+    "gross_stroke": "plunger travel of the fitted pump card",
+    "net_stroke": "fillage x gross stroke, less free tubing's stretch",
+    "displacement": "plunger area x net stroke x strokes per day",
+    "intake_pressure": "discharge pressure of the fluid column less fluid load / plunger area",
+}
+#: Central-difference step (in the log of a parameter) of the derived quantities' errors.
+DERIVED_STEP = 1e-4
+#: Forward-difference step: relative for positive parameters, absolute for the fillage.
+STEP = 1e-5
+#: Damping factors the automatic start tries (Gibbs' dimensionless factor).
+START_DAMPING = (0.05, 0.15, 0.4)
+#: Barrel volume left below the plunger at its lowest point (as plunger travel), m: fixed,
+#: the card cannot tell it from the fillage.
+DEAD_SPACE = 0.01
+#: Polytropic exponent of the gas in the barrel.
+GAMMA = 1.2
+#: Plunger travel over which the load transfers when the tubing is anchored (or its size
+#: unknown), m: the start's value.
+START_TRANSFER = 0.02
+
+
+@dataclass(frozen=True)
+class SurfaceCard:
+    """One surface card made ready for the system model (SI, in time order).
+
+    Build it with :meth:`of`; ``position`` and ``load`` are in m and N, upwards, in time order
+    (a card stored in reverse time order is turned round: ``reversed`` says so).
+    """
+
+    card: Card
+    well: Well
+    position: Array
+    load: Array
+    period: float
+    reversed: bool
+    notes: tuple[str, ...]
+
+    @classmethod
+    def of(cls, card: Card, well: Well) -> SurfaceCard:
+        """Convert and check ``card`` (ValueError naming what is missing)."""
+        y, f, period, notes = surface_arrays(card)
+        rev = bool(loop_work(y[None], f[None])[0] < 0)
+        if rev:
+            y, f = y[::-1].copy(), f[::-1].copy()
+            notes = [*notes, "the card's loop turns the wrong way for time order (stored in "
+                     "reverse time order); it was fitted reversed"]
+        return cls(card=card, well=well, position=y, load=f, period=period, reversed=rev,
+                   notes=tuple(notes))
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return int(self.position.size)
+
+    @property
+    def load_factor(self) -> float:
+        """Newtons per unit of the card's load."""
+        return LOAD_UNITS[self.card.load_unit or "N"]
+
+    @property
+    def position_factor(self) -> float:
+        """Metres per unit of the card's position."""
+        return POSITION_UNITS[self.card.position_unit or "m"]
+
+    @property
+    def spm(self) -> float:
+        """Strokes per minute."""
+        return 60.0 / self.period
+
+
+class PumpSystem(OwnModel):
+    """Rod string and valve pump predicting one surface card's load (see the module's text).
+
+    One instance per card: the model is the card's well driven by the card's motion, and
+    keeps its last march to start the next from.
+
+    Parameters
+    ----------
+    surface : SurfaceCard
+        The card and its well.
+    elements : int
+        About this many elements over the string.
+    """
+
+    name = "rod string and pump"
+    integrator = ("lumped damped wave equation of the tapered string, stepped to a periodic "
+                  "stroke, driven by the measured polished-rod position")
+    initial_state = "periodic (one stroke)"
+    output = "polished-rod load"
+
+    def __init__(self, surface: SurfaceCard, elements: int = ELEMENTS) -> None:
+        self.surface = surface
+        lu = surface.card.load_unit or "N"
+        pu = surface.card.position_unit or "m"
+        self.output_unit = lu
+        self.input_unit = pu
+        kp = surface.position_factor
+        # A fluid load beyond ten times the card's whole load is no pump this card shows.
+        span = 10.0 * float(np.max(np.abs(surface.load))) / surface.load_factor
+        self.parameters = (
+            Parameter("fluid_load", lu, 0.0, span, doc="load of the fluid column on "
+                      "the plunger: (discharge - intake pressure) x plunger area"),
+            Parameter("damping", "1", 0.02, 2.0, doc="Gibbs' dimensionless damping factor "
+                      "nu of the rod string (c = pi nu / (2 sum L_i/a_i))"),
+            Parameter("liquid_fraction", "1", 0.05, 1.0, closed=True, doc="liquid fraction "
+                      "of what the standing valve admits (1: a full pump)"),
+            Parameter("intake_ratio", "1", 0.002, 0.9, closed=True, doc="pump intake over "
+                      "discharge pressure: how hard the barrel's gas is to compress (at its "
+                      "floor the gas is too thin to resist: a plain fluid pound)"),
+            Parameter("transfer", pu, 1e-4 / kp, 3.0 / kp, doc="plunger travel over which "
+                      "the load transfers (liquid, pump and free-tubing elasticity)"),
+            Parameter("load_offset", lu, -math.inf, math.inf, doc="measured load minus the "
+                      "string's buoyant weight and the predicted dynamic load"),
+        )
+        self.grid = StringGrid.of(surface.well, surface.period, surface.n, elements)
+        self.weight = surface.well.buoyant_weight()
+        self._last: tuple[Array, Run] | None = None
+
+    # ------------------------------------------------------------------ the march
+    def _pump(self, values: Array) -> Array:
+        s = self.surface
+        return np.array([values[0] * s.load_factor, values[2], values[3],
+                         values[4] * s.position_factor, DEAD_SPACE, 1.0 / GAMMA])
+
+    def run(self, values: Array, warm: Run | None = None) -> Run:
+        """The periodic march at ``values`` (from ``warm``, else from the last march)."""
+        values = np.asarray(values, dtype=float)
+        if warm is None and self._last is not None:
+            warm = self._last[1]
+        got = self.grid.march(self.surface.position, self._pump(values), float(values[1]),
+                              warm, MAX_CYCLES, TOL)
+        if not got.change < 1e3 * TOL or not np.all(np.isfinite(got.out)):
+            # Not periodic yet from a far warm start: once more from rest.
+            got = self.grid.march(self.surface.position, self._pump(values),
+                                  float(values[1]), None, MAX_CYCLES, TOL)
+            if not np.all(np.isfinite(got.out)):
+                raise ArithmeticError("the march did not stay finite")
+        return got
+
+    def _load(self, values: Array, run: Run) -> Array:
+        return np.asarray((run.out[0] + self.weight) / self.surface.load_factor
+                          + values[5], dtype=float)
+
+    def _steps(self, values: Array) -> list[tuple[int, float]]:
+        """(parameter, step) of each forward difference (the offset's derivative is 1)."""
+        out = []
+        for j in range(5):
+            if j == 2:
+                out.append((j, -STEP if values[j] + STEP > 1.0 else STEP))
+            else:
+                out.append((j, STEP * values[j]))
+        return out
+
+    # ------------------------------------------------------------------ the protocol
+    def observed(self, data: Any) -> Array:
+        """The measured polished-rod load, in the card's unit, in time order."""
+        return self.surface.load / self.surface.load_factor
+
+    def time(self, data: Any) -> Array:
+        """Sample times from the first sample, s."""
+        return np.arange(self.surface.n) * self.surface.period / self.surface.n
+
+    def driving(self, data: Any) -> Array:
+        """The measured polished-rod position, in the card's unit."""
+        return self.surface.position / self.surface.position_factor
+
+    def simulate(self, values: Array, data: Any, sensitivities: bool
+                 ) -> tuple[Array, Array | None]:
+        """The polished-rod load (card unit) and its derivatives in the parameters."""
+        values = np.asarray(values, dtype=float)
+        for par, v in zip(self.parameters, values, strict=True):
+            if not par.lower <= v <= par.upper:
+                # Outside the declared range the march is not physical (or never periodic).
+                raise ValueError(f"{par.name} = {v:g} is outside [{par.lower:g}, "
+                                 f"{par.upper:g}]")
+        base = self.run(values)
+        self._last = (values.copy(), base)
+        load = self._load(values, base)
+        if not sensitivities:
+            return load, None
+        jac = np.empty((load.size, 6))
+        for j, h in self._steps(values):
+            moved = values.copy()
+            moved[j] += h
+            other = self.run(moved, base)
+            jac[:, j] = (self._load(moved, other) - load) / h
+        jac[:, 5] = 1.0
+        return load, jac
+
+    def pump_card(self, values: Array) -> tuple[Array, Array]:
+        """The predicted pump card: plunger position (m, from its lowest point) and
+        effective pump load (N), at the card's samples in time order."""
+        run = self.run(np.asarray(values, dtype=float))
+        pos = run.out[1]
+        return np.asarray(pos - pos.min(), dtype=float), np.asarray(run.out[2], dtype=float)
+
+    def measure(self, values: Array) -> PumpMeasure:
+        """The pump quantities of the predicted pump card, measured as a diagnostic pump
+        card's are (:func:`pumpid.rods.measure_pump_cards`)."""
+        pos, load = self.pump_card(values)
+        return measure_pump_cards(pos[None], load[None], [self.surface.well],
+                                  [self.surface.spm])[0]
+
+    def start(self, data: Any) -> Array:
+        """Starts from the diagnostic pump card at each of :data:`START_DAMPING`: its fluid
+        load and fillage, a fluid-pound and a gas-interference intake ratio, the transfer
+        travel of the well's tubing, and the offset that levels the prediction."""
+        s = self.surface
+        strings = StringArrays.of([s.well])
+        last = len(s.well.tapers) - 1
+        transfer = START_TRANSFER
+        tubing = s.well.tubing
+        starts = []
+        for nu in START_DAMPING:
+            pos, ten = fourier_diagnostic(s.position[None], (s.load - self.weight)[None],
+                                          s.period, strings, nu)
+            try:
+                m = measure_pump_cards(pos[:, last], ten[:, last], [s.well], [s.spm])[0]
+                fluid, fill = m.fluid_load, m.fillage
+            except ValueError:
+                fluid, fill = float(np.ptp(ten[0, last])) / 2, 1.0
+            fluid = max(fluid, 1e-3 * float(np.ptp(s.load)), 1e-9)
+            if not tubing.anchored and tubing.area is not None:
+                transfer = START_TRANSFER + fluid * s.well.pump.depth / (
+                    tubing.modulus * tubing.area)
+            v = np.array([fluid / s.load_factor, nu, float(np.clip(fill, 0.1, 1.0)), 0.02,
+                          transfer / s.position_factor, 0.0])
+            pred, _ = self.simulate(v, data, False)
+            v[5] = float(np.mean(self.observed(data) - pred))
+            starts.append(v)
+        return np.array(starts)
+
+    def quantities(self, values: Array) -> Array:
+        """:data:`QUANTITIES` of the predicted pump card, in the units they are shown in
+        (NaN where not measurable)."""
+        m = self.measure(values)
+        units = quantity_units(self.surface.well, self.surface.card)
+        raw = {"gross_stroke": m.gross_stroke, "net_stroke": m.net_stroke,
+               "fillage": m.fillage, "displacement": m.displacement,
+               "intake_pressure": m.intake_pressure}
+        return np.array([math.nan if raw[q] is None else float(raw[q]) / units[q][1]
+                         for q in QUANTITIES])
+
+    def derived(self, values: Array, numbers: Any, serial: bool,
+                limits: Sequence[tuple[str, str]]) -> Mapping[str, Derived]:
+        """The pump quantities of the fitted pump card (:data:`QUANTITIES`), each with its
+        error by the delta method over the parameters analysed at the optimum."""
+        values = np.asarray(values, dtype=float)
+        names = self.param_names()
+        base = self.quantities(values)
+        se = np.full(base.size, math.nan)
+        se_hac = np.full(base.size, math.nan)
+        if numbers is not None and numbers.usable and numbers.dof > 0:
+            coords = [numbers.names[i] for i in numbers.inner]
+            grad = np.zeros((base.size, len(coords)))
+            for a, name in enumerate(coords):
+                j = names.index(name)
+                if name == "load_offset":
+                    continue  # moves no pump quantity
+                # Central differences in the analysis' coordinate (the log of a positive
+                # parameter), held inside the closed bound of the liquid fraction.
+                up, down = values.copy(), values.copy()
+                up[j] *= math.exp(DERIVED_STEP)
+                down[j] *= math.exp(-DERIVED_STEP)
+                span = 2.0 * DERIVED_STEP
+                if self.parameters[j].closed and up[j] > self.parameters[j].upper:
+                    up[j], span = values[j], DERIVED_STEP
+                grad[:, a] = (self.quantities(up) - self.quantities(down)) / span
+            se, se_hac = delta_errors(grad, numbers)
+        units = quantity_units(self.surface.well, self.surface.card)
+        out: dict[str, Derived] = {}
+        for k, q in enumerate(QUANTITIES):
+            shown = se_hac[k] if serial and not math.isnan(se_hac[k]) else se[k]
+            value = float(base[k])
+            out[q] = Derived(q, value, units[q][0], float(shown), float(se_hac[k]),
+                             bool(math.isfinite(value)
+                                  and shown < PRACTICAL_REL_SE * abs(value)),
+                             MEANINGS[q], stderr_white=float(se[k]))
+        return out

@@ -1,0 +1,182 @@
+"""The compiled march of the predictive solver: a lumped rod string and a valve pump, stepped
+in time until the stroke repeats itself.
+
+Written by hand because no library steps a wave equation whose bottom boundary is a pump
+with valves (a state that switches with the pressure); compiled because the march takes
+thousands of steps per stroke and an identification runs it hundreds of times per card.
+See :mod:`pumpid.rods.predict` for the physics; this module only holds the loop.
+
+The march's state (node positions now and one step before, and the pump's lowest plunger
+position, liquid and gas content and pressure) is read at the start and written back at the
+end, so a later march at nearby parameters can start from a stroke that is already nearly
+periodic (a warm start) and needs only a stroke or two more.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..engine.compiled import jit
+
+__all__ = ["PUMP_STATE", "march"]
+
+Array = NDArray[np.float64]
+
+#: Layout of the pump's state vector: lowest plunger position so far (m), liquid and gas
+#: content at intake pressure (as plunger travel, m), barrel pressure (fraction of the
+#: discharge pressure).
+PUMP_STATE = ("floor", "liquid", "gas", "pressure")
+
+
+@jit
+def _excess(liquid: float, gas: float, ri: float, inv_gamma: float, delta: float,
+            span: float, p: float, volume: float) -> float:
+    # Barrel content's volume at pressure p minus the barrel volume (decreasing in p).
+    return liquid + gas * (ri / p) ** inv_gamma - delta * (p - ri) / span - volume
+
+
+@jit
+def _pump_load(y: float, pump: Array, state: Array) -> tuple[float, float]:
+    # One step of the valve pump (see pumpid.rods.predict.PumpModel); updates state.
+    # Returns the load and its derivative in the plunger position (0 while a valve is open).
+    fo, fill, ri, delta, dead, inv_gamma = pump[0], pump[1], pump[2], pump[3], pump[4], pump[5]
+    span = 1.0 - ri
+    if y < state[0]:
+        state[0] = y
+    volume = y - state[0] + dead
+    liquid, gas, p = state[1], state[2], state[3]
+    low = _excess(liquid, gas, ri, inv_gamma, delta, span, ri, volume)
+    high = _excess(liquid, gas, ri, inv_gamma, delta, span, 1.0, volume)
+    if low <= 0.0:
+        # Standing valve open: the deficit enters as liquid and gas at intake pressure.
+        liquid += fill * (-low)
+        gas += (1.0 - fill) * (-low)
+        p = ri
+        stiffness = 0.0
+    elif high >= 0.0:
+        # Traveling valve open: the excess leaves, liquid and gas in proportion.
+        at_top = liquid + gas * ri**inv_gamma
+        keep = 1.0 - high / max(at_top, 1e-300)
+        liquid *= keep
+        gas *= keep
+        p = 1.0
+        stiffness = 0.0
+    else:
+        # Both valves shut: excess(p) = 0 is convex and decreasing, Newton from either side.
+        q = min(max(p, ri), 1.0)
+        for _ in range(30):
+            f = _excess(liquid, gas, ri, inv_gamma, delta, span, q, volume)
+            slope = -gas * inv_gamma * (ri / q) ** inv_gamma / q - delta / span
+            step = min(max(q - f / slope, ri), 1.0)
+            done = abs(step - q) < 1e-14
+            q = step
+            if done:
+                break
+        p = q
+        slope = -gas * inv_gamma * (ri / q) ** inv_gamma / q - delta / span
+        stiffness = -fo / (span * slope)
+    state[1], state[2], state[3] = liquid, gas, p
+    return fo * (1.0 - p) / span, stiffness
+
+
+@jit
+def march(sf: Array, factor: int, stiff: Array, mass: Array, c: float, dt: float,
+          pump: Array, u: Array, u_prev: Array, state: Array, max_cycles: int, tol: float,
+          out: Array) -> tuple[int, float]:
+    """Step one card's string and pump until the surface load repeats to ``tol``.
+
+    Parameters
+    ----------
+    sf : ndarray, shape (N * factor,)
+        Surface position at every time step of one stroke, m.
+    factor : int
+        Time steps per card sample.
+    stiff : ndarray, shape (E,)
+        Element stiffness E A / dx, N/m.
+    mass : ndarray, shape (E + 1,)
+        Node masses, kg (node 0 is the polished rod).
+    c : float
+        Viscous damping coefficient, 1/s.
+    dt : float
+        Time step, s.
+    pump : ndarray, shape (6,)
+        Fluid load (N), fillage, intake ratio, transfer (m), dead space (m), 1/gamma.
+    u, u_prev : ndarray, shape (E + 1,)
+        Node positions now and one step before (read and written back).
+    state : ndarray, shape (4,)
+        The pump's state (:data:`PUMP_STATE`, read and written back).
+    max_cycles : int
+        Most strokes stepped.
+    tol : float
+        Largest change of the surface load from one stroke to the next, relative to its
+        range, to stop.
+    out : ndarray, shape (3, N)
+        Written: dynamic surface load (N), plunger position (m), pump load (N) at the card's
+        samples, of the last stroke.
+
+    Returns
+    -------
+    cycles : int
+    change : float
+    """
+    steps = sf.size
+    e = stiff.size
+    damp = 0.5 * c * dt
+    n = out.shape[1]
+    last = np.empty(n)
+    change = math.inf
+    cycles = 0
+    new = np.empty(e + 1)
+    while cycles < max_cycles:
+        cycles += 1
+        lowest = math.inf
+        for step in range(steps):
+            lowest = min(lowest, u[e])
+            pload, kp = _pump_load(u[e], pump, state)
+            t_prev = stiff[0] * (u[0] - u[1])
+            if step % factor == 0:
+                k = step // factor
+                nxt = sf[(step + 1) % steps]
+                acc0 = (nxt - 2.0 * sf[step] + sf[step - 1]) / dt**2
+                vel0 = (nxt - sf[step - 1]) / (2.0 * dt)
+                out[0, k] = t_prev + mass[0] * (acc0 + c * vel0)
+                out[1, k] = u[e]
+                out[2, k] = pload
+            new[0] = sf[(step + 1) % steps]
+            for i in range(1, e + 1):
+                if i < e:
+                    t_next = stiff[i] * (u[i] - u[i + 1])
+                else:
+                    t_next = pload
+                force = t_prev - t_next
+                if i < e:
+                    new[i] = (force * dt * dt / mass[i] + 2.0 * u[i]
+                              - (1.0 - damp) * u_prev[i]) / (1.0 + damp)
+                else:
+                    # The pump's spring (the barrel's content while both valves are shut)
+                    # taken implicitly: it can be far stiffer than the explicit step allows.
+                    r = dt * dt / mass[i]
+                    new[i] = (force * r + 2.0 * u[i] - (1.0 - damp) * u_prev[i]
+                              + kp * r * u[i]) / (1.0 + damp + kp * r)
+                t_prev = t_next
+            for i in range(e + 1):
+                u_prev[i] = u[i]
+                u[i] = new[i]
+        # The barrel's reference is the plunger's lowest point of the stroke just stepped,
+        # not of all history: a warm start from other parameters then forgets theirs.
+        state[0] = lowest
+        if cycles > 1:
+            lo, hi, worst = out[0, 0], out[0, 0], 0.0
+            for k in range(n):
+                lo = min(lo, out[0, k])
+                hi = max(hi, out[0, k])
+                worst = max(worst, abs(out[0, k] - last[k]))
+            change = worst / max(hi - lo, 1e-12)
+            if change < tol:
+                break
+        for k in range(n):
+            last[k] = out[0, k]
+    return cycles, change

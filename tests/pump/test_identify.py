@@ -1,0 +1,143 @@
+"""The pump identified from the surface card (:func:`pumpid.pump.identify_cards`).
+
+Cards are made by the predictive solver at 60 elements (the fit's model marches 30), with
+noise, so the model is not fitted to its own output."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pumpid.cards import Card
+from pumpid.pump import PumpSystem, SurfaceCard, identify_card, identify_cards
+from pumpid.rods import PumpModel, measure_pump_card, predict_surface
+
+from ..rods.strings import LBF, card, surface_motion, three_tapers
+
+SPM = 8.0
+NU = 0.1
+# liquid fraction admitted, intake ratio: full pump, fluid pound, gas interference
+CASES = {"full": (1.0, 0.01), "pound-70": (0.7, 0.01), "pound-50": (0.5, 0.01),
+         "gas": (0.7, 0.3)}
+
+
+@pytest.fixture(scope="module")
+def made():
+    well = three_tapers()
+    s = surface_motion(n=200, period=60 / SPM)
+    fill = np.array([v[0] for v in CASES.values()])
+    ratio = np.array([v[1] for v in CASES.values()])
+    fluid = 0.9 * 1000 * 9.80665 * well.pump.depth * well.pump.area
+    pump = PumpModel(fluid_load=fluid, fillage=fill, intake_ratio=ratio, transfer=0.05)
+    pred = predict_surface(well, np.repeat(s[None], len(CASES), 0), 60 / SPM, pump, nu=NU,
+                           tol=1e-9, elements=60)
+    rng = np.random.default_rng(7)
+    cards = []
+    for i, name in enumerate(CASES):
+        load = pred.surface_load[i] + well.buoyant_weight()
+        load = load + 0.01 * np.ptp(load) * rng.standard_normal(load.size)
+        cards.append(card(s, load, SPM, name))
+    fits = identify_cards(cards, well)
+    return well, pred, fluid, fits
+
+
+@pytest.mark.parametrize("index,name", list(enumerate(CASES)))
+def test_each_case_is_identified(made, index: int, name: str) -> None:
+    well, pred, fluid, fits = made
+    got = fits[index]
+    assert got.ok and got.status == "converged", got.reason
+    assert got.fit.r2 > 0.99
+    truth = measure_pump_card(pred.pump_position[index], pred.pump_load[index], well, SPM)
+    q = got.quantities()
+    assert q["fluid_load"]["unit"] == "lbf" and q["fillage"]["unit"] == "fraction"
+    assert q["fluid_load"]["value"] == pytest.approx(fluid / LBF, rel=0.02)
+    assert abs(q["fillage"]["value"] - truth.fillage) < 0.02
+    for entry in q.values():
+        assert entry["stderr"] is not None and entry["stderr"] >= 0
+    damping = got.damping()
+    assert damping["value"] == pytest.approx(NU, rel=0.1)
+    assert damping["stderr"] > 0 and "identified from the card" in damping["rule"]
+    # The diagnostic card is computed with the identified damping and agrees with the
+    # fitted pump card.
+    assert got.downhole.ok and got.downhole.damping == damping["value"]
+    assert got.agreement < 0.02
+
+
+def test_full_pump_is_said_and_its_gas_parameter_held(made) -> None:
+    _well, _pred, _fluid, fits = made
+    full = fits[0]
+    assert full.full_pump
+    assert full.fit.params["liquid_fraction"] == 1.0
+    assert "intake_ratio" not in full.fit.free
+    assert any("full pump" in n for n in full.notes)
+    assert fits[1].full_pump is False
+
+
+def test_json_form_has_each_quantity_with_error_and_the_fit(made) -> None:
+    got = made[3][2].to_dict()
+    assert got["status"] == "converged"
+    assert set(got["pump"]) == {"fluid_load", "fillage", "gross_stroke", "net_stroke",
+                                "displacement", "intake_pressure"}
+    assert set(got["pump"]["fillage"]) == {"value", "stderr", "unit"}
+    assert 0.99 < got["r2"] <= 1 and got["residual_autocorrelation"] is not None
+    assert got["energy"]["unit"] == "lbf*in"
+    assert 0 < got["energy"]["string_loss"] < 1
+
+
+def test_damping_held_when_given(made) -> None:
+    well, _pred, _fluid, _fits = made
+    c = card(surface_motion(n=200, period=60 / SPM), made[1].surface_load[1]
+             + well.buoyant_weight(), SPM)
+    got = identify_card(c, well, damping=0.2)
+    assert got.ok
+    assert got.fit.params["damping"] == 0.2 and "damping" not in got.fit.free
+    assert got.damping()["rule"].startswith("given")
+    assert got.downhole.damping == 0.2
+
+
+def test_reversed_card_is_turned_round(made) -> None:
+    well, _pred, _fluid, fits = made
+    forward = fits[2]
+    c = forward.card
+    back = Card(position=c.position[::-1], load=c.load[::-1], position_unit="in",
+                load_unit="lbf", card_id="back").with_spm(SPM)
+    got = identify_card(back, well)
+    assert got.ok and SurfaceCard.of(back, well).reversed
+    assert any("reverse" in n for n in got.notes)
+    assert got.quantities()["fillage"]["value"] == pytest.approx(
+        forward.quantities()["fillage"]["value"], abs=0.02)
+
+
+def test_bad_cards_are_rows_not_errors(made) -> None:
+    well = made[0]
+    no_unit = Card(position=np.linspace(0, 1, 50), load=np.ones(50)).with_spm(SPM)
+    no_time = Card(position=np.linspace(0, 1, 50), load=np.ones(50), position_unit="in",
+                   load_unit="lbf")
+    got = identify_cards([no_unit, no_time], well)
+    assert [g.status for g in got] == ["invalid-input", "invalid-input"]
+    assert "unit" in got[0].reason and "--spm" in got[1].reason
+    assert got[0].to_dict() == {"status": "invalid-input", "reason": got[0].reason}
+    with pytest.raises(ValueError, match="damping"):
+        identify_cards([no_unit], well, damping=-1.0)
+
+
+def test_model_sensitivities_match_central_differences(made) -> None:
+    well = made[0]
+    c = made[3][1].card
+    model = PumpSystem(SurfaceCard.of(c, well))
+    values = np.array(list(made[3][1].fit.params.values()))
+    _, jac = model.simulate(values, None, True)
+    for j in range(5):
+        h = 1e-4 * values[j]
+        up, down = values.copy(), values.copy()
+        up[j] += h
+        down[j] -= h
+        ref = (model.simulate(up, None, False)[0] - model.simulate(down, None, False)[0]) / (
+            2 * h)
+        scale = max(float(np.max(np.abs(ref))), 1e-12)
+        assert np.max(np.abs(jac[:, j] - ref)) < 2e-2 * scale, j
+    assert np.all(jac[:, 5] == 1.0)
+    with pytest.raises(ValueError, match="outside"):
+        bad = values.copy()
+        bad[3] = 1.5
+        model.simulate(bad, None, False)
