@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -253,7 +254,8 @@ def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, F
 
 def identify_cards(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well], *,
                    damping: float | None = None, harmonics: int | None = None,
-                   method: str = "fourier", convention: str = "effective") -> list[PumpFit]:
+                   method: str = "fourier", convention: str = "effective",
+                   workers: int = 1) -> list[PumpFit]:
     """Identify the pump of each surface card (see the module's text).
 
     Parameters
@@ -267,6 +269,8 @@ def identify_cards(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well
     harmonics, method, convention
         Options of the diagnostic pump card computed with the damping used
         (:func:`pumpid.rods.diagnose_cards`).
+    workers : int
+        Cards identified at once (threads).
 
     Returns
     -------
@@ -277,27 +281,32 @@ def identify_cards(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well
     if damping is not None and not (math.isfinite(damping) and damping > 0):
         raise ValueError(f"damping must be a positive number to hold it in the fit, got "
                          f"{damping}")
-    out: list[PumpFit] = []
-    for card, well in zip(cards, _wells_of(cards, wells), strict=True):
-        if isinstance(well, Exception):
-            out.append(PumpFit(card=card, status="invalid-input", reason=str(well)))
-            continue
-        try:
-            surface = SurfaceCard.of(card, well)
-        except ValueError as exc:
-            out.append(PumpFit(card=card, status="invalid-input", reason=str(exc), well=well))
-            continue
-        try:
-            model, res, full = _fit_one(surface, damping)
-        except MemoryError:
-            raise
-        except (ValueError, ArithmeticError) as exc:
-            out.append(PumpFit(card=card, status="failed", well=well,
-                               reason=f"the system model could not be fitted: {exc}"))
-            continue
-        out.append(_finish(card, well, surface, model, res, full, damping,
-                           dict(harmonics=harmonics, method=method, convention=convention)))
-    return out
+    diag = {"harmonics": harmonics, "method": method, "convention": convention}
+    pairs = list(zip(cards, _wells_of(cards, wells), strict=True))
+    if workers <= 1 or len(pairs) < 2:
+        return [_identify(card, well, damping, diag) for card, well in pairs]
+    # Threads, not processes: the march (most of a card's time) releases the GIL, and the
+    # cards' wells and results need no pickling.
+    with ThreadPoolExecutor(max_workers=int(workers)) as pool:
+        return list(pool.map(lambda pair: _identify(pair[0], pair[1], damping, diag), pairs))
+
+
+def _identify(card: Card, well: Well | Exception, damping: float | None,
+              diag: dict[str, Any]) -> PumpFit:
+    if isinstance(well, Exception):
+        return PumpFit(card=card, status="invalid-input", reason=str(well))
+    try:
+        surface = SurfaceCard.of(card, well)
+    except ValueError as exc:
+        return PumpFit(card=card, status="invalid-input", reason=str(exc), well=well)
+    try:
+        model, res, full = _fit_one(surface, damping)
+    except MemoryError:
+        raise
+    except (ValueError, ArithmeticError) as exc:
+        return PumpFit(card=card, status="failed", well=well,
+                       reason=f"the system model could not be fitted: {exc}")
+    return _finish(card, well, surface, model, res, full, damping, diag)
 
 
 def identify_card(card: Card, well: Well | WellFile, **options: Any) -> PumpFit:

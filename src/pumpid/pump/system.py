@@ -25,7 +25,7 @@ beyond the explicit step's stability limit and would make the stroke never repea
 Sensitivities are forward differences of the march, each perturbed march started from the
 unperturbed one's final state (a warm start): it is then periodic again within a few
 strokes. A closed-form tangent march would be exact and about twice as fast; the
-differences' relative error (about 1e-4, set by :data:`TOL` against :data:`STEP`) is far
+differences' relative error (about 1e-3, set by :data:`FD_TOL` against :data:`STEP`) is far
 below what the solver and the errors need.
 """
 
@@ -66,6 +66,9 @@ Array = NDArray[np.float64]
 ELEMENTS = 30
 #: Stop a march when the surface load changes less than this over a stroke (of its range).
 TOL = 1e-9
+#: The same for a perturbed march of a forward difference: its leftover transient, relative
+#: to the difference it measures (about FD_TOL / STEP), is the derivative's relative error.
+FD_TOL = 1e-8
 #: Strokes a march may take (a lightly damped string needs the most).
 MAX_CYCLES = 300
 #: The pump quantities each fit derives from its pump card, with errors.
@@ -197,17 +200,18 @@ class PumpSystem(OwnModel):
         return np.array([values[0] * s.load_factor, values[2], values[3],
                          values[4] * s.position_factor, DEAD_SPACE, 1.0 / GAMMA])
 
-    def run(self, values: Array, warm: Run | None = None) -> Run:
-        """The periodic march at ``values`` (from ``warm``, else from the last march)."""
+    def run(self, values: Array, warm: Run | None = None, tol: float = TOL) -> Run:
+        """The periodic march at ``values`` to ``tol`` (from ``warm``, else from the last
+        march)."""
         values = np.asarray(values, dtype=float)
         if warm is None and self._last is not None:
             warm = self._last[1]
         got = self.grid.march(self.surface.position, self._pump(values), float(values[1]),
-                              warm, MAX_CYCLES, TOL)
-        if not got.change < 1e3 * TOL or not np.all(np.isfinite(got.out)):
+                              warm, MAX_CYCLES, tol)
+        if not got.change < 1e3 * tol or not np.all(np.isfinite(got.out)):
             # Not periodic yet from a far warm start: once more from rest.
             got = self.grid.march(self.surface.position, self._pump(values),
-                                  float(values[1]), None, MAX_CYCLES, TOL)
+                                  float(values[1]), None, MAX_CYCLES, tol)
             if not np.all(np.isfinite(got.out)):
                 raise ArithmeticError("the march did not stay finite")
         return got
@@ -257,7 +261,7 @@ class PumpSystem(OwnModel):
         for j, h in self._steps(values):
             moved = values.copy()
             moved[j] += h
-            other = self.run(moved, base)
+            other = self.run(moved, base, FD_TOL)
             jac[:, j] = (self._load(moved, other) - load) / h
         jac[:, 5] = 1.0
         return load, jac
