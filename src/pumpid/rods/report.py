@@ -43,7 +43,8 @@ h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em;
 table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.92em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; vertical-align: top; }
 th { background: #f0f3f7; text-align: left; }
-td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace; }
+td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace;
+         white-space: nowrap; }
 .status-computed { color: #176a2c; font-weight: bold; }
 .status-invalid-input, .status-failed { color: #b00020; font-weight: bold; }
 figure { margin: 0.8em 0; } figure img { max-width: 100%; border: 1px solid #ddd; }
