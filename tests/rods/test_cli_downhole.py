@@ -330,3 +330,22 @@ def test_card_that_cannot_be_identified_keeps_its_diagnostic(tmp_path: Path, sur
     assert "default rule" in got["damping"]["rule"] and "poor-fit" in got["damping"]["rule"]
     page = (out / "report.html").read_text(encoding="utf-8")
     assert "not used" in page and 'diagnostic pump card <span class="muted">(used)' in page
+
+
+def test_an_identification_that_breaks_does_not_stop_the_run(tmp_path: Path, surface, capsys,
+                                                            monkeypatch) -> None:
+    import pumpid.cli.downhole as downhole
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("simulated defect")
+
+    monkeypatch.setattr(downhole, "identify_cards", broken)
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    code, doc = run_json(capsys, str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                         "--spm", str(SPM))
+    assert code == 3  # some identifications failed
+    for got in doc["cards"]:
+        assert got["status"] == "computed" and got["downhole"]["pump"]["fillage"]["value"]
+        assert got["identification"]["status"] == "failed"
+        assert "simulated defect" in got["identification"]["reason"]
+        assert "default rule" in got["damping"]["rule"] and got["damping"]["value"] == 0.05

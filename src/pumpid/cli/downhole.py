@@ -31,7 +31,7 @@ from typing import Any, TextIO
 
 from .. import interrupts
 from ..cards import Card, CardError, printable
-from ..pump import identify_cards
+from ..pump import PumpFit, identify_cards
 from ..pump.identify_report import DownholeCard, draw_identified
 from ..report.output import OutputError, OutputFolder, UniqueNames, atomic_write
 from ..report.spreadsheet import LINE_END, neutralise_row
@@ -299,9 +299,19 @@ def _cards(chunk: list[Card], wells: WellFile, opts: dict[str, Any], identify: b
             yield DownholeCard.of(res, None, skipped if res.ok else "")
             continue
         interrupts.check()
-        fit = identify_cards([res.card], res.well, damping=opts["damping"],
-                             harmonics=opts["harmonics"], method=opts["method"],
-                             convention=opts["convention"])[0]
+        try:
+            fit = identify_cards([res.card], res.well, damping=opts["damping"],
+                                 harmonics=opts["harmonics"], method=opts["method"],
+                                 convention=opts["convention"])[0]
+        except (MemoryError, KeyboardInterrupt):
+            raise
+        except Exception as exc:
+            # A bug in one card's identification must not stop a field's run: the card
+            # keeps its diagnostic and says what broke.
+            fit = PumpFit(card=res.card, status="failed", well=res.well,
+                          reason=f"the identification stopped with an internal error "
+                                 f"({type(exc).__name__}: {exc}); a bug in pumpid, please "
+                                 "report it with the card")
         yield DownholeCard.of(res, fit)
 
 
