@@ -256,7 +256,7 @@ def test_text_gives_each_quantity_with_its_error_the_damping_and_r2(tmp_path: Pa
     assert "pump identified: converged, R^2 0.99" in text
     assert re.search(r"fluid load 40\d\d \+- [\d.]+ lbf", text)
     assert re.search(r"fillage 0\.(69|70)\d* \+- [\d.e-]+,", text)
-    assert re.search(r"damping nu = 0\.0[45]\d* \+- [\d.e-]+ \(identified from the card", text)
+    assert re.search(r"damping: identified from the card: nu = 0\.0[45]\d* \+- [\d.e-]+", text)
     assert "1 converged" in text
 
 

@@ -250,8 +250,10 @@ class DownholeCard:
                  for name in SHOWN if name in q and q[name]["value"] is not None]
         damping = self.damping()
         nu = format_error(damping["value"], damping["stderr"], "")
+        rule = printable(damping["rule"])
+        # Most rules state the value (and its error) already: not said twice.
         lines = [head, "  " + ", ".join(parts),
-                 f"  damping nu = {nu} ({printable(damping['rule'])})"]
+                 f"  damping: {rule}" if "nu = " in rule else f"  damping nu = {nu} ({rule})"]
         if self.identified and self.fit is not None and not math.isnan(self.fit.agreement):
             lines.append(f"  fitted and diagnostic pump cards differ by RMS "
                          f"{100 * self.fit.agreement:.2f} % of the load range")
