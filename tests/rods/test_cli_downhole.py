@@ -1,9 +1,11 @@
-"""``pumpid downhole``: JSON shape, units, well matching, outputs, errors."""
+"""``pumpid downhole``: JSON shape, units, well matching, outputs, errors, and the pump
+identified from each card (quantities with errors, damping, R^2; --no-identify, --damping)."""
 
 from __future__ import annotations
 
 import csv
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -74,20 +76,46 @@ def test_json_shape_and_units(tmp_path: Path, surface, capsys) -> None:
     assert down["units"] == {"position": "in", "load": "lbf"}
     assert len(down["position"]) == len(down["load"]) == 120
     assert down["convention"] == "effective"
-    for name in ("gross_stroke", "net_stroke", "fluid_load", "fillage"):
-        assert set(full["pump"][name]) == {"value", "unit"}
+    # the identified quantities, each with its error; the diagnostic card's own beside them
+    for name in ("gross_stroke", "net_stroke", "fluid_load", "fillage", "displacement",
+                 "intake_pressure"):
+        entry = full["pump"][name]
+        assert set(entry) == {"value", "stderr", "unit"}
+        assert 0 < entry["stderr"] < 0.05 * abs(entry["value"])
+        assert set(down["pump"][name]) == {"value", "unit"}
+    for name in ("upper_load_line", "lower_load_line"):  # measured on the diagnostic only
+        assert full["pump"][name]["stderr"] is None
     assert full["pump"]["fillage"]["unit"] == "fraction"
     assert full["pump"]["fluid_load"]["value"] == pytest.approx(18000 / LBF, rel=0.02)
     assert pound["pump"]["fillage"]["value"] < full["pump"]["fillage"]["value"] - 0.2
-    assert doc["summary"]["cards"] == 2 and doc["summary"]["status"] == {"computed": 2}
-    assert doc["summary"]["damping"] == 0.05 and "default" in doc["summary"]["damping_rule"]
+    assert pound["pump"]["fillage"]["value"] == pytest.approx(0.7, abs=0.02)
+    # the damping the card chose (made at 0.05), its error and rule; the diagnostic used it
+    damping = full["damping"]
+    assert set(damping) == {"value", "stderr", "unit", "rule"}
+    assert damping["value"] == pytest.approx(0.05, rel=0.15) and damping["stderr"] > 0
+    assert "identified from the card" in damping["rule"]
+    assert down["damping"]["value"] == damping["value"]
+    assert full["r2"] > 0.99 and -1 <= full["residual_autocorrelation"] <= 1
+    ident = full["identification"]
+    assert ident["status"] == "converged" and ident["used"] is True
+    assert {"reason", "parameters", "agreement", "energy", "identifiability",
+            "warnings"} <= set(ident)
+    assert ident["parameters"]["fluid_load"]["unit"] == "lbf"
+    assert ident["parameters"]["fluid_load"]["stderr"] > 0
+    assert ident["agreement"] < 0.02
+    assert ident["energy"]["unit"] == "lbf*in" and ident["energy"]["pump_work"] > 0
+    assert len(ident["pump_card"]["load"]) == len(ident["surface_fit"]["load"]) == 120
+    summary = doc["summary"]
+    assert summary["cards"] == 2 and summary["status"] == {"computed": 2}
+    assert summary["identified"] == {"converged": 2}
+    assert summary["damping"] == "identified per card" and "0.05" in summary["damping_rule"]
 
 
 def test_a_single_well_applies_to_every_card_and_says_so(tmp_path: Path, surface,
                                                          capsys) -> None:
     cards = write_cards(tmp_path / "cards.csv", surface, ids=("W-1", "OTHER"))
     code, doc = run_json(capsys, str(cards), "--well", str(write_well(tmp_path / "w.json")),
-                         "--spm", str(SPM))
+                         "--spm", str(SPM), "--no-identify")
     assert code == 0
     first, second = doc["cards"]
     assert not any("differs" in n for n in first["notes"])
@@ -98,15 +126,21 @@ def test_a_single_well_applies_to_every_card_and_says_so(tmp_path: Path, surface
 def test_metric_card_with_us_well_file_is_converted(tmp_path: Path, surface, capsys) -> None:
     well = write_well(tmp_path / "well.json")
     _c, us = run_json(capsys, str(write_cards(tmp_path / "us.csv", surface)), "--well",
-                      str(well), "--spm", str(SPM))
+                      str(well), "--spm", str(SPM), "--card", "card1")
     _c, si = run_json(capsys, str(write_cards(tmp_path / "si.csv", surface, metric=True)),
-                      "--well", str(well), "--spm", str(SPM))
+                      "--well", str(well), "--spm", str(SPM), "--card", "card1")
     a, b = us["cards"][0], si["cards"][0]
     assert b["downhole"]["units"] == {"position": "m", "load": "kN"}
-    assert b["pump"]["gross_stroke"]["value"] == pytest.approx(
-        a["pump"]["gross_stroke"]["value"] * INCH, rel=1e-5)
-    assert b["pump"]["fluid_load"]["value"] == pytest.approx(
-        a["pump"]["fluid_load"]["value"] * LBF / 1000, rel=1e-4)
+    assert b["downhole"]["pump"]["gross_stroke"]["value"] == pytest.approx(
+        a["downhole"]["pump"]["gross_stroke"]["value"] * INCH, rel=1e-5)
+    # the identification in either unit system: the same pump, its errors converted too
+    assert b["pump"]["fluid_load"]["unit"] == "kN" and b["pump"]["fluid_load"]["stderr"] > 0
+    for name, factor in (("fluid_load", LBF / 1000), ("gross_stroke", INCH),
+                         ("fillage", 1.0)):
+        assert b["pump"][name]["value"] == pytest.approx(
+            a["pump"][name]["value"] * factor, rel=1e-3)
+        assert b["pump"][name]["stderr"] == pytest.approx(
+            a["pump"][name]["stderr"] * factor, rel=0.05)
     assert any("converted" in n for n in b["notes"])
 
 
@@ -124,12 +158,21 @@ def test_wells_matched_by_id_and_unknown_well_refused(tmp_path: Path, surface,
     assert bad["downhole"] is None and bad["pump"] is None
 
 
-def test_reversed_card_is_said(tmp_path: Path, surface, capsys) -> None:
+def test_reversed_card_is_said_and_identified(tmp_path: Path, surface, capsys) -> None:
     cards = write_cards(tmp_path / "rev.csv", surface, reverse=True)
-    code = main(["downhole", str(cards), "--well", str(write_well(tmp_path / "w.json")),
-                 "--spm", str(SPM)])
+    well = str(write_well(tmp_path / "w.json"))
+    code = main(["downhole", str(cards), "--well", well, "--spm", str(SPM), "--card", "card1"])
     text = capsys.readouterr().out
     assert code == 0 and "reversed" in text and "reverse time order" in text
+    code, doc = run_json(capsys, str(cards), "--well", well, "--spm", str(SPM), "--card",
+                         "card1")
+    got = doc["cards"][0]
+    assert got["identification"]["status"] == "converged"
+    assert got["pump"]["fillage"]["value"] == pytest.approx(0.7, abs=0.02)
+    # the fitted surface load comes back in the file's sample order, as the pump cards do
+    measured = surface[1][1][::-1] / LBF
+    fitted = np.array(got["identification"]["surface_fit"]["load"])
+    assert np.sqrt(np.mean((fitted - measured) ** 2)) < 0.02 * np.ptp(measured)
 
 
 def test_outputs_one_card_and_several(tmp_path: Path, surface, capsys) -> None:
@@ -147,7 +190,14 @@ def test_outputs_one_card_and_several(tmp_path: Path, surface, capsys) -> None:
         rows = list(csv.DictReader(fh))
     assert [r["card_id"] for r in rows] == ["card0", "card1"]
     assert rows[0]["pump_fillage_unit"] == "fraction"
+    assert rows[0]["identification_status"] == "converged"
+    assert float(rows[1]["pump_fillage_stderr"]) > 0 and float(rows[1]["r2"]) > 0.99
     assert (many / rows[1]["folder"] / "cards.png").is_file()
+    with (one / "pump_card.csv").open(encoding="utf-8") as fh:
+        table = list(csv.DictReader(fh))
+    assert len(table) == 120
+    assert {"fitted_surface_load_lbf", "identified_pump_position_in",
+            "identified_pump_load_lbf"} <= set(table[0])
 
 
 @pytest.mark.parametrize("extra,words", [
@@ -190,6 +240,112 @@ def test_split_strokes_of_a_time_record(tmp_path: Path, surface, capsys) -> None
     well = str(write_well(tmp_path / "w.json"))
     code, whole = run_json(capsys, str(path), "--well", well)
     assert code == 2 and "several strokes" in whole["cards"][0]["reason"]
-    code, split = run_json(capsys, str(path), "--well", well, "--split-strokes")
+    code, split = run_json(capsys, str(path), "--well", well, "--split-strokes",
+                           "--no-identify")
     assert code == 0 and len(split["cards"]) >= 2
     assert all(c["pump"]["fillage"]["value"] < 0.85 for c in split["cards"])
+
+
+def test_text_gives_each_quantity_with_its_error_the_damping_and_r2(tmp_path: Path, surface,
+                                                                   capsys) -> None:
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    code = main(["downhole", str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                 "--spm", str(SPM), "--card", "card1"])
+    text = capsys.readouterr().out
+    assert code == 0
+    assert "pump identified: converged, R^2 0.99" in text
+    assert re.search(r"fluid load 40\d\d \+- [\d.]+ lbf", text)
+    assert re.search(r"fillage 0\.(69|70)\d* \+- [\d.e-]+,", text)
+    assert re.search(r"damping: identified from the card: nu = 0\.0[45]\d* \+- [\d.e-]+", text)
+    assert "1 converged" in text
+
+
+def test_no_identify_gives_the_diagnostic_only(tmp_path: Path, surface, capsys) -> None:
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    code, doc = run_json(capsys, str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                         "--spm", str(SPM), "--no-identify")
+    assert code == 0
+    for got in doc["cards"]:
+        assert got["identification"] is None and got["r2"] is None
+        assert got["residual_autocorrelation"] is None
+        assert all(q["stderr"] is None for q in got["pump"].values())
+        assert got["pump"]["fillage"]["value"] == got["downhole"]["pump"]["fillage"]["value"]
+        assert got["damping"] == {"value": 0.05, "stderr": None,
+                                  "unit": "dimensionless (Gibbs' nu)",
+                                  "rule": "default rule: nu = 0.05 for every well"}
+    assert doc["summary"]["identified"] is None and doc["summary"]["damping"] == 0.05
+
+
+def test_damping_given_is_held_in_the_identification(tmp_path: Path, surface,
+                                                     capsys) -> None:
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    code, doc = run_json(capsys, str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                         "--spm", str(SPM), "--card", "card1", "--damping", "0.08")
+    assert code == 0
+    got = doc["cards"][0]
+    assert got["damping"]["value"] == 0.08 and got["damping"]["stderr"] is None
+    assert got["damping"]["rule"].startswith("given")
+    assert got["downhole"]["damping"]["value"] == 0.08
+    ident = got["identification"]
+    assert ident["parameters"]["damping"]["value"] == 0.08
+    assert ident["parameters"]["damping"]["stderr"] is None  # held, not fitted
+    assert got["pump"]["fluid_load"]["stderr"] > 0
+
+
+def test_damping_zero_is_the_undamped_diagnostic_and_says_why(tmp_path: Path, surface,
+                                                             capsys) -> None:
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    code, doc = run_json(capsys, str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                         "--spm", str(SPM), "--damping", "0")
+    assert code == 0
+    for got in doc["cards"]:
+        assert got["status"] == "computed" and got["identification"] is None
+        assert got["downhole"]["damping"]["value"] == 0.0
+        assert any("needs some damping" in n for n in got["notes"])
+    assert "needs some damping" in doc["summary"]["identification"]
+
+
+def test_card_that_cannot_be_identified_keeps_its_diagnostic(tmp_path: Path, surface,
+                                                             capsys) -> None:
+    # the full pump's loads against the motion half a stroke away, in reverse: a loop no rod
+    # string and pump make from this motion; diagnosed, not identified
+    s, loads = surface
+    odd = np.roll(loads[0][::-1], -s.size // 2)
+    cards = write_cards(tmp_path / "odd.csv", (s, odd[None]), ids=("W-1",))
+    out = tmp_path / "out"
+    code = main(["downhole", str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                 "--spm", str(SPM), "--out", str(out)])
+    text = capsys.readouterr().out
+    assert code == 5  # every card computed, its identification poor (as pumpid fit's 5)
+    assert "pump not identified (poor-fit, R^2" in text and "diagnostic pump card" in text
+    got = json.loads((out / "downhole.json").read_text(encoding="utf-8"))
+    assert got["status"] == "computed"
+    ident = got["identification"]
+    assert ident["status"] == "poor-fit" and ident["used"] is False and ident["reason"]
+    assert got["r2"] < 0.95
+    # the outputs are the diagnostic card's, at the default rule's damping, said so
+    assert all(q["stderr"] is None for q in got["pump"].values())
+    assert got["pump"]["fillage"]["value"] == got["downhole"]["pump"]["fillage"]["value"]
+    assert got["damping"]["value"] == 0.05 and got["damping"]["stderr"] is None
+    assert "default rule" in got["damping"]["rule"] and "poor-fit" in got["damping"]["rule"]
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "not used" in page and 'diagnostic pump card <span class="muted">(used)' in page
+
+
+def test_an_identification_that_breaks_does_not_stop_the_run(tmp_path: Path, surface, capsys,
+                                                            monkeypatch) -> None:
+    import pumpid.cli.downhole as downhole
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("simulated defect")
+
+    monkeypatch.setattr(downhole, "identify_cards", broken)
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    code, doc = run_json(capsys, str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                         "--spm", str(SPM))
+    assert code == 3  # some identifications failed
+    for got in doc["cards"]:
+        assert got["status"] == "computed" and got["downhole"]["pump"]["fillage"]["value"]
+        assert got["identification"]["status"] == "failed"
+        assert "simulated defect" in got["identification"]["reason"]
+        assert "default rule" in got["damping"]["rule"] and got["damping"]["value"] == 0.05

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import base64
+import io
 import re
 from pathlib import Path
 
@@ -32,6 +34,16 @@ def test_report_page_per_run(tmp_path: Path, surface, capsys) -> None:  # noqa: 
     assert "Notes" in page
 
 
+def _figure(page: str) -> tuple[int, int]:
+    """Height and width (pixels) of the page's one embedded figure."""
+    import matplotlib.image
+
+    data = re.search(r'<img src="data:image/png;base64,([^"]+)"', page)
+    assert data is not None
+    image = matplotlib.image.imread(io.BytesIO(base64.b64decode(data.group(1))), format="png")
+    return image.shape[0], image.shape[1]
+
+
 def test_report_of_one_card(tmp_path: Path, surface, capsys) -> None:  # noqa: F811
     cards = write_cards(tmp_path / "cards.csv", surface)
     out = tmp_path / "one"
@@ -40,3 +52,36 @@ def test_report_of_one_card(tmp_path: Path, surface, capsys) -> None:  # noqa: F
     capsys.readouterr()
     page = (out / "report.html").read_text(encoding="utf-8")
     assert page.count('id="card-') == 1 and "card1" in page
+    # the identification: its status, the fit's R^2 and residual, the damping and its rule
+    assert "identification <b>converged</b>" in page
+    assert "surface-load fit R&sup2; 0.99" in page and "residual lag-1 autocorrelation" in page
+    assert "identified from the card" in page
+    # the quantities with their errors beside the diagnostic card's, and the parameters
+    assert "identified &plusmn; standard error" in page and "diagnostic pump card" in page
+    assert re.search(r"<td>pump fillage</td><td class=\"num\">0\.(69|70)\d* \u00b1 ", page)
+    assert "<th>fitted parameter</th>" in page and "<td>fluid_load</td>" in page
+    # the figure: measured and fitted surface loads, the residual, both pump cards (2 x 2)
+    assert "measured minus fitted load over the stroke" in page
+    assert "identified pump card (green) over the diagnostic one" in page
+    assert _figure(page) == (840, 1100)
+    assert _figure(page) == matplotlib_shape(out / "cards.png")
+
+
+def matplotlib_shape(path: Path) -> tuple[int, int]:
+    import matplotlib.image
+
+    image = matplotlib.image.imread(path)
+    return image.shape[0], image.shape[1]
+
+
+def test_report_without_identification(tmp_path: Path, surface, capsys) -> None:  # noqa: F811
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    out = tmp_path / "one"
+    assert main(["downhole", str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                 "--spm", str(SPM), "--card", "card1", "--out", str(out),
+                 "--no-identify"]) == 0
+    capsys.readouterr()
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "Pump not identified (--no-identify" in page
+    assert "identified &plusmn;" not in page and "fitted parameter" not in page
+    assert _figure(page) == (420, 1000)  # the surface card beside the pump card

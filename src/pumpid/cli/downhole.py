@@ -1,12 +1,15 @@
 """``pumpid downhole``: the pump card and pump quantities of every surface card.
 
     pumpid downhole CARD_FILE [CARD_FILE ...] --well WELL.json [--spm X | --period S]
-                    [--damping NU] [--harmonics N] [--method fourier|fd]
+                    [--damping NU] [--no-identify] [--harmonics N] [--method fourier|fd]
                     [--convention effective|true] [--json] [--out DIR]
 
-The card options are those of ``pumpid fit``. Cards are computed in chunks through the
-batched API (:func:`pumpid.rods.diagnose_cards`) and printed as each chunk is done. A card
-that cannot be computed is a row with its status and reason; it does not stop the others.
+The card options are those of ``pumpid fit``. Cards are diagnosed in chunks through the
+batched API (:func:`pumpid.rods.diagnose_cards`); then, unless ``--no-identify`` (or
+``--damping 0``), each card's pump is identified by fitting the rod string and valve pump to
+the surface card (:func:`pumpid.pump.identify_cards`), and the card is printed as soon as it
+is done (:class:`pumpid.pump.identify_report.DownholeCard` joins the two). A card that cannot
+be computed is a row with its status and reason; it does not stop the others.
 
 Output folder (``--out DIR``): one card writes ``downhole.json``, ``pump_card.csv`` and
 ``cards.png`` (surface card beside pump card) directly into ``DIR``; several cards get a
@@ -28,22 +31,21 @@ from typing import Any, TextIO
 
 from .. import interrupts
 from ..cards import Card, CardError, printable
+from ..pump import PumpFit, identify_cards
+from ..pump.identify_report import DownholeCard, draw_identified
 from ..report.output import OutputError, OutputFolder, UniqueNames, atomic_write
 from ..report.spreadsheet import LINE_END, neutralise_row
 from ..result import jsonable
-from ..rods import DEFAULT_DAMPING, DownholeResult, WellFile, diagnose_cards, read_well_file
-from ..rods.figure import draw_cards
+from ..rods import DEFAULT_DAMPING, WellFile, diagnose_cards, read_well_file
 from ..rods.report import DownholeReport
 from .common import (
     EXIT_INTERRUPTED,
-    EXIT_NOT_FITTED,
-    EXIT_OK,
     EXIT_OUTPUT,
-    EXIT_USAGE,
     CliError,
     add_card_options,
     columns_option,
     err,
+    exit_status,
     fmt,
     rate_option,
 )
@@ -54,8 +56,20 @@ __all__ = ["cmd_downhole", "register"]
 CHUNK_CARDS = 256
 INDEX_NAME = "downhole.csv"
 REPORT_NAME = "report.html"
-_QUANTITIES = ("gross_stroke", "net_stroke", "fluid_load", "fillage", "displacement",
-               "intake_pressure")
+#: Why ``--damping 0`` identifies nothing, said in the run's header and each card's notes.
+UNDAMPED = ("--damping 0: the undamped diagnostic pump card only; the pump is not "
+            "identified, since the predictive model of the rod string needs some damping "
+            "(give --damping NU > 0 to hold it in the identification, or leave --damping out "
+            "to identify it)")
+
+
+def _identify(args: argparse.Namespace) -> tuple[bool, str]:
+    """Whether the pump is identified, and why not."""
+    if args.no_identify:
+        return False, "--no-identify: the diagnostic pump card only"
+    if args.damping == 0:
+        return False, UNDAMPED
+    return True, ""
 
 
 def _options(args: argparse.Namespace) -> dict[str, Any]:
@@ -94,36 +108,32 @@ def _chunks(cards: list[Card]) -> Iterator[list[Card]]:
 
 # --------------------------------------------------------------------------- printing
 class _Text:
-    """One block per card: its pump quantities with units, and its notes."""
+    """One block per card: its pump quantities with errors and units, damping, R^2, notes."""
 
     def __init__(self, stream: TextIO | None = None, verbose: bool = False) -> None:
         self.stream = stream or sys.stdout
         self.verbose = verbose
 
     def start(self, info: dict[str, Any]) -> None:
-        print(f"downhole cards: {info['method']} method, damping nu = {fmt(info['damping'])} "
-              f"({info['damping_rule']}), harmonics {info['harmonics']}, "
+        damping = info["damping"]
+        damping = damping if isinstance(damping, str) else f"nu = {fmt(damping)}"
+        print(f"downhole cards: {info['method']} method, damping {damping}"
+              f" ({info['damping_rule']}), harmonics {info['harmonics']}, "
               f"{info['convention']} loads; wells from {printable(info['well_file'])}",
               file=self.stream)
+        print(f"pump identification: {info['identification']}", file=self.stream)
 
-    def row(self, res: DownholeResult) -> None:
-        card = res.card
-        head = f"{printable(card.card_id)} [{printable(card.source)}]: {res.status}"
-        if not res.ok:
-            print(f"{head}: {printable(res.reason)}", file=self.stream)
+    def row(self, res: DownholeCard) -> None:
+        for line in res.text():
+            print(line, file=self.stream)
+        if not res.downhole.ok:
             return
-        q = res.quantities()
-        parts = []
-        for name in _QUANTITIES:
-            entry = q[name]
-            if entry["value"] is None:
-                continue
-            unit = "" if entry["unit"] == "fraction" else f" {entry['unit']}"
-            parts.append(f"{name.replace('_', ' ')} {fmt(entry['value'])}{unit}")
-        well = res.well.well_id if res.well is not None else "?"
-        print(f"{head} (well {printable(well)}{', reversed' if res.reversed else ''}): "
-              + ", ".join(parts), file=self.stream)
-        notes = res.notes if self.verbose else [n for n in res.notes if "reverse" in n]
+        notes = list(res.downhole.notes)
+        if res.fitted and res.fit is not None:
+            notes += list(res.fit.notes)
+        if not self.verbose:  # the one note that changes how the card reads
+            notes = [n for n in notes if "reverse" in n]
+        notes = list(dict.fromkeys(notes))
         for note in notes:
             print(f"  note: {printable(note)}", file=self.stream)
 
@@ -133,6 +143,10 @@ class _Text:
     def finish(self, counts: collections.Counter[str], summary: dict[str, Any]) -> None:
         done = ", ".join(f"{n} {k}" for k, n in sorted(counts.items()))
         print(f"{sum(counts.values())} card(s): {done}", file=self.stream)
+        ident = summary.get("identified")
+        if ident:
+            said = ", ".join(f"{n} {k}" for k, n in sorted(ident.items()))
+            print(f"pump identification: {said}", file=self.stream)
 
 
 class _Json:
@@ -151,13 +165,14 @@ class _Json:
         self.stream.flush()
         self.count += 1
 
-    def row(self, res: DownholeResult) -> None:
+    def row(self, res: DownholeCard) -> None:
         self._element(res.to_dict())
 
     def file_failed(self, path: str, reason: str) -> None:
         self._element({"status": "invalid-input", "reason": reason,
                        "card": {"id": None, "well": None, "source": path},
-                       "downhole": None, "pump": None})
+                       "downhole": None, "pump": None, "damping": None, "r2": None,
+                       "residual_autocorrelation": None, "identification": None})
 
     def finish(self, counts: collections.Counter[str], summary: dict[str, Any]) -> None:
         text = json.dumps(jsonable(summary), indent=2, allow_nan=False)
@@ -166,15 +181,26 @@ class _Json:
 
 
 # --------------------------------------------------------------------------- outputs
-def _pump_csv(res: DownholeResult) -> str:
-    card = res.card
+def _pump_csv(res: DownholeCard) -> str:
+    """The card's samples: surface and diagnostic pump card, and where the pump was fitted
+    the fitted surface load and the identified pump card, in the file's sample order."""
+    down = res.downhole
+    card = down.card
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     pu, lu = card.position_unit, card.load_unit
-    w.writerow([f"surface_position_{pu}", f"surface_load_{lu}", f"pump_position_{pu}",
-                f"pump_load_{lu}"])
-    assert res.pump_position is not None and res.pump_load is not None
-    for row in zip(card.position, card.load, res.pump_position, res.pump_load, strict=True):
+    head = [f"surface_position_{pu}", f"surface_load_{lu}", f"pump_position_{pu}",
+            f"pump_load_{lu}"]
+    assert down.pump_position is not None and down.pump_load is not None
+    columns = [card.position, card.load, down.pump_position, down.pump_load]
+    ident = res.identification()
+    if ident is not None and "pump_card" in ident:
+        head += [f"fitted_surface_load_{lu}", f"identified_pump_position_{pu}",
+                 f"identified_pump_load_{lu}"]
+        columns += [ident["surface_fit"]["load"], ident["pump_card"]["position"],
+                    ident["pump_card"]["load"]]
+    w.writerow(head)
+    for row in zip(*columns, strict=True):
         w.writerow([f"{v:.10g}" for v in row])
     return buf.getvalue()
 
@@ -195,22 +221,27 @@ class _Outputs:
         for said in self.folder.prepare():
             err(said)
 
-    def write(self, res: DownholeResult) -> None:
-        record: dict[str, Any] = {"folder": None, "card_id": res.card.card_id,
-                                  "well_id": res.well.well_id if res.well else None,
-                                  "source": res.card.source, **res.to_row()}
-        if res.ok:
+    def write(self, res: DownholeCard) -> None:
+        down = res.downhole
+        record: dict[str, Any] = {"folder": None, "card_id": down.card.card_id,
+                                  "well_id": down.well.well_id if down.well else None,
+                                  "source": down.card.source, **res.to_row()}
+        png: bytes | None = None
+        if down.ok:
             try:
                 with self.folder.staging() as stage:
                     (stage / "downhole.json").write_text(
                         json.dumps(jsonable(res.to_dict()), indent=1, allow_nan=False) + "\n",
                         encoding="utf-8")
                     (stage / "pump_card.csv").write_text(_pump_csv(res), encoding="utf-8")
-                    draw_cards(res, stage / "cards.png")
+                    figure = io.BytesIO()
+                    draw_identified(res, figure)
+                    png = figure.getvalue()
+                    (stage / "cards.png").write_bytes(png)
                     if self.direct:
                         said = self.folder.commit_files(stage)
                     else:
-                        name = self.names.claim(res.card.card_id or "card")
+                        name = self.names.claim(down.card.card_id or "card")
                         said = self.folder.commit_folder(stage, name)
                         record["folder"] = name
                 for s in said:
@@ -219,9 +250,9 @@ class _Outputs:
                 raise
             except (OutputError, OSError, ValueError) as exc:
                 self.failed += 1
-                err(f"card {printable(res.card.card_id)}: outputs not written ({exc})")
+                err(f"card {printable(down.card.card_id)}: outputs not written ({exc})")
         self.rows.append(record)
-        self.report.add(res)
+        self.report.add(down, extra=_report_extra(res), png=png)
 
     def finish(self) -> None:
         self.folder.discard_staged()
@@ -242,6 +273,46 @@ class _Outputs:
         except (OutputError, OSError) as exc:
             self.failed += 1
             err(f"{INDEX_NAME} not written ({exc})")
+
+
+def _report_extra(res: DownholeCard) -> dict[str, Any] | None:
+    """What the report shows of the identification, as plain data (the report's layer knows
+    no pump model)."""
+    if not res.downhole.ok:
+        return None
+    ident = res.identification()
+    return {"pump": res.pump(), "damping": res.damping(), "r2": res.r2(),
+            "residual_autocorrelation": res.residual_autocorrelation(),
+            "identification": None if ident is None else {
+                k: ident.get(k) for k in ("status", "reason", "used", "parameters",
+                                          "agreement", "energy", "identifiability",
+                                          "warnings", "notes", "pump")},
+            "skipped": res.skipped}
+
+
+def _cards(chunk: list[Card], wells: WellFile, opts: dict[str, Any], identify: bool,
+           skipped: str) -> Iterator[DownholeCard]:
+    """Each card of a chunk: diagnosed with the others, then identified one by one (so each
+    is printed as soon as it is done)."""
+    for res in diagnose_cards(chunk, wells, **opts):
+        if not identify or not res.ok or res.well is None:
+            yield DownholeCard.of(res, None, skipped if res.ok else "")
+            continue
+        interrupts.check()
+        try:
+            fit = identify_cards([res.card], res.well, damping=opts["damping"],
+                                 harmonics=opts["harmonics"], method=opts["method"],
+                                 convention=opts["convention"])[0]
+        except (MemoryError, KeyboardInterrupt):
+            raise
+        except Exception as exc:
+            # A bug in one card's identification must not stop a field's run: the card
+            # keeps its diagnostic and says what broke.
+            fit = PumpFit(card=res.card, status="failed", well=res.well,
+                          reason=f"the identification stopped with an internal error "
+                                 f"({type(exc).__name__}: {exc}); a bug in pumpid, please "
+                                 "report it with the card")
+        yield DownholeCard.of(res, fit)
 
 
 # --------------------------------------------------------------------------- the command
@@ -268,10 +339,20 @@ def cmd_downhole(args: argparse.Namespace) -> int:
     inputs = list(_inputs(args))
     total = sum(len(c) for _p, c in inputs if isinstance(c, list))
     printer: _Text | _Json = _Json() if args.json else _Text(verbose=args.verbose)
-    damping = DEFAULT_DAMPING if args.damping is None else args.damping
-    info = {"method": args.method, "damping": damping,
-            "damping_rule": "given" if args.damping is not None else
-            f"default rule: nu = {DEFAULT_DAMPING:g} for every well",
+    identify, skipped = _identify(args)
+    if args.damping is not None:
+        damping: float | str = args.damping
+        rule = ("given, held in the identification" if identify else "given")
+    elif identify:
+        damping = "identified per card"
+        rule = (f"from each card's identification; where the pump is not identified the "
+                f"default rule, nu = {DEFAULT_DAMPING:g}")
+    else:
+        damping = DEFAULT_DAMPING
+        rule = f"default rule: nu = {DEFAULT_DAMPING:g} for every well"
+    info = {"method": args.method, "damping": damping, "damping_rule": rule,
+            "identification": ("the rod string and valve pump fitted to each surface card"
+                               if identify else skipped),
             "harmonics": (args.harmonics or "all the samples resolve")
             if args.method == "fourier" else "n/a",
             "convention": args.convention, "well_file": args.well}
@@ -280,17 +361,23 @@ def cmd_downhole(args: argparse.Namespace) -> int:
         outputs.prepare(direct=total == 1 and len(inputs) == 1)
     printer.start(info)
     counts: collections.Counter[str] = collections.Counter()
+    outcomes: collections.Counter[str] = collections.Counter()
+    identified: collections.Counter[str] = collections.Counter()
     interrupted = False
     try:
         for path, cards in inputs:
             if isinstance(cards, CardError):
                 counts["invalid-input"] += 1
+                outcomes["invalid-input"] += 1
                 printer.file_failed(path, str(cards))
                 continue
             for chunk in _chunks(cards):
                 interrupts.check()
-                for res in diagnose_cards(chunk, wells, **opts):
-                    counts[res.status] += 1
+                for res in _cards(chunk, wells, opts, identify, skipped):
+                    counts[res.downhole.status] += 1
+                    outcomes[res.outcome] += 1
+                    if res.fit is not None:
+                        identified[res.fit.status] += 1
                     if outputs is not None:
                         outputs.write(res)
                     printer.row(res)
@@ -300,6 +387,7 @@ def cmd_downhole(args: argparse.Namespace) -> int:
         if outputs is not None:
             outputs.finish()
         summary = {"cards": sum(counts.values()), "status": dict(sorted(counts.items())),
+                   "identified": dict(sorted(identified.items())) if identify else None,
                    "interrupted": interrupted, "output": args.out, **info,
                    "load_convention": args.convention}
         printer.finish(counts, summary)
@@ -308,12 +396,9 @@ def cmd_downhole(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     if outputs is not None and outputs.failed:
         return EXIT_OUTPUT
-    done = counts["computed"]
-    if done and done == sum(counts.values()):
-        return EXIT_OK
-    if done == 0 and counts["failed"] == 0:
-        return EXIT_USAGE
-    return EXIT_NOT_FITTED
+    # As every command's: each card counts by its identification's status (a card not
+    # identified on request counts as fitted), or by its diagnostic's when not computed.
+    return exit_status(outcomes)
 
 
 def register(subparsers: Any) -> argparse.ArgumentParser:
@@ -323,8 +408,12 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
         description="Compute the downhole (pump) card of every surface card with the damped "
                     "wave equation of the tapered rod string, and its pump quantities "
                     "(gross and net stroke, fluid load, fillage, displacement, intake "
-                    "pressure). Exit status: 0 all computed, 2 bad options or nothing "
-                    "computable, 3 some cards not computed, 4 outputs not written, 130 "
+                    "pressure); by default the pump is also identified by fitting the rod "
+                    "string and valve pump to the surface card, which gives each quantity "
+                    "with its error and chooses the damping. Exit status: 0 all computed "
+                    "and identified, 2 bad options or nothing computable, 3 some cards not "
+                    "computed or their identification failed, 4 outputs not written, 5 "
+                    "some identifications poor (R^2 below 0.95), 6 some undetermined, 130 "
                     "interrupted.")
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="card files (CSV/TSV, SCADA export, JSON, table, .ts)")
@@ -332,8 +421,13 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                    help="well file: rod tapers, pump, tubing, fluid (see README); one well "
                         "applies to every card, several are matched by the cards' well ids")
     p.add_argument("--damping", type=float, metavar="NU",
-                   help="Gibbs' dimensionless damping factor, c = pi NU / (2 sum L_i/a_i); 0 "
-                        f"is undamped (default {DEFAULT_DAMPING:g} for every well)")
+                   help="Gibbs' dimensionless damping factor, c = pi NU / (2 sum L_i/a_i), "
+                        "held at NU in the identification (default: identified from each "
+                        f"card; {DEFAULT_DAMPING:g} where not identified); 0 is undamped and "
+                        "gives the diagnostic pump card only")
+    p.add_argument("--no-identify", action="store_true",
+                   help="the diagnostic pump card only (no fit of the rod string and pump: "
+                        "no errors, damping by the default rule or --damping)")
     p.add_argument("--harmonics", type=int, metavar="N",
                    help="highest harmonic of the Fourier method (default: all the card's "
                         "samples resolve; 10-25 smooth the pump card as vendors do)")

@@ -2,10 +2,16 @@
 
 The page holds the run's options, a table of every card with its pump quantities, and per
 card the surface card beside the pump card (a PNG embedded as base64), the pump quantities
-with their units and the notes; a card that could not be computed shows why. Every text
-from the cards or the well file is HTML-escaped. Figures are drawn as the cards arrive and
-only their PNG bytes are kept, so memory stays small; beyond ``max_figures`` cards the page
-lists the rest in its table only (and says so).
+with their units and the notes; a card that could not be computed shows why.
+
+Where the pump was also identified (the rod string and valve pump fitted to the surface
+card), the caller gives that as plain data (``extra``: the quantities with their errors, the
+damping and its rule, the fit's R^2 and residual autocorrelation, the identification's status,
+parameters, identifiability and warnings) with its own figure; this layer knows no pump model.
+
+Every text from the cards or the well file is HTML-escaped. Figures are drawn as the cards
+arrive and only their PNG bytes are kept, so memory stays small; beyond ``max_figures`` cards
+the page lists the rest in its table only (and says so).
 """
 
 from __future__ import annotations
@@ -37,7 +43,8 @@ h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em;
 table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.92em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; vertical-align: top; }
 th { background: #f0f3f7; text-align: left; }
-td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace; }
+td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace;
+         white-space: nowrap; }
 .status-computed { color: #176a2c; font-weight: bold; }
 .status-invalid-input, .status-failed { color: #b00020; font-weight: bold; }
 figure { margin: 0.8em 0; } figure img { max-width: 100%; border: 1px solid #ddd; }
@@ -68,6 +75,8 @@ class _Entry:
     notes: tuple[str, ...]
     caption: str = ""
     png: bytes | None = None
+    extra: Mapping[str, Any] | None = None
+    diagnostic: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 @dataclass
@@ -87,22 +96,43 @@ class DownholeReport:
     max_figures: int = 200
     entries: list[_Entry] = field(default_factory=list)
 
-    def add(self, result: DownholeResult) -> None:
-        """Add one card's result (drawn now if computed and within ``max_figures``)."""
+    def add(self, result: DownholeResult, extra: Mapping[str, Any] | None = None,
+            png: bytes | None = None) -> None:
+        """Add one card's result (drawn if computed and within ``max_figures``).
+
+        Parameters
+        ----------
+        result : DownholeResult
+            The diagnostic pump card shown.
+        extra : mapping, optional
+            The identification as plain data: ``pump`` (each quantity ``{"value", "stderr",
+            "unit"}``, the ones shown), ``damping`` (``{"value", "stderr", "unit", "rule"}``),
+            ``r2``, ``residual_autocorrelation``, ``identification`` (``status``, ``reason``,
+            ``used``, ``parameters``, ``agreement``, ``energy``, ``identifiability``,
+            ``warnings``, ``notes``, or None when not run) and ``skipped`` (why not run).
+        png : bytes, optional
+            The card's figure, already drawn; else the surface card beside the pump card is
+            drawn here.
+        """
         card = result.card
         well = card.well_id if card.well_id is not None else (
             result.well.well_id if result.well is not None else "")
+        quantities = result.quantities()
+        if extra is not None and extra.get("pump"):
+            quantities = {**quantities, **extra["pump"]}
         entry = _Entry(card_id=str(card.card_id), well=str(well or ""),
                        source=str(card.source or ""), status=result.status,
-                       reason=result.reason, quantities=result.quantities(),
-                       notes=result.notes)
+                       reason=result.reason, quantities=quantities,
+                       notes=result.notes, extra=extra, diagnostic=result.quantities())
         drawn = sum(e.png is not None for e in self.entries)
         if result.ok and drawn < self.max_figures:
-            buf = io.BytesIO()
-            draw_cards(result, buf)
-            entry.png = buf.getvalue()
+            if png is None:
+                buf = io.BytesIO()
+                draw_cards(result, buf)
+                png = buf.getvalue()
+            entry.png = png
             entry.caption = (f"{result.convention} pump load, {result.method} method, "
-                             f"damping nu = {result.damping:g}, "
+                             f"damping nu = {result.damping:.4g}, "
                              f"{'reversed time order, ' if result.reversed else ''}"
                              f"well {result.well.well_id if result.well else '?'}")
         self.entries.append(entry)
@@ -139,16 +169,24 @@ class DownholeReport:
             for name, q in e.quantities.items():
                 units.setdefault(name, str(q["unit"]))
         names = [n for n, _ in _SHOWN if n in units] or [n for n, _ in _SHOWN]
-        head = ["card", "well", "status"] + [
+        fits = any(e.extra is not None and e.extra.get("identification") for e in self.entries)
+        head = ["card", "well", "status"] + (
+            ["identification", "R&sup2;", "damping nu"] if fits else []) + [
             f"{dict(_SHOWN)[n]} [{_e(units.get(n, ''))}]" for n in names]
         rows = []
         for k, e in enumerate(self.entries):
             cells = [f'<td><a href="#card-{k}">{_e(e.card_id)}</a></td>', f"<td>{_e(e.well)}</td>",
                      f'<td class="status-{_e(e.status)}">{_e(e.status)}</td>']
+            if fits:
+                extra = e.extra or {}
+                ident = extra.get("identification") or {}
+                damping = extra.get("damping") or {}
+                cells += [f"<td>{_e(ident.get('status', 'not run'))}</td>",
+                          f'<td class="num">{_e(_num(extra.get("r2")))}</td>',
+                          f'<td class="num">{_e(_pm(damping))}</td>']
             for n in names:
                 q = e.quantities.get(n)
-                value = None if q is None else q["value"]
-                text = _num(value)
+                text = "n/a" if q is None else _pm(q)
                 if q is not None and units.get(n) != q["unit"] and text != "n/a":
                     text += f" {q['unit']}"  # another card's unit: said beside the value
                 cells.append(f'<td class="num">{_e(text)}</td>')
@@ -162,22 +200,127 @@ class DownholeReport:
                f'<span class="status-{_e(e.status)}">{_e(e.status)}</span></p>']
         if e.status != "computed":
             out.append(f"<p>Not computed: {_e(e.reason)}</p>")
-        out.append('<div class="card">')
+        extra = e.extra or {}
+        ident = extra.get("identification") or {}
+        fitted = "parameters" in ident
+        if e.status == "computed":
+            out.append(_identification_said(extra, ident))
         if e.png is not None:
             data = base64.b64encode(e.png).decode("ascii")
+            if fitted:
+                caption = ("Top left: the surface card as measured (black) and as the fitted "
+                           "rod string and pump predict it (orange, dashed); top right: "
+                           "measured minus fitted load over the stroke; bottom left: the "
+                           f"diagnostic pump card ({_e(e.caption)}), dashed: its load lines; "
+                           "bottom right: the identified pump card (green) over the "
+                           "diagnostic one (faint blue)"
+                           + (", red: the identified load transfer point." if ident.get("used")
+                              else "."))
+            else:
+                caption = (f"Left: the surface card as measured; right: the pump card "
+                           f"({_e(e.caption)}); dashed: the load lines; red: the load "
+                           "transfer point.")
             out.append(f'<figure><img src="data:image/png;base64,{data}" alt="surface card '
-                       f'and pump card of card {_e(e.card_id)}"><figcaption>Left: the surface '
-                       f"card as measured; right: the pump card ({_e(e.caption)}); dashed: "
-                       "the load lines; red: the load transfer point.</figcaption></figure>")
+                       f'and pump card of card {_e(e.card_id)}"><figcaption>{caption}'
+                       "</figcaption></figure>")
+        out.append('<div class="card">')
         if e.quantities:
-            rows = "".join(
-                f'<tr><td>{_e(label)}</td><td class="num">{_e(_num(e.quantities[n]["value"]))}'
-                f'</td><td>{_e(e.quantities[n]["unit"])}</td></tr>'
-                for n, label in _SHOWN if n in e.quantities)
-            out.append("<table><tr><th>pump quantity</th><th>value</th><th>unit</th></tr>"
-                       f"{rows}</table>")
+            out.append(self._quantity_table(e, extra))
+        if fitted:
+            out.append(_parameter_table(ident))
         out.append("</div>")
-        if e.notes:
+        for title, key in (("What the card cannot tell", "identifiability"),
+                           ("Warnings of the identification", "warnings")):
+            if ident.get(key):
+                out.append(f'<h3>{title}</h3><ul class="notes">' + "".join(
+                    f"<li>{_e(n)}</li>" for n in ident[key]) + "</ul>")
+        notes = list(dict.fromkeys([*e.notes, *(ident.get("notes") or [])]))
+        if notes:
             out.append("<h3>Notes</h3><ul class=\"notes\">" + "".join(
-                f"<li>{_e(n)}</li>" for n in e.notes) + "</ul>")
+                f"<li>{_e(n)}</li>" for n in notes) + "</ul>")
         return "\n".join(out)
+
+    @staticmethod
+    def _quantity_table(e: _Entry, extra: Mapping[str, Any]) -> str:
+        ident = extra.get("identification") or {}
+        fitted = bool(ident.get("pump"))
+        if not fitted:
+            rows = "".join(
+                f'<tr><td>{_e(label)}</td><td class="num">{_e(_pm(e.quantities[n]))}</td>'
+                f'<td>{_e(e.quantities[n]["unit"])}</td></tr>'
+                for n, label in _SHOWN if n in e.quantities)
+            damping = extra.get("damping")
+            if damping:
+                rows += (f'<tr><td>damping nu (Gibbs)</td><td class="num">{_e(_pm(damping))}'
+                         "</td><td>dimensionless</td></tr>")
+            return ("<table><tr><th>pump quantity</th><th>value</th><th>unit</th></tr>"
+                    f"{rows}</table>")
+        # Both cards side by side; the column the outputs use is marked.
+        used = bool(ident.get("used"))
+        mark = ' <span class="muted">(used)</span>'
+        head = ("<tr><th>pump quantity</th><th>identified &plusmn; standard error"
+                f"{mark if used else ''}</th><th>diagnostic pump card"
+                f"{'' if used else mark}</th><th>unit</th></tr>")
+        rows = []
+        for n, label in _SHOWN:
+            d = e.diagnostic.get(n)
+            q = ident["pump"].get(n)
+            if d is None and q is None:
+                continue
+            unit = (q or d or {}).get("unit", "")
+            rows.append(f'<tr><td>{_e(label)}</td><td class="num">'
+                        f'{_e("" if q is None else _pm(q))}</td><td class="num">'
+                        f'{_e(_num(None if d is None else d["value"]))}</td>'
+                        f"<td>{_e(unit)}</td></tr>")
+        fitted_nu = (ident.get("parameters") or {}).get("damping") or {}
+        nu = (extra.get("damping") or {}).get("value")
+        rows.append(f'<tr><td>damping nu (Gibbs)</td><td class="num">{_e(_pm(fitted_nu))}</td>'
+                    f'<td class="num">{_e(_num(nu))}</td><td>dimensionless</td></tr>')
+        return f"<table>{head}{''.join(rows)}</table>"
+
+
+def _pm(q: Mapping[str, Any]) -> str:
+    """``value +- standard error`` (the error left out when there is none)."""
+    text = _num(q.get("value"))
+    se = q.get("stderr")
+    if text != "n/a" and se is not None and math.isfinite(float(se)):
+        text += f" \u00b1 {float(se):.2g}"
+    return text
+
+
+def _identification_said(extra: Mapping[str, Any], ident: Mapping[str, Any]) -> str:
+    """The identification's outcome in one paragraph: status, R^2, residual autocorrelation,
+    damping and its rule, agreement with the diagnostic card, the energy balance."""
+    damping = extra.get("damping") or {}
+    rule = f"damping nu = {_pm(damping)} ({damping.get('rule', '')})" if damping else ""
+    if not ident:
+        why = extra.get("skipped") or "not run"
+        return f"<p>Pump not identified ({_e(why)}); {_e(rule)}.</p>"
+    words = [f"identification <b>{_e(ident.get('status'))}</b>"]
+    if not ident.get("used"):
+        words.append(f"not used ({_e(ident.get('reason'))}): the outputs give the diagnostic "
+                     "pump card's quantities, without errors")
+    if extra.get("r2") is not None:
+        words.append(f"surface-load fit R&sup2; {_e(_num(extra['r2']))}, residual lag-1 "
+                     f"autocorrelation {_e(_num(extra.get('residual_autocorrelation')))}")
+    words.append(_e(rule))
+    agreement = ident.get("agreement")
+    if agreement is not None:
+        words.append(f"fitted and diagnostic pump cards differ by RMS "
+                     f"{_e(f'{100 * agreement:.2f}')} % of the load range (after a constant)")
+    energy = ident.get("energy") or {}
+    if energy.get("surface_work") is not None and energy.get("pump_work") is not None:
+        loss = energy.get("string_loss")
+        words.append(f"work per stroke: surface {_e(_num(energy['surface_work']))}, pump "
+                     f"{_e(_num(energy['pump_work']))} {_e(energy.get('unit', ''))}"
+                     + ("" if loss is None else f", lost in the string {100 * loss:.0f} %"))
+    return "<p>" + "; ".join(words) + ".</p>"
+
+
+def _parameter_table(ident: Mapping[str, Any]) -> str:
+    rows = "".join(
+        f'<tr><td>{_e(name)}</td><td class="num">{_e(_pm(p))}</td><td>{_e(p.get("unit"))}</td>'
+        f"<td>{'yes' if p.get('determined') else 'no'}</td></tr>"
+        for name, p in (ident.get("parameters") or {}).items())
+    return ("<table><tr><th>fitted parameter</th><th>value &plusmn; standard error</th>"
+            f"<th>unit</th><th>determined</th></tr>{rows}</table>")
