@@ -141,3 +141,18 @@ def test_model_sensitivities_match_central_differences(made) -> None:
         bad = values.copy()
         bad[3] = 1.5
         model.simulate(bad, None, False)
+
+
+def test_damping_error_belongs_to_the_fitted_value_only(made) -> None:
+    well, pred, _fluid, _fits = made
+    s = surface_motion(n=200, period=60 / SPM)
+    # A full-pump card reversed and shifted half a stroke: no pump fits it well.
+    load = np.roll((pred.surface_load[0] + well.buoyant_weight())[::-1], -60)
+    got = identify_card(card(s, load, SPM), well)
+    assert got.ok and got.status == "poor-fit"
+    assert got.damping()["value"] != got.fit.params["damping"]
+    assert got.damping()["stderr"] is None
+    assert got.damping()["rule"].startswith("default rule")
+    held = identify_card(made[3][1].card, well, damping=0.15)
+    assert held.damping() == {"value": 0.15, "stderr": None, "unit": held.damping()["unit"],
+                              "rule": "given: nu = 0.15"}

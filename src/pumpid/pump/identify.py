@@ -125,13 +125,12 @@ class PumpFit:
     def damping(self) -> dict[str, Any]:
         """The damping used, ``{"value", "stderr", "unit", "rule"}`` (stderr None when given
         or not identified)."""
-        if self.downhole is not None:
-            value = self.downhole.damping
-        elif self.fit is not None:
-            value = self.fit.params["damping"]
-        else:
-            value = math.nan
-        se = _stderr(self.fit, "damping") if self.fit is not None else math.nan
+        fitted = self.fit.params["damping"] if self.fit is not None else math.nan
+        value = self.downhole.damping if self.downhole is not None else fitted
+        # The fit's error belongs to the fitted value only: not to a default rule's value
+        # used instead, nor to a damping held in the fit.
+        held = self.fit is not None and "damping" not in self.fit.free
+        se = (_stderr(self.fit, "damping") if value == fitted and not held else math.nan)
         return {"value": _num(value), "stderr": _num(se), "unit": _DAMPING_UNIT,
                 "rule": self.damping_rule}
 
