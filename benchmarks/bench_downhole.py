@@ -135,6 +135,9 @@ def main() -> None:
     ]
     pump = PumpModel(fluid_load=18000.0, fillage=np.array([1.0, 0.9, 0.7, 0.5, 0.7]),
                      intake_ratio=np.array([0.01, 0.01, 0.01, 0.01, 0.3]), transfer=0.05)
+    # Once first: the compiled march is loaded from its cache (or compiled) on first use.
+    predict_surface(wells[0], y[:1], float(period[0]), PumpModel(fluid_load=18000.0), nu=0.1,
+                    tol=1e-6)
     start = time.perf_counter()
     pred = predict_surface(wells[0], np.repeat(y[:1], 5, 0), float(period[0]), pump,
                            nu=0.1, tol=1e-6)
