@@ -141,7 +141,7 @@ def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: i
         rows[i] = _card_row(items[i], got.result, got.reason, status, cls,  # type: ignore[arg-type]
                             spec)
     if downhole is not None:  # the pump quantities (pumpid.fleet.downhole)
-        add_pump_columns(items, rows, downhole)
+        add_pump_columns(items, rows, downhole, threads=threads)
     out: list[dict[str, Any]] = []
     for i, row in enumerate(rows):
         assert row is not None
@@ -326,7 +326,7 @@ def run_batch(
         raise
     schema = results_schema(fit.model_classes())
     if downhole is not None:
-        schema = pump_schema(schema)
+        schema = pump_schema(schema, identify=downhole.identify)
     summary = BatchSummary(results=folder)
     summary.engine = runner.description
     started = time.monotonic()
