@@ -112,3 +112,17 @@ def test_both_changes_alerted_and_the_steady_wells_not(identified, tmp_path: Pat
     assert set(shown.loc[shown["quantity"].str.startswith("pump_"), "well_id"]) == {
         "P002", "P003"}
     assert "pump_fluid_load" in Path(paths["report"]).read_text(encoding="utf-8")
+
+
+def test_identify_options_checked_and_old_manifests_read(tmp_path: Path) -> None:
+    from pumpid.fleet.pumpfield import write_well_file
+
+    wells = write_well_file(tmp_path / "wells.json", ["W"])
+    with pytest.raises(ValueError, match="--no-identify"):
+        DownholeSpec.load(wells, damping=0.0)  # undamped cannot be held in the fit
+    assert DownholeSpec.load(wells, damping=0.0, identify=False).damping == 0.0
+    spec = DownholeSpec.load(wells, damping=0.2)
+    assert DownholeSpec.from_dict(spec.to_dict()) == spec
+    # a manifest written before identification existed: its run was diagnostic only
+    old = {k: v for k, v in spec.to_dict().items() if k != "identify"}
+    assert DownholeSpec.from_dict(old).identify is False
