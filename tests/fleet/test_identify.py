@@ -88,6 +88,10 @@ def test_resume_is_exact_and_keeps_the_identification(identified, tmp_path: Path
                   downhole=DownholeSpec.load(root / "wells.json", identify=False))
     summary = run_batch([], out, resume=True)  # the run's own options: identification
     assert (summary.fitted, summary.skipped) == (1, 4 * CARDS)
+    # the summary counts the identification's statuses, earlier partitions' included
+    assert summary.pump_statuses["invalid-input"] == 1
+    assert sum(summary.pump_statuses.values()) == 4 * CARDS + 1
+    assert "pumps identified, cards per status: " in summary.text()
     pd.testing.assert_frame_equal(read_results(out), table)
 
 
