@@ -37,7 +37,9 @@ $(TSTAMP): $(STAMP)
 install: $(STAMP)
 
 # The single-card report, then the fleet job: a small synthetic field (the project's own
-# generator, one well that changes), `pumpid batch` over it, the fleet report beside.
+# generator, one well that changes), `pumpid batch` over it, the fleet report beside; then
+# a small pump field (one well starting to pound, one with a leaking valve) batched with its
+# well file, each card's pump identified, and its fleet report.
 demo: $(STAMP)
 	$(VENV)/bin/pumpid demo --out demo-output
 	rm -rf demo-output/fleet
@@ -47,6 +49,13 @@ demo: $(STAMP)
 	$(VENV)/bin/pumpid batch demo-output/fleet/field --out demo-output/fleet/results --observe u; \
 	  code=$$?; case $$code in 0|3|5|6) ;; *) exit $$code ;; esac
 	$(VENV)/bin/pumpid report demo-output/fleet/results --out demo-output/fleet
+	@# The pump field (four rod-pumped wells, 64 cards, each card's pump identified: about a
+	@# minute): its own run, since the Kelvin field's wells have no rod string to describe.
+	$(PY) -m pumpid.fleet.demo --pumps demo-output/fleet/pumps/field
+	$(VENV)/bin/pumpid batch demo-output/fleet/pumps/field --well-file \
+	  demo-output/fleet/pumps/wells.json --model msd --out demo-output/fleet/pumps/results; \
+	  code=$$?; case $$code in 0|3|5|6) ;; *) exit $$code ;; esac
+	$(VENV)/bin/pumpid report demo-output/fleet/pumps/results --out demo-output/fleet/pumps
 
 lint: $(TSTAMP)
 	$(PY) -m ruff check src tests scripts benchmarks

@@ -101,7 +101,7 @@ def main() -> None:
         print(f"field: {total} cards of 100 samples, {args.wells} wells "
               f"(made in {time.perf_counter() - t0:.1f} s)")
         fit = FitSpec("msd")
-        spec = DownholeSpec.load(wells)
+        spec = DownholeSpec.load(wells, identify=False)  # the diagnostic's cost alone
         # warm-up: compiled code and imports, not timed
         run_batch([root / "field" / "W00.json"], root / "warm", fit=fit, downhole=spec)
         times: dict[str, list[float]] = {"without --well-file": [], "with --well-file": []}

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
 from pumpid.fleet import FitSpec, read_results, run_batch, write_fleet_report
-from pumpid.fleet.demo import DEMO_FIELD, main
+from pumpid.fleet.demo import DEMO_FIELD, DEMO_PUMP_FIELD, PUMP_CHANGE_AT, main
 
 
 @pytest.mark.slow
@@ -43,3 +44,19 @@ def test_demo_words_agree_with_its_truth_table(tmp_path: Path, capsys) -> None:
     assert first["card_index"] == DEMO_FIELD["change"].at
     assert (f"well {first['well_id']}'s k1 rises by 30% from card_index "
             f"{first['card_index']} of the truth table (card {first['card_id']}") in out
+
+
+def test_pump_demo_words_agree_with_its_truth_table(tmp_path: Path, capsys) -> None:
+    assert main(["--pumps", str(tmp_path / "pumps" / "field")]) == 0
+    out = capsys.readouterr().out
+    truth = pd.read_csv(tmp_path / "pumps" / "truth.csv")
+    assert len(truth) == 4 * DEMO_PUMP_FIELD["cards"]
+    assert (tmp_path / "pumps" / "wells.json").exists()
+    changed = truth[truth["changed"]]
+    assert set(changed["well_id"]) == {"P002", "P003"}
+    assert changed["card_index"].min() == PUMP_CHANGE_AT
+    assert f"{len(truth)} cards of 4 wells" in out
+    assert "well P002: fillage 1.00 -> 0.75 (fraction) from card_index 12" in out
+    drop = re.search(r"well P003: fluid load \d+ -> \d+ lbf \(([-+]\d+)%\) from card_index 12",
+                     out)
+    assert drop is not None and -22 <= int(drop.group(1)) <= -15  # -18 % and the scatter

@@ -42,7 +42,7 @@ def pump_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, pd.DataFra
     # The fits are not what is tested here: few evaluations keep the run short.
     run_batch([root / "field"], out, fit=FitSpec("msd", options={"max_nfev": 20}),
               partition_size=40,
-              downhole=DownholeSpec.load(wells), csv=root / "results.csv")
+              downhole=DownholeSpec.load(wells, identify=False), csv=root / "results.csv")
     return root, truth, read_results(out)
 
 
@@ -87,7 +87,7 @@ def test_a_one_well_file_applies_to_every_card(pump_run, tmp_path: Path) -> None
         root / "field" / "POUND.json")[:2]
     items = [CardItem(c, c.card_id, "s", "f") for c in cards]
     rows: list = [{"warnings": ""} for _ in items]
-    add_pump_columns(items, rows, DownholeSpec.load(one))
+    add_pump_columns(items, rows, DownholeSpec.load(one, identify=False))
     assert [r["downhole_status"] for r in rows] == ["computed"] * 3
     assert {r["downhole_well"] for r in rows} == {"ANY"}
     assert "differs from the well file's only well" in rows[0]["downhole_notes"]
@@ -141,11 +141,12 @@ def test_resume_keeps_the_runs_well_file_and_refuses_another(pump_run, tmp_path:
     first = write_well_file(tmp_path / "first.json", ["ELSEWHERE"])
     out = tmp_path / "r"
     fit = FitSpec("msd", options={"max_nfev": 5})
-    run_batch([card], out, fit=fit, downhole=DownholeSpec.load(first))
+    run_batch([card], out, fit=fit, downhole=DownholeSpec.load(first, identify=False))
     # resumed without the option: the run's own well file, nothing refused
     run_batch([card], out, resume=True)
     assert read_results(out)["downhole_status"].tolist() == ["computed"]
     # the same path with other wells in it: refused (its checksum is in the manifest)
     write_well_file(first, ["ELSEWHERE", "OTHER"])
     with pytest.raises(ResultsFolderError):
-        run_batch([card], out, resume=True, downhole=DownholeSpec.load(first))
+        run_batch([card], out, resume=True,
+                  downhole=DownholeSpec.load(first, identify=False))

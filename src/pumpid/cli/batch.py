@@ -101,11 +101,12 @@ def _csv_path(args: argparse.Namespace) -> Path | None:
 def _downhole(args: argparse.Namespace) -> Any:
     """The pump quantities' options (pumpid.fleet.downhole), or None."""
     if args.well_file is None:
-        if args.damping is not None or args.harmonics is not None:
-            raise ValueError("--damping and --harmonics need --well-file")
+        if args.damping is not None or args.harmonics is not None or args.no_identify:
+            raise ValueError("--damping, --harmonics and --no-identify need --well-file")
         return None
     from ..fleet.downhole import DownholeSpec
-    return DownholeSpec.load(args.well_file, damping=args.damping, harmonics=args.harmonics)
+    return DownholeSpec.load(args.well_file, damping=args.damping, harmonics=args.harmonics,
+                             identify=not args.no_identify)
 
 
 def _check_csv(path: Path | None) -> None:
@@ -237,14 +238,20 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     ft = p.add_argument_group(
         "fitting (as pumpid fit; with --resume, options not given are the run's own)")
     add_fit_options(ft, sorted(MODELS))
-    dh = p.add_argument_group("pump quantities (the downhole card of each card)")
+    dh = p.add_argument_group("pump quantities (the pump identified from each card, and its "
+                              "downhole card)")
     dh.add_argument("--well-file", metavar="WELLS.json",
-                    help="well file (as pumpid downhole --well): add the pump quantities as "
-                         "columns; one well applies to every card, several are matched by "
-                         "well id (with --resume: the run's own if not given)")
+                    help="well file (as pumpid downhole --well): add the pump quantities, "
+                         "identified with their errors, as columns; one well applies to "
+                         "every card, several are matched by well id (with --resume: the "
+                         "run's own if not given)")
     dh.add_argument("--damping", type=float, metavar="NU",
-                    help="Gibbs' dimensionless damping factor (default: pumpid downhole's "
-                         "rule)")
+                    help="Gibbs' dimensionless damping factor, held in the identification "
+                         "(default: identified from each card; with --no-identify, "
+                         "pumpid downhole's rule)")
+    dh.add_argument("--no-identify", action="store_true",
+                    help="do not identify the pump from each card (about half a second a "
+                         "card): the diagnostic pump card's quantities only")
     dh.add_argument("--harmonics", type=int, metavar="N",
                     help="highest harmonic of the Fourier method (default: all)")
     p.set_defaults(func=cmd_batch)

@@ -141,7 +141,7 @@ def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: i
         rows[i] = _card_row(items[i], got.result, got.reason, status, cls,  # type: ignore[arg-type]
                             spec)
     if downhole is not None:  # the pump quantities (pumpid.fleet.downhole)
-        add_pump_columns(items, rows, downhole)
+        add_pump_columns(items, rows, downhole, threads=threads)
     out: list[dict[str, Any]] = []
     for i, row in enumerate(rows):
         assert row is not None
@@ -326,7 +326,7 @@ def run_batch(
         raise
     schema = results_schema(fit.model_classes())
     if downhole is not None:
-        schema = pump_schema(schema)
+        schema = pump_schema(schema, identify=downhole.identify)
     summary = BatchSummary(results=folder)
     summary.engine = runner.description
     started = time.monotonic()
@@ -346,7 +346,7 @@ def run_batch(
             for k, first, items in _partitions(stream, partition_size):
                 n_parts = k + 1
                 interrupts.check()
-                if _already_written(store, k, items, summary, progress):
+                if _already_written(store, k, items, summary, progress, schema):
                     duplicates.forget(first, len(items))
                     continue
                 while len(pending) >= runner.capacity:
@@ -379,7 +379,7 @@ def run_batch(
 
 
 def _already_written(store: ResultsStore, k: int, items: list[CardItem | BadItem],
-                     summary: BatchSummary, progress: Progress) -> bool:
+                     summary: BatchSummary, progress: Progress, schema: pa.Schema) -> bool:
     """Whether partition ``k`` was written by an earlier run (checked to hold these cards)."""
     info = store.part_info(k)
     if info is None:
@@ -390,8 +390,9 @@ def _already_written(store: ResultsStore, k: int, items: list[CardItem | BadItem
             f"{store.part_path(k)} holds {info.rows} rows from {info.first!r} to {info.last!r}, "
             f"but the inputs give partition {k} as {want[0]} cards from {want[1]!r} to "
             f"{want[2]!r}; the folder is not from these inputs")
-    summary.add(store.read_part(k, ["card_id", "status", "reason", "nfev", "n_samples",
-                                    "duplicate_of"]))
+    counted = ["card_id", "status", "reason", "nfev", "n_samples", "duplicate_of"]
+    summary.add(store.read_part(k, counted + [c for c in ("identify_status",)
+                                              if c in schema.names]))
     summary.skipped += info.rows
     progress.advance(info.rows, skipped=True)
     return True

@@ -1,37 +1,68 @@
 """Pump quantities in the fleet's results: ``pumpid batch --well-file`` and their trends.
 
-With a well file, each partition of a batch run also computes the downhole (pump) card of
-every readable card in one call of :func:`pumpid.rods.diagnose_cards` (the partition's
-cards batched, as the fit is) and adds its pump quantities to the card's row, each with its
-unit:
+With a well file, each partition of a batch run also works out the pump of every readable
+card and adds it to the card's row. By default the pump is **identified** from the card
+(:func:`pumpid.pump.identify_cards`: the rod string and a valve pump fitted to the whole
+surface card, damping included); with ``identify=False`` (``--no-identify``) only the
+diagnostic pump card is computed (:func:`pumpid.rods.diagnose_cards`, the partition's cards
+batched), at the given damping or the default rule, as before identification existed.
+
+Columns in both modes:
 
 ``downhole_status``, ``downhole_reason``
     ``computed``, ``invalid-input`` (no unit, no time, a well not in the file, ...) or
-    ``failed``, and why. A card whose downhole card cannot be computed keeps its row (the
-    fit's columns are unaffected); its pump columns are null and the reason is also added
-    to its ``warnings``.
+    ``failed``, and why, for the diagnostic pump card. A card whose pump cannot be worked
+    out keeps its row (the fit's columns are unaffected); its pump columns are null and
+    the reason is also added to its ``warnings``.
 ``downhole_well``, ``downhole_method``, ``downhole_damping``, ``downhole_reversed``,
 ``downhole_notes``
     The well the card was computed with, the method, Gibbs' dimensionless damping factor
-    used, whether the card was stored in reverse time order, and everything assumed or
-    noticed (`` | ``-separated).
+    of the diagnostic pump card, whether the card was stored in reverse time order, and
+    everything assumed or noticed (`` | ``-separated).
 ``pump_<name>``, ``pump_<name>_unit``
     For each of :data:`PUMP_QUANTITIES`: the value in the unit of the next column (lengths
     and loads in the card's units, fillage as a fraction, displacement in bbl/d or m3/d and
-    intake pressure in psi or kPa by the well file's unit system).
+    intake pressure in psi or kPa by the well file's unit system). Without identification,
+    measured on the diagnostic pump card; with it, see below.
+
+Columns added by the identification:
+
+``identify_status``, ``identify_reason``
+    The system model fit's status (``converged``, ``boundary``, ``poor-fit``, ...,
+    ``failed``, ``invalid-input``) and why. A card whose identification failed (status
+    ``failed`` or ``invalid-input``) keeps its row: its identified columns are null, the
+    reason is added to its ``warnings``, and its diagnostic columns are computed at the
+    default (or given) damping.
+``pump_<name>``, ``pump_<name>_se``
+    For each of :data:`IDENTIFIED`: the identified value and its standard error (the
+    autocorrelation-robust one where the residuals are serially correlated), in the unit
+    of ``pump_<name>_unit``. The load lines (``pump_upper_load_line``,
+    ``pump_lower_load_line``) are the diagnostic card's ingredients of the fluid load and
+    have no identified counterpart: null.
+``downhole_<name>``
+    For each of :data:`PUMP_QUANTITIES`: the value measured on the diagnostic pump card
+    computed at ``downhole_damping`` (the identified damping when the identification
+    succeeded), in the unit of ``pump_<name>_unit``.
+``pump_damping``, ``pump_damping_se``, ``pump_damping_rule``
+    Gibbs' dimensionless damping factor identified (or held at ``--damping``), its
+    standard error, and in words which damping the diagnostic card used and why.
+``pump_r2``, ``pump_residual_rho``
+    The surface-load fit's R^2 and its residuals' lag-1 autocorrelation.
 
 A one-well file applies to every card; otherwise a card is matched to its well by its well
 id (:meth:`pumpid.rods.WellFile.for_card`).
 
 The change detector and the fleet report (:mod:`pumpid.fleet.changes`,
 :mod:`pumpid.fleet.report`) trend the pump quantities of :data:`TRENDED` by their column
-name (``pump_fillage``): a card counts when its downhole card was computed, whatever its
-model fit's status.
+name (``pump_fillage``), with their standard errors where the table has them: a card
+counts when its pump was identified (status in :data:`IDENTIFIED_USABLE`), or without
+identification when its downhole card was computed, whatever its model fit's status.
 """
 
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -42,22 +73,34 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from pumpid.rods import WellFile, diagnose_cards, read_well_file
+from pumpid.engine.threads import run_chunks
+from pumpid.pump import PumpFit, identify_cards
+from pumpid.pump.identify import SHOWN
+from pumpid.rods import DownholeResult, WellFile, diagnose_cards, read_well_file
 
 from .inputs import BadItem, CardItem
 
-__all__ = ["PUMP_PREFIX", "PUMP_QUANTITIES", "TRENDED", "DownholeSpec", "add_pump_columns",
-           "is_pump_quantity", "pump_quantities", "pump_schema", "pump_usable"]
+__all__ = ["IDENTIFIED", "IDENTIFIED_USABLE", "PUMP_PREFIX", "PUMP_QUANTITIES", "TRENDED",
+           "DownholeSpec", "add_pump_columns", "is_pump_quantity", "pump_quantities",
+           "pump_schema", "pump_usable"]
 
 #: Prefix of the pump quantities' columns (and of their names in the change detector).
 PUMP_PREFIX = "pump_"
 #: The pump quantities of a results row, in column order (:meth:`DownholeResult.quantities`).
 PUMP_QUANTITIES = ("gross_stroke", "net_stroke", "fluid_load", "fillage", "upper_load_line",
                    "lower_load_line", "displacement", "intake_pressure")
+#: Those the identification gives with a standard error (:meth:`PumpFit.quantities`).
+IDENTIFIED = tuple(q for q in PUMP_QUANTITIES if q in SHOWN)
+#: Identification statuses whose quantities are written and trended (as the fleet trends
+#: the fits of the lumped models: a poor fit still says where the pump is).
+IDENTIFIED_USABLE = ("converged", "boundary", "undetermined", "poor-fit")
 #: Those trended by default: the load lines are the fluid load's ingredients, and each more
 #: quantity tested costs every other some sensitivity (the false-alarm rate is split).
 TRENDED = ("fillage", "fluid_load", "net_stroke", "gross_stroke", "displacement",
            "intake_pressure")
+#: Cards per identification task: small, so that the threads share a partition evenly (a
+#: card costs a fraction of a second, the task's own cost is negligible).
+_IDENTIFY_CHUNK = 4
 
 
 @dataclass(frozen=True)
@@ -73,10 +116,14 @@ class DownholeSpec:
     digest : str
         SHA-256 of the file's bytes: a resumed run must use the same wells.
     damping : float or None
-        Gibbs' dimensionless damping factor (None: the default rule of
-        :func:`pumpid.rods.diagnose_cards`).
+        Gibbs' dimensionless damping factor (None: identified from each card, or without
+        identification the default rule of :func:`pumpid.rods.diagnose_cards`); with
+        identification it is held in the fit.
     harmonics : int or None
         Highest harmonic of the Fourier method (None: all the samples resolve).
+    identify : bool
+        Identify each card's pump (:func:`pumpid.pump.identify_cards`); False: the
+        diagnostic pump card only.
     """
 
     well_file: str
@@ -84,41 +131,57 @@ class DownholeSpec:
     digest: str
     damping: float | None = None
     harmonics: int | None = None
+    identify: bool = True
 
     @classmethod
     def load(cls, well_file: str | os.PathLike[str], *, damping: float | None = None,
-             harmonics: int | None = None) -> DownholeSpec:
+             harmonics: int | None = None, identify: bool = True) -> DownholeSpec:
         """Read the well file and check the options (WellError / ValueError naming them)."""
         if damping is not None and not (np.isfinite(damping) and damping >= 0):
             raise ValueError(f"--damping must be a non-negative number, got {damping}")
+        if identify and damping == 0:
+            # The predictive model reaches its periodic state only through some damping.
+            raise ValueError("--damping 0 (undamped) cannot be held in the identification: "
+                             "give a positive NU, or --no-identify for the diagnostic pump "
+                             "card alone")
         if harmonics is not None and harmonics < 1:
             raise ValueError(f"--harmonics must be at least 1, got {harmonics}")
         path = os.fspath(well_file)
         wells = read_well_file(path)
         digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
         return cls(well_file=path, wells=wells, digest=digest, damping=damping,
-                   harmonics=harmonics)
+                   harmonics=harmonics, identify=bool(identify))
 
     def to_dict(self) -> dict[str, Any]:
         """The manifest's form."""
         return {"well_file": self.well_file, "sha256": self.digest, "damping": self.damping,
-                "harmonics": self.harmonics}
+                "harmonics": self.harmonics, "identify": self.identify}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> DownholeSpec:
-        """The spec of :meth:`to_dict`'s form, the well file read again."""
+        """The spec of :meth:`to_dict`'s form, the well file read again (a manifest that
+        does not say ``identify`` is from before identification: diagnostic only)."""
         return cls.load(str(data["well_file"]), damping=data.get("damping"),
-                        harmonics=data.get("harmonics"))
+                        harmonics=data.get("harmonics"),
+                        identify=bool(data.get("identify", False)))
 
 
-def pump_schema(base: pa.Schema) -> pa.Schema:
-    """``base`` with the downhole and pump columns appended (see the module doc)."""
+def pump_schema(base: pa.Schema, identify: bool = False) -> pa.Schema:
+    """``base`` with the downhole and pump columns appended (see the module doc); with
+    ``identify``, the identification's columns too."""
     s, f, b = pa.string(), pa.float64(), pa.bool_()
     extra = [("downhole_status", s), ("downhole_reason", s), ("downhole_well", s),
              ("downhole_method", s), ("downhole_damping", f), ("downhole_reversed", b),
              ("downhole_notes", s)]
     for name in PUMP_QUANTITIES:
         extra += [(f"{PUMP_PREFIX}{name}", f), (f"{PUMP_PREFIX}{name}_unit", s)]
+        if identify and name in IDENTIFIED:
+            extra.append((f"{PUMP_PREFIX}{name}_se", f))
+    if identify:
+        extra += [(f"downhole_{name}", f) for name in PUMP_QUANTITIES]
+        extra += [("identify_status", s), ("identify_reason", s), ("pump_damping", f),
+                  ("pump_damping_se", f), ("pump_damping_rule", s), ("pump_r2", f),
+                  ("pump_residual_rho", f)]
     out = base
     for name, kind in extra:
         out = out.append(pa.field(name, kind))
@@ -126,11 +189,13 @@ def pump_schema(base: pa.Schema) -> pa.Schema:
 
 
 def add_pump_columns(items: Sequence[CardItem | BadItem], rows: list[dict[str, Any] | None],
-                     spec: DownholeSpec) -> None:
+                     spec: DownholeSpec, threads: int = 1) -> None:
     """Add the pump columns to the rows of one partition, in place.
 
-    The partition's readable cards are diagnosed in one batch; an unreadable item's row is
-    left without pump columns (null in the table).
+    Without identification the partition's readable cards are diagnosed in one batch; with
+    it each is identified (on ``threads`` threads) and the diagnostic pump card is the one
+    at its identified damping. An unreadable item's row is left without pump columns (null
+    in the table).
 
     Parameters
     ----------
@@ -140,24 +205,96 @@ def add_pump_columns(items: Sequence[CardItem | BadItem], rows: list[dict[str, A
         Their rows, in the same order.
     spec : DownholeSpec
         The well file and options.
+    threads : int
+        Threads for the identification.
     """
     index = [i for i, item in enumerate(items) if isinstance(item, CardItem)]
     cards = [items[i].card for i in index]  # type: ignore[union-attr]
     if not cards:
         return
-    results = diagnose_cards(cards, spec.wells, damping=spec.damping, harmonics=spec.harmonics)
-    for i, res in zip(index, results, strict=True):
+    fits: list[PumpFit | None] = [None] * len(cards)
+    if spec.identify:
+        def work(a: int, b: int) -> None:
+            fits[a:b] = identify_cards(cards[a:b], spec.wells, damping=spec.damping,
+                                       harmonics=spec.harmonics)
+
+        run_chunks(work, len(cards), workers=threads, chunk=_IDENTIFY_CHUNK)
+    # The diagnostic pump card: the identification's own (at its damping), else computed
+    # here at the given damping or the default rule, in one batch.
+    missing = [k for k, f in enumerate(fits) if f is None or f.downhole is None]
+    down: list[DownholeResult | None] = [None if f is None else f.downhole for f in fits]
+    if missing:
+        fresh = diagnose_cards([cards[k] for k in missing], spec.wells, damping=spec.damping,
+                               harmonics=spec.harmonics)
+        for k, res in zip(missing, fresh, strict=True):
+            down[k] = res
+    for k, i in enumerate(index):
         row = rows[i]
-        if row is None:
+        res = down[k]
+        if row is None or res is None:
             continue
-        row.update(res.to_row())
-        row["downhole_notes"] = " | ".join(res.notes)
-        row["downhole_well"] = res.well.well_id if res.well is not None else None
-        if not res.ok:
-            row["downhole_damping"] = None
-            row["downhole_reversed"] = None
-            warning = f"no pump card: {res.reason}"
-            row["warnings"] = " | ".join(w for w in (row.get("warnings") or "", warning) if w)
+        _diagnostic_columns(row, res, spec.identify)
+        if spec.identify:
+            _identified_columns(row, fits[k])
+
+
+def _add_warning(row: dict[str, Any], warning: str) -> None:
+    row["warnings"] = " | ".join(w for w in (row.get("warnings") or "", warning) if w)
+
+
+def _diagnostic_columns(row: dict[str, Any], res: DownholeResult, identify: bool) -> None:
+    row.update(res.to_row())
+    row["downhole_notes"] = " | ".join(res.notes)
+    row["downhole_well"] = res.well.well_id if res.well is not None else None
+    if not res.ok:
+        row["downhole_damping"] = None
+        row["downhole_reversed"] = None
+        _add_warning(row, f"no pump card: {res.reason}")
+    if identify:
+        # The diagnostic's values keep their own columns; pump_<name> is the identified.
+        for name in PUMP_QUANTITIES:
+            row[f"downhole_{name}"] = row.pop(f"{PUMP_PREFIX}{name}", None)
+
+
+def _finite(value: Any) -> float | None:
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def _identified_columns(row: dict[str, Any], fit: PumpFit | None) -> None:
+    if fit is None:  # not reached: every readable card is identified
+        return
+    row["identify_status"] = fit.status
+    row["identify_reason"] = fit.reason
+    usable = fit.ok and fit.status in IDENTIFIED_USABLE
+    quantities = fit.quantities() if usable else {}
+    for name in PUMP_QUANTITIES:
+        entry = quantities.get(name)
+        row[f"{PUMP_PREFIX}{name}"] = None if entry is None else _finite(entry["value"])
+        if name in IDENTIFIED:
+            row[f"{PUMP_PREFIX}{name}_se"] = None if entry is None else _finite(
+                entry["stderr"])
+        if entry is not None:
+            row[f"{PUMP_PREFIX}{name}_unit"] = entry["unit"]
+    damping = fit.damping()
+    row["pump_damping_rule"] = damping["rule"] or None
+    if not usable:
+        for key in ("pump_damping", "pump_damping_se", "pump_r2", "pump_residual_rho"):
+            row[key] = None
+        _add_warning(row, f"pump not identified ({fit.status}): {fit.reason}")
+        return
+    assert fit.fit is not None
+    white = fit.fit.whiteness
+    row["pump_damping"] = _finite(damping["value"])
+    row["pump_damping_se"] = _finite(damping["stderr"])
+    row["pump_r2"] = _finite(fit.fit.r2)
+    row["pump_residual_rho"] = None if white is None else _finite(
+        white.get("lag1_autocorrelation"))
+    if fit.notes:
+        row["downhole_notes"] = " | ".join(
+            n for n in (row.get("downhole_notes") or "", *fit.notes) if n)
 
 
 # --------------------------------------------------------------------------- trending
@@ -175,7 +312,10 @@ def pump_quantities(table: pd.DataFrame) -> list[str]:
 
 
 def pump_usable(frame: pd.DataFrame) -> pd.Series:
-    """Rows whose pump quantities count: their downhole card was computed."""
+    """Rows whose pump quantities count: their pump was identified (a run with
+    identification), or their downhole card was computed (one without)."""
+    if "identify_status" in frame.columns:
+        return frame["identify_status"].isin(IDENTIFIED_USABLE).fillna(False).astype(bool)
     if "downhole_status" not in frame.columns:
         return pd.Series(False, index=frame.index)
     return frame["downhole_status"].eq("computed").fillna(False).astype(bool)

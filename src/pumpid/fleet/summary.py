@@ -58,6 +58,9 @@ class BatchSummary:
         Seconds of this run, reading and writing included.
     duplicates : int
         Cards that repeat an earlier card of the run exactly (``duplicate_of`` set).
+    pump_statuses : Counter
+        Rows per status of the pump's identification (``pumpid batch --well-file``;
+        empty without it or with ``--no-identify``).
     interrupted : bool
         The run was stopped before the end; ``discarded`` partitions were dropped.
     """
@@ -69,6 +72,7 @@ class BatchSummary:
     fitted: int = 0
     skipped: int = 0
     statuses: Counter[str] = field(default_factory=Counter)
+    pump_statuses: Counter[str] = field(default_factory=Counter)
     unreadable: list[tuple[str, str]] = field(default_factory=list)
     costliest: list[tuple[str, int, int]] = field(default_factory=list)
     failures: list[tuple[str, int, str]] = field(default_factory=list)
@@ -87,6 +91,9 @@ class BatchSummary:
         if "duplicate_of" in table.column_names:
             self.duplicates += table.num_rows - table.column("duplicate_of").null_count
         self.statuses.update(cols["status"])
+        if "identify_status" in table.column_names:
+            self.pump_statuses.update(s for s in table.column("identify_status").to_pylist()
+                                      if s is not None)
         for cid, status, reason, nfev, n in zip(cols["card_id"], cols["status"], cols["reason"],
                                                 cols["nfev"], cols["n_samples"], strict=True):
             if nfev is not None:
@@ -128,6 +135,10 @@ class BatchSummary:
         statuses = sorted(self.statuses.items(), key=lambda x: -x[1])
         lines.append("  cards per status: "
                      + (", ".join(f"{printable(str(s))} {n}" for s, n in statuses) or "none"))
+        if self.pump_statuses:
+            pumps = sorted(self.pump_statuses.items(), key=lambda x: -x[1])
+            lines.append("  pumps identified, cards per status: "
+                         + ", ".join(f"{printable(str(s))} {n}" for s, n in pumps))
         if self.duplicates:
             lines.append(f"  duplicate cards: {self.duplicates} repeat an earlier card of the "
                          "run exactly (named in duplicate_of; the report counts them once)")

@@ -1,0 +1,132 @@
+"""pumpid batch --well-file identifies each card's pump: the identified quantities with
+their errors as columns, the diagnostic card at the identified damping, failures kept as
+rows, resume exact; the change detector finds the demo's fluid pound and leaking valve."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from pumpid.fleet import FitSpec, detect_changes, read_results, run_batch, write_fleet_report
+from pumpid.fleet.demo import make_pump_field
+from pumpid.fleet.downhole import IDENTIFIED, PUMP_QUANTITIES, DownholeSpec
+from pumpid.fleet.store import ResultsFolderError
+
+CARDS = 10
+AT = 6  # the first card of the two changes
+PARTS = 10  # one well per partition, the stray card alone in the last
+
+
+@pytest.fixture(scope="module")
+def identified(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, pd.DataFrame,
+                                                                   pd.DataFrame]:
+    """The demo's pump field cut to 10 cards a well (changes at card 6), and a card of a
+    well the well file does not describe, batched with identification."""
+    root = tmp_path_factory.mktemp("identify")
+    truth = pd.read_csv(make_pump_field(root / "field", cards=CARDS, at=AT))
+    stray = json.loads((root / "field" / "P001.json").read_text(encoding="utf-8"))
+    stray["well"] = "STRAY"
+    stray["cards"] = [dict(stray["cards"][0], card_id="STRAY_1")]
+    (root / "field" / "X_STRAY.json").write_text(json.dumps(stray), encoding="utf-8")
+    # The lumped fits are not what is tested: few evaluations keep the run short.
+    run_batch([root / "field"], root / "results", fit=FitSpec("msd", options={"max_nfev": 20}),
+              partition_size=PARTS, downhole=DownholeSpec.load(root / "wells.json"))
+    return root, truth, read_results(root / "results")
+
+
+def test_identified_quantities_with_errors_and_units(identified) -> None:
+    _, truth, table = identified
+    got = truth.merge(table, on=["well_id", "card_id"], how="left")
+    assert (got["identify_status"].isin(("converged", "boundary"))).all()
+    for name in IDENTIFIED:
+        assert got[f"pump_{name}"].notna().all()
+        se = got[f"pump_{name}_se"]
+        assert se.notna().all() and (se > 0).all()
+    assert set(got["pump_fillage_unit"]) == {"fraction"}
+    assert set(got["pump_fluid_load_unit"]) == {"lbf"}
+    # the load lines are the diagnostic's only
+    assert got["pump_upper_load_line"].isna().all()
+    assert got["downhole_upper_load_line"].notna().all()
+    # fillage measured on the identified pump card, fluid load as the pump made them
+    assert (got["pump_fillage"] - got["fillage"]).abs().max() < 0.03
+    assert ((got["pump_fluid_load"] / got["fluid_load"] - 1).abs() < 0.03).all()
+    # the strings were made with nu = 0.1; the diagnostic card uses the identified damping
+    assert got["pump_damping"].between(0.08, 0.12).all() and (got["pump_damping_se"] > 0).all()
+    assert (got["downhole_damping"] == got["pump_damping"]).all()
+    assert got["pump_damping_rule"].str.startswith("identified from the card").all()
+    assert (got["downhole_status"] == "computed").all()
+    assert (got["downhole_fillage"] - got["pump_fillage"]).abs().max() < 0.03
+    assert (got["pump_r2"] > 0.99).all() and got["pump_residual_rho"].abs().max() < 0.5
+
+
+def test_a_card_that_cannot_be_identified_keeps_its_row(identified) -> None:
+    _, _, table = identified
+    row = table[table["well_id"] == "STRAY"].iloc[0]
+    assert row["identify_status"] == "invalid-input" and "STRAY" in row["identify_reason"]
+    assert "pump not identified (invalid-input)" in row["warnings"]
+    for name in PUMP_QUANTITIES:
+        assert pd.isna(row[f"pump_{name}"]) and pd.isna(row[f"downhole_{name}"])
+    assert all(pd.isna(row[c]) for c in ("pump_damping", "pump_r2", "pump_fillage_se"))
+    assert row["status"] in ("converged", "boundary", "undetermined", "poor-fit", "failed")
+
+
+def test_resume_is_exact_and_keeps_the_identification(identified, tmp_path: Path) -> None:
+    root, _, table = identified
+    out = tmp_path / "partial"
+    shutil.copytree(root / "results", out)
+    manifest = json.loads((out / "_manifest.json").read_text())
+    assert manifest["options"]["downhole"]["identify"] is True
+    manifest["complete"] = False
+    (out / "_manifest.json").write_text(json.dumps(manifest))
+    (out / "part-000004.parquet").unlink()  # the stray card's partition
+    with pytest.raises(ResultsFolderError, match="downhole"):
+        run_batch([], out, resume=True,
+                  downhole=DownholeSpec.load(root / "wells.json", identify=False))
+    summary = run_batch([], out, resume=True)  # the run's own options: identification
+    assert (summary.fitted, summary.skipped) == (1, 4 * CARDS)
+    # the summary counts the identification's statuses, earlier partitions' included
+    assert summary.pump_statuses["invalid-input"] == 1
+    assert sum(summary.pump_statuses.values()) == 4 * CARDS + 1
+    assert "pumps identified, cards per status: " in summary.text()
+    pd.testing.assert_frame_equal(read_results(out), table)
+
+
+def test_both_changes_alerted_and_the_steady_wells_not(identified, tmp_path: Path) -> None:
+    _, _, table = identified
+    # Ten cards a well: each history is tested as a whole (the two-segment test), as a
+    # report run three cards after the change would test it.
+    alerts = detect_changes(table)
+    pump = alerts[alerts["kind"] == "pump"]
+    assert set(pump["well_id"]) == {"P002", "P003"}  # P001 and P004 are steady
+    fill = pump[(pump["well_id"] == "P002") & (pump["quantity"] == "pump_fillage")]
+    load = pump[(pump["well_id"] == "P003") & (pump["quantity"] == "pump_fluid_load")]
+    for found, drop in ((fill, 0.2), (load, 0.12)):
+        assert len(found) == 1
+        a = found.iloc[0]
+        assert a["direction"] == "down" and a["change_rel"] < -drop
+        assert int(a["first_index"]) == AT  # the change's first card, found
+        assert int(a["alarm_index"]) - AT <= 3  # alerted within three cards of it
+    # the fleet report trends the identified quantities
+    paths = write_fleet_report(table, tmp_path / "report")
+    shown = pd.read_csv(paths["alerts"])
+    assert set(shown.loc[shown["quantity"].str.startswith("pump_"), "well_id"]) == {
+        "P002", "P003"}
+    assert "pump_fluid_load" in Path(paths["report"]).read_text(encoding="utf-8")
+
+
+def test_identify_options_checked_and_old_manifests_read(tmp_path: Path) -> None:
+    from pumpid.fleet.pumpfield import write_well_file
+
+    wells = write_well_file(tmp_path / "wells.json", ["W"])
+    with pytest.raises(ValueError, match="--no-identify"):
+        DownholeSpec.load(wells, damping=0.0)  # undamped cannot be held in the fit
+    assert DownholeSpec.load(wells, damping=0.0, identify=False).damping == 0.0
+    spec = DownholeSpec.load(wells, damping=0.2)
+    assert DownholeSpec.from_dict(spec.to_dict()) == spec
+    # a manifest written before identification existed: its run was diagnostic only
+    old = {k: v for k, v in spec.to_dict().items() if k != "identify"}
+    assert DownholeSpec.from_dict(old).identify is False
