@@ -207,11 +207,15 @@ def pct(flags: list[bool]) -> str:
 def section_recovery(count: int, processes: int, seed: int, save: str | None) -> None:
     tasks = [(case, i, seed) for case in CASES for i in range(count)]
     start = time.perf_counter()
-    if processes > 1:
-        with multiprocessing.get_context("fork").Pool(processes) as pool:
-            parts = pool.map(run_one, tasks, chunksize=1)
-    else:
-        parts = [run_one(t) for t in tasks]
+    parts = []
+    with multiprocessing.get_context("fork").Pool(processes) as pool:
+        # Cards as they finish, with progress on stderr: a run stopped early still shows
+        # how far it got.
+        for k, part in enumerate(pool.imap_unordered(run_one, tasks), 1):
+            parts.append(part)
+            if k % max(1, len(tasks) // 20) == 0:
+                print(f"  {k}/{len(tasks)} cards made and fitted, "
+                      f"{time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
     elapsed = time.perf_counter() - start
     rows = [r for part in parts for r in part]
     out = []
