@@ -165,7 +165,8 @@ def record(case: str, index: int, noise: str, made: dict[str, Any], got: PumpFit
         "periodic": got.model.run(np.array(list(f.params.values()))).change < 1e3 * TOL,
     })
     for name, key in (("fluid_load", "fluid"), ("damping", "nu")):
-        row[f"{key}_se_white"] = u.stderr.get(name, math.nan) if u else math.nan
+        # (u.stderr is the error shown: the robust one when the residuals are serial.)
+        row[f"{key}_se_white"] = u.stderr_white.get(name, math.nan) if u else math.nan
         row[f"{key}_se_hac"] = u.stderr_hac.get(name, math.nan) if u else math.nan
     fd = f.derived.get("fillage")
     row["fillage_se_white"] = fd.stderr_white if fd is not None else math.nan
