@@ -15,9 +15,11 @@ Sections:
    the pump at the string's foot), its own fluid load (0.75-1.0 of the water column on the
    plunger), damping (Gibbs' nu 0.05-0.3), transfer (0.02-0.08 m), pumping speed (6-10 SPM),
    stroke (85-115 in) and samples (144-240). The surface card is made by
-   :func:`pumpid.rods.predict_surface` with 60 elements (the fit's model marches 30, so it
-   is never fitted to its own output); each clean card gets 1 % load noise (of its load
-   range), once white and once AR(1) with rho 0.8 (the same clean card under both). A row
+   :func:`pumpid.rods.predict_surface` with 120 elements, standing for the continuous
+   string (the fit's model marches 30, so it is never fitted to its own output, and its
+   own discretization error is part of what the intervals must cover); each clean card
+   gets 1 % load noise (of its load range), once white and once AR(1) with rho 0.8 (the
+   same clean card under both). A row
    per case and noise: the fits' statuses, the median absolute error of the fillage (points;
    the truth is :func:`pumpid.rods.measure_pump_card` on the true pump card the predictive
    solver returns) and of the fluid load (%, against the pump model's fluid load), and how
@@ -83,7 +85,7 @@ NOISES = ("white", "AR(1) 0.8")
 NOISE = 0.01
 RHO = 0.8
 #: Elements of the predictive solver that makes the cards (the fit's model uses 30).
-TRUTH_ELEMENTS = 60
+TRUTH_ELEMENTS = 120
 REAL = ROOT.parent / "shared" / "data" / "raw" / "cmcm2012_rod_pump"
 
 
