@@ -41,6 +41,7 @@ from ..rods import (
     diagnose_cards,
     loop_work,
     quantity_units,
+    wells_for,
 )
 from .system import QUANTITIES, PumpSystem, SurfaceCard
 
@@ -219,24 +220,6 @@ def _stderr(result: FitResult | None, name: str) -> float:
     return math.nan if value is None else float(value)
 
 
-def _wells_of(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well]
-              ) -> list[Well | Exception]:
-    if isinstance(wells, Well):
-        return [wells] * len(cards)
-    if isinstance(wells, WellFile):
-        out: list[Well | Exception] = []
-        for card in cards:
-            try:
-                out.append(wells.for_card(card.well_id, card.card_id))
-            except ValueError as exc:
-                out.append(exc)
-        return out
-    listed = list(wells)
-    if len(listed) != len(cards):
-        raise ValueError(f"{len(cards)} cards but {len(listed)} wells")
-    return list(listed)
-
-
 def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, FitResult, bool]:
     model = PumpSystem(surface)
     fixed = {} if damping is None else {"damping": float(damping)}
@@ -291,7 +274,7 @@ def identify_cards(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well
         raise ValueError(f"damping must be a positive number to hold it in the fit, got "
                          f"{damping}")
     diag = {"harmonics": harmonics, "method": method, "convention": convention}
-    pairs = list(zip(cards, _wells_of(cards, wells), strict=True))
+    pairs = list(zip(cards, wells_for(cards, wells), strict=True))
     if workers <= 1 or len(pairs) < 2:
         return [_identify(card, well, damping, diag) for card, well in pairs]
     # Threads, not processes: the march (most of a card's time) releases the GIL, and the

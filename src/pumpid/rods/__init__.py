@@ -22,6 +22,8 @@ measure_pump_card, measure_pump_cards, pump_measure, PumpMeasure
     Pump quantities of a pump card (or of its load lines and fillage).
 quantity_units
     The unit each pump quantity is shown in, by the card and the well file.
+wells_for
+    The well of each card (one for all, a well file's match, or one per card).
 surface_arrays
     A surface card in SI units with its period, as the solvers take it.
 """
@@ -36,6 +38,7 @@ from .diagnose import (
     loop_work,
     quantity_units,
     surface_arrays,
+    wells_for,
 )
 from .fd import fd_diagnostic
 from .fourier import (
@@ -82,5 +85,6 @@ __all__ = [
     "read_well_file",
     "string_transfer",
     "surface_arrays",
+    "wells_for",
     "wells_from_dict",
 ]

@@ -27,7 +27,7 @@ from .well import GRAVITY, Well
 from .wellfile import WellFile
 
 __all__ = ["CONVENTIONS", "DEFAULT_DAMPING", "METHODS", "DownholeResult", "diagnose_card",
-           "diagnose_cards", "loop_work", "quantity_units", "surface_arrays"]
+           "diagnose_cards", "loop_work", "quantity_units", "surface_arrays", "wells_for"]
 
 Array = NDArray[np.float64]
 
@@ -254,8 +254,11 @@ def surface_arrays(card: Card) -> tuple[Array, Array, float, list[str]]:
     return y, f, period, notes
 
 
-def _wells_for(cards: Sequence[Card],
-               wells: Well | WellFile | Sequence[Well]) -> list[Well | Exception]:
+def wells_for(cards: Sequence[Card],
+              wells: Well | WellFile | Sequence[Well]) -> list[Well | Exception]:
+    """The well of each card: one well for all, a well file's match by well id (the
+    WellError when a card has none), or a list with one well per card (ValueError when the
+    counts differ)."""
     if isinstance(wells, Well):
         return [wells] * len(cards)
     if isinstance(wells, WellFile):
@@ -315,7 +318,7 @@ def diagnose_cards(cards: Sequence[Card], wells: Well | WellFile | Sequence[Well
     nu = DEFAULT_DAMPING if damping is None else float(damping)
     rule = ("given" if damping is not None else
             f"default rule: nu = {DEFAULT_DAMPING:g} for every well")
-    matched = _wells_for(cards, wells)
+    matched = wells_for(cards, wells)
     results: list[DownholeResult | None] = [None] * len(cards)
     ready: dict[int, list[tuple[int, Array, Array, float, list[str], Well]]] = {}
     for i, (card, well) in enumerate(zip(cards, matched, strict=True)):
