@@ -65,7 +65,7 @@ sys.path.insert(0, str(ROOT))
 from tests.rods.strings import INCH, LBF, card, surface_motion, three_tapers  # noqa: E402
 
 from pumpid.cards import Card, read_card  # noqa: E402
-from pumpid.pump import PumpFit, identify_card, identify_cards  # noqa: E402
+from pumpid.pump import PumpFit, PumpSystem, identify_card, identify_cards  # noqa: E402
 from pumpid.pump.system import TOL  # noqa: E402
 from pumpid.rods import (  # noqa: E402
     Pump,
@@ -158,13 +158,13 @@ def record(case: str, index: int, noise: str, made: dict[str, Any], got: PumpFit
         "serial": not white.get("white", True), "t": t,
         "liquid_fraction": f.params["liquid_fraction"],
         "intake_ratio": f.params["intake_ratio"], "transfer": f.params["transfer"],
-        "fluid": q["fluid_load"]["value"], "fluid_se": q["fluid_load"]["stderr"],
-        "fillage": q["fillage"]["value"], "fillage_se": q["fillage"]["stderr"],
-        "nu": d["value"], "nu_se": d["stderr"],
+        "fluid": _real(q["fluid_load"]["value"]), "fluid_se": _real(q["fluid_load"]["stderr"]),
+        "fillage": _real(q["fillage"]["value"]), "fillage_se": _real(q["fillage"]["stderr"]),
+        "nu": _real(d["value"]), "nu_se": _real(d["stderr"]),
         "nu_fitted": f.params["damping"],
         # Does the fit's model reach a periodic stroke at the optimum? (When it does not, its
         # output and its forward-difference sensitivities depend on where the march started.)
-        "periodic": got.model.run(np.array(list(f.params.values()))).change < 1e3 * TOL,
+        "periodic": _periodic(got.model, np.array(list(f.params.values()))),
     })
     for name, key in (("fluid_load", "fluid"), ("damping", "nu")):
         # (u.stderr is the error shown: the robust one when the residuals are serial.)
@@ -360,6 +360,19 @@ def section_speed(seed: int, per_case: int) -> None:
             f"{listed:.2f}", f"{listed / base_rate:.2g}x"],
            ["diagnose_cards, one call (baseline, best of 3)", f"{1e3 / base_rate:.2f}",
             f"{base_rate:.0f}", "1x"]])
+
+
+def _real(value: float | None) -> float:
+    """A JSON-style value (None where not measurable) as a float (NaN)."""
+    return math.nan if value is None else float(value)
+
+
+def _periodic(model: PumpSystem, values: np.ndarray) -> bool:
+    """Does the model reach a periodic stroke at these values (the march raises if not)?"""
+    try:
+        return bool(model.run(values).change < 1e3 * TOL)
+    except ArithmeticError:
+        return False
 
 
 def main() -> None:
