@@ -309,8 +309,14 @@ def identify_card(card: Card, well: Well | WellFile, **options: Any) -> PumpFit:
 def _finish(card: Card, well: Well, surface: SurfaceCard, model: PumpSystem, res: FitResult,
             full: bool, damping: float | None, diag: dict[str, Any]) -> PumpFit:
     notes = list(surface.notes)
+    try:
+        grid_error = discretization_errors(surface, model, res)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
+        grid_error = {}
+        notes.append(f"the march's own error could not be estimated ({exc}); the errors "
+                     "shown are the statistical ones alone")
     nu = float(res.params["damping"])
-    se = _stderr(res, "damping")
+    se = math.hypot(_stderr(res, "damping"), grid_error.get("damping", 0.0))
     usable = str(res.status) in ("converged", "boundary")
     if damping is not None:
         rule = f"given: nu = {damping:g}"
@@ -343,12 +349,6 @@ def _finish(card: Card, well: Well, surface: SurfaceCard, model: PumpSystem, res
         if diag.get("convention") == "effective":
             diff = got - ref
             agreement = float(np.sqrt(np.mean((diff - diff.mean()) ** 2)) / np.ptp(ref))
-    try:
-        grid_error = discretization_errors(surface, model, res)
-    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
-        grid_error = {}
-        notes.append(f"the march's own error could not be estimated ({exc}); the errors "
-                     "shown are the statistical ones alone")
     return PumpFit(card=card, status=str(res.status), discretization=grid_error,
                    reason=res.reason, well=well, fit=res, model=model, downhole=down,
                    damping_rule=rule, agreement=agreement, full_pump=full,
