@@ -43,7 +43,7 @@ from ..rods import (
     quantity_units,
     wells_for,
 )
-from .system import QUANTITIES, PumpSystem, SurfaceCard
+from .system import QUANTITIES, START_INTAKE_RATIO, PumpSystem, SurfaceCard
 
 __all__ = ["SHOWN", "PumpFit", "discretization_errors", "identify_card", "identify_cards"]
 
@@ -234,7 +234,7 @@ def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, F
     # both held), kept when it fits as well (likelihood ratio, 95 %, two parameters fewer).
     start = np.array(list(res.params.values()))
     start[2] = 1.0
-    start[3] = float(np.median(model.start(surface)[:, 3]))
+    start[3] = START_INTAKE_RATIO
     full = fit(model, surface, options=FitOptions(fixed={
         **fixed, "liquid_fraction": 1.0, "intake_ratio": float(start[3])}), x0=start)
     n, q = np.asarray(res.data).size, len(res.free)

@@ -56,7 +56,8 @@ from ..rods import (
 )
 from ..rods.predict import Run, StringGrid
 
-__all__ = ["DRIVE_HARMONICS", "ELEMENTS", "QUANTITIES", "PumpSystem", "SurfaceCard"]
+__all__ = ["DRIVE_HARMONICS", "ELEMENTS", "QUANTITIES", "START_INTAKE_RATIO", "PumpSystem",
+           "SurfaceCard"]
 
 Array = NDArray[np.float64]
 
@@ -104,6 +105,9 @@ GAMMA = 1.2
 #: Plunger travel over which the load transfers when the tubing is anchored (or its size
 #: unknown), m: the start's value.
 START_TRANSFER = 0.02
+#: Pump intake over discharge pressure the start assumes (a fluid pound's thin gas; also
+#: the value a full pump's fit holds, where the card cannot tell it).
+START_INTAKE_RATIO = 0.02
 
 
 @dataclass(frozen=True)
@@ -207,7 +211,7 @@ class PumpSystem(OwnModel):
         )
         self.grid = StringGrid.of(surface.well, surface.period, surface.n, elements)
         self.weight = surface.well.buoyant_weight()
-        self._last: tuple[Array, Run] | None = None
+        self._last: Run | None = None
         self._runs: dict[bytes, Run] = {}
 
     # ------------------------------------------------------------------ the march
@@ -225,8 +229,8 @@ class PumpSystem(OwnModel):
             # The stroke these values already gave: a nonlinear pump may settle into another
             # stroke from another start, and a fit's answer is the stroke it was fitted with.
             return self._runs[key]
-        if warm is None and self._last is not None:
-            warm = self._last[1]
+        if warm is None:
+            warm = self._last
         got = self.grid.march(self.surface.drive, self._pump(values), float(values[1]),
                               warm, MAX_CYCLES, tol)
         if not got.change < 1e3 * tol or not np.all(np.isfinite(got.out)):
@@ -279,7 +283,7 @@ class PumpSystem(OwnModel):
                 raise ValueError(f"{par.name} = {v:g} is outside [{par.lower:g}, "
                                  f"{par.upper:g}]")
         base = self.run(values)
-        self._last = (values.copy(), base)
+        self._last = base
         if len(self._runs) >= KEPT_RUNS:
             self._runs.pop(next(iter(self._runs)))
         self._runs[values.tobytes()] = base
@@ -331,7 +335,8 @@ class PumpSystem(OwnModel):
             if not tubing.anchored and tubing.area is not None:
                 transfer = START_TRANSFER + fluid * s.well.pump.depth / (
                     tubing.modulus * tubing.area)
-            v = np.array([fluid / s.load_factor, nu, float(np.clip(fill, 0.1, 1.0)), 0.02,
+            v = np.array([fluid / s.load_factor, nu, float(np.clip(fill, 0.1, 1.0)),
+                          START_INTAKE_RATIO,
                           transfer / s.position_factor, 0.0])
             try:
                 pred, _ = self.simulate(v, data, False)
@@ -365,7 +370,7 @@ class PumpSystem(OwnModel):
             base = self.quantities(values)
             # Neighbours start from the fitted stroke (the last march may be a boundary
             # test's, far away, from which a nonlinear pump can settle elsewhere or not).
-            self._last = (values.copy(), self.run(values))
+            self._last = self.run(values)
         except (ArithmeticError, ValueError):
             return {}  # the fitted values have no periodic stroke: nothing to measure
         se = np.full(base.size, math.nan)
