@@ -224,21 +224,51 @@ def run_python(
     tol: float,
     max_evaluations: int,
     n_capped: int,
+    noise: float = 0.0,
+    cost: Callable[[Array], float] | None = None,
 ) -> SolverOutcome:
     """The Levenberg-Marquardt machine around a Python evaluator of one problem.
 
-    ``evaluate(z) -> (cost, R, Q^T r)`` (NaN cost when the point cannot be evaluated).
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(z) -> (cost, R, Q^T r)`` (NaN cost when the point cannot be evaluated).
+    z0, lo, hi : ndarray
+        Start and the coordinates' box.
+    tol : float
+        The stop tests' relative tolerance.
+    max_evaluations : int
+        Evaluations allowed, the start's included.
+    n_capped : int
+        Leading coordinates whose steps are capped (the log-parameters).
+    noise : float
+        The noise test's threshold as a fraction of the cost (``noise_tol * 2 / (N - q)``,
+        as the compiled driver sets it; 0 turns it off).
+    cost : callable, optional
+        ``cost(z) -> float`` without sensitivities. When given, a trial point is costed
+        first and ``evaluate`` runs only where the step can be accepted: a rejected step
+        (about half of them near the optimum) then costs no sensitivities, which is most of
+        an evaluation for a simulator that differentiates by finite differences.
     """
-    cost, r, c = evaluate(z0)
-    state = lm.start(np.asarray(z0, dtype=float), float(cost), r, c, np.asarray(lo, float),
+    first, r, c = evaluate(z0)
+    state = lm.start(np.asarray(z0, dtype=float), float(first), r, c, np.asarray(lo, float),
                      np.asarray(hi, float), float(tol), int(n_capped),
-                     max(int(max_evaluations) - 1, 1), False, 0.0, np.zeros(0))
-    history = [np.append(z0, cost)] if math.isfinite(cost) else []
+                     max(int(max_evaluations) - 1, 1), False, float(noise), np.zeros(0))
+    q = np.asarray(z0).size
+    unused_r, unused_c = np.zeros((q, q)), np.zeros(q)
+    history = [np.append(z0, first)] if math.isfinite(first) else []
     while lm.propose(state):
-        cost_try, r_try, c_try = evaluate(state[6].copy())
+        z_try = state[6].copy()
         before = int(state[8][1])
-        going = lm.update(state, float(cost_try), np.asarray(r_try, float),
-                          np.asarray(c_try, float))
+        trial = math.nan if cost is None else float(cost(z_try))
+        if cost is not None and not trial < float(state[7][0]):
+            # No decrease: the machine rejects it whatever the sensitivities would be.
+            going = lm.update(state, trial if math.isfinite(trial) else math.inf,
+                              unused_r, unused_c)
+        else:
+            cost_try, r_try, c_try = evaluate(z_try)
+            going = lm.update(state, float(cost_try), np.asarray(r_try, float),
+                              np.asarray(c_try, float))
         if int(state[8][1]) > before:
             history.append(np.append(state[0], state[7][0]))
         if not going:

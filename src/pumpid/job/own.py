@@ -257,8 +257,11 @@ def _fit_item(model: OwnModel, item: Any, options: FitOptions, solver: Levenberg
     for k in tries:
         z0 = zs[k]
         lo, hi = prob.window(z0)
+        dof = prob.y.size - prob.q
         out = run_python(prob.evaluate, z0, lo, hi, tol=solver.tol,
-                         max_evaluations=solver.budget(prob.q), n_capped=prob.n_log)
+                         max_evaluations=solver.budget(prob.q), n_capped=prob.n_log,
+                         noise=solver.noise_tol * 2.0 / dof if dof > 0 else 0.0,
+                         cost=prob.cost)
         if best is None or (math.isfinite(out.cost[0])
                             and not out.cost[0] >= best[0].cost[0]):
             best = (out, z0, lo, hi)
