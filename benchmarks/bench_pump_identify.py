@@ -231,13 +231,15 @@ def section_recovery(count: int, processes: int, seed: int, save: str | None) ->
                         if math.isfinite(r["fillage"])]
             fluid_err = [100 * abs(r["fluid"] - r["true_fluid"]) / r["true_fluid"]
                          for r in fitted]
+            rhos = np.array([r["rho"] for r in fitted], dtype=float)
             out.append([case, noise, ", ".join(f"{k} {v}" for k, v in sorted(counts.items())),
                         f"{np.median(fill_err):.2f}" if fill_err else "-",
                         f"{np.median(fluid_err):.2f}" if fluid_err else "-",
                         pct([r["cover_fluid"] for r in fitted]),
                         pct([r["cover_nu"] for r in fitted]),
                         pct([r["cover_fillage"] for r in fitted]),
-                        f"{np.median([r['rho'] for r in fitted]):.2f}" if fitted else "-",
+                        # over the fits that have residuals (a failed fit has none)
+                        f"{np.nanmedian(rhos):.2f}" if np.any(np.isfinite(rhos)) else "-",
                         str(sum(not r["periodic"] for r in fitted))])
     table(f"(1) recovery and coverage: {count} cards per case and noise, three-taper strings "
           f"drawn card by card, cards by the predictive solver at {TRUTH_ELEMENTS} elements, "

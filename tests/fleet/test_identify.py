@@ -130,3 +130,21 @@ def test_identify_options_checked_and_old_manifests_read(tmp_path: Path) -> None
     # a manifest written before identification existed: its run was diagnostic only
     old = {k: v for k, v in spec.to_dict().items() if k != "identify"}
     assert DownholeSpec.from_dict(old).identify is False
+
+
+def test_identifying_batches_default_to_small_partitions(tmp_path: Path) -> None:
+    # A partition is the unit of progress and of what a Ctrl-C keeps: identified cards cost
+    # tenths of a second each, so their default partition is small.
+    from pumpid.fleet.defaults import IDENTIFY_PARTITION_SIZE, PARTITION_SIZE
+    from pumpid.fleet.store import ResultsStore
+
+    make_pump_field(tmp_path / "field", cards=1, at=1)
+    wells = tmp_path / "wells.json"  # the demo writes the well file beside the field
+    fit = FitSpec("msd", options={"max_nfev": 20})
+    for identify, size in ((False, PARTITION_SIZE), (True, IDENTIFY_PARTITION_SIZE)):
+        out = tmp_path / f"results-{identify}"
+        run_batch([tmp_path / "field"], out, fit=fit,
+                  downhole=DownholeSpec.load(wells, identify=identify))
+        options = ResultsStore.options_of(out)
+        assert options is not None and options["partition_size"] == size
+    assert IDENTIFY_PARTITION_SIZE < PARTITION_SIZE

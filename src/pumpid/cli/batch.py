@@ -186,7 +186,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
 def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``pumpid batch`` to the ``pumpid`` command's subparsers."""
-    from ..fleet.defaults import PARTITION_SIZE
+    from ..fleet.defaults import IDENTIFY_PARTITION_SIZE, PARTITION_SIZE
 
     p = subparsers.add_parser(
         "batch", help="fit every card of files and folders into one results table",
@@ -214,7 +214,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                      help="local: threads; dask LocalCluster: worker processes (default: "
                           "one per core)")
     run.add_argument("--partition-size", type=int, metavar="N",
-                     help=f"cards per partition and results file (default {PARTITION_SIZE})")
+                     help=f"cards per partition and results file (default {PARTITION_SIZE}; "
+                          f"{IDENTIFY_PARTITION_SIZE} when --well-file identifies pumps)")
     run.add_argument("--quiet", action="store_true", help="no progress display")
     run.add_argument("--progress", default="auto", choices=["auto", "bar", "lines"],
                      help="a bar on a terminal, plain lines otherwise (default auto)")

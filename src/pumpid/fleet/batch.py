@@ -46,7 +46,7 @@ from pumpid.result import CardInfo
 from pumpid.result.table import fit_row, identity_of, unfitted_row
 from pumpid.version import __version__
 
-from .defaults import PARTITION_SIZE
+from .defaults import IDENTIFY_PARTITION_SIZE, PARTITION_SIZE
 from .downhole import DownholeSpec, add_pump_columns, pump_schema
 from .engines import Engine, EngineError, make_engine
 from .inputs import BadItem, CardItem, InputFile, ReadOptions, find_inputs, iter_items
@@ -267,8 +267,8 @@ def run_batch(
     resume : bool
         Continue the run in ``out`` (refused if its inputs or options differ).
     partition_size : int, optional
-        Cards per partition (and per results file); default 256, or the run's own when
-        resuming.
+        Cards per partition (and per results file); default 256 (32 when ``downhole``
+        identifies each pump), or the run's own when resuming.
     progress : Progress, optional
         A display from :func:`~pumpid.fleet.progress.make_progress` (default: none).
     csv : path, optional
@@ -303,7 +303,9 @@ def run_batch(
             downhole = DownholeSpec.from_dict(earlier["downhole"])
     fit = fit or FitSpec()
     read = read or ReadOptions()
-    partition_size = PARTITION_SIZE if partition_size is None else partition_size
+    if partition_size is None:
+        partition_size = (IDENTIFY_PARTITION_SIZE if downhole is not None and downhole.identify
+                          else PARTITION_SIZE)
     progress = progress or QuietProgress()
     fit.check()
     if isinstance(partition_size, bool) or not isinstance(partition_size, int) \
