@@ -123,3 +123,51 @@ def test_an_own_models_report_speaks_of_its_own_output(tmp_path) -> None:
     assert "step response" in html and "input 1, output V" in html
     assert "output scale factor" not in html and "additive position offset" not in html
     assert json.loads((tmp_path / "result.json").read_text())["params"]["g"] < 0
+
+
+class CountingStep(Step):
+    """Step that counts its simulations and cannot differentiate at some starts."""
+
+    def __init__(self, starts=None, broken=()) -> None:
+        self.starts = starts
+        self.broken = {float(v) for v in broken}
+        self.plain = 0
+        self.with_sensitivities = 0
+
+    def start(self, data):
+        return np.array(self.starts) if self.starts is not None else super().start(data)
+
+    def simulate(self, values, data, sensitivities):
+        if sensitivities:
+            self.with_sensitivities += 1
+            if float(values[0]) in self.broken:
+                raise ArithmeticError("no sensitivities here")
+        else:
+            self.plain += 1
+        return super().simulate(values, data, sensitivities)
+
+
+def test_rejected_steps_cost_no_sensitivities_and_the_noise_test_stops() -> None:
+    # A trial point is costed first: sensitivities only where the step is accepted.
+    model = CountingStep()
+    res = pumpid.fit(model, _record(3), x0={"tau": 8.0, "g": 1.0, "b": 0.0})
+    assert res.status is pumpid.Status.CONVERGED
+    # sensitivities: the start, each accepted step and the final analysis; no more
+    assert model.with_sensitivities <= res.iterations + 2 < res.nfev
+    assert "{" not in res.reason  # the stop's words are filled in
+    # The same answer as a fit that differentiates at every trial point, to well within
+    # its errors (the noise test stops within sqrt(2e-6) standard errors of the optimum).
+    exact = pumpid.fit(Step(), _record(3), x0={"tau": 8.0, "g": 1.0, "b": 0.0},
+                       solver=pumpid.LevenbergMarquardt(noise_tol=0.0))
+    for name in ("tau", "g", "b"):
+        assert abs(res.params[name] - exact.params[name]) < 0.01 * res.stderr[name]
+
+
+def test_a_start_without_sensitivities_hands_over_to_the_next() -> None:
+    # The best start by cost can be simulated but not differentiated (a simulator that
+    # differentiates by perturbing can fail there): the next start is solved instead.
+    model = CountingStep(starts=[[2.1, -3.0, 0.5], [1.5, -2.0, 0.0]], broken=[2.1])
+    res = pumpid.fit(model, _record(4))
+    assert res.status is pumpid.Status.CONVERGED
+    assert abs(res.params["tau"] - TRUTH[0]) < 5 * res.stderr["tau"]
+    assert "solved from 2" in res.start.note

@@ -156,3 +156,22 @@ def test_damping_error_belongs_to_the_fitted_value_only(made) -> None:
     held = identify_card(made[3][1].card, well, damping=0.15)
     assert held.damping() == {"value": 0.15, "stderr": None, "unit": held.damping()["unit"],
                               "rule": "given: nu = 0.15"}
+
+
+def test_a_full_pump_without_a_periodic_stroke_keeps_the_free_fit(made, monkeypatch) -> None:
+    # The full-pump refit starts from the free fit with the liquid fraction at 1; where the
+    # march finds no periodic stroke there, the free fit stands (it used to fail the card).
+    from pumpid.pump.system import START_DAMPING
+
+    well, _pred, _fluid, fits = made
+    original = PumpSystem.simulate
+
+    def no_full_pump(self, values, data, sensitivities):
+        if float(values[2]) == 1.0 and float(values[1]) not in START_DAMPING:
+            raise ArithmeticError("the march reaches no periodic stroke")
+        return original(self, values, data, sensitivities)
+
+    monkeypatch.setattr(PumpSystem, "simulate", no_full_pump)
+    got = identify_card(fits[0].card, well)
+    assert got.ok and got.status == "converged", got.reason
+    assert not got.full_pump and 0.98 <= got.fit.params["liquid_fraction"] < 1.0

@@ -46,3 +46,26 @@ def test_warm_start_lands_on_the_cold_stroke() -> None:
     assert np.max(np.abs(warm.out[2] - cold.out[2])) < 1e-8 * np.ptp(cold.out[2])
     # Started from a nearby stroke it needs fewer strokes than from rest.
     assert warm.cycles < cold.cycles
+
+
+def test_a_stroke_that_never_repeats_stops_when_its_change_stalls() -> None:
+    # Barely damped, a full pump's march alternates between two strokes: it stops once its
+    # change has not halved over STALL strokes, not after every stroke allowed.
+    from pumpid.rods.march import STALL
+
+    grid, s, pump = _grid_and_pump(1.0, transfer=0.05)
+    stuck = grid.march(s, pump, 0.02, None, max_cycles=2000, tol=1e-9)
+    assert stuck.change > 1e-6
+    assert stuck.cycles <= 3 * STALL
+    # Damped, the same pump repeats; a slow but steady approach is not cut short.
+    assert grid.march(s, pump, 0.1, None, max_cycles=2000, tol=1e-9).change < 1e-9
+
+
+def test_gas_settles_in_few_strokes() -> None:
+    # Raising the barrel's reference to the stroke's lowest point takes the content above
+    # it along: the pressure is unchanged, and a gassy barrel settles with the string
+    # (it took 143 strokes at nu 0.05 when the content stayed behind).
+    grid, s, pump = _grid_and_pump(0.7, transfer=0.05, ratio=0.3)
+    run = grid.march(s, pump, 0.05, None, max_cycles=2000, tol=1e-9)
+    assert run.change < 1e-9
+    assert run.cycles < 40

@@ -224,7 +224,8 @@ def run_python(
     tol: float,
     max_evaluations: int,
     n_capped: int,
-    noise: float = 0.0,
+    noise_tol: float = 0.0,
+    dof: int = 0,
     cost: Callable[[Array], float] | None = None,
 ) -> SolverOutcome:
     """The Levenberg-Marquardt machine around a Python evaluator of one problem.
@@ -241,9 +242,9 @@ def run_python(
         Evaluations allowed, the start's included.
     n_capped : int
         Leading coordinates whose steps are capped (the log-parameters).
-    noise : float
-        The noise test's threshold as a fraction of the cost (``noise_tol * 2 / (N - q)``,
-        as the compiled driver sets it; 0 turns it off).
+    noise_tol, dof : float, int
+        The noise test (:class:`LevenbergMarquardt`'s ``noise_tol``) and the residual's
+        degrees of freedom N - q it is judged on; 0 for either turns the test off.
     cost : callable, optional
         ``cost(z) -> float`` without sensitivities. When given, a trial point is costed
         first and ``evaluate`` runs only where the step can be accepted: a rejected step
@@ -253,7 +254,8 @@ def run_python(
     first, r, c = evaluate(z0)
     state = lm.start(np.asarray(z0, dtype=float), float(first), r, c, np.asarray(lo, float),
                      np.asarray(hi, float), float(tol), int(n_capped),
-                     max(int(max_evaluations) - 1, 1), False, float(noise), np.zeros(0))
+                     max(int(max_evaluations) - 1, 1), False,
+                     noise_tol * 2.0 / dof if dof > 0 else 0.0, np.zeros(0))
     q = np.asarray(z0).size
     unused_r, unused_c = np.zeros((q, q)), np.zeros(q)
     history = [np.append(z0, first)] if math.isfinite(first) else []
@@ -279,7 +281,9 @@ def run_python(
     return SolverOutcome(
         z=state[0][None].copy(), cost=np.array([final]),
         evaluations=np.array([int(ints[0]) + 1]), accepted=np.array([int(ints[1])]),
-        stops=(stop,), messages=(stop.message(tol=tol, budget=max_evaluations),),
+        stops=(stop,), messages=(stop.message(tol=tol, budget=max_evaluations,
+                                              noise_tol=noise_tol,
+                                              within=math.sqrt(2.0 * noise_tol)),),
         history=np.array(history) if history else np.zeros((0, z0.size + 1)))
 
 

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..engine import lm
-from ..engine.solvers import LevenbergMarquardt, PaperNewton, SolverOutcome, run_python
+from ..engine.solvers import LevenbergMarquardt, PaperNewton, SolverOutcome, Stop, run_python
 from ..inference.identifiability import findings_of
 from ..inference.uncertainty import Numbers, analyse_rows
 from ..models.own import OwnModel
@@ -250,27 +250,34 @@ def _fit_item(model: OwnModel, item: Any, options: FitOptions, solver: Levenberg
         raise ValueError(f"{model.name} cannot be simulated at any of its {len(zs)} "
                          "starting point(s)")
     order = np.argsort(np.where(np.isfinite(costs), costs, np.inf))
+    finite = [int(k) for k in order if np.isfinite(costs[k])]
     # "auto" and False solve from the best start; True from every start, keeping the best.
-    tries = [int(order[0])] if options.multistart is not True else [
-        int(k) for k in order if np.isfinite(costs[k])]
+    tries = finite[:1] if options.multistart is not True else list(finite)
     best: tuple[SolverOutcome, Array, Array, Array] | None = None
-    for k in tries:
+    solved = 0
+    while solved < len(tries):
+        k = tries[solved]
+        solved += 1
         z0 = zs[k]
         lo, hi = prob.window(z0)
-        dof = prob.y.size - prob.q
         out = run_python(prob.evaluate, z0, lo, hi, tol=solver.tol,
                          max_evaluations=solver.budget(prob.q), n_capped=prob.n_log,
-                         noise=solver.noise_tol * 2.0 / dof if dof > 0 else 0.0,
+                         noise_tol=solver.noise_tol, dof=prob.y.size - prob.q,
                          cost=prob.cost)
         if best is None or (math.isfinite(out.cost[0])
                             and not out.cost[0] >= best[0].cost[0]):
             best = (out, z0, lo, hi)
+        if (out.stops[0] is Stop.NOT_FINITE and int(out.evaluations[0]) <= 1
+                and len(tries) < len(finite)):
+            # The start's cost was finite but its sensitivities were not (a simulator that
+            # differentiates by perturbing can fail there): the next start instead.
+            tries.append(finite[len(tries)])
     assert best is not None
     out, z0, lo, hi = best
     note = (f"start: {'the given x0' if x0 is not None else model.name + '.start()'}"
             f"{f', best of {len(zs)} by cost' if len(zs) > 1 else ''}"
-            f"{f', solved from {len(tries)}' if len(tries) > 1 else ''}")
-    return _result(prob, out, z0, lo, hi, options, StartInfo(note, len(zs), len(tries)))
+            f"{f', solved from {solved}' if solved > 1 else ''}")
+    return _result(prob, out, z0, lo, hi, options, StartInfo(note, len(zs), solved))
 
 
 def _limits(prob: _Item, z: Array, z0: Array, cost: float, lo: Array, hi: Array,

@@ -243,9 +243,13 @@ def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, F
     start = np.array(list(res.params.values()))
     start[2] = 1.0
     start[3] = START_INTAKE_RATIO
-    full = fit(model, surface, options=FitOptions(fixed={
-        **fixed, "liquid_fraction": 1.0, "intake_ratio": float(start[3])}), x0=start,
-        solver=SOLVER)
+    try:
+        full = fit(model, surface, options=FitOptions(fixed={
+            **fixed, "liquid_fraction": 1.0, "intake_ratio": float(start[3])}), x0=start,
+            solver=SOLVER)
+    except (ValueError, ArithmeticError):
+        # No periodic full-pump stroke at the free fit's values: the free fit stands.
+        return model, res, False
     n, q = np.asarray(res.data).size, len(res.free)
     sigma2 = 2.0 * res.cost / max(n - q, 1)
     if math.isfinite(full.cost) and 2.0 * (full.cost - res.cost) <= LR_TWO * sigma2:
