@@ -93,7 +93,15 @@ def _band_median(h: Array, f: Array, mask: Array, lo: Array | float,
         extra = np.zeros_like(sel)
         np.put_along_axis(extra, nearest, True, axis=1)
         sel = np.where(empty[:, None], extra & mask, sel)
-    return np.asarray(np.nanmedian(np.where(sel, f, np.nan), axis=1), dtype=float)
+    # The median of each row's selected samples, by one sort: np.nanmedian takes about
+    # 1.5 ms for a single small card (masked arrays), and an identification measures its
+    # pump card dozens of times.
+    count = sel.sum(axis=1)
+    ordered = np.sort(np.where(sel, f, np.inf), axis=1)
+    rows = np.arange(h.shape[0])
+    low_mid = ordered[rows, np.maximum(count - 1, 0) // 2]
+    high_mid = ordered[rows, np.maximum(count, 1) // 2]
+    return np.asarray(np.where(count > 0, 0.5 * (low_mid + high_mid), np.nan), dtype=float)
 
 
 def _transfer(y: Array, f: Array, down_rel: Array, down: Array, level: Array) -> Array:
