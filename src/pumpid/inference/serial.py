@@ -26,7 +26,8 @@ The robust error is scaled so that ``t_{N-q}`` times it is the interval these gi
 intervals, the practical identifiability and the derived quantities' errors all follow.
 
 :func:`shown_errors` then makes the error a user sees by default the one that holds: the
-robust error where the residuals fail the whiteness check, the white one where they pass;
+robust error where the residuals are serially correlated (:func:`serially_correlated`: a
+one-sided 5 % test, more eager than the whiteness warning), the white one elsewhere;
 the other stays available by its own name (``stderr_white``/``ci95_white``,
 ``stderr_hac``/``ci95_hac``).
 """
@@ -47,12 +48,20 @@ from numpy.typing import NDArray
 from .uncertainty import Numbers, Uncertainty, correlation_of, t_quantile
 
 __all__ = [
-    "Errors", "calibrate_robust", "robust_covariance", "robust_factor", "shown_errors",
-    "with_ar1_floor",
+    "ROBUST_Z", "Errors", "calibrate_robust", "robust_covariance", "robust_factor",
+    "serially_correlated", "shown_errors", "with_ar1_floor",
 ]
 
 Array = NDArray[np.float64]
 
+#: The robust errors are shown where the residuals' lag-1 autocorrelation exceeds
+#: ROBUST_Z / sqrt(N): a one-sided 5 % test, more eager than the whiteness warning's 99.5 %.
+#: The two mistakes are not alike: robust errors shown for white residuals are about as wide
+#: as the independent-noise ones, while independent-noise errors shown for correlated ones
+#: are far too narrow. On a 60-sample card with AR(1) noise of rho 0.5, the 99.5 % test let
+#: one fit in six through, whose intervals covered about 80 %, and the default intervals
+#: covered 88 % (1,000 replicates, ``stat_coverage.py``).
+ROBUST_Z = 1.645
 #: The degrees of freedom of the robust error's reference distribution never go below
 #: this: t_{0.975} on one degree of freedom is 12.7, on 1.0 it is already a Cauchy.
 _MIN_DOF = 1.0
@@ -171,7 +180,7 @@ def with_ar1_floor(nums: Numbers, rows: Array, offset_col: int) -> tuple[Numbers
 class Errors(Uncertainty):
     """An :class:`Uncertainty` whose ``stderr``/``ci95``/``covariance`` are the errors shown.
 
-    ``shown`` says which: ``"robust"`` (the residuals failed the whiteness check, the
+    ``shown`` says which: ``"robust"`` (the residuals are serially correlated, the
     calibrated HAC errors are shown) or ``"white"``. The independent-noise errors stay in
     ``stderr_white``/``ci95_white``/``covariance_white`` whatever is shown.
     """
@@ -192,6 +201,12 @@ _ROBUST_WORDS = (
     "independent-noise errors are stderr_white and ci95_white")
 
 
+def serially_correlated(rho: float, n: int) -> bool:
+    """Whether residuals of lag-1 autocorrelation ``rho`` over ``n`` samples get the robust
+    errors shown (:data:`ROBUST_Z`); NaN counts as correlated."""
+    return not rho <= ROBUST_Z / math.sqrt(max(n, 1))
+
+
 def shown_errors(unc: Uncertainty | None, serial: bool, robust_cov: Array | None = None,
                  calibration: Mapping[str, Any] | None = None) -> Errors | None:
     """The uncertainty with the error that holds shown by default.
@@ -200,7 +215,7 @@ def shown_errors(unc: Uncertainty | None, serial: bool, robust_cov: Array | None
     ----------
     unc : Uncertainty or None
     serial : bool
-        The residuals failed the whiteness check.
+        The residuals are serially correlated (:func:`serially_correlated`).
     robust_cov : ndarray, optional
         The robust covariance (:func:`robust_covariance`); without it the white
         correlations are scaled to the robust errors.

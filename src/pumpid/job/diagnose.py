@@ -26,6 +26,7 @@ from ..inference.serial import (
     Errors,
     calibrate_robust,
     robust_covariance,
+    serially_correlated,
     shown_errors,
     with_ar1_floor,
 )
@@ -80,7 +81,7 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
         Applied to the numbers before the findings (a change of reported coordinates).
     """
     num, calibration = calibrate_robust(num)
-    serial = not num.exact and not (num.rho <= 2.576 / math.sqrt(max(num.n, 1)))
+    serial = not num.exact and serially_correlated(num.rho, num.n)
     if serial:
         rows = rows_of()
         if rows is not None:

@@ -220,11 +220,8 @@ def _num(value: float | None) -> float | None:
 def _stderr(result: FitResult | None, name: str) -> float:
     if result is None or result.uncertainty is None:
         return math.nan
-    u = result.uncertainty
-    # The error shown: the robust one where the residuals are serially correlated.
-    serial = u.whiteness is not None and not u.whiteness.get("white", True)
-    table = u.stderr_hac if serial else u.stderr
-    value = table.get(name, math.nan)
+    # The error shown (the robust one where the residuals are serially correlated).
+    value = result.uncertainty.stderr.get(name, math.nan)
     return math.nan if value is None else float(value)
 
 

@@ -133,8 +133,9 @@ class FitResult:
     @property
     def stderr(self) -> dict[str, float]:
         """Standard error of every fitted value (empty when not computed): the error that
-        holds for these residuals, robust to their serial correlation where they fail the
-        whiteness check (:attr:`errors_shown`; :attr:`stderr_white` assumes white noise)."""
+        holds for these residuals, robust to their serial correlation where their lag-1
+        autocorrelation exceeds 1.645 / sqrt(N) (:attr:`errors_shown`; :attr:`stderr_white`
+        assumes white noise)."""
         return dict(self.uncertainty.stderr) if self.uncertainty else {}
 
     @property
