@@ -31,9 +31,15 @@ def test_demo_field_batch_and_report(tmp_path: Path, capsys) -> None:
     assert abs(first - DEMO_FIELD["change"].at) <= 3
 
 
-def test_demo_usage(capsys) -> None:
+def test_demo_usage(capsys, tmp_path: Path, monkeypatch) -> None:
     assert main([]) == 2
     assert "usage" in capsys.readouterr().err
+    # --help is help, not a folder named "--help" (with a truth table written beside it)
+    monkeypatch.chdir(tmp_path)
+    assert main(["--help"]) == 0
+    assert "usage" in capsys.readouterr().out
+    assert main(["--pumps", "--bogus"]) == 2 and main(["-x"]) == 2
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_demo_words_agree_with_its_truth_table(tmp_path: Path, capsys) -> None:

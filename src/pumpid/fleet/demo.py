@@ -122,10 +122,17 @@ def make_demo_field(folder: str | Path) -> Path:
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m pumpid.fleet.demo [--pumps] FOLDER``."""
     args = list(sys.argv[1:] if argv is None else argv)
+    usage = "usage: python -m pumpid.fleet.demo [--pumps] FOLDER"
+    if args[:1] in (["-h"], ["--help"]):
+        print(f"{usage}\n\nWrites make demo's synthetic Kelvin field (or with --pumps its "
+              "pump field) into FOLDER; the truth table (and the well file) go beside it.")
+        return 0
     pumps = args[:1] == ["--pumps"]
     args = args[1:] if pumps else args
-    if len(args) != 1:
-        print("usage: python -m pumpid.fleet.demo [--pumps] FOLDER", file=sys.stderr)
+    if len(args) != 1 or args[0].startswith("-"):
+        # An option it does not know is not a folder to write a field into (write
+        # ./-name for a folder whose name starts with a dash).
+        print(usage, file=sys.stderr)
         return 2
     if pumps:
         return _pump_words(args[0], make_pump_field(args[0]))
