@@ -70,8 +70,8 @@ NOISE_TOL = 1e-3
 #: The stop tests' relative tolerance: a cost change of 1e-7 of itself moves the answer by
 #: sqrt(N x 1e-7), about 0.005 standard errors on a 200-sample card; below it MINPACK's
 #: tests (default 1e-12) only chased the march's own noise.
-TOL = 1e-7
-SOLVER = LevenbergMarquardt(tol=TOL, noise_tol=NOISE_TOL)
+SOLVER_TOL = 1e-7
+SOLVER = LevenbergMarquardt(tol=SOLVER_TOL, noise_tol=NOISE_TOL)
 
 
 @dataclass(frozen=True, eq=False)
