@@ -251,8 +251,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                          "(default: identified from each card; with --no-identify, "
                          "pumpid downhole's rule)")
     dh.add_argument("--no-identify", action="store_true",
-                    help="do not identify the pump from each card (about half a second a "
-                         "card): the diagnostic pump card's quantities only")
+                    help="do not identify the pump from each card (about 0.1-0.3 s a card): "
+                         "the diagnostic pump card's quantities only")
     dh.add_argument("--harmonics", type=int, metavar="N",
                     help="highest harmonic of the Fourier method (default: all)")
     p.set_defaults(func=cmd_batch)

@@ -22,7 +22,7 @@ fits still call it determined; the change detector then flags it (other seeds sh
 rod-pumped wells with the same three-taper string, a card every six hours for four days
 (64 cards), 1 % load noise and 1 % card-to-card scatter of the fluid level; its well file
 ``FOLDER/../wells.json`` and its truth table ``FOLDER/../truth.csv``. ``make demo`` runs
-``pumpid batch --well-file`` on it (each card's pump identified, about half a second a
+``pumpid batch --well-file`` on it (each card's pump identified, about 0.1-0.3 s a
 card) and ``pumpid report``, apart from the Kelvin field: those wells have no rod string
 to describe, and identifying their 432 cards would cost minutes for nothing. Wells P001
 (a full pump) and P004 (a steady 85 % fillage) are steady; from ``card_index``
