@@ -62,7 +62,17 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tests.rods.strings import FT, INCH, LBF, STEEL, card, surface_motion, three_tapers  # noqa: E402
+from bench_main_job import table  # noqa: E402
+from tests.rods.strings import (  # noqa: E402
+    FT,
+    INCH,
+    LBF,
+    STEEL,
+    card,
+    cmcm_well_document,
+    surface_motion,
+    three_tapers,
+)
 
 from pumpid.cards import Card, read_card  # noqa: E402
 from pumpid.pump import PumpFit, PumpSystem, identify_card, identify_cards  # noqa: E402
@@ -195,16 +205,6 @@ def run_one(task: tuple[str, int, int]) -> list[dict[str, Any]]:
 
 
 # --------------------------------------------------------------------------- printing
-def table(title: str, header: list[str], rows: list[list[str]]) -> None:
-    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(header)]
-    print(f"\n{title}")
-    print("  " + "  ".join(h.rjust(w) for h, w in zip(header, widths, strict=True)))
-    print("  " + "  ".join("-" * w for w in widths))
-    for r in rows:
-        print("  " + "  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)))
-    sys.stdout.flush()
-
-
 def pct(flags: list[bool]) -> str:
     return f"{100 * np.mean(flags):.1f} %" if flags else "-"
 
@@ -264,20 +264,8 @@ def section_recovery(count: int, processes: int, seed: int, save: str | None) ->
 
 # --------------------------------------------------------------------------- real cards
 def real_well(entry: dict[str, Any], common: dict[str, Any], well_id: str) -> Well:
-    """The data set's well in pumpid's well-file schema (as tests/rods/test_realcards.py)."""
-    water = entry["water_cut"]
-    # No mixture density is given: crude and water mixed by the water cut.
-    density = (common["crude_oil_density_kg_m3"] * (1 - water)
-               + common["water_density_kg_m3"] * water)
-    doc = {"units": {"length": "m", "diameter": "mm", "modulus": "Pa", "density": "kg/m3"},
-           "wells": {well_id: {
-               "rods": [{"length": t["length_m"], "diameter": t["diameter_mm"],
-                         "modulus": t["E_Pa"], "density": t["density_kg_m3"]}
-                        for t in entry["rod_tapers"]],
-               "pump": {"depth": entry["pump_depth_m"],
-                        "plunger_diameter": entry["plunger_diameter_mm"]},
-               "tubing": {"anchored": True},
-               "fluid": {"density": density}}}}
+    """The data set's well in pumpid's well-file schema."""
+    doc = cmcm_well_document(entry, common, well_id)
     return wells_from_dict(doc, source=f"{well_id} (from wells.json)")[well_id]
 
 

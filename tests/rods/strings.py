@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from pumpid.cards import Card
@@ -41,3 +43,23 @@ def card(position_m: np.ndarray, load_n: np.ndarray, spm: float, card_id: str = 
                     load_unit="kN", card_id=card_id).with_spm(spm)
     return Card(position=position_m / INCH, load=load_n / LBF, position_unit="in",
                 load_unit="lbf", card_id=card_id).with_spm(spm)
+
+
+def cmcm_well_document(entry: dict[str, Any], common: dict[str, Any],
+                       well_id: str) -> dict[str, Any]:
+    """A well of the public CMCM 2012 set (its own ``wells.json`` entry and common values)
+    as a well file in pumpid's schema: metric units, anchored tubing, and a fluid of crude
+    and water mixed by the water cut (the set gives no mixture density; its notes say its
+    teams mixed them so)."""
+    water = entry["water_cut"]
+    density = (common["crude_oil_density_kg_m3"] * (1 - water)
+               + common["water_density_kg_m3"] * water)
+    return {"units": {"length": "m", "diameter": "mm", "modulus": "Pa", "density": "kg/m3"},
+            "wells": {well_id: {
+                "rods": [{"length": t["length_m"], "diameter": t["diameter_mm"],
+                          "modulus": t["E_Pa"], "density": t["density_kg_m3"]}
+                         for t in entry["rod_tapers"]],
+                "pump": {"depth": entry["pump_depth_m"],
+                         "plunger_diameter": entry["plunger_diameter_mm"]},
+                "tubing": {"anchored": True},
+                "fluid": {"density": density}}}}

@@ -16,6 +16,7 @@ import pytest
 from pumpid.cli.main import main
 
 from ..conftest import REPORTED
+from .strings import cmcm_well_document
 
 pytestmark = pytest.mark.realdata
 
@@ -26,21 +27,7 @@ def well_file(raw: Path, well_id: str, tmp_path: Path) -> tuple[Path, dict]:
     """Our well file for one of the data set's wells, and the data set's entry."""
     source = json.loads((raw / FOLDER / "wells.json").read_text(encoding="utf-8"))
     entry = source["wells"][well_id]
-    common = source["common"]
-    water = entry["water_cut"]
-    # No mixture density is given: mix crude and water by the water cut, as the source's
-    # notes say its teams did.
-    density = (common["crude_oil_density_kg_m3"] * (1 - water)
-               + common["water_density_kg_m3"] * water)
-    doc = {"units": {"length": "m", "diameter": "mm", "modulus": "Pa", "density": "kg/m3"},
-           "wells": {well_id: {
-               "rods": [{"length": t["length_m"], "diameter": t["diameter_mm"],
-                         "modulus": t["E_Pa"], "density": t["density_kg_m3"]}
-                        for t in entry["rod_tapers"]],
-               "pump": {"depth": entry["pump_depth_m"],
-                        "plunger_diameter": entry["plunger_diameter_mm"]},
-               "tubing": {"anchored": True},
-               "fluid": {"density": density}}}}
+    doc = cmcm_well_document(entry, source["common"], well_id)
     path = tmp_path / f"{well_id}.json"
     path.write_text(json.dumps(doc), encoding="utf-8")
     return path, entry

@@ -284,9 +284,11 @@ class PumpSystem(OwnModel):
                                  f"{par.upper:g}]")
         base = self.run(values)
         self._last = base
-        if len(self._runs) >= KEPT_RUNS:
-            self._runs.pop(next(iter(self._runs)))
-        self._runs[values.tobytes()] = base
+        key = values.tobytes()
+        if key not in self._runs:
+            if len(self._runs) >= KEPT_RUNS:
+                self._runs.pop(next(iter(self._runs)))  # the oldest
+            self._runs[key] = base
         load = self._load(values, base)
         if not sensitivities:
             return load, None
@@ -393,7 +395,7 @@ class PumpSystem(OwnModel):
                     try:
                         sides.append((sign, self.quantities(moved)))
                     except (ArithmeticError, ValueError):
-                        continue  # outside the bounds, or no periodic stroke there
+                        continue  # no periodic stroke there, or no pump card to measure
                 if len(sides) == 2:
                     grad[:, a] = (sides[0][1] - sides[1][1]) / (2.0 * DERIVED_STEP)
                 elif sides:
