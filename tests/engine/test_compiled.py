@@ -40,7 +40,7 @@ def test_notice_on_stderr_once_and_not_in_json(tmp_path, monkeypatch, capsys) ->
     from ..cli.conftest import write_cards
 
     card = write_cards(tmp_path / "c.csv", ["A"])
-    missing = ["drive.solve_items"]
+    missing = ["drive.items"]
     monkeypatch.setattr(compiled, "uncached", lambda names=compiled.MAIN_JOB: missing)
     assert main(["fit", str(card), "--json"]) == 0
     out, err = capsys.readouterr()
@@ -50,7 +50,7 @@ def test_notice_on_stderr_once_and_not_in_json(tmp_path, monkeypatch, capsys) ->
     assert f"{low}-{high} minutes" in err
 
 
-@pytest.mark.parametrize("missing", [[], ["drive.solve_items"]])
+@pytest.mark.parametrize("missing", [[], ["drive.items"]])
 def test_notice_only_when_something_is_missing(missing, monkeypatch, capsys) -> None:
     monkeypatch.setattr(compiled, "uncached", lambda names=compiled.MAIN_JOB: missing)
     assert compile_notice() is bool(missing)

@@ -46,15 +46,11 @@ COMPILED_MODULES = (
 #: and options: while one of them has no compiled form in this build's cache, the first fit
 #: compiles. (Functions only some fits reach, such as the wider search's, would announce a
 #: compile on every run of the others.)
-MAIN_JOB = (
-    "drive.linear_items",
-    "drive.rows_items",
-    "drive.solve_items",
-)
+MAIN_JOB = ("drive.items",)
 #: What compiling the main job costs on an empty cache (minutes, low and high): the bundled
-#: example (two periodic cards) took 178 s with one core free (load average 1.0) and 379 s
-#: on a busy machine (load average 3.3 on 2 cores), once the simulation was compiled into
-#: three entry points instead of re-optimised at every level of five (277 and 623 s before).
+#: example (two periodic cards) took 142 s with one core free (load average 1.0) once every
+#: task that simulates ran in one entry point (157-164 s with three, 277 s with five), and
+#: about twice as long on a busy machine (379 s with three entry points at load average 3.3).
 COLD_MINUTES = (2, 4)
 
 #: Every compiled function by module.function, filled as the modules are imported.

@@ -12,8 +12,9 @@ Householder pass): nothing of the card's length reaches the solver's step algebr
 
 :func:`solve_items` runs the Levenberg-Marquardt state machine of :mod:`pumpid.engine.lm`
 for many (card, start) items; each item iterates to its own end, so no card waits for a
-slower one. The functions release the GIL, so the caller spreads chunks of items over
-threads (:mod:`pumpid.engine.threads`).
+slower one. Every task that simulates (solving, costing, the Jacobian's rows, the outputs)
+runs in one compiled function, :func:`items`, which releases the GIL, so the caller spreads
+chunks of items over threads (:mod:`pumpid.engine.threads`).
 """
 
 from __future__ import annotations
@@ -21,13 +22,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import lm
 from .compiled import jit
 from .kernel import simulate_card
 
-__all__ = ["AS_GIVEN", "BEST_LINEAR", "RESCALE", "cost_items", "evaluate", "outputs",
-           "solve_items"]
+__all__ = ["AS_GIVEN", "BEST_LINEAR", "RESCALE", "cost_items", "evaluate", "items",
+           "linear_items", "outputs", "rows_items", "solve_items", "solve_one"]
 
 #: :func:`linear_items`' modes: cost the points as given, complete them with their best
 #: scale and offset, or rescale the parameters to the fixed scale.
@@ -218,77 +220,9 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, k, data, model, sett
     return (state[0], state[7][0], ints[0] + 1, ints[1], ints[4], ints[5], n_hist)
 
 
-@jit
-def solve_items(cards, z0, lo, hi, tol, max_evals, n_capped, noise_tol, data, model,
-                settings):
-    """Solve many (card, start) items, one after the other.
-
-    Returns z (m, q), cost (m,), evaluations, accepted, code, test (m,) arrays.
-    """
-    m, q = z0.shape
-    z = np.empty((m, q))
-    cost = np.empty(m)
-    evals = np.zeros(m, np.int64)
-    accepted = np.zeros(m, np.int64)
-    code = np.zeros(m, np.int64)
-    test = np.zeros(m, np.int64)
-    no_history = np.empty((0, q + 1))
-    for i in range(m):
-        out = _solve(z0[i], lo[i], hi[i], tol, max_evals[i], n_capped, noise_tol, cards[i],
-                     data, model, settings, no_history)
-        z[i] = out[0]
-        cost[i] = out[1]
-        evals[i] = out[2]
-        accepted[i] = out[3]
-        code[i] = out[4]
-        test[i] = out[5]
-    return z, cost, evals, accepted, code, test
-
-
-@jit
-def solve_one(z0, lo, hi, tol, max_evals, n_capped, noise_tol, card, data, model, settings,
-              history):
-    """:func:`solve_items` for one item, with the history of accepted points."""
-    return _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, card, data, model,
-                  settings, history)
-
-
-@jit
-def outputs(cards, z, data, model, settings, total):
-    """Unscaled outputs of many (card, point) items, concatenated (``total`` samples);
-    and per item whether the simulation succeeded."""
-    m = z.shape[0]
-    bounds = data[3]
-    starts = np.zeros(m + 1, np.int64)
-    for i in range(m):
-        k = cards[i]
-        starts[i + 1] = starts[i] + bounds[k + 1] - bounds[k]
-    y_all = np.full(total, math.nan)
-    ok = np.zeros(m, np.bool_)
-    for i in range(m):
-        k = cards[i]
-        n_samples = bounds[k + 1] - bounds[k]
-        y = np.empty(n_samples)
-        good, _scale, _offset = simulate_at(z[i], k, data, model, settings, y,
-                                            np.empty((0, n_samples)))
-        ok[i] = good
-        if good:
-            y_all[starts[i]:starts[i + 1]] = y
-    return y_all, ok
-
-
-@jit
-def linear_items(cards, z, mode, data, model, settings):
-    """Best linear values (ln C, offset) for parameter points, and their costs.
-
-    For each item: simulate card ``cards[i]`` at ``z[i]``'s parameters and, with ``mode``
-    :data:`BEST_LINEAR`, fill the free scale and offset coordinates with their
-    least-squares values. With :data:`RESCALE` (a scale-symmetric model on a fixed scale,
-    from a load-driven state) the parameters are multiplied by ``C / a`` instead, ``a`` the
-    least-squares amplitude: the same curve with the scale held. With :data:`AS_GIVEN` the
-    points are kept and only costed. Returns the completed points (m, q) and their costs
-    (inf when the point cannot be simulated or the amplitude is not positive).
-    """
+@jit(inline=True)
+def _linear(cards, z, mode, data, model, settings):
+    """:func:`linear_items`' body: (the completed points, their costs)."""
     rescale = mode == RESCALE
     m, _q = z.shape
     free, _lz_base, log_res, scale_free, scale_fixed, offset_free, offset_fixed = settings
@@ -384,16 +318,9 @@ def linear_items(cards, z, mode, data, model, settings):
     return out, cost
 
 
-@jit
-def rows_items(cards, z, data, model, settings):
-    """Jacobian columns and residual of many (card, point) items, as one flat buffer.
-
-    Item ``i``'s rows ``(q + 1, n_i)`` (:func:`residual_rows`) are
-    ``buffer[starts[i]:starts[i + 1]].reshape(q + 1, n_i)``. Returns (buffer, starts (m + 1,),
-    ok (m,)): ok False where the point cannot be evaluated. The one compiled function that
-    simulates for both :func:`summary_items` and the uncertainty's diagnosis, so a fresh
-    install compiles the simulation with its sensitivities into one caller less.
-    """
+@jit(inline=True)
+def _rows(cards, z, data, model, settings):
+    """:func:`rows_items`' body: (buffer, starts (m + 1,), ok (m,))."""
     m, q = z.shape
     bounds = data[3]
     starts = np.zeros(m + 1, np.int64)
@@ -409,6 +336,160 @@ def rows_items(cards, z, data, model, settings):
         ok[i] = residual_rows(z[i], k, data, model, settings, rows)
         buffer[starts[i]:starts[i + 1]] = rows.ravel()
     return buffer, starts, ok
+
+
+@jit(inline=True)
+def _outputs(cards, z, data, model, settings, total):
+    """:func:`outputs`' body: (outputs concatenated, ok (m,))."""
+    m = z.shape[0]
+    bounds = data[3]
+    starts = np.zeros(m + 1, np.int64)
+    for i in range(m):
+        k = cards[i]
+        starts[i + 1] = starts[i] + bounds[k + 1] - bounds[k]
+    y_all = np.full(total, math.nan)
+    ok = np.zeros(m, np.bool_)
+    for i in range(m):
+        k = cards[i]
+        n_samples = bounds[k + 1] - bounds[k]
+        y = np.empty(n_samples)
+        good, _scale, _offset = simulate_at(z[i], k, data, model, settings, y,
+                                            np.empty((0, n_samples)))
+        ok[i] = good
+        if good:
+            y_all[starts[i]:starts[i + 1]] = y
+    return y_all, ok
+
+
+#: :func:`items`' tasks.
+_SOLVE, _LINEAR, _ROWS, _OUTPUTS = 0, 1, 2, 3
+
+
+@jit
+def items(task, cards, z, lo, hi, tol, max_evals, n_capped, noise_tol, mode, history, total,
+          data, model, settings):
+    """The one compiled entry point that simulates: every task on many (card, point) items.
+
+    Every compiled function links in and re-optimises all the compiled code it calls, the
+    simulation with its sensitivities included (about 14 s on one core, each time): solving,
+    costing, the Jacobian's rows and the outputs used to be four entry points and a fresh
+    install compiled the simulation into each. The Python functions below pick the task.
+
+    Returns (z (m, q), cost (m,), evaluations, accepted, code, test (m,), accepted points
+    in ``history``, buffer, starts (m + 1,), ok (m,)); a task fills the parts it makes.
+    """
+    m = z.shape[0]
+    z_out = z.copy()
+    cost = np.full(m, math.inf)
+    evals = np.zeros(m, np.int64)
+    accepted = np.zeros(m, np.int64)
+    code = np.zeros(m, np.int64)
+    test = np.zeros(m, np.int64)
+    n_hist = 0
+    buffer = np.empty(0)
+    starts = np.zeros(m + 1, np.int64)
+    ok = np.zeros(m, np.bool_)
+    if task == _SOLVE:
+        for i in range(m):
+            out = _solve(z[i], lo[i], hi[i], tol, max_evals[i], n_capped, noise_tol, cards[i],
+                         data, model, settings, history)
+            z_out[i] = out[0]
+            cost[i] = out[1]
+            evals[i] = out[2]
+            accepted[i] = out[3]
+            code[i] = out[4]
+            test[i] = out[5]
+            n_hist = out[6]
+    elif task == _LINEAR:
+        z_out, cost = _linear(cards, z, mode, data, model, settings)
+    elif task == _ROWS:
+        buffer, starts, ok = _rows(cards, z, data, model, settings)
+    else:
+        buffer, ok = _outputs(cards, z, data, model, settings, total)
+    return z_out, cost, evals, accepted, code, test, n_hist, buffer, starts, ok
+
+
+def _own(a: ArrayLike, dtype: type) -> np.ndarray:
+    """``a`` as a writable C-contiguous array of ``dtype``: every call of :func:`items`
+    then has the same argument types, so a fresh install compiles it once."""
+    out = np.ascontiguousarray(a, dtype=dtype)
+    return out if out.flags.writeable else out.copy()
+
+
+_NO_INT = np.zeros(0, np.int64)
+
+
+def _call(task: int, cards: ArrayLike, z: ArrayLike, data: tuple, model: tuple,
+          settings: tuple, *, lo: ArrayLike | None = None, hi: ArrayLike | None = None,
+          tol: float = 0.0, max_evals: ArrayLike | None = None, n_capped: int = 0,
+          noise_tol: float = 0.0, mode: int = AS_GIVEN, history: np.ndarray | None = None,
+          total: int = 0) -> tuple:
+    z = _own(z, np.float64)
+    q = z.shape[1]
+    none = np.zeros((0, q))
+    return items(int(task), _own(cards, np.int64), z,
+                 none if lo is None else _own(lo, np.float64),
+                 none if hi is None else _own(hi, np.float64), float(tol),
+                 _NO_INT if max_evals is None else _own(max_evals, np.int64), int(n_capped),
+                 float(noise_tol), int(mode),
+                 np.zeros((0, q + 1)) if history is None else history, int(total),
+                 data, model, settings)
+
+
+def solve_items(cards, z0, lo, hi, tol, max_evals, n_capped, noise_tol, data, model,
+                settings):
+    """Levenberg-Marquardt for many (card, start) items, each to its own end.
+
+    Returns z (m, q), cost (m,), evaluations, accepted, code, test (m,) arrays.
+    """
+    return _call(_SOLVE, cards, z0, data, model, settings, lo=lo, hi=hi, tol=tol,
+                 max_evals=max_evals, n_capped=n_capped, noise_tol=noise_tol)[:6]
+
+
+def solve_one(z0, lo, hi, tol, max_evals, n_capped, noise_tol, card, data, model, settings,
+              history):
+    """:func:`solve_items` for one item, with the history of accepted points: ``history``
+    (H, q + 1), writable, C-contiguous float64, receives them and their costs. Returns (z,
+    cost, evaluations, accepted, code, test, number of history rows)."""
+    if not (history.flags.c_contiguous and history.flags.writeable
+            and history.dtype == np.float64):
+        raise ValueError("history must be a writable C-contiguous float64 array")
+    out = _call(_SOLVE, [card], np.atleast_2d(z0), data, model, settings,
+                lo=np.atleast_2d(lo), hi=np.atleast_2d(hi), tol=tol, max_evals=[max_evals],
+                n_capped=n_capped, noise_tol=noise_tol, history=history)
+    return (out[0][0], float(out[1][0]), int(out[2][0]), int(out[3][0]), int(out[4][0]),
+            int(out[5][0]), int(out[6]))
+
+
+def linear_items(cards, z, mode, data, model, settings):
+    """Best linear values (ln C, offset) for parameter points, and their costs.
+
+    For each item: simulate card ``cards[i]`` at ``z[i]``'s parameters and, with ``mode``
+    :data:`BEST_LINEAR`, fill the free scale and offset coordinates with their
+    least-squares values. With :data:`RESCALE` (a scale-symmetric model on a fixed scale,
+    from a load-driven state) the parameters are multiplied by ``C / a`` instead, ``a`` the
+    least-squares amplitude: the same curve with the scale held. With :data:`AS_GIVEN` the
+    points are kept and only costed. Returns the completed points (m, q) and their costs
+    (inf when the point cannot be simulated or the amplitude is not positive).
+    """
+    return _call(_LINEAR, cards, z, data, model, settings, mode=mode)[:2]
+
+
+def rows_items(cards, z, data, model, settings):
+    """Jacobian columns and residual of many (card, point) items, as one flat buffer.
+
+    Item ``i``'s rows ``(q + 1, n_i)`` (:func:`residual_rows`) are
+    ``buffer[starts[i]:starts[i + 1]].reshape(q + 1, n_i)``. Returns (buffer, starts (m + 1,),
+    ok (m,)): ok False where the point cannot be evaluated.
+    """
+    return _call(_ROWS, cards, z, data, model, settings)[7:]
+
+
+def outputs(cards, z, data, model, settings, total):
+    """Unscaled outputs of many (card, point) items, concatenated (``total`` samples);
+    and per item whether the simulation succeeded."""
+    out = _call(_OUTPUTS, cards, z, data, model, settings, total=total)
+    return out[7], out[9]
 
 
 def rows_at(z: np.ndarray, k: int, data: tuple, model: tuple, settings: tuple,
