@@ -17,14 +17,15 @@ import contextlib
 import functools
 import hashlib
 import os
+import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
 
 import numba
 
-__all__ = ["COLD_MINUTES", "COMPILED_MODULES", "MAIN_JOB", "cache_dir", "jit", "registered",
-           "uncached"]
+__all__ = ["COLD_MINUTES", "COMPILED_MODULES", "MAIN_JOB", "cache_dir", "compiling_aside",
+           "jit", "pending_aside", "registered", "uncached", "wait_aside"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -48,9 +49,9 @@ COMPILED_MODULES = (
 #: compile on every run of the others.)
 MAIN_JOB = ("drive.items",)
 #: What compiling the main job costs on an empty cache (minutes, low and high): the bundled
-#: example (two periodic cards) took 142 s with one core free (load average 1.0) once every
-#: task that simulates ran in one entry point (157-164 s with three, 277 s with five), and
-#: about twice as long on a busy machine (379 s with three entry points at load average 3.3).
+#: example's first card took 105 s on 2 cores (load average 1.0) once the entry point that
+#: simulates was compiled in a second process (179 s before), a real card's 121 s; about
+#: twice as long on a busy machine (load average 3.3 on 2 cores).
 COLD_MINUTES = (2, 4)
 
 #: Every compiled function by module.function, filled as the modules are imported.
@@ -123,3 +124,46 @@ def uncached(names: tuple[str, ...] = MAIN_JOB) -> list[str]:
     build's cache lacks: a call to them compiles first. Empty on a warm cache."""
     return [name for name in names
             if name in _DISPATCHERS and not _in_cache(_DISPATCHERS[name])]
+
+
+#: Functions another process is compiling into this build's cache, by name: (its process,
+#: files to remove once it has ended). See :func:`compiling_aside`.
+_ASIDE: dict[str, tuple[Any, tuple[Path, ...]]] = {}
+_ASIDE_LOCK = threading.Lock()
+
+
+def compiling_aside(name: str, process: Any, files: tuple[Path, ...] = ()) -> None:
+    """Note that ``process`` (a :class:`subprocess.Popen`) is compiling the function
+    ``name`` into this build's cache: the first call of it here waits for that process
+    (:func:`wait_aside`) and then loads its compiled form instead of compiling it again.
+    ``files`` (its input, its lock) are removed when it has ended."""
+    with _ASIDE_LOCK:
+        _ASIDE[name] = (process, tuple(files))
+
+
+def pending_aside(name: str) -> bool:
+    """Is another process compiling ``name`` for this one (not yet waited for)?"""
+    return name in _ASIDE
+
+
+def wait_aside(name: str) -> int | None:
+    """Before the first call of ``name``: wait for the process compiling it, if any, and
+    return its exit status (None when there was none to wait for).
+
+    Whatever that process's outcome, the call then proceeds: numba looks in the cache and
+    compiles only if the other process left nothing there. Threads that arrive together
+    wait together, so none starts a compile of its own meanwhile."""
+    if name not in _ASIDE:
+        return None
+    with _ASIDE_LOCK:
+        entry = _ASIDE.get(name)
+        if entry is None:
+            return None
+        process, files = entry
+        try:
+            return int(process.wait())
+        finally:
+            del _ASIDE[name]
+            for file in files:
+                with contextlib.suppress(OSError):
+                    file.unlink()

@@ -25,11 +25,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import lm
-from .compiled import jit
+from .compiled import jit, wait_aside
 from .kernel import simulate_card
 
 __all__ = ["AS_GIVEN", "BEST_LINEAR", "RESCALE", "cost_items", "evaluate", "items",
-           "linear_items", "outputs", "rows_items", "solve_items", "solve_one"]
+           "linear_items", "outputs", "rows_items", "solve_items", "solve_one", "summary_rows"]
 
 #: :func:`linear_items`' modes: cost the points as given, complete them with their best
 #: scale and offset, or rescale the parameters to the fixed scale.
@@ -424,6 +424,8 @@ def _call(task: int, cards: ArrayLike, z: ArrayLike, data: tuple, model: tuple,
           tol: float = 0.0, max_evals: ArrayLike | None = None, n_capped: int = 0,
           noise_tol: float = 0.0, mode: int = AS_GIVEN, history: np.ndarray | None = None,
           total: int = 0) -> tuple:
+    # A second process may be compiling items for a fresh install (pumpid.engine.aside).
+    wait_aside("drive.items")
     z = _own(z, np.float64)
     q = z.shape[1]
     none = np.zeros((0, q))
@@ -525,12 +527,13 @@ def summary_items(cards, z, data, model, settings):
     Returns (stats (m, 4): cost, rmse, r2, noise; norms (m, q)); NaN where the point cannot
     be evaluated.
     """
+    cards = _own(cards, np.int64)
     buffer, starts, ok = rows_items(cards, z, data, model, settings)
-    return _summary_rows(cards, z.shape[1], buffer, starts, ok, data, settings)
+    return summary_rows(cards, np.asarray(z).shape[1], buffer, starts, ok, data, settings)
 
 
 @jit
-def _summary_rows(cards, q, buffer, starts, ok, data, settings):
+def summary_rows(cards, q, buffer, starts, ok, data, settings):
     """:func:`summary_items` from :func:`rows_items`' output (no simulation compiled in)."""
     m = cards.size
     stats = np.full((m, 4), math.nan)

@@ -28,9 +28,10 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ..engine import drive
+from ..engine import aside, drive
 from ..engine.problem import Problem
 from ..engine.start import complete, find_starts, search_wider, to_z, walk_valley
+from ..inference.uncertainty import analyse_rows
 from ..result import FitBatch, FitResult, StartInfo, Status, Units
 from .assemble import build_result, determination_gate, quality_gate
 from .boundary import check_boundaries
@@ -309,6 +310,25 @@ def cost_change(before: float, after: float) -> str:
             if math.isfinite(rel) else f"cost {before:.{digits}g} -> {after:.{digits}g}")
 
 
+def compile_first(problem: Problem) -> bool:
+    """On a fresh install (an empty compiled cache), the first fit's compiles on two cores.
+
+    The simulating entry point is compiled in a second process (:mod:`pumpid.engine.aside`);
+    meanwhile this one compiles the parts that need no simulation and that the job reaches
+    only after it (the summary, the uncertainty's analysis), then the start as the job goes
+    on. True if the second process was started.
+    """
+    if not aside.start(problem.arrays):
+        return False
+    data, _model, settings = problem.arrays
+    drive.summary_rows(np.zeros(0, np.int64), problem.q, np.empty(0), np.zeros(1, np.int64),
+                       np.zeros(0, np.bool_), data, settings)
+    q = problem.q
+    rows = np.random.default_rng(0).standard_normal((q + 1, 4 * q + 8))
+    analyse_rows(rows, np.ones(q, np.bool_), -1, 1.0)
+    return True
+
+
 def run_batch(problem: Problem, *, guess: Array | None, c_start: Array | None = None,
               offset_start: Array | None = None, options: JobOptions, depth: int = 0,
               units: Units | Sequence[Units] | None = None,
@@ -320,6 +340,8 @@ def run_batch(problem: Problem, *, guess: Array | None, c_start: Array | None = 
     one per card; ``warnings`` are the option-level warnings every result carries.
     """
     valid = np.flatnonzero(problem.valid)
+    if depth == 0 and valid.size:
+        compile_first(problem)
     fits = run(problem, valid, guess=None if guess is None else np.asarray(guess)[valid],
                c_start=None if c_start is None else np.asarray(c_start)[valid],
                offset_start=None if offset_start is None else np.asarray(offset_start)[valid],
