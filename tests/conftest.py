@@ -31,6 +31,20 @@ def well_load(t: np.ndarray, period: float = 7.5, seed: int = 0) -> np.ndarray:
     return 6000.0 + 5000.0 * pickup * (1 - release) + ripple + 300 * np.sin(2 * np.pi * phase)
 
 
+def stroke_problem(seed: int, n: int = 120, period: float = 6.0):
+    """A solver problem (one periodic Kelvin stroke, noiseless, fitted offset): for tests of
+    the engine's compiled entry points."""
+    import pumpid
+    from pumpid.engine.problem import CardData, build_problem
+
+    t = np.arange(n) * period / n
+    load = well_load(t, period=period, seed=seed)
+    data = pumpid.simulate(pumpid.Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0), t, load,
+                           initial_state="periodic", period=period)
+    return build_problem(pumpid.Kelvin, [CardData(t, load, data, "periodic", period)],
+                         offset=True)
+
+
 @pytest.fixture
 def shared_raw() -> Path:
     """The third-party card folder; the test is skipped when it is absent."""

@@ -7,22 +7,15 @@ import sys
 import threading
 import time
 
-import numpy as np
-
-from pumpid import Kelvin, fit, simulate
+from pumpid import Kelvin, fit
 from pumpid.engine import aside, compiled, drive
-from pumpid.engine.problem import CardData, build_problem
+from pumpid.engine.problem import CardData
 
-from ..conftest import well_load
+from ..conftest import stroke_problem
 
 
 def _problem():
-    period, n = 6.0, 120
-    t = np.arange(n) * period / n
-    load = well_load(t, period=period, seed=8)
-    data = simulate(Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0), t, load,
-                    initial_state="periodic", period=period)
-    return build_problem(Kelvin, [CardData(t, load, data, "periodic", period)], offset=True)
+    return stroke_problem(seed=8)
 
 
 def test_the_second_process_compiles_the_signature_this_one_calls(tmp_path) -> None:

@@ -2,23 +2,14 @@
 
 from __future__ import annotations
 
-import numpy as np
-
-from pumpid import Kelvin, simulate
 from pumpid.engine import aside, compiled
-from pumpid.engine.problem import CardData, build_problem
 from pumpid.job import stages
 
-from ..conftest import well_load
+from ..conftest import stroke_problem
 
 
 def _problem():
-    period, n = 6.0, 120
-    t = np.arange(n) * period / n
-    load = well_load(t, period=period, seed=2)
-    data = simulate(Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0), t, load,
-                    initial_state="periodic", period=period)
-    return build_problem(Kelvin, [CardData(t, load, data, "periodic", period)], offset=True)
+    return stroke_problem(seed=2)
 
 
 def test_compile_first_does_nothing_on_a_warm_cache() -> None:

@@ -221,6 +221,17 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, k, data, model, sett
 
 
 @jit(inline=True)
+def _plain_output(z, i, cards, data, model, settings):
+    """Item i's unscaled output, no sensitivities: (ok, y, C, offset)."""
+    k = cards[i]
+    n_samples = data[3][k + 1] - data[3][k]
+    y = np.empty(n_samples)
+    ok, scale, offset = simulate_at(z[i], k, data, model, settings, y,
+                                    np.empty((0, n_samples)))
+    return ok, y, scale, offset
+
+
+@jit(inline=True)
 def _linear(cards, z, mode, data, model, settings):
     """:func:`linear_items`' body: (the completed points, their costs)."""
     rescale = mode == RESCALE
@@ -229,13 +240,10 @@ def _linear(cards, z, mode, data, model, settings):
     nf = free.size
     out = z.copy()
     cost = np.full(m, math.inf)
-    bounds = data[3]
     for i in range(m):
         k = cards[i]
-        n_samples = bounds[k + 1] - bounds[k]
-        y = np.empty(n_samples)
-        ok, given_scale, given_offset = simulate_at(z[i], k, data, model, settings, y,
-                                                    np.empty((0, n_samples)))
+        ok, y, given_scale, given_offset = _plain_output(z, i, cards, data, model, settings)
+        n_samples = y.size
         if not ok:
             continue
         d = _card(data, k)[2]
@@ -350,11 +358,7 @@ def _outputs(cards, z, data, model, settings, total):
     y_all = np.full(total, math.nan)
     ok = np.zeros(m, np.bool_)
     for i in range(m):
-        k = cards[i]
-        n_samples = bounds[k + 1] - bounds[k]
-        y = np.empty(n_samples)
-        good, _scale, _offset = simulate_at(z[i], k, data, model, settings, y,
-                                            np.empty((0, n_samples)))
+        good, y, _scale, _offset = _plain_output(z, i, cards, data, model, settings)
         ok[i] = good
         if good:
             y_all[starts[i]:starts[i + 1]] = y
