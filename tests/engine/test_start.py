@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 import pytest
@@ -19,9 +20,16 @@ from pumpid import (
     simulate,
 )
 from pumpid.engine.problem import CardData, build_problem
-from pumpid.engine.start import candidates, complete, find_starts, walk_valley
+from pumpid.engine.start import (
+    WidePlan,
+    candidates,
+    complete,
+    find_starts,
+    search_wider,
+    walk_valley,
+)
 
-from ..conftest import well_load
+from ..conftest import stroke_problem, well_load
 
 T = np.linspace(0.0, 20.0, 1001)
 LOAD = well_load(T)
@@ -233,3 +241,29 @@ def test_a_periodic_card_does_not_compile_the_time_domain_estimate() -> None:
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=root, check=True)
     assert done.stdout.split() == ["1", "0"]
+
+
+class _FinalsSpy(LevenbergMarquardt):
+    """The solver the wider search runs its finals with, recording each call's budget."""
+
+    calls: ClassVar[list] = []
+
+    def solve(self, problem, cards, z0, **kwargs):  # type: ignore[override]
+        out = super().solve(problem, cards, z0, **kwargs)
+        self.calls.append((kwargs.get("budget"), out.evaluations.copy()))
+        return out
+
+
+def test_the_wider_search_stops_its_finals_at_their_budget() -> None:
+    # A final only has to tell basins apart; on a flat valley the solver's whole budget
+    # (400 per coordinate) would be spent crawling along it.
+    problem = stroke_problem(3)
+    z, cost = complete(problem, ONE, np.array([[1200.0, 0.2, 600.0, 900.0]]))
+    _FinalsSpy.calls = []
+    plan = WidePlan(rounds=1, final_evaluations=6)
+    _z, best_cost, polished = search_wider(problem, ONE, z, cost, plan=plan,
+                                           solver=_FinalsSpy())
+    assert _FinalsSpy.calls
+    assert all(budget == 6 for budget, _ in _FinalsSpy.calls)
+    assert max(int(evals.max()) for _, evals in _FinalsSpy.calls) <= 6
+    assert polished[0] > 0 and best_cost[0] <= cost[0]
