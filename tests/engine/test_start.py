@@ -25,6 +25,7 @@ from pumpid.engine.start import (
     candidates,
     complete,
     find_starts,
+    harmonic_scan,
     search_wider,
     walk_valley,
 )
@@ -267,3 +268,24 @@ def test_the_wider_search_stops_its_finals_at_their_budget() -> None:
     assert all(budget == 6 for budget, _ in _FinalsSpy.calls)
     assert max(int(evals.max()) for _, evals in _FinalsSpy.calls) <= 6
     assert polished[0] > 0 and best_cost[0] <= cost[0]
+
+
+@pytest.mark.parametrize("cls, observe", [(Kelvin, "u"), (Kelvin, "u2"), (Maxwell, "u"),
+                                          (MassSpringDamper, "u"), (FirstOrder, "u")])
+def test_the_harmonic_scan_costs_each_shape_by_its_transfer_function(cls, observe) -> None:
+    # The scan's response at each harmonic (Cramer's rule up to 3 states) against the
+    # model's own transfer function, solved by numpy.
+    n = 64
+    t = np.arange(n) * 6.0 / n
+    rng = np.random.default_rng(4)
+    f, d = well_load(t, 6.0), rng.standard_normal(n)
+    p = len(cls.param_names())
+    shapes = np.exp(rng.uniform(-2.0, 2.0, (6, p)))
+    costs, factors = harmonic_scan(t, f, d, shapes, cls.code(), cls.n_states(),
+                                   cls.output_index(observe), True, False, 1.0, 8)
+    ks = np.arange(1, 9)
+    fk, dk = np.fft.fft(f)[ks], np.fft.fft(d)[ks]
+    for s in range(6):
+        h = cls.from_values(shapes[s]).transfer_function(2j * np.pi * ks / 6.0, observe)
+        assert costs[s] == pytest.approx(float(np.sum(np.abs(h * fk - dk) ** 2)), rel=1e-9)
+    assert np.all(factors == 1.0)
