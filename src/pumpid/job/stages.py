@@ -31,7 +31,14 @@ from numpy.typing import NDArray
 
 from ..engine import aside, drive
 from ..engine.problem import Problem
-from ..engine.start import complete, find_starts, search_wider, to_z, walk_valley
+from ..engine.start import (
+    compile_ranking,
+    complete,
+    find_starts,
+    search_wider,
+    to_z,
+    walk_valley,
+)
 from ..inference.uncertainty import analyse_rows
 from ..result import FitBatch, FitResult, StartInfo, Status, Units
 from .assemble import build_result, determination_gate, quality_gate
@@ -311,25 +318,32 @@ def cost_change(before: float, after: float) -> str:
             if math.isfinite(rel) else f"cost {before:.{digits}g} -> {after:.{digits}g}")
 
 
-def compile_first(problem: Problem) -> bool:
+def compile_first(problem: Problem, k: int) -> bool:
     """On a fresh install (an empty compiled cache), the first fit's compiles on two cores.
 
     The simulating entry point is compiled in a second process (:mod:`pumpid.engine.aside`);
     meanwhile this one compiles the parts that need no simulation and that the job reaches
-    only after it (the summary, the uncertainty's analysis), then the start as the job goes
-    on. True if the second process was started.
+    only after it (the summary, the uncertainty's analysis, the wider search's harmonic
+    ranking for card k's kind of arrays), then the start as the job goes on. True if the
+    second process was started.
     """
     if not aside.start(problem.arrays):
         return False
     data, _model, settings = problem.arrays
     q = problem.q
     rows = np.random.default_rng(0).standard_normal((q + 1, 4 * q + 8))
-    # Warm-ups only, on stand-in numbers: whatever goes wrong here, the job compiles what
-    # it needs as it goes and reports on the real numbers.
-    with contextlib.suppress(Exception):
-        drive.summary_rows(np.zeros(0, np.int64), q, np.empty(0), np.zeros(1, np.int64),
-                           np.zeros(0, np.bool_), data, settings)
-        analyse_rows(rows, np.ones(q, np.bool_), -1, 1.0)
+    warm_ups = (
+        lambda: drive.summary_rows(np.zeros(0, np.int64), q, np.empty(0),
+                                   np.zeros(1, np.int64), np.zeros(0, np.bool_), data,
+                                   settings),
+        lambda: analyse_rows(rows, np.ones(q, np.bool_), -1, 1.0),
+        lambda: compile_ranking(problem, k),
+    )
+    for warm_up in warm_ups:
+        # Warm-ups only, on stand-in numbers: whatever goes wrong in one, the job compiles
+        # what it needs as it goes and reports on the real numbers.
+        with contextlib.suppress(Exception):
+            warm_up()
     return True
 
 
@@ -345,7 +359,7 @@ def run_batch(problem: Problem, *, guess: Array | None, c_start: Array | None = 
     """
     valid = np.flatnonzero(problem.valid)
     if depth == 0 and valid.size:
-        compile_first(problem)
+        compile_first(problem, int(valid[0]))
     fits = run(problem, valid, guess=None if guess is None else np.asarray(guess)[valid],
                c_start=None if c_start is None else np.asarray(c_start)[valid],
                offset_start=None if offset_start is None else np.asarray(offset_start)[valid],

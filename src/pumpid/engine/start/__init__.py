@@ -30,13 +30,14 @@ from .harmonics import harmonic_scan
 from .multistart import StartPlan, Starts, find_starts
 from .pool import candidates
 from .valley import walk_valley
-from .wider import WidePlan, search_wider
+from .wider import WidePlan, compile_ranking, search_wider
 
 __all__ = [
     "StartPlan",
     "Starts",
     "WidePlan",
     "candidates",
+    "compile_ranking",
     "complete",
     "equation_error_items",
     "find_starts",

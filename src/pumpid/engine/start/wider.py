@@ -27,7 +27,7 @@ from .coordinates import complete
 from .harmonics import harmonic_scan
 from .pool import fundamental
 
-__all__ = ["WidePlan", "search_wider"]
+__all__ = ["WidePlan", "compile_ranking", "search_wider"]
 
 Array = NDArray[np.float64]
 
@@ -72,6 +72,34 @@ def _card_rng(problem: Problem, k: int) -> np.random.Generator:
     return np.random.default_rng(seed)
 
 
+def _harmonic_costs(problem: Problem, k: int, shapes: Array,
+                    harmonics: int) -> tuple[Array, Array] | None:
+    """Shapes ranked on card k's harmonics (costs, amplitude factors); None when the card
+    is not one uniformly sampled period of a model without an input map."""
+    t, f, d = problem.card(k)
+    periodic = (problem.mode[k] == kernel.PERIODIC and problem.uniform[k]
+                and problem.model.input_map is None
+                and abs(problem.period[k] - t.size * (t[1] - t[0])) <= 1e-6 * problem.period[k])
+    if not periodic:
+        return None
+    symmetric = bool(problem.model.scale_symmetric and problem.scale_fixed is not None
+                     and not problem.fixed)
+    scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
+    return harmonic_scan(t, f, d, np.ascontiguousarray(shapes), problem.model.code(),
+                         problem.model.n_states(), problem.out_index,
+                         problem.offset_fixed is None, symmetric, float(scale), harmonics)
+
+
+def compile_ranking(problem: Problem, k: int) -> None:
+    """Compile (or load) the harmonic ranking for card k's kind of arrays, if it uses it.
+
+    A warm-up: a fresh install's first fit compiles this while another process compiles
+    the simulation, instead of after it when the first card reaches the wider search.
+    """
+    shapes = problem.model.shape_grid(fundamental(problem, k))[:1]
+    _harmonic_costs(problem, k, shapes, 2)
+
+
 def _ranked_shapes(problem: Problem, k: int, plan: WidePlan) -> Array:
     """The model's dense shapes on card k, best first, as rescaled parameter rows."""
     w0 = fundamental(problem, k)
@@ -79,21 +107,11 @@ def _ranked_shapes(problem: Problem, k: int, plan: WidePlan) -> Array:
     if problem.fixed:
         for i, value in problem.fixed:
             shapes[:, i] = value
-    t, f, d = problem.card(k)
-    periodic = (problem.mode[k] == kernel.PERIODIC and problem.uniform[k]
-                and problem.model.input_map is None
-                and abs(problem.period[k] - t.size * (t[1] - t[0])) <= 1e-6 * problem.period[k])
-    symmetric = bool(problem.model.scale_symmetric and problem.scale_fixed is not None
-                     and not problem.fixed)
-    scale = problem.scale_fixed if problem.scale_fixed is not None else 1.0
-    if periodic:
-        code = problem.model.code()
-        costs, factors = harmonic_scan(t, f, d, np.ascontiguousarray(shapes), code,
-                                       problem.model.n_states(), problem.out_index,
-                                       problem.offset_fixed is None, symmetric, float(scale),
-                                       plan.harmonics)
-        if symmetric:
-            shapes = shapes * factors[:, None]
+    ranked = _harmonic_costs(problem, k, shapes, plan.harmonics)
+    if ranked is not None:
+        costs, factors = ranked
+        # The factors are exactly 1 unless the scan solved for the amplitude.
+        shapes = shapes * factors[:, None]
     else:
         z, costs = complete(problem, np.full(shapes.shape[0], k, dtype=np.int64), shapes)
         shapes = problem.full_theta(np.exp(z[:, : problem.n_free]))
