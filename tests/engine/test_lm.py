@@ -157,3 +157,33 @@ def test_a_coordinate_the_residual_ignores_stays_put() -> None:
                      max_evaluations=300, n_capped=2)
     assert np.all(np.isfinite(out.z)) and out.z[0, 2] == 0.7
     np.testing.assert_allclose(np.exp(out.z[0, :2]), [2.0, 0.3], rtol=1e-8)
+
+
+def _svd_cases():
+    rng = np.random.default_rng(11)
+    cases = [np.zeros((3, 3)), np.array([[-2.5]]), np.eye(4)]
+    for n in (2, 3, 5, 7):
+        cases.append(rng.standard_normal((n, n)))
+        # A scaled factor R of an ill-conditioned problem (columns over 12 decades).
+        cases.append(np.triu(rng.standard_normal((n, n))) * np.logspace(0, -12, n))
+        rank_deficient = rng.standard_normal((n, n))
+        rank_deficient[:, n // 2] = 0.0
+        cases.append(rank_deficient)
+    return cases
+
+
+@pytest.mark.parametrize("a", _svd_cases())
+def test_the_small_svd_factors_like_lapack(a) -> None:
+    u, sig, vt = lm.small_svd(a)
+    n = a.shape[0]
+    assert np.all(np.diff(sig) <= 0.0) and np.all(sig >= 0.0)
+    np.testing.assert_allclose(vt @ vt.T, np.eye(n), atol=1e-13)
+    np.testing.assert_allclose(u @ np.diag(sig) @ vt, a, rtol=0.0,
+                               atol=1e-14 * max(float(np.abs(a).max()), 1e-300))
+    reference = np.linalg.svd(a, compute_uv=False)
+    np.testing.assert_allclose(sig, reference, rtol=1e-9, atol=1e-14 * reference[0])
+    # The columns of u that carry a singular value are orthonormal; the others are zero.
+    kept = sig > 1e-14 * max(sig[0], 1e-300)
+    np.testing.assert_allclose(u[:, kept].T @ u[:, kept], np.eye(int(kept.sum())),
+                               atol=1e-12)
+    assert np.all(u[:, sig == 0.0] == 0.0)

@@ -63,7 +63,7 @@ import numpy as np
 from .compiled import jit
 
 __all__ = ["CONVERGED", "EXHAUSTED", "FAILED", "TESTS", "accelerate", "householder",
-           "householder_keep", "probing", "project", "propose", "start", "update"]
+           "householder_keep", "probing", "project", "propose", "small_svd", "start", "update"]
 
 #: Largest change of a log-parameter in one step.
 MAX_LOG_STEP = 1.0
@@ -171,12 +171,80 @@ def _solve_upper(r, b, x):
 
 
 @jit
+def small_svd(a):
+    """``u, sig, vt`` of a small square matrix, singular values descending (as
+    ``np.linalg.svd``), by one-sided Jacobi rotations (Hestenes).
+
+    Why by hand: the solver factors a q x q matrix (q <= about 8) once or twice per step.
+    LAPACK through numba copies, queries its workspace and allocates on every call (about
+    4.4 us for 5 x 5, as long as a short card's evaluation), and its wrapper is compiled
+    into the one entry point that simulates. Jacobi rotations need a microsecond here and
+    keep the small singular values of an ill-conditioned factor to relative accuracy.
+    Columns of ``u`` for a zero singular value are zero (every caller weights them by it).
+    """
+    n = a.shape[0]
+    w = a.copy()
+    v = np.eye(n)
+    for _sweep in range(60):
+        rotated = False
+        for i in range(n - 1):
+            for j in range(i + 1, n):
+                alpha = 0.0
+                beta = 0.0
+                gamma = 0.0
+                for k in range(n):
+                    alpha += w[k, i] * w[k, i]
+                    beta += w[k, j] * w[k, j]
+                    gamma += w[k, i] * w[k, j]
+                if gamma == 0.0 or abs(gamma) <= 1e-15 * math.sqrt(alpha * beta):
+                    continue
+                rotated = True
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+                cs = 1.0 / math.sqrt(1.0 + t * t)
+                sn = cs * t
+                for k in range(n):
+                    wi = w[k, i]
+                    wj = w[k, j]
+                    w[k, i] = cs * wi - sn * wj
+                    w[k, j] = sn * wi + cs * wj
+                    vi = v[k, i]
+                    vj = v[k, j]
+                    v[k, i] = cs * vi - sn * vj
+                    v[k, j] = sn * vi + cs * vj
+        if not rotated:
+            break
+    norms = np.empty(n)
+    for j in range(n):
+        s = 0.0
+        for k in range(n):
+            s += w[k, j] * w[k, j]
+        norms[j] = math.sqrt(s)
+    u = np.zeros((n, n))
+    sig = np.empty(n)
+    vt = np.empty((n, n))
+    for jj in range(n):
+        # Largest remaining column first (a selection: n is tiny).
+        j = 0
+        for i in range(n):
+            if norms[i] > norms[j]:
+                j = i
+        sig[jj] = max(norms[j], 0.0)
+        for k in range(n):
+            vt[jj, k] = v[k, j]
+            if norms[j] > 0.0:
+                u[k, jj] = w[k, j] / norms[j]
+        norms[j] = -1.0
+    return u, sig, vt
+
+
+@jit
 def _svd_step(r_s, c, delta, step, lam_out):
     """Minimum-norm Gauss-Newton step if it fits the radius, else the damped step of
     length ``delta`` (Newton on 1/|s| - 1/delta, Moré). Returns True for Gauss-Newton;
     ``lam_out[0]`` receives the damping (0 for Gauss-Newton)."""
     q = c.size
-    u, sig, vt = np.linalg.svd(r_s)
+    u, sig, vt = small_svd(r_s)
     ct = np.zeros(q)
     for j in range(q):
         s = 0.0
@@ -455,7 +523,7 @@ def accelerate(state, c_probe, ok):
             for j in range(q):
                 r_s[i, j] = 0.0 if held_f[j] > 0.0 else r[i, j] / diag[j]
         # The same damped system as the velocity, right-hand side r_vv.
-        u, sig, vt = np.linalg.svd(r_s)
+        u, sig, vt = small_svd(r_s)
         lam = fs[_LAMBDA]
         for k in range(q):
             if not sig[k] > sig[0] * 1e-14:
