@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 
 import pytest
 
@@ -55,3 +56,61 @@ def test_notice_only_when_something_is_missing(missing, monkeypatch, capsys) -> 
     monkeypatch.setattr(compiled, "uncached", lambda names=compiled.MAIN_JOB: missing)
     assert compile_notice() is bool(missing)
     assert ("compiling" in capsys.readouterr().err) is bool(missing)
+
+
+def _times_two(x: float) -> float:
+    return 2.0 * x
+
+
+def _levels_seen(monkeypatch) -> list[int]:
+    # numba reads its level (NUMBA_OPT) when a compile starts, in reload_config: record it.
+    import numba.core.config as numba_config
+
+    seen: list[int] = []
+    reload = numba_config.reload_config
+
+    def recording() -> None:
+        reload()
+        seen.append(int(numba_config.OPT))
+
+    monkeypatch.setattr(numba_config, "reload_config", recording)
+    return seen
+
+
+@pytest.mark.parametrize("user_level", [None, "1"])
+def test_a_listed_function_compiles_at_its_own_level(tmp_path, monkeypatch,
+                                                     user_level) -> None:
+    monkeypatch.setattr(compiled, "cache_dir", lambda: tmp_path)
+    monkeypatch.setitem(compiled.OPT_LEVELS, "test_compiled._times_two", 2)
+    if user_level is None:
+        monkeypatch.delenv("NUMBA_OPT", raising=False)
+    else:
+        monkeypatch.setenv("NUMBA_OPT", user_level)
+    seen = _levels_seen(monkeypatch)
+    listed = compiled.jit(_times_two)
+    other = compiled.jit(_add_one)
+    assert listed(2.0) == 4.0
+    at_listed = list(seen)
+    assert other(1.0) == 2.0
+    at_other = seen[len(at_listed):]
+    if user_level is None:
+        assert at_listed and set(at_listed) == {2}
+        assert at_other and set(at_other) == {3}
+        assert "NUMBA_OPT" not in os.environ
+    else:
+        # The user's setting applies to everything and is left as it was.
+        assert set(at_listed) == set(at_other) == {1}
+        assert os.environ["NUMBA_OPT"] == "1"
+
+
+def test_the_cache_folder_follows_the_levels(monkeypatch) -> None:
+    compiled.cache_dir.cache_clear()
+    before = compiled.cache_dir()
+    monkeypatch.setitem(compiled.OPT_LEVELS, "drive.items", 1)
+    compiled.cache_dir.cache_clear()
+    try:
+        assert compiled.cache_dir() != before
+    finally:
+        monkeypatch.undo()
+        compiled.cache_dir.cache_clear()
+    assert compiled.cache_dir() == before

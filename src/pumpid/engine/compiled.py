@@ -23,9 +23,10 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 import numba
+from numba.core.compiler_lock import global_compiler_lock
 
-__all__ = ["COLD_MINUTES", "COMPILED_MODULES", "MAIN_JOB", "cache_dir", "compiling_aside",
-           "jit", "pending_aside", "registered", "uncached", "wait_aside"]
+__all__ = ["COLD_MINUTES", "COMPILED_MODULES", "MAIN_JOB", "OPT_LEVELS", "cache_dir",
+           "compiling_aside", "jit", "pending_aside", "registered", "uncached", "wait_aside"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -49,10 +50,21 @@ COMPILED_MODULES = (
 #: compile on every run of the others.)
 MAIN_JOB = ("drive.items",)
 #: What compiling the main job costs on an empty cache (minutes, low and high): the bundled
-#: example's first card took 105 s on 2 cores (load average 1.0) once the entry point that
-#: simulates was compiled in a second process (179 s before), a real card's 121 s; about
-#: twice as long on a busy machine (load average 3.3 on 2 cores).
-COLD_MINUTES = (2, 4)
+#: example's first card took 42-44 s on 2 cores (load average about 1.3) once the entry
+#: point that simulates was compiled in a second process at LLVM level 2 (55-57 s at level
+#: 3, 179 s in one process); about twice as long on a busy machine.
+COLD_MINUTES = (1, 2)
+
+#: LLVM's optimisation level for the compiled functions (module.function) that do not take
+#: numba's (3), with what they call. The one entry point that simulates is most of a fresh
+#: install's compile and all of its first fit's wait: at level 2 the bundled example's first
+#: card on an empty cache came after 42-44 s instead of 55-57 s (2 cores, load about 1.3),
+#: with the same answers; the public field cards took 3-4 % less time in all with the solver's
+#: own small factorisations (at level 3 they would take 8 % less), the synthetic periodic
+#: cards about 5 % more. The other functions keep level 3: at level 2 they cost the periodic
+#: cards more and the first card nothing (they compile while the entry point does). A
+#: ``NUMBA_OPT`` set by the user applies to everything instead.
+OPT_LEVELS: dict[str, int] = {"drive.items": 2}
 
 #: Every compiled function by module.function, filled as the modules are imported.
 _DISPATCHERS: dict[str, Any] = {}
@@ -67,6 +79,7 @@ def cache_dir() -> Path:
         digest.update(name.encode())
         digest.update((package / name).read_bytes())
     digest.update(numba.__version__.encode())
+    digest.update(repr(sorted(OPT_LEVELS.items())).encode())
     base = os.environ.get("NUMBA_CACHE_DIR") or os.environ.get("XDG_CACHE_HOME") or str(
         Path.home() / ".cache")
     folder = Path(base) / "pumpid" / digest.hexdigest()[:16]
@@ -99,8 +112,34 @@ def jit(fn: F | None = None, *, inline: bool = False) -> Any:
     with _cache_location():
         dispatcher = numba.njit(cache=True, nogil=True, error_model="numpy",
                                 inline="always" if inline else "never")(fn)
-    _DISPATCHERS[f"{fn.__module__.rsplit('.', 1)[-1]}.{fn.__name__}"] = dispatcher
+    name = f"{fn.__module__.rsplit('.', 1)[-1]}.{fn.__name__}"
+    if name in OPT_LEVELS:
+        _compile_at(dispatcher, OPT_LEVELS[name])
+    _DISPATCHERS[name] = dispatcher
     return dispatcher
+
+
+def _compile_at(dispatcher: Any, level: int) -> None:
+    """Make ``dispatcher`` compile (itself and what it calls) at LLVM level ``level``.
+
+    numba reads its optimisation level from ``NUMBA_OPT`` when a compile starts and has no
+    per-function setting, so the variable is set for this compile only, under numba's own
+    compile lock (no other thread compiles meanwhile); a value the user set is left alone.
+    """
+    compile_ = dispatcher.compile
+
+    @functools.wraps(compile_)
+    def compile_at_level(sig: Any) -> Any:
+        with global_compiler_lock:
+            if "NUMBA_OPT" in os.environ:
+                return compile_(sig)
+            os.environ["NUMBA_OPT"] = str(level)
+            try:
+                return compile_(sig)
+            finally:
+                del os.environ["NUMBA_OPT"]
+
+    dispatcher.compile = compile_at_level
 
 
 def _in_cache(dispatcher: Any) -> bool:
