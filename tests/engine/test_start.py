@@ -289,3 +289,22 @@ def test_the_harmonic_scan_costs_each_shape_by_its_transfer_function(cls, observ
         h = cls.from_values(shapes[s]).transfer_function(2j * np.pi * ks / 6.0, observe)
         assert costs[s] == pytest.approx(float(np.sum(np.abs(h * fk - dk) ** 2)), rel=1e-9)
     assert np.all(factors == 1.0)
+
+
+def test_the_ranking_on_the_harmonics_that_carry_a_card_keeps_its_best_shapes() -> None:
+    # The wider search ranks the dense grid on WidePlan().harmonics harmonics: on a card's
+    # own few, the best 24 shapes (its three rounds' pool) are nearly those of many more.
+    plan = WidePlan()
+    assert plan.harmonics < 64
+    n, period = 256, 7.5
+    t = np.arange(n) * period / n
+    shapes = Kelvin.shape_grid(2.0 * np.pi / period, dense=True)
+    for seed in range(3):
+        f = well_load(t, period, seed=seed)
+        d = simulate(Kelvin(k0=5200.0, m=20.0, c1=900.0, k1=5200.0), t, f,
+                     initial_state="periodic", period=period)
+        d = d + 0.01 * np.random.default_rng(seed).standard_normal(n)
+        costs = [harmonic_scan(t, f, d, shapes, Kelvin.code(), 3, Kelvin.output_index("u"),
+                               True, True, 1.0, kmax)[0] for kmax in (plan.harmonics, 64)]
+        few, many = (set(np.argsort(c)[:24].tolist()) for c in costs)
+        assert len(few & many) >= 21

@@ -52,6 +52,14 @@ class WidePlan:
     field cards took 22 % less time in all; 48 answers lost more than 1e-6 of the cost, at
     most 2.1e-4, 47 of them on fits reported as undetermined and one on a poor fit; 7
     gained.
+
+    The ranking looks at the card's first ``harmonics`` harmonics: those carry a card (its
+    shapes' responses beyond them are small, and the continuous transfer function the scan
+    uses drifts from the exact discrete one there). On 389 public field cards 24 harmonics
+    instead of 64 took 4 % less time in all (median 86 against 95 ms a card); 357 answers
+    were identical, 17 lower and 15 higher in cost by at most 6.2e-5, all on fits reported as
+    undetermined, and 4 fits moved between undetermined and a boundary at the same cost; 60
+    synthetic periodic cards unchanged.
     """
 
     rounds: int = 3
@@ -62,7 +70,7 @@ class WidePlan:
     finals: int = 2
     final_evaluations: int = 200
     agree: float = 1e-6
-    harmonics: int = 64
+    harmonics: int = 24
 
 
 def _card_rng(problem: Problem, k: int) -> np.random.Generator:
