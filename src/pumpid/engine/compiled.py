@@ -52,7 +52,7 @@ MAIN_JOB = ("drive.items",)
 #: What compiling the main job costs on an empty cache (minutes, low and high): the bundled
 #: example's first card took 42-44 s on 2 cores (load average about 1.3) once the entry
 #: point that simulates was compiled in a second process at LLVM level 2 (55-57 s at level
-#: 3, 179 s in one process); about twice as long on a busy machine.
+#: 3, 179 s in one process); 67 s with one of the two cores busy with another process.
 COLD_MINUTES = (1, 2)
 
 #: LLVM's optimisation level for the compiled functions (module.function) that do not take
