@@ -7,7 +7,13 @@ same numbers (the same code runs underneath, so they agree to rounding). The num
 taken again when the solver's small SVD (one-sided Jacobi) replaced LAPACK's: on the noisy
 arrays a weakly determined damper moved by at most 3e-8 (relative), and on the controller
 cards, whose parameters the data do not determine, the walk along their flat valley ended
-elsewhere (costs 0.27 % and 0.016 % lower, 0.09 % higher).
+elsewhere (costs 0.27 % and 0.016 % lower, 0.09 % higher). And again when the equation-error
+start's least squares became a Householder QR with the small SVD and its stability test the
+Routh array (LAPACK's least squares and eigenvalues, compiled, cost seconds of a fresh
+install's first fit): on the noisy arrays, whose stiffness runs to its bound, the damper
+moved by 2e-8 and the mass and spring by 4e-9 and 2e-9 (relative), at a cost lower by
+3e-14; on a noiseless card of the batch the cost is rounding (2e-28 then 6e-28) and so are
+the standard errors that scale with it.
 """
 
 from __future__ import annotations

@@ -114,3 +114,80 @@ def test_the_cache_folder_follows_the_levels(monkeypatch) -> None:
         monkeypatch.undo()
         compiled.cache_dir.cache_clear()
     assert compiled.cache_dir() == before
+
+
+def test_every_listed_level_names_a_compiled_function() -> None:
+    # A renamed function would silently fall back to numba's level.
+    import pumpid  # noqa: F401  (imports the engine and inference modules)
+
+    assert set(compiled.OPT_LEVELS) <= set(compiled.registered())
+
+
+def test_copy_into_copies_every_shape_and_strided_views() -> None:
+    import numpy as np
+
+    rng = np.random.default_rng(3)
+    for shape in [(5,), (3, 4), (2, 3, 4), (0,)]:
+        src = rng.standard_normal(shape)
+        dst = np.zeros(shape)
+        compiled.copy_into(dst, src)
+        assert np.array_equal(dst, src)
+    # Into one column of a matrix, from a row of another: strided on both sides.
+    mat = np.zeros((4, 3))
+    rows = rng.standard_normal((3, 4))
+    compiled.copy_into(mat[:, 1], rows[2])
+    assert np.array_equal(mat[:, 1], rows[2])
+    assert not mat[:, [0, 2]].any()
+
+
+def _compiled_functions(tree) -> list:
+    """The functions decorated with ``jit`` (called or not) in a module's tree."""
+    import ast
+
+    def is_jit(decorator) -> bool:
+        call = decorator.func if isinstance(decorator, ast.Call) else decorator
+        return getattr(call, "id", getattr(call, "attr", None)) == "jit"
+
+    return [node for node in ast.walk(tree) if isinstance(node, ast.FunctionDef)
+            and any(is_jit(d) for d in node.decorator_list)]
+
+
+def _slice_assignments(function) -> list[int]:
+    """Lines of ``a[...:...] = value`` where value is not a number (an array)."""
+    import ast
+
+    lines = []
+    for node in ast.walk(function):
+        if not isinstance(node, (ast.Assign, ast.AugAssign)):
+            continue
+        targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+        for target in targets:
+            if not isinstance(target, ast.Subscript):
+                continue
+            index = target.slice
+            parts = index.elts if isinstance(index, ast.Tuple) else [index]
+            number = isinstance(node.value, ast.Constant) or (
+                isinstance(node.value, ast.UnaryOp) and isinstance(node.value.operand,
+                                                                   ast.Constant))
+            if any(isinstance(p, ast.Slice) for p in parts) and not number:
+                lines.append(node.lineno)
+    return lines
+
+
+def test_compiled_code_assigns_no_array_to_a_slice() -> None:
+    # Each such assignment compiles numba's shape-mismatch message formatter into its
+    # function: seconds of a fresh install's first fit. copy_into does the same work.
+    import ast
+    from pathlib import Path
+
+    package = Path(compiled.__file__).resolve().parents[1]
+    found = {}
+    n_functions = 0
+    for name in compiled.COMPILED_MODULES:
+        functions = _compiled_functions(ast.parse((package / name).read_text()))
+        n_functions += len(functions)
+        lines = [line for fn in functions for line in _slice_assignments(fn)]
+        if lines:
+            found[name] = lines
+    assert n_functions > 50
+    assert found == {}

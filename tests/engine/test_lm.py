@@ -187,3 +187,19 @@ def test_the_small_svd_factors_like_lapack(a) -> None:
     np.testing.assert_allclose(u[:, kept].T @ u[:, kept], np.eye(int(kept.sum())),
                                atol=1e-12)
     assert np.all(u[:, sig == 0.0] == 0.0)
+
+
+@pytest.mark.parametrize("a", _svd_cases())
+def test_the_pseudo_inverse_is_numpys(a) -> None:
+    # np.linalg.pinv's default cut (1e-15 of the largest singular value); where a
+    # singular value sits near that cut the two may keep it or not, so the ill-conditioned
+    # factors are compared on what they do to a (the Moore-Penrose identities).
+    pinv = lm.pseudo_inverse(a, 1e-15)
+    reference = np.linalg.pinv(a)
+    scale = max(float(np.abs(a).max()), 1e-300)
+    np.testing.assert_allclose(a @ pinv @ a, a, rtol=0.0, atol=1e-10 * scale)
+    np.testing.assert_allclose(pinv @ a @ pinv, pinv, rtol=0.0,
+                               atol=1e-10 * max(float(np.abs(pinv).max()), 1e-300))
+    if np.linalg.cond(a) < 1e8:
+        np.testing.assert_allclose(pinv, reference, rtol=1e-9,
+                                   atol=1e-12 * max(float(np.abs(reference).max()), 1e-300))

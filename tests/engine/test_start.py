@@ -308,3 +308,81 @@ def test_the_ranking_on_the_harmonics_that_carry_a_card_keeps_its_best_shapes() 
                                True, True, 1.0, kmax)[0] for kmax in (plan.harmonics, 64)]
         few, many = (set(np.argsort(c)[:24].tolist()) for c in costs)
         assert len(few & many) >= 21
+
+
+def _monic_polynomials():
+    """Monic polynomials (coefficients by power) from their roots: stable, marginal (a
+    root on the imaginary axis) and unstable ones of degree 0 to 5."""
+    rng = np.random.default_rng(5)
+    cases = [np.array([1.0])]
+    for degree in range(1, 6):
+        for _ in range(12):
+            real = rng.uniform(-3.0, 1.0, degree)
+            roots = real.astype(complex)
+            for j in range(0, degree - 1, 2):
+                # A complex pair in place of two real roots, damped or not.
+                imag = rng.uniform(0.1, 5.0)
+                roots[j], roots[j + 1] = real[j] + 1j * imag, real[j] - 1j * imag
+            cases.append(np.real(np.poly(roots))[::-1].copy())
+        cases.append(np.real(np.poly([-1.0, 2j, -2j]))[::-1].copy())  # marginal pair
+        cases.append(np.real(np.poly([0.0, -1.0]))[::-1].copy())  # a root at zero
+    return cases
+
+
+@pytest.mark.parametrize("poly", _monic_polynomials())
+def test_the_stability_test_agrees_with_the_roots(poly) -> None:
+    from pumpid.engine.start import equation_error
+
+    roots = np.roots(poly[::-1])
+    margin = float(np.max(roots.real)) if roots.size else -math.inf
+    if abs(margin) < 1e-9:
+        # On the axis: neither strictly inside, whatever the rounding says.
+        assert not equation_error.hurwitz_stable(poly)
+    else:
+        assert equation_error.hurwitz_stable(poly) is bool(margin < 0.0)
+
+
+def test_the_stability_test_refuses_what_is_not_finite() -> None:
+    from pumpid.engine.start import equation_error
+
+    assert not equation_error.hurwitz_stable(np.array([2.0, np.nan, 1.0]))
+    assert not equation_error.hurwitz_stable(np.array([np.inf, 3.0, 1.0]))
+
+
+def _lstsq_cases():
+    rng = np.random.default_rng(8)
+    full = rng.standard_normal((40, 5)) * np.array([1.0, 1e3, 1e-3, 5.0, 1e6])
+    dependent = full.copy()
+    dependent[:, 3] = 2.0 * dependent[:, 0] - dependent[:, 1] / 1e3
+    zero_column = full.copy()
+    zero_column[:, 2] = 0.0
+    wide = rng.standard_normal((3, 5))
+    return [full, dependent, zero_column, wide]
+
+
+@pytest.mark.parametrize("mat", _lstsq_cases())
+def test_the_least_squares_solve_is_lapacks(mat) -> None:
+    from pumpid.engine.start import equation_error
+
+    rng = np.random.default_rng(9)
+    target = rng.standard_normal(mat.shape[0])
+    coef = equation_error.unit_column_lstsq(mat, target)
+    # LAPACK's minimum-norm solution, on the same unit-norm columns.
+    norms = np.linalg.norm(mat, axis=0)
+    keep = norms > 0.0
+    reference = np.zeros(mat.shape[1])
+    reference[keep] = np.linalg.lstsq(mat[:, keep] / norms[keep], target,
+                                      rcond=None)[0] / norms[keep]
+    np.testing.assert_allclose(mat @ coef, mat @ reference, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(coef * norms, reference * norms, rtol=1e-7, atol=1e-9)
+
+
+def test_the_least_squares_solve_says_when_there_is_nothing_to_solve() -> None:
+    from pumpid.engine.start import equation_error
+
+    mat = np.ones((6, 2))
+    assert np.all(np.isnan(equation_error.unit_column_lstsq(np.zeros((6, 2)), np.ones(6))))
+    bad = mat.copy()
+    bad[2, 1] = np.nan
+    assert np.all(np.isnan(equation_error.unit_column_lstsq(bad, np.ones(6))))
+    assert np.all(np.isnan(equation_error.unit_column_lstsq(mat, np.full(6, np.inf))))

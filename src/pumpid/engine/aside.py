@@ -2,9 +2,9 @@
 
 On an empty cache the first fit compiles everything it calls, one function after another
 (numba compiles under one lock per process). The largest part by far is the one entry point
-that simulates, :func:`pumpid.engine.drive.items` (the simulation and the solver: about 100
-of the 140 s on one core); the start, the summary and the uncertainty's analysis need no
-simulation. So :func:`start` hands ``items`` to a second Python process, which compiles it
+that simulates, :func:`pumpid.engine.drive.items` (the simulation and the solver: about 30
+of the 46 s of work in one process); the start, the summary and the uncertainty's analysis
+need no simulation. So :func:`start` hands ``items`` to a second Python process, which compiles it
 into the same cache while this process compiles the rest; the first call of ``items`` here
 waits for that process (:func:`pumpid.engine.compiled.wait_aside`) and loads what it left.
 

@@ -23,10 +23,12 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 import numba
+import numpy as np
 from numba.core.compiler_lock import global_compiler_lock
 
 __all__ = ["COLD_MINUTES", "COMPILED_MODULES", "MAIN_JOB", "OPT_LEVELS", "cache_dir",
-           "compiling_aside", "jit", "pending_aside", "registered", "uncached", "wait_aside"]
+           "compiling_aside", "copy_into", "jit", "pending_aside", "registered", "uncached",
+           "wait_aside"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -50,9 +52,10 @@ COMPILED_MODULES = (
 #: compile on every run of the others.)
 MAIN_JOB = ("drive.items",)
 #: What compiling the main job costs on an empty cache (minutes, low and high): the bundled
-#: example's first card took 42-44 s on 2 cores (load average about 1.3) once the entry
-#: point that simulates was compiled in a second process at LLVM level 2 (55-57 s at level
-#: 3, 179 s in one process); 67 s with one of the two cores busy with another process.
+#: example's first card comes after 34-37 s on 2 cores (load average about 1.2) and after
+#: 59-63 s with one of the two cores busy with another process, the entry point that
+#: simulates compiled in a second process at LLVM level 2; the rest of the job compiles
+#: what its later cards reach.
 COLD_MINUTES = (1, 2)
 
 #: LLVM's optimisation level for the compiled functions (module.function) that do not take
@@ -61,10 +64,16 @@ COLD_MINUTES = (1, 2)
 #: card on an empty cache came after 42-44 s instead of 55-57 s (2 cores, load about 1.3),
 #: with the same answers; the public field cards took 3-4 % less time in all with the solver's
 #: own small factorisations (at level 3 they would take 8 % less), the synthetic periodic
-#: cards about 5 % more. The other functions keep level 3: at level 2 they cost the periodic
-#: cards more and the first card nothing (they compile while the entry point does). A
+#: cards about 5 % more. The functions a fit calls once per card after its solve (the
+#: summary, the uncertainty's analysis, the periodic equation-error start) take level 1: the
+#: first card's compile work 4 % less (45.4 against 47.1 s of CPU in one process), the same
+#: answers, no change in the benchmarks' times beyond their noise. With another process on
+#: one of two cores, the first card waits for all of that work, not for the entry point
+#: alone. The rest keep level 3 (the wider search's scan at level 1 saved nothing). A
 #: ``NUMBA_OPT`` set by the user applies to everything instead.
-OPT_LEVELS: dict[str, int] = {"drive.items": 2}
+OPT_LEVELS: dict[str, int] = {"drive.items": 2, "drive.summary_rows": 1,
+                              "uncertainty.analyse_rows": 1,
+                              "equation_error._harmonic_items": 1}
 
 #: Every compiled function by module.function, filled as the modules are imported.
 _DISPATCHERS: dict[str, Any] = {}
@@ -140,6 +149,19 @@ def _compile_at(dispatcher: Any, level: int) -> None:
                 del os.environ["NUMBA_OPT"]
 
     dispatcher.compile = compile_at_level
+
+
+@jit
+def copy_into(dst, src):
+    """``dst[...] = src`` for two arrays of one shape, in compiled code.
+
+    Why not ``dst[:] = src``: for every function with an array assigned to a slice, numba
+    compiles and links in a routine that writes the two shapes into an error message (its
+    text formatting included): about 4 s of the 60 s of work a fresh install's first fit
+    did, for a mismatch pumpid's shapes never have.
+    """
+    for index in np.ndindex(dst.shape):
+        dst[index] = src[index]
 
 
 def _in_cache(dispatcher: Any) -> bool:

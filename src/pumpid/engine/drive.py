@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import lm
-from .compiled import jit, wait_aside
+from .compiled import copy_into, jit, wait_aside
 from .kernel import simulate_card
 
 __all__ = ["AS_GIVEN", "BEST_LINEAR", "RESCALE", "cost_items", "evaluate", "items",
@@ -47,7 +47,7 @@ def _unpack(z, settings, lz):
     """Fill ``lz`` (p,) from z; return (C, offset)."""
     free, lz_base, _log_res, scale_free, scale_fixed, offset_free, offset_fixed = settings
     nf = free.size
-    lz[:] = lz_base
+    copy_into(lz, lz_base)
     for i in range(nf):
         lz[free[i]] = z[i]
     j = nf
@@ -191,7 +191,7 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, k, data, model, sett
                      _scaling(q, k, data, settings))
     n_hist = 0
     if history.shape[0] > 0 and math.isfinite(cost):
-        history[0, :q] = z0
+        copy_into(history[0, :q], z0)
         history[0, q] = cost
         n_hist = 1
     z_try = state[6]
@@ -212,7 +212,7 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, k, data, model, sett
             v0, v0_s = v0_s, v0
             beta, beta_s = beta_s, beta
             if n_hist < history.shape[0]:
-                history[n_hist, :q] = state[0]
+                copy_into(history[n_hist, :q], state[0])
                 history[n_hist, q] = state[7][0]
                 n_hist += 1
         if not going:
@@ -342,7 +342,7 @@ def _rows(cards, z, data, model, settings):
         n = bounds[k + 1] - bounds[k]
         rows = np.empty((q + 1, n))
         ok[i] = residual_rows(z[i], k, data, model, settings, rows)
-        buffer[starts[i]:starts[i + 1]] = rows.ravel()
+        copy_into(buffer[starts[i]:starts[i + 1]], rows.ravel())
     return buffer, starts, ok
 
 
@@ -361,7 +361,7 @@ def _outputs(cards, z, data, model, settings, total):
         good, y, _scale, _offset = _plain_output(z, i, cards, data, model, settings)
         ok[i] = good
         if good:
-            y_all[starts[i]:starts[i + 1]] = y
+            copy_into(y_all[starts[i]:starts[i + 1]], y)
     return y_all, ok
 
 
@@ -397,7 +397,7 @@ def items(task, cards, z, lo, hi, tol, max_evals, n_capped, noise_tol, mode, his
         for i in range(m):
             out = _solve(z[i], lo[i], hi[i], tol, max_evals[i], n_capped, noise_tol, cards[i],
                          data, model, settings, history)
-            z_out[i] = out[0]
+            copy_into(z_out[i], out[0])
             cost[i] = out[1]
             evals[i] = out[2]
             accepted[i] = out[3]

@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from .compiled import jit
+from .compiled import copy_into, jit
 
 __all__ = [
     "EQUILIBRIUM",
@@ -217,7 +217,7 @@ def dual_expm(a, out):
             v += b[2 * j] * power
             if j < half:
                 dual_mul(power, x2, tmp)
-                power[:] = tmp
+                copy_into(power, tmp)
         dual_mul(x, odd, u)
     else:
         x4 = np.empty_like(x)
@@ -235,12 +235,12 @@ def dual_expm(a, out):
         v = tmp + b[6] * x6 + b[4] * x4 + b[2] * x2
         for r in range(m):
             v[0, r, r] += b[0]
-    out[:] = v + u
+    copy_into(out, v + u)
     if not dual_solve(v - u, out):
         return False
     for _ in range(squarings):
         dual_mul(out, out, tmp)
-        out[:] = tmp
+        copy_into(out, tmp)
     return bool(np.all(np.isfinite(out)))
 
 
@@ -298,11 +298,11 @@ def dual_power(x, e, out):
     while e > 0:
         if e & 1:
             dual_mul(out, base, tmp)
-            out[:] = tmp
+            copy_into(out, tmp)
         e >>= 1
         if e:
             dual_mul(base, base, tmp)
-            base[:] = tmp
+            copy_into(base, tmp)
 
 
 # --------------------------------------------------------------------------- the model
@@ -409,7 +409,7 @@ def input_signal(f, lz, free, imap, g, dg):
     """
     kind = int(imap[0])
     if kind == NO_MAP:
-        g[:] = f
+        copy_into(g, f)
         return -1
     par = int(imap[1])
     ref = imap[2]
@@ -505,7 +505,7 @@ def _pass_any(phi, g0, g1, x, g, dg, mapped, obs, y, dy, store):
     xn = np.empty_like(x)
     for k in range(g.size - 1):
         _advance(phi, g0, g1, x, g[k], g[k + 1], xn, mapped, dg[k], dg[k + 1])
-        x[:] = xn
+        copy_into(x, xn)
         if store:
             y[k + 1] = x[0, obs]
             for i in range(dy.shape[0]):
@@ -589,16 +589,18 @@ def simulate_card(lz, free, code, n, imap, t, f, mode, x0, period, uniform, inte
         for r in range(n):
             phi_t[0, r, r] = 1.0
         if uniform:
-            _uniform_pass(phi, g0, g1, x, g, dg, mapped, obs, y, dy, False)
+            # np.bool_ and np.int64 around constants passed on: numba compiles a callee once
+            # per literal value it is given (False and True, 0 and k), a second each time.
+            _uniform_pass(phi, g0, g1, x, g, dg, mapped, obs, y, dy, np.bool_(False))
             dual_power(phi, n_samples - 1, phi_t)
         else:
             for k in range(n_samples - 1):
                 if not discretize(a, b, t[k + 1] - t[k], integrator, phi, g0, g1):
                     return False
                 dual_mul(phi, phi_t, tmp)
-                phi_t[:] = tmp
+                copy_into(phi_t, tmp)
                 _advance(phi, g0, g1, x, g[k], g[k + 1], xn, mapped, dg[k], dg[k + 1])
-                x[:] = xn
+                copy_into(x, xn)
         closing = period - (t[n_samples - 1] - t[0])
         phi_c = np.empty((p_count, n, n))
         g0_c = np.empty((p_count, n))
@@ -624,9 +626,9 @@ def simulate_card(lz, free, code, n, imap, t, f, mode, x0, period, uniform, inte
         for i in range(p_count):
             for r in range(n):
                 x[i, r] = rhs[i, r, 0]
-    _store(x, 0, obs, y, dy, states)
+    _store(x, np.int64(0), obs, y, dy, states)
     if uniform and states.shape[0] == 0:
-        _uniform_pass(phi, g0, g1, x, g, dg, mapped, obs, y, dy, True)
+        _uniform_pass(phi, g0, g1, x, g, dg, mapped, obs, y, dy, np.bool_(True))
         for k in range(n_samples):
             if not math.isfinite(y[k]):
                 return False
@@ -636,7 +638,7 @@ def simulate_card(lz, free, code, n, imap, t, f, mode, x0, period, uniform, inte
             if not discretize(a, b, t[k + 1] - t[k], integrator, phi, g0, g1):
                 return False
         _advance(phi, g0, g1, x, g[k], g[k + 1], xn, mapped, dg[k], dg[k + 1])
-        x[:] = xn
+        copy_into(x, xn)
         _store(x, k + 1, obs, y, dy, states)
     for k in range(n_samples):
         if not math.isfinite(y[k]):

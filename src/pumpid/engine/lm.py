@@ -60,10 +60,11 @@ import math
 
 import numpy as np
 
-from .compiled import jit
+from .compiled import copy_into, jit
 
 __all__ = ["CONVERGED", "EXHAUSTED", "FAILED", "TESTS", "accelerate", "householder",
-           "householder_keep", "probing", "project", "propose", "small_svd", "start", "update"]
+           "householder_keep", "probing", "project", "propose", "pseudo_inverse", "small_svd",
+           "start", "update"]
 
 #: Largest change of a log-parameter in one step.
 MAX_LOG_STEP = 1.0
@@ -236,6 +237,26 @@ def small_svd(a):
                 u[k, jj] = w[k, j] / norms[j]
         norms[j] = -1.0
     return u, sig, vt
+
+
+@jit
+def pseudo_inverse(a, rcond):
+    """Moore-Penrose inverse of a small square matrix by :func:`small_svd`, the singular
+    values at or below ``rcond`` times the largest dropped (as ``np.linalg.pinv``).
+
+    Why by hand: numba compiles a LAPACK wrapper for each of ``np.linalg``'s functions,
+    seconds of a fresh install's first fit each, for matrices of a few rows here."""
+    u, sig, vt = small_svd(a)
+    n = a.shape[0]
+    out = np.zeros((n, n))
+    cut = rcond * sig[0] if n > 0 else 0.0
+    for c in range(n):
+        if sig[c] > cut:
+            for i in range(n):
+                w = vt[c, i] / sig[c]
+                for j in range(n):
+                    out[i, j] += w * u[j, c]
+    return out
 
 
 @jit
@@ -610,9 +631,9 @@ def update(state, cost_try, r_try, c_try):
     fs[_DELTA] = new if (math.isfinite(new) and new > 0.0) else 0.5 * delta
     f_test = abs(actual) <= tol * cost and pred <= tol * cost and rho <= 2.0
     if accept:
-        z[:] = z_try
-        r[:] = r_try
-        c[:] = c_try
+        copy_into(z, z_try)
+        copy_into(r, r_try)
+        copy_into(c, c_try)
         fs[_COST] = cost_try
     z_norm = 0.0
     for i in range(q):

@@ -22,9 +22,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..engine import lm
 from ..engine.compiled import jit
 
-__all__ = ["PREWHITEN_CAP", "long_run_covariance", "long_run_rows"]
+__all__ = ["PREWHITEN_CAP", "long_run_covariance", "long_run_rows", "sandwich"]
 
 Array = NDArray[np.float64]
 
@@ -75,6 +76,28 @@ def _outer_sum(x, y):
     return out
 
 
+# The matrices below are q x q (q <= about 8) and products, inverses and SVDs of them are
+# written as loops and Jacobi rotations rather than numpy's: numba compiles a LAPACK or BLAS
+# wrapper for each of np.linalg's functions and for ``@``, seconds of a fresh install's
+# first fit for work that takes microseconds here.
+@jit
+def _product(a, b):
+    """a @ b for small matrices."""
+    out = np.zeros((a.shape[0], b.shape[1]))
+    for i in range(a.shape[0]):
+        for k in range(a.shape[1]):
+            aik = a[i, k]
+            for j in range(b.shape[1]):
+                out[i, j] += aik * b[k, j]
+    return out
+
+
+@jit
+def sandwich(b, m):
+    """b @ m @ b.T for small matrices (a covariance carried through a linear map)."""
+    return _product(_product(b, m), b.T)
+
+
 @jit
 def _var1(x):
     """Least-squares A of x_t = A x_{t-1} + e_t, for x of shape (q, n)."""
@@ -82,8 +105,7 @@ def _var1(x):
     x1 = np.ascontiguousarray(x[:, 1:])
     gram = _outer_sum(x0, x0)
     cross = _outer_sum(x1, x0)
-    a = cross @ np.linalg.pinv(gram)
-    return a
+    return _product(cross, lm.pseudo_inverse(gram, 1e-15))
 
 
 @jit
@@ -112,14 +134,14 @@ def long_run_rows(x, prewhiten, bandwidth):
     e = xs
     if prewhiten and q > 0:
         a = _var1(xs)
-        left, sv, right = np.linalg.svd(a)
+        left, sv, right = lm.small_svd(a)
         persistence = sv[0]
         if persistence > PREWHITEN_CAP:
             capped = True
             persistence = PREWHITEN_CAP
             for j in range(q):
                 sv[j] = min(sv[j], PREWHITEN_CAP)
-            a = (left * sv) @ right
+            a = _product(left * sv, right)
         e = np.empty((q, n - 1))
         for i in range(q):
             for k in range(n - 1):
@@ -155,8 +177,8 @@ def long_run_rows(x, prewhiten, bandwidth):
                 windows[i, j] = csum[hi] - csum[lo]
         omega = _outer_sum(windows, windows) / m
     if prewhiten and q > 0:
-        recolour = np.linalg.inv(np.eye(q) - a)
-        omega = recolour @ omega @ recolour.T
+        # A's singular values are at most the cap (< 1), so I - A is well conditioned.
+        omega = sandwich(lm.pseudo_inverse(np.eye(q) - a, 0.0), omega)
     out = np.empty((q, q))
     for i in range(q):
         for j in range(q):

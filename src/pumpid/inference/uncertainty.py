@@ -31,10 +31,10 @@ import scipy.special
 from numpy.typing import NDArray
 
 from ..engine import drive, lm
-from ..engine.compiled import jit
+from ..engine.compiled import copy_into, jit
 from ..engine.problem import Problem
 from ..result import Uncertainty
-from .hac import long_run_rows
+from .hac import long_run_rows, sandwich
 
 __all__ = [
     "HAC_METHOD",
@@ -108,7 +108,7 @@ def analyse_rows(rows, inner, offset_col, span, prewhiten=True, bandwidth=0):
         factor = span if j == offset_col else 1.0
         for t in range(n):
             js[jj, t] = rows[j, t] * factor
-    js[qi] = r
+    copy_into(js[qi], r)
     jsc = js.copy()
     rr = np.zeros((qi, qi))
     cc = np.zeros(qi)
@@ -137,7 +137,7 @@ def analyse_rows(rows, inner, offset_col, span, prewhiten=True, bandwidth=0):
     if qi == 0 or not np.all(np.isfinite(rr)):
         stats[0] = 1.0
         return s_out, vt_out, cov_s, hac_s, dir_se, stats
-    _u, s, vt = np.linalg.svd(rr)
+    _u, s, vt = lm.small_svd(rr)
     for a in range(qi):
         s_out[a] = s[a]
         for b in range(qi):
@@ -188,7 +188,7 @@ def analyse_rows(rows, inner, offset_col, span, prewhiten=True, bandwidth=0):
     for kk in range(nk):
         c = kept[kk]
         dir_se[c] = math.sqrt(max(omega[kk, kk], 0.0) * inflate) * rms / s[c]
-    cov = bread @ omega @ bread.T
+    cov = sandwich(bread, omega)
     for a in range(qi):
         for b in range(qi):
             hac_s[a, b] = cov[a, b] * inflate

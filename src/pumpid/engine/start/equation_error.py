@@ -28,10 +28,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import kernel
-from ..compiled import jit
+from .. import kernel, lm
+from ..compiled import copy_into, jit
 
-__all__ = ["equation_error_items"]
+__all__ = ["equation_error_items", "hurwitz_stable", "unit_column_lstsq"]
 
 Array = NDArray[np.float64]
 
@@ -72,7 +72,7 @@ def _svf(t, x, lam, order, uniform):
                 for c in range(n):
                     s += phi[0, r, c] * w[0, c]
                 wn[0, r] = s
-            w[:] = wn
+            copy_into(w, wn)
         top = x[k]
         for j in range(n):
             out[k, j] = w[0, j] * scale
@@ -81,9 +81,15 @@ def _svf(t, x, lam, order, uniform):
     return out
 
 
+#: Relative precision of a float: where np.linalg.lstsq cuts singular values by default.
+_MACHINE_EPS = float(np.finfo(np.float64).eps)
+
+
 @jit
-def _lstsq(mat, target):
-    """Least squares with unit-norm columns; NaN when there is nothing to solve."""
+def unit_column_lstsq(mat, target):
+    """Least-squares ``x`` of ``mat @ x ~ target`` (the minimum-norm one when ``mat``'s
+    columns are dependent), solved with unit-norm columns; all NaN when there is nothing
+    to solve (no nonzero column, or a value not finite)."""
     ncol = mat.shape[1]
     norms = np.empty(ncol)
     for j in range(ncol):
@@ -96,10 +102,23 @@ def _lstsq(mat, target):
     if not np.any(keep) or not np.all(np.isfinite(mat)) or not np.all(np.isfinite(target)):
         return np.full(ncol, math.nan)
     cols = np.flatnonzero(keep)
-    sub = np.empty((mat.shape[0], cols.size))
-    for jj in range(cols.size):
-        sub[:, jj] = mat[:, cols[jj]] / norms[cols[jj]]
-    sol = np.linalg.lstsq(sub, target)[0]
+    nc = cols.size
+    # The normalised columns as rows, the target last: Householder QR, then the
+    # minimum-norm solution from R's SVD with LAPACK's default cut (machine precision
+    # times the largest singular value), as np.linalg.lstsq (compiling it cost seconds).
+    rows = np.empty((nc + 1, mat.shape[0]))
+    for jj in range(nc):
+        for i in range(mat.shape[0]):
+            rows[jj, i] = mat[i, cols[jj]] / norms[cols[jj]]
+    copy_into(rows[nc], target)
+    r = np.zeros((nc, nc))
+    c = np.zeros(nc)
+    lm.householder(rows, nc, r, c)
+    r_pinv = lm.pseudo_inverse(r, _MACHINE_EPS)
+    sol = np.zeros(nc)
+    for jj in range(nc):
+        for i in range(nc):
+            sol[jj] += r_pinv[jj, i] * c[i]
     for jj in range(cols.size):
         coef[cols[jj]] = sol[jj] / norms[cols[jj]]
     return coef
@@ -116,17 +135,17 @@ def _time_coefs(t, y, f, lam, form, uniform):
     ncoef = y_orders.size + f_orders.size
     mat = np.empty((t.size, ncoef + n + 1))
     for j in range(y_orders.size):
-        mat[:, j] = yf[:, y_orders[j]]
+        copy_into(mat[:, j], yf[:, y_orders[j]])
     for j in range(f_orders.size):
-        mat[:, y_orders.size + j] = ff[:, f_orders[j]]
+        copy_into(mat[:, y_orders.size + j], ff[:, f_orders[j]])
     # Unknown initial conditions (and the filter's start-up) appear as t^j exp(-lam t).
     for j in range(n):
         for k in range(t.size):
             mat[k, ncoef + j] = math.exp(-lam * tt[k]) * (lam * tt[k]) ** j
-    mat[:, ncoef + n] = onesf[:, 0]
-    # A contiguous copy: _lstsq then has one signature for both equation errors.
+    copy_into(mat[:, ncoef + n], onesf[:, 0])
+    # A contiguous copy: unit_column_lstsq then has one signature for both equation errors.
     target = (ff[:, target_order] if target_f else yf[:, target_order]).copy()
-    return _lstsq(mat, target)[:ncoef]
+    return unit_column_lstsq(mat, target)[:ncoef]
 
 
 @jit
@@ -179,7 +198,7 @@ def _harmonic_coefs(yk, fk, period, lam, form, first):
         s = 2j * math.pi * k / period
         weights[k] = (lam / (s + lam)) ** order
     mat, target = _harmonic_rows(yk, fk, period, weights, form, first)
-    return _lstsq(mat, target)
+    return unit_column_lstsq(mat, target)
 
 
 @jit
@@ -202,14 +221,30 @@ def _denominator(coef, form):
 
 
 @jit
-def _stable(poly):
-    """All roots of the monic polynomial (coefficients by power) in the left half-plane."""
+def hurwitz_stable(poly):
+    """All roots of the monic polynomial (coefficients by power) in the open left
+    half-plane, by the Routh-Hurwitz test: every entry of the Routh array's first column
+    positive. (``np.roots`` compiled LAPACK's eigenvalue routine for this sign test.)"""
     if not np.all(np.isfinite(poly)):
         return False
-    roots = np.roots(poly[::-1].astype(np.complex128))
-    for r in roots:
-        if not r.real < 0.0:
+    n = poly.size - 1
+    width = n // 2 + 1
+    # The array's first two rows: the coefficients of s^n, s^(n-2), ... and of
+    # s^(n-1), s^(n-3), ...; each further row from the two above it.
+    upper = np.zeros(width + 1)
+    lower = np.zeros(width + 1)
+    for j in range(width):
+        upper[j] = poly[n - 2 * j]
+        if n - 1 - 2 * j >= 0:
+            lower[j] = poly[n - 1 - 2 * j]
+    for _ in range(n):
+        if not lower[0] > 0.0:
             return False
+        row = np.zeros(width + 1)
+        for j in range(width):
+            row[j] = upper[j + 1] - upper[0] * lower[j + 1] / lower[0]
+        upper = lower
+        lower = row
     return True
 
 
@@ -240,7 +275,7 @@ def _filter_den(t, x, poly, uniform):
                 for c in range(n):
                     s += phi[0, r, c] * w[c]
                 wn[r] = s
-            w[:] = wn
+            copy_into(w, wn)
         top = x[k]
         for j in range(n):
             out[k, j] = w[j]
@@ -263,20 +298,20 @@ def _refine_time(t, y, f, coef, form, uniform, offset_free, iterations):
     best = coef.copy()
     for _ in range(iterations):
         poly = _denominator(best, form)
-        if not _stable(poly):
+        if not hurwitz_stable(poly):
             break
         yf = _filter_den(t, y, poly, uniform)
         ff = _filter_den(t, f, poly, uniform)
         extra = 1 if offset_free else 0
         mat = np.empty((t.size, ncoef + extra))
         for j in range(y_orders.size):
-            mat[:, j] = yf[:, y_orders[j]]
+            copy_into(mat[:, j], yf[:, y_orders[j]])
         for j in range(f_orders.size):
-            mat[:, y_orders.size + j] = ff[:, f_orders[j]]
+            copy_into(mat[:, y_orders.size + j], ff[:, f_orders[j]])
         if offset_free:
-            mat[:, ncoef] = _filter_den(t, np.ones(t.size), poly, uniform)[:, 0]
+            copy_into(mat[:, ncoef], _filter_den(t, np.ones(t.size), poly, uniform)[:, 0])
         target = (ff[:, target_order] if target_f else yf[:, target_order]).copy()
-        new = _lstsq(mat, target)[:ncoef]
+        new = unit_column_lstsq(mat, target)[:ncoef]
         if not np.all(np.isfinite(new)):
             break
         change = _largest_relative_change(new, best, ncoef)
@@ -304,7 +339,7 @@ def _refine_harmonic(yk, fk, period, coef, form, first, iterations):
     weights = np.ones(yk.size, np.complex128)
     for _ in range(iterations):
         poly = _denominator(best, form)
-        if not _stable(poly):
+        if not hurwitz_stable(poly):
             break
         for k in range(first, yk.size):
             s = 2j * math.pi * k / period
@@ -313,7 +348,7 @@ def _refine_harmonic(yk, fk, period, coef, form, first, iterations):
                 den = den * s + poly[j]
             weights[k] = 1.0 / den
         mat, target = _harmonic_rows(yk, fk, period, weights, form, first)
-        new = _lstsq(mat, target)
+        new = unit_column_lstsq(mat, target)
         if not np.all(np.isfinite(new)):
             break
         change = _largest_relative_change(new, best, ncoef)
@@ -378,9 +413,10 @@ def _harmonic_items(cards, lams, data, form, scale, offset_free):
             if not lam > 0.0:
                 continue
             coef = _harmonic_coefs(yk, fk, period[k], lam, form, first)
-            out[i, li] = coef
+            copy_into(out[i, li], coef)
             if np.all(np.isfinite(coef)):
-                out[i, n_lam + li] = _refine_harmonic(yk, fk, period[k], coef, form, first, 8)
+                copy_into(out[i, n_lam + li],
+                          _refine_harmonic(yk, fk, period[k], coef, form, first, 8))
     return out
 
 
@@ -407,9 +443,9 @@ def _time_items(cards, lams, data, form, scale, offset_free):
             if not lam > 0.0:
                 continue
             coef = _time_coefs(t, y, f, lam, form, uniform[k])
-            out[i, li] = coef
+            copy_into(out[i, li], coef)
             if refine_time and np.all(np.isfinite(coef)):
-                out[i, n_lam + li] = _refine_time(
+                copy_into(out[i, n_lam + li], _refine_time(
                     tt, y_dev, f_dev, coef, form, uniform[k],
-                    offset_free and mode[k] == kernel.REST, 8)
+                    offset_free and mode[k] == kernel.REST, 8))
     return out
