@@ -146,8 +146,9 @@ def test_a_quantity_no_card_determined_keeps_its_unit(tmp_path: Path) -> None:
         d_time_constant_unit="s")
     files = write_fleet_report(frame, tmp_path, steady_sample=1)
     page = files["report"].read_text(encoding="utf-8")
-    assert "time_constant [s]" in page and "<th>latest time_constant [s]</th>" in page
-    assert "dimensionless" not in page.replace("damping_ratio [dimensionless]", "")
+    assert "time_constant [s]" in page and "<th>latest time_\u200bconstant [s]</th>" in page
+    assert "dimensionless" not in page.replace("damping_ratio [dimensionless]", "").replace(
+        "damping_\u200bratio [dimensionless]", "")
 
 
 def _blue_rows(png: Path) -> tuple[int, int]:
@@ -184,3 +185,16 @@ def test_one_well_reads_right(tmp_path: Path) -> None:
     marked = (np.abs(rgb - (107, 174, 214)).sum(axis=2) < 30).sum()
     assert marked > 50  # the cut bands' triangles
     assert 'class="wide"' in page
+
+
+def test_the_wells_tables_headers_wrap_so_the_table_fits_a_window(table: pd.DataFrame,
+                                                                   tmp_path: Path) -> None:
+    # A header word that cannot wrap sets its column's least width: the quantities' names
+    # (natural_frequency, static_stiffness) made the wells table wider than a 1400 px window.
+    files = write_fleet_report(table, tmp_path, steady_sample=0)
+    page = files["report"].read_text(encoding="utf-8")
+    wells = page[page.index("<h2>Wells</h2>"):page.index("<h2>Quantities across wells</h2>")]
+    headers = re.findall(r"<th[^>]*>(.*?)</th>", wells)
+    assert any("natural_" in h for h in headers)
+    words = [w for h in headers for w in re.split(r"[\s\u200b-]+", h)]
+    assert max(len(w) for w in words) <= len("[dimensionless]"), max(words, key=len)

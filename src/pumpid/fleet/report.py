@@ -85,6 +85,8 @@ div.scroll { overflow-x: auto; max-width: 100%; }
 """
 
 _DPI = 96
+#: An underscore and a zero-width space (where a browser may break a long name).
+_WRAP_AFTER_UNDERSCORE = "_\u200b"
 
 
 # --------------------------------------------------------------------------- formatting
@@ -279,9 +281,11 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series) -> str:
 def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
                    limit: int) -> str:
     shown = summary.head(limit)
-    # Counts and units go in the headers, so that every column fits a normal window.
+    # Counts and units go in the headers, so that every column fits a normal window; a
+    # zero-width space after each underscore lets a quantity's name wrap there.
     headers = ["well", "cards", *STATUSES, "alerts", "tested by", "largest change",
-               *(f"latest {q} [{unit_text(units.get(q, ''))}]" for q in quantities)]
+               *(f"latest {q.replace('_', _WRAP_AFTER_UNDERSCORE)} "
+                 f"[{unit_text(units.get(q, ''))}]" for q in quantities)]
     rows, classes = [], []
     for _, w in shown.iterrows():
         cells = [str(w["well_id"]), str(int(w["cards"]))]
