@@ -64,13 +64,13 @@ COLD_MINUTES = (1, 2)
 #: card on an empty cache came after 42-44 s instead of 55-57 s (2 cores, load about 1.3),
 #: with the same answers; the public field cards took 3-4 % less time in all with the solver's
 #: own small factorisations (at level 3 they would take 8 % less), the synthetic periodic
-#: cards about 5 % more. The functions a fit calls once per card after its solve (the
-#: summary, the uncertainty's analysis, the periodic equation-error start) take level 1: the
-#: first card's compile work 4 % less (45.4 against 47.1 s of CPU in one process), the same
-#: answers, no change in the benchmarks' times beyond their noise. With another process on
-#: one of two cores, the first card waits for all of that work, not for the entry point
-#: alone. The rest keep level 3 (the wider search's scan at level 1 saved nothing). A
-#: ``NUMBA_OPT`` set by the user applies to everything instead.
+#: cards about 5 % more. The functions a fit calls once per card before or after its solve
+#: (the periodic equation-error start, the summary, the uncertainty's analysis) take level
+#: 1: the first card's compile work 4 % less (45.4 against 47.1 s of CPU in one process),
+#: the same costs on the public real cards, no change in the benchmarks' times beyond their
+#: noise. With another process on one of two cores, the first card waits for all of that
+#: work, not for the entry point alone. The rest keep level 3 (the wider search's scan at
+#: level 1 saved nothing). A ``NUMBA_OPT`` set by the user applies to everything instead.
 OPT_LEVELS: dict[str, int] = {"drive.items": 2, "drive.summary_rows": 1,
                               "uncertainty.analyse_rows": 1,
                               "equation_error._harmonic_items": 1}
