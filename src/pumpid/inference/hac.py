@@ -61,8 +61,10 @@ def _andrews_width(e):
 
 @jit
 def _outer_sum(x, y):
-    """x @ y.T for long rows (q, n): by hand, so no multi-threaded BLAS call is made for a
-    few rows of thousands of samples."""
+    """x @ y.T, by hand: for long rows (q, n) no multi-threaded BLAS call is made for a few
+    rows of thousands of samples, and for the q x q matrices below (q <= about 8; a @ b is
+    ``_outer_sum(a, b.T)``) numba compiles no BLAS wrapper for ``@``, seconds of a fresh
+    install's first fit for work that takes microseconds here."""
     q = x.shape[0]
     r = y.shape[0]
     n = x.shape[1]
@@ -76,36 +78,22 @@ def _outer_sum(x, y):
     return out
 
 
-# The matrices below are q x q (q <= about 8) and products, inverses and SVDs of them are
-# written as loops and Jacobi rotations rather than numpy's: numba compiles a LAPACK or BLAS
-# wrapper for each of np.linalg's functions and for ``@``, seconds of a fresh install's
-# first fit for work that takes microseconds here.
-@jit
-def _product(a, b):
-    """a @ b for small matrices."""
-    out = np.zeros((a.shape[0], b.shape[1]))
-    for i in range(a.shape[0]):
-        for k in range(a.shape[1]):
-            aik = a[i, k]
-            for j in range(b.shape[1]):
-                out[i, j] += aik * b[k, j]
-    return out
-
-
 @jit
 def sandwich(b, m):
     """b @ m @ b.T for small matrices (a covariance carried through a linear map)."""
-    return _product(_product(b, m), b.T)
+    return _outer_sum(_outer_sum(b, m.T), b)
 
 
 @jit
 def _var1(x):
-    """Least-squares A of x_t = A x_{t-1} + e_t, for x of shape (q, n)."""
+    """Least-squares A of x_t = A x_{t-1} + e_t, for x of shape (q, n). (The inverses and
+    SVDs of q x q matrices here are the solver's Jacobi ones, not np.linalg's: numba
+    compiles a LAPACK wrapper for each of those.)"""
     x0 = np.ascontiguousarray(x[:, :-1])
     x1 = np.ascontiguousarray(x[:, 1:])
     gram = _outer_sum(x0, x0)
     cross = _outer_sum(x1, x0)
-    return _product(cross, lm.pseudo_inverse(gram, 1e-15))
+    return _outer_sum(cross, lm.pseudo_inverse(gram, 1e-15).T)
 
 
 @jit
@@ -141,7 +129,7 @@ def long_run_rows(x, prewhiten, bandwidth):
             persistence = PREWHITEN_CAP
             for j in range(q):
                 sv[j] = min(sv[j], PREWHITEN_CAP)
-            a = _product(left * sv, right)
+            a = _outer_sum(left * sv, right.T)
         e = np.empty((q, n - 1))
         for i in range(q):
             for k in range(n - 1):
