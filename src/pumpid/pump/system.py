@@ -56,8 +56,8 @@ from ..rods import (
 )
 from ..rods.predict import Run, StringGrid
 
-__all__ = ["DRIVE_HARMONICS", "ELEMENTS", "QUANTITIES", "START_INTAKE_RATIO", "PumpSystem",
-           "SurfaceCard"]
+__all__ = ["DRIVE_HARMONICS", "ELEMENTS", "ESTIMATE_TOL", "QUANTITIES", "SEARCH_ELEMENTS",
+           "START_INTAKE_RATIO", "PumpSystem", "SurfaceCard"]
 
 Array = NDArray[np.float64]
 
@@ -65,6 +65,15 @@ Array = NDArray[np.float64]
 #: 0.15 % of the load range on a 4,900 ft three-taper string at 200 samples (60: 0.05 %, at
 #: about 2.5 times the cost), well below a dynamometer's noise.
 ELEMENTS = 30
+#: Elements of the march the identification searches on before it fits the
+#: :data:`ELEMENTS` march from the search's answer. Half the elements allow twice the time
+#: step, so a march costs about a quarter; its own error moves the answer by about a
+#: standard error on a quiet card, which the final fit's one or two steps take back.
+SEARCH_ELEMENTS = 15
+#: Stop a march when the surface load changes less than this over a stroke (of its range),
+#: for the estimate of the march's own error (:func:`pumpid.pump.identify.discretization_errors`),
+#: which needs the load to a small part of that error (about 1e-3 of the range).
+ESTIMATE_TOL = 1e-7
 #: Stop a march when the surface load changes less than this over a stroke (of its range).
 TOL = 1e-9
 #: The same for a perturbed march of a forward difference: its leftover transient, relative
@@ -177,6 +186,12 @@ class PumpSystem(OwnModel):
         The card and its well.
     elements : int
         About this many elements over the string.
+    derive : bool
+        Measure the pump quantities of a fit (:meth:`derived`); False for a search whose
+        answer only starts another fit (the attribute may be switched between fits).
+    tol : float
+        A march stops when the surface load changes less than this over a stroke
+        (relative to its range).
     """
 
     name = "rod string and pump"
@@ -185,8 +200,12 @@ class PumpSystem(OwnModel):
     initial_state = "periodic (one stroke)"
     output = "polished-rod load"
 
-    def __init__(self, surface: SurfaceCard, elements: int = ELEMENTS) -> None:
+    def __init__(self, surface: SurfaceCard, elements: int = ELEMENTS, derive: bool = True,
+                 tol: float = TOL) -> None:
         self.surface = surface
+        self.elements = int(elements)
+        self.derive = bool(derive)
+        self.tol = float(tol)
         lu = surface.card.load_unit or "N"
         pu = surface.card.position_unit or "m"
         self.output_unit = lu
@@ -210,6 +229,7 @@ class PumpSystem(OwnModel):
                       "string's buoyant weight and the predicted dynamic load"),
         )
         self.grid = StringGrid.of(surface.well, surface.period, surface.n, elements)
+        self._refined = self.grid.refine(surface.drive)
         self.weight = surface.well.buoyant_weight()
         self._last: Run | None = None
         self._runs: dict[bytes, Run] = {}
@@ -220,10 +240,11 @@ class PumpSystem(OwnModel):
         return np.array([values[0] * s.load_factor, values[2], values[3],
                          values[4] * s.position_factor, DEAD_SPACE, 1.0 / GAMMA])
 
-    def run(self, values: Array, warm: Run | None = None, tol: float = TOL) -> Run:
-        """The periodic march at ``values`` to ``tol`` (from ``warm``, else from the last
-        march)."""
+    def run(self, values: Array, warm: Run | None = None, tol: float | None = None) -> Run:
+        """The periodic march at ``values`` to ``tol`` (default: the model's; from ``warm``,
+        else from the last march)."""
         values = np.asarray(values, dtype=float)
+        tol = self.tol if tol is None else tol
         key = values.tobytes()
         if key in self._runs:
             # The stroke these values already gave: a nonlinear pump may settle into another
@@ -232,11 +253,11 @@ class PumpSystem(OwnModel):
         if warm is None:
             warm = self._last
         got = self.grid.march(self.surface.drive, self._pump(values), float(values[1]),
-                              warm, MAX_CYCLES, tol)
+                              warm, MAX_CYCLES, tol, self._refined)
         if not got.change < 1e3 * tol or not np.all(np.isfinite(got.out)):
             # Not periodic yet from a far warm start: once more from rest.
             got = self.grid.march(self.surface.drive, self._pump(values),
-                                  float(values[1]), None, MAX_CYCLES, tol)
+                                  float(values[1]), None, MAX_CYCLES, tol, self._refined)
             if not (np.all(np.isfinite(got.out)) and got.change < 1e3 * tol):
                 # No periodic stroke here (too little damping for the strokes allowed, or
                 # a pump that never settles): differences of it would be noise, so the
@@ -365,7 +386,10 @@ class PumpSystem(OwnModel):
     def derived(self, values: Array, numbers: Any, serial: bool,
                 limits: Sequence[tuple[str, str]]) -> Mapping[str, Derived]:
         """The pump quantities of the fitted pump card (:data:`QUANTITIES`), each with its
-        error by the delta method over the parameters analysed at the optimum."""
+        error by the delta method over the parameters analysed at the optimum (none for a
+        model made with ``derive=False``)."""
+        if not self.derive:
+            return {}
         values = np.asarray(values, dtype=float)
         names = self.param_names()
         try:

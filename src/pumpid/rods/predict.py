@@ -212,15 +212,21 @@ class StringGrid:
         return cls(well=well, stiff=ea / dx, mass=mass, factor=factor,
                    dt=period / (n * factor), n=n)
 
+    def refine(self, position: Array) -> Array:
+        """The card's N surface positions interpolated to the march's time steps (what
+        :meth:`march` is driven with; compute it once for many marches of one card)."""
+        return trig_refine(position, self.factor)
+
     def march(self, position: Array, pump: Array, nu: float, warm: Run | None,
-              max_cycles: int = 80, tol: float = 1e-7) -> Run:
+              max_cycles: int = 80, tol: float = 1e-7, refined: Array | None = None) -> Run:
         """Step one card (``position``: its N surface positions, m) until periodic.
 
         ``pump`` is the march's pump vector (:func:`pump_vector`); ``warm`` a previous run
         of the same card to start from (None: the string at rest at the first position, the
-        barrel holding its dead space of liquid at intake pressure).
+        barrel holding its dead space of liquid at intake pressure); ``refined`` the
+        position's :meth:`refine`, when already computed.
         """
-        sf = trig_refine(position, self.factor)
+        sf = self.refine(position) if refined is None else refined
         if warm is None:
             nodes = np.full((2, self.mass.size), float(position[0]))
             state = np.array([float(position[0]), float(pump[4]), 0.0, float(pump[2])])

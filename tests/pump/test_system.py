@@ -1,0 +1,52 @@
+"""The system model of the surface card (:class:`pumpid.pump.PumpSystem`): the options the
+identification's two stages use."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pumpid.pump import PumpSystem, SurfaceCard
+from pumpid.rods import PumpModel, predict_surface
+
+from ..rods.strings import INCH, LBF, card, surface_motion, three_tapers
+
+SPM = 8.0
+
+
+@pytest.fixture(scope="module")
+def pound():
+    well = three_tapers()
+    s = surface_motion(n=200, period=60 / SPM)
+    fluid = 0.9 * 1000 * 9.80665 * well.pump.depth * well.pump.area
+    pump = PumpModel(fluid_load=fluid, fillage=0.7, intake_ratio=0.01, transfer=0.05)
+    pred = predict_surface(well, s, 60 / SPM, pump, nu=0.1, tol=1e-9, elements=60)
+    surface = SurfaceCard.of(card(s, pred.surface_load[0] + well.buoyant_weight(), SPM), well)
+    # fluid load (lbf), damping, liquid fraction, intake ratio, transfer (in), offset (lbf)
+    values = np.array([fluid / LBF, 0.1, 0.7, 0.01, 0.05 / INCH, 0.0])
+    return surface, values, pred
+
+
+def test_a_search_model_measures_nothing(pound) -> None:
+    surface, v, _pred = pound
+    assert PumpSystem(surface, 15, derive=False).derived(v, None, False, []) == {}
+    assert set(PumpSystem(surface, 15).derived(v, None, False, [])) == {
+        "fillage", "gross_stroke", "net_stroke", "displacement", "intake_pressure"}
+
+
+def test_the_march_converges_to_the_string_it_stands_for(pound) -> None:
+    # The search's march (15 elements) is further from the 60-element card than the
+    # model's (30), and a looser stopping tolerance changes the load by far less than that.
+    surface, v, pred = pound
+    truth = pred.surface_load[0] / LBF
+    span = float(np.ptp(truth))
+    err = {}
+    for e in (15, 30):
+        m = PumpSystem(surface, e)
+        err[e] = np.sqrt(np.mean((m.run(v).out[0] / LBF - truth) ** 2)) / span
+    assert err[30] < err[15] < 0.02
+    loose = PumpSystem(surface, 30, tol=1e-7).run(v)
+    assert loose.cycles < PumpSystem(surface, 30).run(v).cycles
+    diff = np.sqrt(np.mean((loose.out[0] / LBF - PumpSystem(surface, 30).run(v).out[0] / LBF)
+                           ** 2)) / span
+    assert diff < 1e-6 and diff < 1e-3 * err[30]
