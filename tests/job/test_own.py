@@ -171,3 +171,21 @@ def test_a_start_without_sensitivities_hands_over_to_the_next() -> None:
     assert res.status is pumpid.Status.CONVERGED
     assert abs(res.params["tau"] - TRUTH[0]) < 5 * res.stderr["tau"]
     assert "solved from 2" in res.start.note
+
+
+def test_the_answer_s_sensitivities_are_not_computed_twice() -> None:
+    # The analysis of the answer asks for the sensitivities at the solver's last accepted
+    # point, which the solver has just computed: a simulator that differentiates by finite
+    # differences would pay for them twice.
+    calls: list[bytes] = []
+
+    class Counted(Step):
+        def simulate(self, values, data, sensitivities):
+            if sensitivities:
+                calls.append(np.asarray(values, dtype=float).tobytes())
+            return super().simulate(values, data, sensitivities)
+
+    res = pumpid.fit(Counted(), _record(1))
+    assert res.status is pumpid.Status.CONVERGED and len(calls) >= 2
+    assert len(set(calls)) == len(calls)
+    assert res.jacobian is not None and res.uncertainty is not None

@@ -206,6 +206,10 @@ class PumpSystem(OwnModel):
         self.elements = int(elements)
         self.derive = bool(derive)
         self.tol = float(tol)
+        #: A model of the same card whose march the delta method's differences use (None:
+        #: this one). The differences need a slope, not a level, and a coarser march gives
+        #: the same slopes at a fraction of the cost.
+        self.slopes: PumpSystem | None = None
         lu = surface.card.load_unit or "N"
         pu = surface.card.position_unit or "m"
         self.output_unit = lu
@@ -392,11 +396,14 @@ class PumpSystem(OwnModel):
             return {}
         values = np.asarray(values, dtype=float)
         names = self.param_names()
+        probe = self if self.slopes is None else self.slopes
         try:
             base = self.quantities(values)
             # Neighbours start from the fitted stroke (the last march may be a boundary
             # test's, far away, from which a nonlinear pump can settle elsewhere or not).
             self._last = self.run(values)
+            probe._last = probe.run(values, self._last if probe is self else None)
+            at = base if probe is self else probe.quantities(values)
         except (ArithmeticError, ValueError):
             return {}  # the fitted values have no periodic stroke: nothing to measure
         se = np.full(base.size, math.nan)
@@ -417,13 +424,13 @@ class PumpSystem(OwnModel):
                     if not self.parameters[j].lower <= moved[j] <= self.parameters[j].upper:
                         continue
                     try:
-                        sides.append((sign, self.quantities(moved)))
+                        sides.append((sign, probe.quantities(moved)))
                     except (ArithmeticError, ValueError):
                         continue  # no periodic stroke there, or no pump card to measure
                 if len(sides) == 2:
                     grad[:, a] = (sides[0][1] - sides[1][1]) / (2.0 * DERIVED_STEP)
                 elif sides:
-                    grad[:, a] = sides[0][0] * (sides[0][1] - base) / DERIVED_STEP
+                    grad[:, a] = sides[0][0] * (sides[0][1] - at) / DERIVED_STEP
                 else:
                     grad[:, a] = math.nan
             se, se_hac = delta_errors(grad, numbers)

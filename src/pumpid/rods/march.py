@@ -38,24 +38,22 @@ STALL = 20
 
 
 @jit
-def _excess(liquid: float, gas: float, ri: float, inv_gamma: float, delta: float,
-            span: float, p: float, volume: float) -> float:
-    # Barrel content's volume at pressure p minus the barrel volume (decreasing in p).
-    return liquid + gas * (ri / p) ** inv_gamma - delta * (p - ri) / span - volume
-
-
-@jit
-def _pump_load(y: float, pump: Array, state: Array) -> tuple[float, float]:
+def _pump_load(y: float, pump: Array, state: Array, top: float) -> tuple[float, float]:
     # One step of the valve pump (see pumpid.rods.predict.PumpModel); updates state.
     # Returns the load and its derivative in the plunger position (0 while a valve is open).
+    # `top` is intake_ratio ** (1 / gamma): the gas's volume at discharge pressure per unit
+    # at intake pressure, the same for the whole march (a power costs as much as the
+    # string's update of several nodes).
     fo, fill, ri, delta, dead, inv_gamma = pump[0], pump[1], pump[2], pump[3], pump[4], pump[5]
     span = 1.0 - ri
     if y < state[0]:
         state[0] = y
     volume = y - state[0] + dead
     liquid, gas, p = state[1], state[2], state[3]
-    low = _excess(liquid, gas, ri, inv_gamma, delta, span, ri, volume)
-    high = _excess(liquid, gas, ri, inv_gamma, delta, span, 1.0, volume)
+    # The barrel content's volume minus the barrel's, at intake and at discharge pressure
+    # (it decreases with the pressure).
+    low = liquid + gas - volume
+    high = liquid + gas * top - delta - volume
     if low <= 0.0:
         # Standing valve open: the deficit enters as liquid and gas at intake pressure.
         liquid += fill * (-low)
@@ -64,18 +62,20 @@ def _pump_load(y: float, pump: Array, state: Array) -> tuple[float, float]:
         stiffness = 0.0
     elif high >= 0.0:
         # Traveling valve open: the excess leaves, liquid and gas in proportion.
-        at_top = liquid + gas * ri**inv_gamma
+        at_top = liquid + gas * top
         keep = 1.0 - high / max(at_top, 1e-300)
         liquid *= keep
         gas *= keep
         p = 1.0
         stiffness = 0.0
     else:
-        # Both valves shut: excess(p) = 0 is convex and decreasing, Newton from either side.
+        # Both valves shut: the excess at pressure q is convex and decreasing in q; Newton
+        # from either side.
         q = min(max(p, ri), 1.0)
         for _ in range(30):
-            f = _excess(liquid, gas, ri, inv_gamma, delta, span, q, volume)
-            slope = -gas * inv_gamma * (ri / q) ** inv_gamma / q - delta / span
+            expanded = gas * (ri / q) ** inv_gamma
+            f = liquid + expanded - delta * (q - ri) / span - volume
+            slope = -expanded * inv_gamma / q - delta / span
             step = min(max(q - f / slope, ri), 1.0)
             done = abs(step - q) < 1e-14
             q = step
@@ -139,12 +139,21 @@ def march(sf: Array, factor: int, stiff: Array, mass: Array, c: float, dt: float
     cycles = 0
     new = np.empty(e + 1)
     history = np.full(STALL, math.inf)
+    top = pump[2] ** pump[5]
+    # The central difference with the damping taken half implicitly, its factors out of the
+    # loop: new = gain_i * force + 2 u / (1 + damp) - (1 - damp) / (1 + damp) u_prev.
+    gain = np.empty(e + 1)
+    for i in range(e + 1):
+        gain[i] = dt * dt / mass[i] / (1.0 + damp)
+    now_factor = 2.0 / (1.0 + damp)
+    prev_factor = (1.0 - damp) / (1.0 + damp)
+    r_pump = dt * dt / mass[e]
     while cycles < max_cycles:
         cycles += 1
         lowest = math.inf
         for step in range(steps):
             lowest = min(lowest, u[e])
-            pload, kp = _pump_load(u[e], pump, state)
+            pload, kp = _pump_load(u[e], pump, state, top)
             t_prev = stiff[0] * (u[0] - u[1])
             if step % factor == 0:
                 k = step // factor
@@ -155,22 +164,16 @@ def march(sf: Array, factor: int, stiff: Array, mass: Array, c: float, dt: float
                 out[1, k] = u[e]
                 out[2, k] = pload
             new[0] = sf[(step + 1) % steps]
-            for i in range(1, e + 1):
-                if i < e:
-                    t_next = stiff[i] * (u[i] - u[i + 1])
-                else:
-                    t_next = pload
-                force = t_prev - t_next
-                if i < e:
-                    new[i] = (force * dt * dt / mass[i] + 2.0 * u[i]
-                              - (1.0 - damp) * u_prev[i]) / (1.0 + damp)
-                else:
-                    # The pump's spring (the barrel's content while both valves are shut)
-                    # taken implicitly: it can be far stiffer than the explicit step allows.
-                    r = dt * dt / mass[i]
-                    new[i] = (force * r + 2.0 * u[i] - (1.0 - damp) * u_prev[i]
-                              + kp * r * u[i]) / (1.0 + damp + kp * r)
+            # The interior nodes in a loop without branches, then the pump's node.
+            for i in range(1, e):
+                t_next = stiff[i] * (u[i] - u[i + 1])
+                new[i] = gain[i] * (t_prev - t_next) + now_factor * u[i] - prev_factor * u_prev[i]
                 t_prev = t_next
+            # The pump's spring (the barrel's content while both valves are shut) taken
+            # implicitly: it can be far stiffer than the explicit step allows.
+            force = t_prev - pload
+            new[e] = (force * r_pump + 2.0 * u[e] - (1.0 - damp) * u_prev[e]
+                      + kp * r_pump * u[e]) / (1.0 + damp + kp * r_pump)
             for i in range(e + 1):
                 u_prev[i] = u[i]
                 u[i] = new[i]
