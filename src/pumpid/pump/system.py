@@ -379,13 +379,25 @@ class PumpSystem(OwnModel):
     def quantities(self, values: Array) -> Array:
         """:data:`QUANTITIES` of the predicted pump card, in the units they are shown in
         (NaN where not measurable)."""
-        m = self.measure(values)
-        units = quantity_units(self.surface.well, self.surface.card)
-        raw = {"gross_stroke": m.gross_stroke, "net_stroke": m.net_stroke,
-               "fillage": m.fillage, "displacement": m.displacement,
-               "intake_pressure": m.intake_pressure}
-        return np.array([math.nan if raw[q] is None else float(raw[q]) / units[q][1]
+        return self._measured([self.pump_card(values)])[0]
+
+    def _measured(self, cards: Sequence[tuple[Array, Array]]) -> Array:
+        """:data:`QUANTITIES` of pump cards (plunger position, pump load), one row each, in
+        one call of :func:`pumpid.rods.measure_pump_cards` (a call costs about as much for
+        ten cards as for one). Raises ValueError when a plunger does not move."""
+        s = self.surface
+        got = measure_pump_cards(np.array([c[0] for c in cards]),
+                                 np.array([c[1] for c in cards]),
+                                 [s.well] * len(cards), [s.spm] * len(cards))
+        units = quantity_units(s.well, s.card)
+        rows = []
+        for m in got:
+            raw = {"gross_stroke": m.gross_stroke, "net_stroke": m.net_stroke,
+                   "fillage": m.fillage, "displacement": m.displacement,
+                   "intake_pressure": m.intake_pressure}
+            rows.append([math.nan if raw[q] is None else float(raw[q]) / units[q][1]
                          for q in QUANTITIES])
+        return np.array(rows, dtype=float)
 
     def derived(self, values: Array, numbers: Any, serial: bool,
                 limits: Sequence[tuple[str, str]]) -> Mapping[str, Derived]:
@@ -410,27 +422,36 @@ class PumpSystem(OwnModel):
         se_hac = np.full(base.size, math.nan)
         if numbers is not None and numbers.usable and numbers.dof > 0:
             coords = [numbers.names[i] for i in numbers.inner]
-            grad = np.zeros((base.size, len(coords)))
+            # Central differences in the analysis' coordinate (the log of a positive
+            # parameter), held inside the closed bound of the liquid fraction; the pump
+            # cards of every neighbour measured in one call.
+            sides: list[tuple[int, float, tuple[Array, Array]]] = []
             for a, name in enumerate(coords):
                 j = names.index(name)
                 if name == "load_offset":
                     continue  # moves no pump quantity
-                # Central differences in the analysis' coordinate (the log of a positive
-                # parameter), held inside the closed bound of the liquid fraction.
-                sides = []
                 for sign in (1.0, -1.0):
                     moved = values.copy()
                     moved[j] *= math.exp(sign * DERIVED_STEP)
                     if not self.parameters[j].lower <= moved[j] <= self.parameters[j].upper:
                         continue
                     try:
-                        sides.append((sign, probe.quantities(moved)))
+                        card = probe.pump_card(moved)
                     except (ArithmeticError, ValueError):
-                        continue  # no periodic stroke there, or no pump card to measure
-                if len(sides) == 2:
-                    grad[:, a] = (sides[0][1] - sides[1][1]) / (2.0 * DERIVED_STEP)
-                elif sides:
-                    grad[:, a] = sides[0][0] * (sides[0][1] - at) / DERIVED_STEP
+                        continue  # no periodic stroke there
+                    if np.ptp(card[0]) > 0:  # else no pump card to measure
+                        sides.append((a, sign, card))
+            measured = self._measured([c for _, _, c in sides]) if sides else np.zeros(0)
+            grad = np.zeros((base.size, len(coords)))
+            for a, name in enumerate(coords):
+                if name == "load_offset":
+                    continue
+                got = {sign: measured[k] for k, (b, sign, _) in enumerate(sides) if b == a}
+                if len(got) == 2:
+                    grad[:, a] = (got[1.0] - got[-1.0]) / (2.0 * DERIVED_STEP)
+                elif got:
+                    (sign, q), = got.items()
+                    grad[:, a] = sign * (q - at) / DERIVED_STEP
                 else:
                     grad[:, a] = math.nan
             se, se_hac = delta_errors(grad, numbers)
