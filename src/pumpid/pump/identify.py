@@ -251,9 +251,6 @@ def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, F
     search = PumpSystem(surface, SEARCH_ELEMENTS, derive=False)
     found, fixed, full = _search(search, surface, damping)
     model = PumpSystem(surface, ELEMENTS)
-    # The pump quantities' slopes for their errors: on the search's march (on 50 simulated
-    # cards their errors came out within 0.9-1.09 of the model's own slopes', median 1.00).
-    model.slopes = search
     try:
         final: FitResult | None = fit(model, surface, options=FitOptions(fixed=fixed),
                                       x0=found, solver=SOLVER)

@@ -206,10 +206,6 @@ class PumpSystem(OwnModel):
         self.elements = int(elements)
         self.derive = bool(derive)
         self.tol = float(tol)
-        #: A model of the same card whose march the delta method's differences use (None:
-        #: this one). The differences need a slope, not a level, and a coarser march gives
-        #: the same slopes at a fraction of the cost.
-        self.slopes: PumpSystem | None = None
         lu = surface.card.load_unit or "N"
         pu = surface.card.position_unit or "m"
         self.output_unit = lu
@@ -408,14 +404,11 @@ class PumpSystem(OwnModel):
             return {}
         values = np.asarray(values, dtype=float)
         names = self.param_names()
-        probe = self if self.slopes is None else self.slopes
         try:
             base = self.quantities(values)
             # Neighbours start from the fitted stroke (the last march may be a boundary
             # test's, far away, from which a nonlinear pump can settle elsewhere or not).
             self._last = self.run(values)
-            probe._last = probe.run(values, self._last if probe is self else None)
-            at = base if probe is self else probe.quantities(values)
         except (ArithmeticError, ValueError):
             return {}  # the fitted values have no periodic stroke: nothing to measure
         se = np.full(base.size, math.nan)
@@ -436,7 +429,7 @@ class PumpSystem(OwnModel):
                     if not self.parameters[j].lower <= moved[j] <= self.parameters[j].upper:
                         continue
                     try:
-                        card = probe.pump_card(moved)
+                        card = self.pump_card(moved)
                     except (ArithmeticError, ValueError):
                         continue  # no periodic stroke there
                     if np.ptp(card[0]) > 0:  # else no pump card to measure
@@ -451,7 +444,7 @@ class PumpSystem(OwnModel):
                     grad[:, a] = (got[1.0] - got[-1.0]) / (2.0 * DERIVED_STEP)
                 elif got:
                     (sign, q), = got.items()
-                    grad[:, a] = sign * (q - at) / DERIVED_STEP
+                    grad[:, a] = sign * (q - base) / DERIVED_STEP
                 else:
                     grad[:, a] = math.nan
             se, se_hac = delta_errors(grad, numbers)
