@@ -225,3 +225,28 @@ def test_no_stroke_from_rest_at_the_search_s_answer_searches_the_model(made,
     monkeypatch.undo()
     surface = SurfaceCard.of(fits[1].card, well)
     _same_answer(got, fit(PumpSystem(surface), surface, solver=SOLVER))
+
+
+def test_a_full_pump_whose_free_search_crawls_is_the_full_pump_fitted_directly() -> None:
+    # With little noise a full pump's free search sits at liquid fraction 1, where the
+    # intake ratio moves nothing, and crawls; the search's budget cuts it short, the
+    # full-pump fit takes over, and the answer is the model's own full-pump optimum.
+    from pumpid import FitOptions, fit
+    from pumpid.pump.identify import SEARCH_SOLVER, SOLVER
+    from pumpid.pump.system import START_INTAKE_RATIO
+
+    assert SEARCH_SOLVER.max_evaluations is not None
+    well = three_tapers()
+    s = surface_motion(n=200, period=60 / SPM)
+    fluid = 0.9 * 1000 * 9.80665 * well.pump.depth * well.pump.area
+    pump = PumpModel(fluid_load=fluid, fillage=1.0, intake_ratio=0.01, transfer=0.05)
+    pred = predict_surface(well, s, 60 / SPM, pump, nu=NU, tol=1e-9, elements=60)
+    load = pred.surface_load[0] + well.buoyant_weight()
+    load = load + 0.002 * np.ptp(load) * np.random.default_rng(8).standard_normal(load.size)
+    c = card(s, load, SPM)
+    got = identify_card(c, well)
+    assert got.status == "converged" and got.full_pump
+    surface = SurfaceCard.of(c, well)
+    held = {"liquid_fraction": 1.0, "intake_ratio": START_INTAKE_RATIO}
+    direct = fit(PumpSystem(surface), surface, options=FitOptions(fixed=held), solver=SOLVER)
+    _same_answer(got, direct)
