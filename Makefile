@@ -49,8 +49,8 @@ demo: $(STAMP)
 	$(VENV)/bin/pumpid batch demo-output/fleet/field --out demo-output/fleet/results --observe u; \
 	  code=$$?; case $$code in 0|3|5|6) ;; *) exit $$code ;; esac
 	$(VENV)/bin/pumpid report demo-output/fleet/results --out demo-output/fleet
-	@# The pump field (four rod-pumped wells, 64 cards, each card's pump identified: about a
-	@# minute): its own run, since the Kelvin field's wells have no rod string to describe.
+	@# The pump field (four rod-pumped wells, 64 cards, each card's pump identified: about
+	@# ten seconds): its own run, since the Kelvin field's wells have no rod string to describe.
 	$(PY) -m pumpid.fleet.demo --pumps demo-output/fleet/pumps/field
 	$(VENV)/bin/pumpid batch demo-output/fleet/pumps/field --well-file \
 	  demo-output/fleet/pumps/wells.json --model msd --out demo-output/fleet/pumps/results; \

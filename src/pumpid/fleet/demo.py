@@ -22,9 +22,9 @@ fits still call it determined; the change detector then flags it (other seeds sh
 rod-pumped wells with the same three-taper string, a card every six hours for four days
 (64 cards), 1 % load noise and 1 % card-to-card scatter of the fluid level; its well file
 ``FOLDER/../wells.json`` and its truth table ``FOLDER/../truth.csv``. ``make demo`` runs
-``pumpid batch --well-file`` on it (each card's pump identified, about 0.1-0.3 s a
+``pumpid batch --well-file`` on it (each card's pump identified, about 0.05 s a
 card) and ``pumpid report``, apart from the Kelvin field: those wells have no rod string
-to describe, and identifying their 432 cards would cost minutes for nothing. Wells P001
+to describe, and identifying their 432 cards would cost tens of seconds for nothing. Wells P001
 (a full pump) and P004 (a steady 85 % fillage) are steady; from ``card_index``
 :data:`PUMP_CHANGE_AT` on, well P002's fillage falls from 1 to 0.75 (fluid pound starting)
 and well P003's fluid load drops by 18 % (a leaking valve). The field ends three cards
