@@ -69,3 +69,20 @@ def test_gas_settles_in_few_strokes() -> None:
     run = grid.march(s, pump, 0.05, None, max_cycles=2000, tol=1e-9)
     assert run.change < 1e-9
     assert run.cycles < 40
+
+
+@pytest.mark.parametrize("fill", [1.0, 0.6])
+def test_a_march_carried_from_another_grid_lands_on_the_stroke_from_rest(fill: float) -> None:
+    # A coarser grid's periodic stroke, carried over (StringGrid.carry), starts the finer
+    # grid's march near its own: the same stroke as from rest, in fewer strokes.
+    grid, s, pump = _grid_and_pump(fill, transfer=0.05)
+    coarse = StringGrid.of(grid.well, 60 / SPM, s.size, 15)
+    assert coarse.depth[-1] == pytest.approx(grid.depth[-1]) and coarse.depth.size < 20
+    before = coarse.march(s, pump, 0.1, None, max_cycles=300, tol=1e-11)
+    cold = grid.march(s, pump, 0.1, None, max_cycles=300, tol=1e-11)
+    carried = grid.carry(before, coarse)
+    assert carried.nodes.shape == (2, grid.mass.size)
+    warm = grid.march(s, pump, 0.1, carried, max_cycles=300, tol=1e-11)
+    span = float(np.ptp(cold.out[0]))
+    assert np.max(np.abs(warm.out - cold.out)[0]) < 1e-8 * span
+    assert warm.cycles < cold.cycles

@@ -257,16 +257,17 @@ def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, F
     search = PumpSystem(surface, SEARCH_ELEMENTS, derive=False)
     found, fixed, full = _search(search, surface, damping)
     model = PumpSystem(surface, ELEMENTS)
+    model.start_from(search)
     try:
         final: FitResult | None = fit(model, surface, options=FitOptions(fixed=fixed),
                                       x0=found, solver=SOLVER)
     except (ValueError, ArithmeticError):
         final = None
     if final is None or str(final.status) == "failed":
-        # The model's march, started from rest, reaches no periodic stroke at the search's
-        # answer or beside it (a nonlinear pump can settle elsewhere from another start):
-        # the search again, on that march itself, from its own starts, each march starting
-        # from the one before.
+        # The model's march reaches no periodic stroke at the search's answer or beside it,
+        # from the search's stroke nor from rest (a nonlinear pump can settle elsewhere
+        # from another start): the search again, on that march itself, from its own starts,
+        # each march starting from the one before.
         model = PumpSystem(surface, ELEMENTS, derive=False)
         found, fixed, full = _search(model, surface, damping)
         model.derive = True
@@ -442,6 +443,7 @@ def discretization_errors(surface: SurfaceCard, model: PumpSystem,
     names = model.param_names()
     values = np.array([res.params[n] for n in names])
     fine = PumpSystem(surface, elements=2 * model.elements, tol=ESTIMATE_TOL)
+    fine.start_from(model)
     coarse_load, _ = model.simulate(values, surface, False)
     fine_load, _ = fine.simulate(values, surface, False)
     jac = np.asarray(res.jacobian, dtype=float)

@@ -267,6 +267,13 @@ class PumpSystem(OwnModel):
                                       "range)")
         return got
 
+    def start_from(self, other: PumpSystem) -> None:
+        """Start this model's next march from ``other``'s last one: the same card on another
+        grid (:meth:`pumpid.rods.StringGrid.carry`), for a warm start instead of one from
+        rest. Nothing happens if ``other`` has not marched yet."""
+        if other._last is not None:
+            self._last = self.grid.carry(other._last, other.grid)
+
     def _load(self, values: Array, run: Run) -> Array:
         return np.asarray((run.out[0] + self.weight) / self.surface.load_factor
                           + values[5], dtype=float)

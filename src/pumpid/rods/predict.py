@@ -184,7 +184,8 @@ class Run:
 class StringGrid:
     """A well's string cut into elements, with the time step for a card's sampling.
 
-    Build with :meth:`of`; :meth:`march` steps one card.
+    Build with :meth:`of`; :meth:`march` steps one card; :meth:`carry` takes another grid's
+    march of the same card over, to start from.
     """
 
     well: Well
@@ -193,6 +194,8 @@ class StringGrid:
     factor: int
     dt: float
     n: int
+    #: Each node's distance from the polished rod along the string, m.
+    depth: Array
 
     @classmethod
     def of(cls, well: Well, period: float, n: int, elements: int = 60) -> StringGrid:
@@ -210,7 +213,19 @@ class StringGrid:
         dt_max = float(np.min(dx / np.repeat(arr["wave_speed"], counts)))
         factor = max(1, math.ceil(period / n / dt_max))
         return cls(well=well, stiff=ea / dx, mass=mass, factor=factor,
-                   dt=period / (n * factor), n=n)
+                   dt=period / (n * factor), n=n, depth=np.concatenate([[0.0], np.cumsum(dx)]))
+
+    def carry(self, run: Run, source: StringGrid) -> Run:
+        """``run``, a march of the same card on ``source`` (the same string cut otherwise),
+        as a warm start on this grid: the node positions interpolated along the string, the
+        positions one step before from the nodes' velocities at this grid's time step, the
+        pump's state as it was. Nearly periodic already, so a march from it needs a few
+        strokes where one from rest needs ten or more."""
+        now, before = run.nodes
+        u = np.interp(self.depth, source.depth, now)
+        velocity = np.interp(self.depth, source.depth, (now - before) / source.dt)
+        return Run(out=run.out, nodes=np.array([u, u - velocity * self.dt]),
+                   state=run.state.copy(), cycles=0, change=math.inf)
 
     def refine(self, position: Array) -> Array:
         """The card's N surface positions interpolated to the march's time steps (what
