@@ -71,8 +71,9 @@ ELEMENTS = 30
 #: standard error on a quiet card, which the final fit's one or two steps take back.
 SEARCH_ELEMENTS = 15
 #: Stop a march when the surface load changes less than this over a stroke (of its range),
-#: for the estimate of the march's own error (:func:`pumpid.pump.identify.discretization_errors`),
-#: which needs the load to a small part of that error (about 1e-3 of the range).
+#: for estimates that need the stroke to a few digits only: the march's own error
+#: (:func:`pumpid.pump.identify.discretization_errors`, about 1e-3 of the range) and the
+#: pump quantities' slopes for their errors (:meth:`PumpSystem.derived`).
 ESTIMATE_TOL = 1e-7
 #: Stop a march when the surface load changes less than this over a stroke (of its range).
 TOL = 1e-9
@@ -329,10 +330,11 @@ class PumpSystem(OwnModel):
         jac[:, 5] = 1.0
         return load, jac
 
-    def pump_card(self, values: Array) -> tuple[Array, Array]:
+    def pump_card(self, values: Array, tol: float | None = None) -> tuple[Array, Array]:
         """The predicted pump card: plunger position (m, from its lowest point) and
-        effective pump load (N), at the card's samples in time order."""
-        run = self.run(np.asarray(values, dtype=float))
+        effective pump load (N), at the card's samples in time order (the march to ``tol``,
+        default the model's)."""
+        run = self.run(np.asarray(values, dtype=float), tol=tol)
         pos = run.out[1]
         return np.asarray(pos - pos.min(), dtype=float), np.asarray(run.out[2], dtype=float)
 
@@ -436,7 +438,9 @@ class PumpSystem(OwnModel):
                     if not self.parameters[j].lower <= moved[j] <= self.parameters[j].upper:
                         continue
                     try:
-                        card = self.pump_card(moved)
+                        # A neighbour's stroke to 1e-7 of the load range: its quantities
+                        # move by about 1e-4 of themselves, so the slope keeps 3 digits.
+                        card = self.pump_card(moved, ESTIMATE_TOL)
                     except (ArithmeticError, ValueError):
                         continue  # no periodic stroke there
                     if np.ptp(card[0]) > 0:  # else no pump card to measure
