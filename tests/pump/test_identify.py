@@ -251,3 +251,26 @@ def test_a_full_pump_whose_free_search_crawls_is_the_full_pump_fitted_directly()
     held = {"liquid_fraction": 1.0, "intake_ratio": START_INTAKE_RATIO}
     direct = fit(PumpSystem(surface), surface, options=FitOptions(fixed=held), solver=SOLVER)
     _same_answer(got, direct)
+
+
+def test_a_card_the_coarse_march_cannot_start_is_searched_on_the_model(made,
+                                                                       monkeypatch) -> None:
+    # Where no start reaches a periodic stroke of the search's 15-element march, the search
+    # runs on the model's own march: same answer, no failure.
+    from pumpid import fit
+    from pumpid.pump.identify import SOLVER
+
+    well, _pred, _fluid, fits = made
+    original = PumpSystem.start
+
+    def coarse_fails(self, data):
+        if self.elements != 30:
+            raise ValueError("no start reaches a periodic stroke")
+        return original(self, data)
+
+    monkeypatch.setattr(PumpSystem, "start", coarse_fails)
+    got = identify_card(fits[1].card, well)
+    assert got.status == "converged" and got.model.elements == 30
+    monkeypatch.undo()
+    surface = SurfaceCard.of(fits[1].card, well)
+    _same_answer(got, fit(PumpSystem(surface), surface, solver=SOLVER))

@@ -255,19 +255,25 @@ def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, F
     Returns the fitted model, its fit and whether it is the full pump.
     """
     search = PumpSystem(surface, SEARCH_ELEMENTS, derive=False)
-    found, fixed, full = _search(search, surface, damping)
-    model = PumpSystem(surface, ELEMENTS)
-    model.start_from(search)
+    final: FitResult | None = None
     try:
-        final: FitResult | None = fit(model, surface, options=FitOptions(fixed=fixed),
-                                      x0=found, solver=SOLVER)
+        found, fixed, full = _search(search, surface, damping)
     except (ValueError, ArithmeticError):
-        final = None
+        pass  # no start reaches a periodic stroke of the coarse march: see below
+    else:
+        model = PumpSystem(surface, ELEMENTS)
+        model.start_from(search)
+        try:
+            final = fit(model, surface, options=FitOptions(fixed=fixed), x0=found,
+                        solver=SOLVER)
+        except (ValueError, ArithmeticError):
+            final = None
     if final is None or str(final.status) == "failed":
-        # The model's march reaches no periodic stroke at the search's answer or beside it,
-        # from the search's stroke nor from rest (a nonlinear pump can settle elsewhere
-        # from another start): the search again, on that march itself, from its own starts,
-        # each march starting from the one before.
+        # The coarse march found nothing, or the model's march reaches no periodic stroke
+        # at the search's answer or beside it, from the search's stroke nor from rest (a
+        # nonlinear pump can settle elsewhere from another start): the search again, on
+        # the model's march itself, from its own starts, each march starting from the one
+        # before.
         model = PumpSystem(surface, ELEMENTS, derive=False)
         found, fixed, full = _search(model, surface, damping)
         model.derive = True
