@@ -146,7 +146,10 @@ def test_a_quantity_no_card_determined_keeps_its_unit(tmp_path: Path) -> None:
         d_time_constant_unit="s")
     files = write_fleet_report(frame, tmp_path, steady_sample=1)
     page = files["report"].read_text(encoding="utf-8")
-    assert "time_constant [s]" in page and "<th>latest time_\u200bconstant [s]</th>" in page
+    assert "time_constant [s]" in page
+    # No well has a latest value of it: its column is left out of the wells table, and said.
+    assert "<th>latest time_\u200bconstant" not in page
+    assert "no latest usable value of time_constant in these wells" in page
     assert "dimensionless" not in page.replace("damping_ratio [dimensionless]", "").replace(
         "damping_\u200bratio [dimensionless]", "")
 
@@ -198,3 +201,19 @@ def test_the_wells_tables_headers_wrap_so_the_table_fits_a_window(table: pd.Data
     assert any("natural_" in h for h in headers)
     words = [w for h in headers for w in re.split(r"[\s\u200b-]+", h)]
     assert max(len(w) for w in words) <= len("[dimensionless]"), max(words, key=len)
+
+
+def test_the_wells_table_leaves_out_columns_empty_in_every_well(tmp_path: Path) -> None:
+    # A pump field: 9 quantities and 6 statuses made the wells table scroll sideways at
+    # 1400 px although three quantities had no value and four statuses no card.
+    frame = results_table(4, 30, cv=0.02, seed=3).assign(
+        d_time_constant=np.nan, d_time_constant_se=np.nan, d_time_constant_determined=False,
+        d_time_constant_unit="s")
+    files = write_fleet_report(frame, tmp_path, steady_sample=1)
+    page = files["report"].read_text(encoding="utf-8")
+    wells = page[page.index("<h2>Wells</h2>"):page.index("<h2>Quantities across wells</h2>")]
+    headers = re.findall(r"<th[^>]*>(.*?)</th>", wells)
+    assert "converged" in headers and "failed" not in headers and "poor-fit" not in headers
+    assert not any("time_" in h for h in headers)
+    assert "Columns left out: no card of these wells has status" in wells
+    assert "failed" in wells and "time_constant" in wells  # said in words

@@ -281,21 +281,27 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series) -> str:
 def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
                    limit: int) -> str:
     shown = summary.head(limit)
+    # Columns that would be empty in every listed well are left out, and said: a pump
+    # field's 9 quantities and 6 statuses made the table scroll sideways at 1400 px.
+    statuses = [st for st in STATUSES if shown["n_" + st.replace("-", "_")].sum() > 0]
+    latest = [q for q in quantities
+              if f"latest_{q}" in shown
+              and np.isfinite(pd.to_numeric(shown[f"latest_{q}"], errors="coerce")).any()]
     # Counts and units go in the headers, so that every column fits a normal window; a
     # zero-width space after each underscore lets a quantity's name wrap there.
-    headers = ["well", "cards", *STATUSES, "alerts", "tested by", "largest change",
+    headers = ["well", "cards", *statuses, "alerts", "tested by", "largest change",
                *(f"latest {q.replace('_', _WRAP_AFTER_UNDERSCORE)} "
-                 f"[{unit_text(units.get(q, ''))}]" for q in quantities)]
+                 f"[{unit_text(units.get(q, ''))}]" for q in latest)]
     rows, classes = [], []
     for _, w in shown.iterrows():
         cells = [str(w["well_id"]), str(int(w["cards"]))]
-        cells += [str(int(w["n_" + st.replace("-", "_")])) for st in STATUSES]
+        cells += [str(int(w["n_" + st.replace("-", "_")])) for st in statuses]
         cells.append(str(int(w["alerts"])))
         cells.append(str(w.get("tested", "")))
         size = w["max_abs_change_se"]
         cells.append(f"{w['largest_change']} [{_num(size, 3)} standard errors]"
                      if w["alerts"] else "none")
-        for q in quantities:
+        for q in latest:
             unit = w.get(f"latest_{q}_unit", "")
             same = unit_text(unit) == unit_text(units.get(q, ""))
             value = w.get(f"latest_{q}")
@@ -306,8 +312,19 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
     if len(summary) > limit:
         note = (f"<p class=\"muted\">The first {limit} of {len(summary)} wells are listed "
                 "(alerted wells first); wells.csv lists them all.</p>")
-    num = range(1, 2 + len(STATUSES) + 1)
-    return note + _table(headers, rows, num_cols=[*num, *range(len(headers) - len(quantities),
+    left = [st for st in STATUSES if st not in statuses]
+    empty = [q for q in quantities if q not in latest]
+    if left or empty:
+        said = []
+        if left:
+            said.append(f"no card of these wells has status {', '.join(left)} (the run "
+                        "summary counts every status)")
+        if empty:
+            said.append(f"no latest usable value of {', '.join(empty)} in these wells")
+        note += (f"<p class=\"muted\">Columns left out: {'; '.join(said)}; wells.csv has "
+                 "them all.</p>")
+    num = range(1, 2 + len(statuses) + 1)
+    return note + _table(headers, rows, num_cols=[*num, *range(len(headers) - len(latest),
                                                                len(headers))],
                          row_classes=classes)
 
