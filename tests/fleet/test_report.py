@@ -138,13 +138,17 @@ def test_tables_state_units_once_and_fit_a_window(table: pd.DataFrame, tmp_path:
     assert "lbf/in</td>" not in wells_table  # the unit is in the header, not in every row
 
 
+def _no_time_constant(wells: int, cards: int, seed: int) -> pd.DataFrame:
+    """A results table whose time constant (unit s) no card determined."""
+    return results_table(wells, cards, cv=0.02, seed=seed).assign(
+        d_time_constant=np.nan, d_time_constant_se=np.nan, d_time_constant_determined=False,
+        d_time_constant_unit="s")
+
+
 def test_a_quantity_no_card_determined_keeps_its_unit(tmp_path: Path) -> None:
     # Real Kelvin wells: the third pole's time constant undetermined on every card. Its
     # unit (s) does not depend on that; the page said "[dimensionless]" in three places.
-    frame = results_table(6, 40, cv=0.02, seed=8).assign(
-        d_time_constant=np.nan, d_time_constant_se=np.nan, d_time_constant_determined=False,
-        d_time_constant_unit="s")
-    files = write_fleet_report(frame, tmp_path, steady_sample=1)
+    files = write_fleet_report(_no_time_constant(6, 40, seed=8), tmp_path, steady_sample=1)
     page = files["report"].read_text(encoding="utf-8")
     assert "time_constant [s]" in page
     # No well has a latest value of it: its column is left out of the wells table, and said.
@@ -206,10 +210,7 @@ def test_the_wells_tables_headers_wrap_so_the_table_fits_a_window(table: pd.Data
 def test_the_wells_table_leaves_out_columns_empty_in_every_well(tmp_path: Path) -> None:
     # A pump field: 9 quantities and 6 statuses made the wells table scroll sideways at
     # 1400 px although three quantities had no value and four statuses no card.
-    frame = results_table(4, 30, cv=0.02, seed=3).assign(
-        d_time_constant=np.nan, d_time_constant_se=np.nan, d_time_constant_determined=False,
-        d_time_constant_unit="s")
-    files = write_fleet_report(frame, tmp_path, steady_sample=1)
+    files = write_fleet_report(_no_time_constant(4, 30, seed=3), tmp_path, steady_sample=1)
     page = files["report"].read_text(encoding="utf-8")
     wells = page[page.index("<h2>Wells</h2>"):page.index("<h2>Quantities across wells</h2>")]
     headers = re.findall(r"<th[^>]*>(.*?)</th>", wells)
