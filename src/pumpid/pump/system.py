@@ -341,9 +341,7 @@ class PumpSystem(OwnModel):
     def measure(self, values: Array) -> PumpMeasure:
         """The pump quantities of the predicted pump card, measured as a diagnostic pump
         card's are (:func:`pumpid.rods.measure_pump_cards`)."""
-        pos, load = self.pump_card(values)
-        return measure_pump_cards(pos[None], load[None], [self.surface.well],
-                                  [self.surface.spm])[0]
+        return self._measures([self.pump_card(values)])[0]
 
     def start(self, data: Any) -> Array:
         """Starts from the diagnostic pump card at each of :data:`START_DAMPING`: its fluid
@@ -386,17 +384,20 @@ class PumpSystem(OwnModel):
         (NaN where not measurable)."""
         return self._measured([self.pump_card(values)])[0]
 
-    def _measured(self, cards: Sequence[tuple[Array, Array]]) -> Array:
-        """:data:`QUANTITIES` of pump cards (plunger position, pump load), one row each, in
-        one call of :func:`pumpid.rods.measure_pump_cards` (measured: 0.25 ms for ten cards
-        of 200 samples, 0.18 ms for one). Raises ValueError when a plunger does not move."""
+    def _measures(self, cards: Sequence[tuple[Array, Array]]) -> list[PumpMeasure]:
+        """Pump cards (plunger position, pump load) measured in one call of
+        :func:`pumpid.rods.measure_pump_cards` (measured: 0.25 ms for ten cards of 200
+        samples, 0.18 ms for one). Raises ValueError when a plunger does not move."""
         s = self.surface
-        got = measure_pump_cards(np.array([c[0] for c in cards]),
-                                 np.array([c[1] for c in cards]),
-                                 [s.well] * len(cards), [s.spm] * len(cards))
-        units = quantity_units(s.well, s.card)
+        return measure_pump_cards(np.array([c[0] for c in cards]),
+                                  np.array([c[1] for c in cards]),
+                                  [s.well] * len(cards), [s.spm] * len(cards))
+
+    def _measured(self, cards: Sequence[tuple[Array, Array]]) -> Array:
+        """:data:`QUANTITIES` of pump cards, one row each, in the units they are shown in."""
+        units = quantity_units(self.surface.well, self.surface.card)
         rows = []
-        for m in got:
+        for m in self._measures(cards):
             raw = {"gross_stroke": m.gross_stroke, "net_stroke": m.net_stroke,
                    "fillage": m.fillage, "displacement": m.displacement,
                    "intake_pressure": m.intake_pressure}
