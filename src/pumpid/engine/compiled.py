@@ -37,6 +37,7 @@ COMPILED_MODULES = (
     "engine/compiled.py",
     "engine/kernel.py",
     "engine/lm.py",
+    "engine/spectrum.py",
     "engine/drive.py",
     "engine/start/equation_error.py",
     "engine/start/harmonics.py",

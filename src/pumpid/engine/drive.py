@@ -26,7 +26,8 @@ from numpy.typing import ArrayLike
 
 from . import lm
 from .compiled import copy_into, jit, wait_aside
-from .kernel import simulate_card
+from .kernel import NO_MAP, PERIODIC, simulate_card
+from .spectrum import card_spectrum, harmonic_rows, harmonic_width
 
 __all__ = ["AS_GIVEN", "BEST_LINEAR", "RESCALE", "cost_items", "evaluate", "items",
            "linear_items", "outputs", "rows_items", "solve_items", "solve_one", "summary_rows"]
@@ -151,6 +152,52 @@ def residual_vector(z, k, data, model, settings, out):
     return True
 
 
+@jit(inline=True)
+def _spectrum(k, harmonics, data, model, settings):
+    """Card k's load and data coefficients for the harmonic residual (:mod:`.spectrum`):
+    (fk, dk), empty when the card is fitted in time (no harmonics asked, not one uniformly
+    sampled period closed by one more step, a mapped input or the log residual)."""
+    t, f, d, mode, _x0, period, uniform = _card(data, k)
+    n_samples = t.size
+    empty = np.zeros(0, np.complex128)
+    if harmonics <= 0 or mode != PERIODIC or not uniform or n_samples < 3:
+        return empty, empty
+    h = t[1] - t[0]
+    if abs(period - n_samples * h) > 1e-9 * period or model[2][0] != NO_MAP or settings[2]:
+        return empty, empty
+    kmax = (harmonic_width(harmonics, n_samples) - 1) // 2
+    fk = np.empty(kmax + 1, np.complex128)
+    dk = np.empty(kmax + 1, np.complex128)
+    card_spectrum(f, d, kmax, fk, dk)
+    return fk, dk
+
+
+@jit(inline=True)
+def _rows_of(z, k, data, model, settings, fk, dk, rows):
+    """:func:`residual_rows`, or its harmonic form when the card has a spectrum."""
+    if fk.size == 0:
+        return residual_rows(z, k, data, model, settings, rows)
+    code, n, _imap, obs, _integrator = model
+    period = _card(data, k)[5]
+    lz = np.empty(settings[1].size)
+    scale, offset = _unpack(z, settings, lz)
+    bounds = data[3]
+    return harmonic_rows(lz, settings[0], code, n, obs, period, bounds[k + 1] - bounds[k],
+                         scale, settings[3], offset, settings[5], fk, dk, rows)
+
+
+@jit(inline=True)
+def _vector_of(z, k, data, model, settings, fk, dk, out):
+    """:func:`residual_vector`, or the harmonic residual when the card has a spectrum."""
+    if fk.size == 0:
+        return residual_vector(z, k, data, model, settings, out)
+    rows = np.empty((settings[0].size + settings[3] + settings[5] + 1, out.size))
+    if not _rows_of(z, k, data, model, settings, fk, dk, rows):
+        return False
+    copy_into(out, rows[rows.shape[0] - 1])
+    return True
+
+
 @jit
 def _scaling(q, k, data, settings):
     """The solver's fixed scaling: 1 for the log-coordinates (relative changes already), and
@@ -164,14 +211,18 @@ def _scaling(q, k, data, settings):
 
 
 @jit(inline=True)
-def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, k, data, model, settings,
-           history):
+def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, harmonics, k, data, model,
+           settings, history):
     """Levenberg-Marquardt from z0 for card k. Returns (z, cost, evaluations, accepted,
     code, test, history rows). ``history`` (H, q + 1) receives the accepted points and their
-    costs (pass an array with no rows to skip)."""
+    costs (pass an array with no rows to skip). ``harmonics`` > 0: the cost is the harmonic
+    one (:mod:`.spectrum`) on a card it applies to."""
     q = z0.size
+    fk, dk = _spectrum(k, harmonics, data, model, settings)
     bounds = data[3]
     n_samples = bounds[k + 1] - bounds[k]
+    if fk.size > 0:
+        n_samples = 2 * fk.size - 1
     # The current point's reflections are kept for the acceleration's projection; a trial
     # point is factored into the other buffer and the two swap when it is accepted.
     rows = np.empty((q + 1, n_samples))
@@ -183,7 +234,7 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, k, data, model, sett
     probe = np.empty(n_samples)
     c_probe = np.empty(q)
     cost = math.nan
-    if residual_rows(z0, k, data, model, settings, rows):
+    if _rows_of(z0, k, data, model, settings, fk, dk, rows):
         cost = lm.householder_keep(rows, q, r, c, v0, beta)
     dof = n_samples - q
     noise = noise_tol * 2.0 / dof if dof > 0 else 0.0
@@ -198,12 +249,12 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, k, data, model, sett
     ints = state[8]
     while lm.propose(state):
         if lm.probing(state):
-            ok = residual_vector(z_try, k, data, model, settings, probe)
+            ok = _vector_of(z_try, k, data, model, settings, fk, dk, probe)
             if ok:
                 lm.project(rows, q, v0, beta, probe, c_probe)
             lm.accelerate(state, c_probe, ok)
         cost_try = math.nan
-        if residual_rows(z_try, k, data, model, settings, spare):
+        if _rows_of(z_try, k, data, model, settings, fk, dk, spare):
             cost_try = lm.householder_keep(spare, q, r, c, v0_s, beta_s)
         accepted_before = ints[1]
         going = lm.update(state, cost_try, r, c)
@@ -370,8 +421,8 @@ _SOLVE, _LINEAR, _ROWS, _OUTPUTS = 0, 1, 2, 3
 
 
 @jit
-def items(task, cards, z, lo, hi, tol, max_evals, n_capped, noise_tol, mode, history, total,
-          data, model, settings):
+def items(task, cards, z, lo, hi, tol, max_evals, n_capped, noise_tol, harmonics, mode,
+          history, total, data, model, settings):
     """The one compiled entry point that simulates: every task on many (card, point) items.
 
     Every compiled function links in and re-optimises all the compiled code it calls, the
@@ -395,8 +446,8 @@ def items(task, cards, z, lo, hi, tol, max_evals, n_capped, noise_tol, mode, his
     ok = np.zeros(m, np.bool_)
     if task == _SOLVE:
         for i in range(m):
-            out = _solve(z[i], lo[i], hi[i], tol, max_evals[i], n_capped, noise_tol, cards[i],
-                         data, model, settings, history)
+            out = _solve(z[i], lo[i], hi[i], tol, max_evals[i], n_capped, noise_tol,
+                         harmonics, cards[i], data, model, settings, history)
             copy_into(z_out[i], out[0])
             cost[i] = out[1]
             evals[i] = out[2]
@@ -426,8 +477,8 @@ _NO_INT = np.zeros(0, np.int64)
 def _call(task: int, cards: ArrayLike, z: ArrayLike, data: tuple, model: tuple,
           settings: tuple, *, lo: ArrayLike | None = None, hi: ArrayLike | None = None,
           tol: float = 0.0, max_evals: ArrayLike | None = None, n_capped: int = 0,
-          noise_tol: float = 0.0, mode: int = AS_GIVEN, history: np.ndarray | None = None,
-          total: int = 0) -> tuple:
+          noise_tol: float = 0.0, harmonics: int = 0, mode: int = AS_GIVEN,
+          history: np.ndarray | None = None, total: int = 0) -> tuple:
     # A second process may be compiling items for a fresh install (pumpid.engine.aside).
     wait_aside("drive.items")
     z = _own(z, np.float64)
@@ -437,19 +488,22 @@ def _call(task: int, cards: ArrayLike, z: ArrayLike, data: tuple, model: tuple,
                  none if lo is None else _own(lo, np.float64),
                  none if hi is None else _own(hi, np.float64), float(tol),
                  _NO_INT if max_evals is None else _own(max_evals, np.int64), int(n_capped),
-                 float(noise_tol), int(mode),
+                 float(noise_tol), int(harmonics), int(mode),
                  np.zeros((0, q + 1)) if history is None else history, int(total),
                  data, model, settings)
 
 
 def solve_items(cards, z0, lo, hi, tol, max_evals, n_capped, noise_tol, data, model,
-                settings):
-    """Levenberg-Marquardt for many (card, start) items, each to its own end.
+                settings, harmonics=0):
+    """Levenberg-Marquardt for many (card, start) items, each to its own end; on the
+    cards' first ``harmonics`` harmonics where that applies (:mod:`.spectrum`; 0: the exact
+    cost everywhere).
 
     Returns z (m, q), cost (m,), evaluations, accepted, code, test (m,) arrays.
     """
     return _call(_SOLVE, cards, z0, data, model, settings, lo=lo, hi=hi, tol=tol,
-                 max_evals=max_evals, n_capped=n_capped, noise_tol=noise_tol)[:6]
+                 max_evals=max_evals, n_capped=n_capped, noise_tol=noise_tol,
+                 harmonics=harmonics)[:6]
 
 
 def solve_one(z0, lo, hi, tol, max_evals, n_capped, noise_tol, card, data, model, settings,

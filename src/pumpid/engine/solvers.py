@@ -129,17 +129,27 @@ class LevenbergMarquardt:
         Also stop when a full Gauss-Newton step would gain less than this fraction of the
         residual variance: the answer is then within ``sqrt(2 noise_tol)`` standard errors
         of the exact optimum (0 turns the test off).
+    harmonics : int
+        0 (the default): minimise the exact cost. K > 0: on every card that is one
+        uniformly sampled period of a model without an input map (linear residual),
+        minimise instead the cost of its first K harmonics (:mod:`pumpid.engine.spectrum`),
+        which is cheaper to evaluate and close enough to tell basins apart: a search's
+        polish. The costs it returns are then that harmonic cost, comparable only among
+        themselves; other cards are fitted as usual. Not with ``history``.
     """
 
     tol: float = 1e-12
     max_evaluations: int | None = None
     noise_tol: float = 1e-6
+    harmonics: int = 0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.tol, float | int) and math.isfinite(self.tol) and self.tol > 0):
             raise ValueError(f"tol must be positive, got {self.tol!r}")
         if not (isinstance(self.noise_tol, float | int) and self.noise_tol >= 0):
             raise ValueError(f"noise_tol must be >= 0, got {self.noise_tol!r}")
+        if not (isinstance(self.harmonics, int | np.integer) and self.harmonics >= 0):
+            raise ValueError(f"harmonics must be an integer >= 0, got {self.harmonics!r}")
         if self.max_evaluations is not None and not (
                 isinstance(self.max_evaluations, int | np.integer) and self.max_evaluations >= 1):
             raise ValueError(
@@ -179,6 +189,8 @@ class LevenbergMarquardt:
         trials = np.maximum(np.broadcast_to(np.asarray(limit, dtype=np.int64), (m,)) - 1, 1)
         data, model, settings = problem.arrays
         n_cap = problem.n_free
+        if history and self.harmonics:
+            raise ValueError("history= records the exact cost's path: use harmonics=0")
         if history and m == 1:
             rows = np.zeros((int(trials[0]) + 1, q + 1))
             out = drive.solve_one(z0[0], lo[0], hi[0], float(self.tol), int(trials[0]), n_cap,
@@ -199,7 +211,8 @@ class LevenbergMarquardt:
             def work(a: int, b: int) -> None:
                 res = drive.solve_items(cards[a:b], z0[a:b], lo[a:b], hi[a:b],
                                         float(self.tol), trials[a:b], n_cap,
-                                        float(self.noise_tol), data, model, settings)
+                                        float(self.noise_tol), data, model, settings,
+                                        harmonics=int(self.harmonics))
                 z[a:b], cost[a:b], evals[a:b], acc[a:b], codes[a:b], tests[a:b] = res
 
             run_chunks(work, m, workers=workers, chunk=16)
