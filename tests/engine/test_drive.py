@@ -44,7 +44,7 @@ def test_every_task_shares_one_compiled_signature() -> None:
                             [30, 30], 4, 0.0, data, model, settings)
     assert np.all(np.isfinite(out[1])) and np.all(out[2] >= 1)
     history = np.zeros((31, q + 1))
-    one = drive.solve_one(points[1], lo[1], hi[1], 1e-10, 30, 4, 0.0, 0, data, model,
+    one = drive.solve_one(points[1], lo[1], hi[1], 1e-10, 30, 0.0, 0, data, model,
                           settings, history)
     assert one[6] >= 1 and history[0, q] > 0.0
     np.testing.assert_allclose(one[0], out[0][1], rtol=1e-12)

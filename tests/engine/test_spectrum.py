@@ -122,8 +122,30 @@ def test_bad_requests_are_refused() -> None:
         LevenbergMarquardt(harmonics=-1)
     with pytest.raises(ValueError, match="harmonics"):
         LevenbergMarquardt(harmonics=2.5)  # type: ignore[arg-type]
+
+
+def test_the_history_records_the_harmonic_path() -> None:
     problem = _problem()
-    with pytest.raises(ValueError, match="history"):
-        LevenbergMarquardt(harmonics=4).solve(problem, np.array([0]),
-                                              np.r_[np.log(TRUTH.values), 5.0][None],
-                                              history=True)
+    start = np.r_[np.log(TRUTH.values) + 0.3, 4.0][None]
+    out = LevenbergMarquardt(harmonics=12).solve(problem, np.array([0]), start, history=True)
+    # The same solve as without the history, on the harmonic cost.
+    plain = LevenbergMarquardt(harmonics=12).solve(problem, np.array([0]), start)
+    exact = LevenbergMarquardt().solve(problem, np.array([0]), start)
+    np.testing.assert_array_equal(out.z, plain.z)
+    assert out.cost[0] == plain.cost[0] != exact.cost[0]
+    assert out.history.shape[0] == out.accepted[0] + 1 >= 3
+    assert out.history[-1, -1] == out.cost[0]
+    np.testing.assert_array_equal(out.history[-1, :-1], out.z[0])
+
+
+def test_which_cards_the_harmonic_cost_applies_to() -> None:
+    t, load, y = _card(120)
+    periodic = CardData(t, load, y, "periodic", PERIOD)
+    inferred = CardData(t, load, y, "periodic")
+    longer = CardData(t, load, y, "periodic", PERIOD * 1.01)
+    rest = CardData(t, load, y, "rest")
+    problem = build_problem(Kelvin, [periodic, inferred, longer, rest], offset=True)
+    assert [problem.harmonic(k) for k in range(4)] == [True, True, False, False]
+    logs = build_problem(Kelvin, [CardData(t, load, y + 10.0, "periodic", PERIOD)],
+                         residual="log")
+    assert not logs.harmonic(0)

@@ -1,15 +1,18 @@
-"""The job's stages: a fresh install's first fit (compile_first)."""
+"""The job's stages: a fresh install's first fit (compile_first), the harmonic stage."""
 
 from __future__ import annotations
 
 import numba
 import numpy as np
+import pytest
 
-from pumpid.engine import aside, compiled
+import pumpid
+from pumpid.cards import Card
+from pumpid.engine import aside, compiled, drive
 from pumpid.engine.start import WidePlan, compile_ranking, search_wider, wider
 from pumpid.job import stages
 
-from ..conftest import stroke_problem
+from ..conftest import stroke_problem, well_load
 
 
 def _problem():
@@ -68,3 +71,40 @@ def test_the_ranking_warm_up_compiles_the_signature_the_search_calls(monkeypatch
     search_wider(problem, np.zeros(1, np.int64), z, np.array([1.0]),
                  plan=WidePlan(rounds=1, per_round=1, random=0))
     assert len(seen) == 2 and seen[0] == seen[1]
+
+
+def _missed_card() -> Card:
+    # A periodic card the lumped model cannot reproduce (a load-dependent stiffness): its
+    # residual is model error, as on a field card, so the job searches on the harmonic cost.
+    n, period = 160, 6.0
+    t = np.arange(n) * period / n
+    load = well_load(t, period=period, seed=4)
+    y = pumpid.simulate(pumpid.Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0), t, load,
+                        initial_state="periodic", period=period)
+    y = y * (1.0 + 0.15 * (load - load.mean()) / np.ptp(load))
+    return Card(position=y + 3.0, load=load, t=t, card_id="missed", periodic=True,
+                       period=period)
+
+
+def test_the_answer_is_the_exact_costs_optimum() -> None:
+    res = pumpid.fit(pumpid.Kelvin, _missed_card())
+    problem = res.problem
+    assert problem is not None and problem.harmonic(0)
+    assert res.r2 < 0.999
+    # The exact solver from the answer finds nothing to gain: the harmonic cost steered
+    # the searches, never the answer.
+    assert problem.scale_fixed is not None and problem.offset_fixed is None
+    theta = np.array([res.params[name] for name in pumpid.Kelvin.param_names()])
+    offset = res.offset + float(problem.offset_gap(0, theta, res.scale))
+    z = np.r_[np.log(theta[problem.free_idx]), offset][None]
+    again = pumpid.LevenbergMarquardt(tol=1e-13, noise_tol=0.0).solve(
+        problem, np.array([0]), z)
+    assert again.cost[0] >= res.cost * (1 - 1e-6)
+    # And the cost reported is the exact one at the answer.
+    assert drive.cost_items([0], z, *problem.arrays)[0] == pytest.approx(res.cost, rel=1e-12)
+
+
+def test_a_fit_refuses_a_harmonic_solver() -> None:
+    with pytest.raises(ValueError, match="harmonics"):
+        pumpid.fit(pumpid.Kelvin, _missed_card(),
+                   solver=pumpid.LevenbergMarquardt(harmonics=24))

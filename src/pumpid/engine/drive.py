@@ -506,17 +506,19 @@ def solve_items(cards, z0, lo, hi, tol, max_evals, n_capped, noise_tol, data, mo
                  harmonics=harmonics)[:6]
 
 
-def solve_one(z0, lo, hi, tol, max_evals, n_capped, noise_tol, card, data, model, settings,
-              history):
+def solve_one(z0, lo, hi, tol, max_evals, noise_tol, card, data, model, settings, history,
+              harmonics=0):
     """:func:`solve_items` for one item, with the history of accepted points: ``history``
-    (H, q + 1), writable, C-contiguous float64, receives them and their costs. Returns (z,
-    cost, evaluations, accepted, code, test, number of history rows)."""
+    (H, q + 1), writable, C-contiguous float64, receives them and their costs. Every free
+    log-parameter's step is capped. Returns (z, cost, evaluations, accepted, code, test,
+    number of history rows)."""
     if not (history.flags.c_contiguous and history.flags.writeable
             and history.dtype == np.float64):
         raise ValueError("history must be a writable C-contiguous float64 array")
     out = _call(_SOLVE, [card], np.atleast_2d(z0), data, model, settings,
                 lo=np.atleast_2d(lo), hi=np.atleast_2d(hi), tol=tol, max_evals=[max_evals],
-                n_capped=n_capped, noise_tol=noise_tol, history=history)
+                n_capped=settings[0].size, noise_tol=noise_tol, harmonics=harmonics,
+                history=history)
     return (out[0][0], float(out[1][0]), int(out[2][0]), int(out[3][0]), int(out[4][0]),
             int(out[5][0]), int(out[6]))
 

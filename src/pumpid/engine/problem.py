@@ -274,6 +274,18 @@ class Problem:
             theta[..., i] = value
         return theta
 
+    def harmonic(self, k: int) -> bool:
+        """Whether the harmonic cost (:mod:`pumpid.engine.spectrum`) applies to card ``k``:
+        one uniformly sampled period closed by one more step, a model without an input
+        map, the linear residual."""
+        if not (self.valid[k] and self.mode[k] == kernel.PERIODIC and self.uniform[k]):
+            return False
+        t = self.card(k)[0]
+        if t.size < 3 or self.model.input_map is not None or self.residual == "log":
+            return False
+        period = float(self.period[k])
+        return abs(period - t.size * float(t[1] - t[0])) <= 1e-9 * period
+
     # ------------------------------------------------------------------ load shift
     @functools.cached_property
     def engine_load(self) -> Array:

@@ -135,7 +135,7 @@ class LevenbergMarquardt:
         minimise instead the cost of its first K harmonics (:mod:`pumpid.engine.spectrum`),
         which is cheaper to evaluate and close enough to tell basins apart: a search's
         polish. The costs it returns are then that harmonic cost, comparable only among
-        themselves; other cards are fitted as usual. Not with ``history``.
+        themselves (so are those ``history`` records); other cards are fitted as usual.
     """
 
     tol: float = 1e-12
@@ -189,13 +189,11 @@ class LevenbergMarquardt:
         trials = np.maximum(np.broadcast_to(np.asarray(limit, dtype=np.int64), (m,)) - 1, 1)
         data, model, settings = problem.arrays
         n_cap = problem.n_free
-        if history and self.harmonics:
-            raise ValueError("history= records the exact cost's path: use harmonics=0")
         if history and m == 1:
             rows = np.zeros((int(trials[0]) + 1, q + 1))
-            out = drive.solve_one(z0[0], lo[0], hi[0], float(self.tol), int(trials[0]), n_cap,
+            out = drive.solve_one(z0[0], lo[0], hi[0], float(self.tol), int(trials[0]),
                                   float(self.noise_tol), int(cards[0]), data, model, settings,
-                                  rows)
+                                  rows, harmonics=int(self.harmonics))
             z, cost = out[0][None], np.array([out[1]])
             evals, acc = np.array([out[2]]), np.array([out[3]])
             codes, tests = np.array([out[4]]), np.array([out[5]])

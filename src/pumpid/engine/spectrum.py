@@ -32,7 +32,11 @@ import numpy as np
 from .compiled import jit
 from .kernel import lu_factor, lu_solve, system
 
-__all__ = ["card_spectrum", "harmonic_rows", "harmonic_width"]
+__all__ = ["SEARCH_HARMONICS", "card_spectrum", "harmonic_rows", "harmonic_width"]
+
+#: Harmonics the searches look at: those that carry a field card (above them its model's
+#: response is small, and the hold's aliases grow).
+SEARCH_HARMONICS = 24
 
 
 @jit

@@ -229,6 +229,11 @@ def job_options(options: FitOptions, solver: LevenbergMarquardt | PaperNewton | 
     if solver is not None and not isinstance(solver, LevenbergMarquardt | PaperNewton):
         raise TypeError("solver must be a LevenbergMarquardt or a PaperNewton (configure the "
                         f"solver through its object), got {solver!r}")
+    if isinstance(solver, LevenbergMarquardt) and solver.harmonics:
+        raise ValueError(
+            f"solver: harmonics={solver.harmonics} makes the solver minimise a search's "
+            "approximate cost; a fit reports the exact one (the job uses the harmonic cost "
+            "itself where it helps): use LevenbergMarquardt(harmonics=0)")
     newton = isinstance(solver, PaperNewton)
     return JobOptions(
         method="newton-fd" if newton else "lm",

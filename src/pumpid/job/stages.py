@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 
 from ..engine import aside, drive
 from ..engine.problem import Problem
+from ..engine.spectrum import SEARCH_HARMONICS
 from ..engine.start import (
     compile_ranking,
     complete,
@@ -120,6 +121,41 @@ def _given_start(problem: Problem, cards: NDArray[np.int64], guess: Array,
     return np.where(np.isfinite(z0), z0, 0.0)
 
 
+def _harmonic_stage(problem: Problem, cards: NDArray[np.int64], z0: Array,
+                    fits: list[CardState], options: JobOptions,
+                    history: bool) -> tuple[Array, Array]:
+    """The starts of the exact solve: on the cards the harmonic cost applies to, its
+    optimum from z0 (its evaluations counted on the cards); z0 elsewhere. With
+    ``history`` (one card), also the stage's accepted points with their exact costs
+    (rows ``z, cost``; none when the stage did not run).
+
+    A real card's residual is model error and its parameters often lie along a long flat
+    valley: the exact solver crawled it for a median of 289 evaluations a card (mean 764)
+    on 130 public field cards. On the cards' first harmonics the same crawl costs a
+    fraction of an exact evaluation a step, and the exact solve from its end took a median
+    of 54 (mean 259); the answers were as low or lower (47 of 130 lower by more than 1e-6
+    of the cost, 2 higher, by at most 1e-3).
+    """
+    z_run = z0.copy()
+    path = np.zeros((0, problem.q + 1))
+    on = np.flatnonzero([problem.harmonic(int(k)) for k in cards])
+    if not on.size:
+        return z_run, path
+    solver = dataclasses.replace(options.solver, harmonics=SEARCH_HARMONICS)
+    first = solver.solve(problem, cards[on], z0[on], history=history and on.size == 1,
+                         workers=options.workers)
+    for j, i in enumerate(on):
+        fits[i].evaluations += int(first.evaluations[j])
+        if np.all(np.isfinite(first.z[j])) and math.isfinite(first.cost[j]):
+            z_run[i] = first.z[j]
+    if first.history.size:
+        points = first.history[:, :-1]
+        exact = drive.cost_items(np.full(points.shape[0], cards[on[0]], dtype=np.int64),
+                                 points, *problem.arrays)
+        path = np.column_stack([points, exact])
+    return z_run, path
+
+
 def _solve(problem: Problem, cards: NDArray[np.int64], fits: list[CardState], z0: Array,
            options: JobOptions) -> None:
     """Stage 2: the solver from each card's start."""
@@ -136,12 +172,19 @@ def _solve(problem: Problem, cards: NDArray[np.int64], fits: list[CardState], z0
         ok = np.all(np.isfinite(z0), axis=1)
         run_idx = np.flatnonzero(ok)
         if run_idx.size:
-            out = options.solver.solve(problem, cards[run_idx], z0[run_idx],
-                                       history=options.history and m == 1,
+            history = options.history and m == 1
+            z_run, path = _harmonic_stage(problem, cards[run_idx], z0[run_idx],
+                                          [fits[i] for i in run_idx], options, history)
+            out = options.solver.solve(problem, cards[run_idx], z_run, history=history,
                                        workers=options.workers)
             for j, i in enumerate(run_idx):
                 apply_outcome(fits[i], out, j, problem)
-            mark_edges(problem, cards[run_idx], z0[run_idx], fits, list(run_idx))
+            if (path.size and fits[run_idx[0]].history is not None
+                    and np.array_equal(path[-1, :-1], z_run[0])):
+                # One path from the start: the harmonic stage's points (at their exact
+                # cost), then the exact solve's, whose first point is the stage's last.
+                fits[run_idx[0]].history = np.vstack([path[:-1], fits[run_idx[0]].history])
+            mark_edges(problem, cards[run_idx], z_run, fits, list(run_idx))
         for i in np.flatnonzero(~ok):
             # Not run: without this the row would say failed and nothing else.
             fits[i].message = NO_START

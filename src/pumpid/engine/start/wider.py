@@ -13,6 +13,7 @@ points are seeded by the card's own samples: a card's search is the same in any 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import zlib
 from dataclasses import dataclass
@@ -23,6 +24,7 @@ from numpy.typing import NDArray
 from .. import kernel
 from ..problem import Problem
 from ..solvers import LevenbergMarquardt
+from ..spectrum import SEARCH_HARMONICS
 from .coordinates import complete
 from .harmonics import harmonic_scan
 from .pool import fundamental
@@ -60,6 +62,13 @@ class WidePlan:
     were identical, 17 lower and 15 higher in cost by at most 6.2e-5, all on fits reported as
     undetermined, and 4 fits moved between undetermined and a boundary at the same cost; 60
     synthetic periodic cards unchanged.
+
+    On a card the harmonic cost applies to (:meth:`Problem.harmonic`), the polish minimises
+    the cost of those same first harmonics (:mod:`pumpid.engine.spectrum`), and each final
+    follows its basin on it (up to ``final_evaluations``) before its exact run: on 130 public
+    field cards (every third) the search took about a third of the time it took on the
+    exact cost, and the job's answers came within 1e-6 of a brute force's best on 125 of
+    them (90 before).
     """
 
     rounds: int = 3
@@ -70,7 +79,7 @@ class WidePlan:
     finals: int = 2
     final_evaluations: int = 200
     agree: float = 1e-6
-    harmonics: int = 24
+    harmonics: int = SEARCH_HARMONICS
 
 
 def _card_rng(problem: Problem, k: int) -> np.random.Generator:
@@ -165,7 +174,10 @@ def search_wider(
         if math.isfinite(best_cost[i]):
             finals[i].append((float(best_cost[i]), best_z[i].copy()))
     active = list(range(m))
-    polish = LevenbergMarquardt(tol=1e-10)
+    # The polish only tells basins apart: on a periodic card it minimises the cost of the
+    # card's first harmonics (pumpid.engine.spectrum), a fraction of an exact evaluation;
+    # the finals below then run on the exact cost.
+    polish = LevenbergMarquardt(tol=1e-10, harmonics=plan.harmonics)
     for round_ in range(plan.rounds):
         if not active:
             break
@@ -211,8 +223,14 @@ def search_wider(
                 chosen_z.append(z)
                 chosen_owner.append(i)
         if chosen_card:
-            full = solver.solve(problem, np.array(chosen_card, dtype=np.int64),
-                                np.array(chosen_z), budget=plan.final_evaluations,
+            chosen = np.array(chosen_card, dtype=np.int64)
+            z_final = np.array(chosen_z)
+            # A final first follows its basin on the harmonic cost, then on the exact one.
+            cheap = dataclasses.replace(solver, harmonics=plan.harmonics).solve(
+                problem, chosen, z_final, budget=plan.final_evaluations, workers=workers)
+            moved = np.all(np.isfinite(cheap.z), axis=1) & np.isfinite(cheap.cost)
+            z_final[moved] = cheap.z[moved]
+            full = solver.solve(problem, chosen, z_final, budget=plan.final_evaluations,
                                 workers=workers)
             for j, i in enumerate(chosen_owner):
                 if math.isfinite(full.cost[j]):
