@@ -9,7 +9,7 @@ import pytest
 import pumpid
 from pumpid.cards import Card
 from pumpid.engine import aside, compiled, drive
-from pumpid.engine.start import WidePlan, compile_ranking, search_wider, wider
+from pumpid.engine.start import WidePlan, compile_ranking, complete, search_wider, wider
 from pumpid.job import stages
 
 from ..conftest import stroke_problem, well_load
@@ -108,3 +108,23 @@ def test_a_fit_refuses_a_harmonic_solver() -> None:
     with pytest.raises(ValueError, match="harmonics"):
         pumpid.fit(pumpid.Kelvin, _missed_card(),
                    solver=pumpid.LevenbergMarquardt(harmonics=24))
+
+
+def test_a_solve_that_converges_at_once_never_leaves_the_exact_cost() -> None:
+    # A noisy periodic card from a guess near its optimum converges within the quick exact
+    # evaluations: the answer is one exact solve's from the job's start, to the last digit
+    # (the harmonic cost, had it run first, would have moved it within the noise test's
+    # tolerance).
+    card = _missed_card()
+    near = pumpid.fit(pumpid.Kelvin, card)
+    guess = np.array([near.params[name] * 1.02 for name in pumpid.Kelvin.param_names()])
+    options = pumpid.FitOptions.for_cards(multistart=False, boundaries=False)
+    res = pumpid.fit(pumpid.Kelvin(*guess), card, options=options)
+    problem = res.problem
+    assert problem is not None and problem.harmonic(0)
+    assert res.nfev <= stages.QUICK_EVALUATIONS
+    z0, _cost = complete(problem, np.array([0]), guess[None], rescale=False)
+    alone = pumpid.LevenbergMarquardt().solve(problem, np.array([0]), z0)
+    assert alone.cost[0] == res.cost
+    np.testing.assert_array_equal(np.exp(alone.z[0, :4]),
+                                  [res.params[name] for name in pumpid.Kelvin.param_names()])
