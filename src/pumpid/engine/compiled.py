@@ -53,8 +53,8 @@ COMPILED_MODULES = (
 #: compile on every run of the others.)
 MAIN_JOB = ("drive.items",)
 #: What compiling the main job costs on an empty cache (minutes, low and high): the bundled
-#: example's first card comes after 33-37 s on 2 cores (load average about 1.2) and after
-#: 56-63 s with one of the two cores busy with another process, the entry point that
+#: example's first card comes after 40-41 s on 2 cores (load average about 1.2) and after
+#: about 52 s with one of the two cores busy with another process, the entry point that
 #: simulates compiled in a second process at LLVM level 2; the rest of the job compiles
 #: what its later cards reach.
 COLD_MINUTES = (1, 2)

@@ -27,7 +27,7 @@ from numpy.typing import ArrayLike
 from . import lm
 from .compiled import copy_into, jit, wait_aside
 from .kernel import NO_MAP, PERIODIC, simulate_card
-from .spectrum import card_spectrum, harmonic_rows, harmonic_width
+from .spectrum import MAX_STATES, card_spectrum, harmonic_rows, harmonic_width
 
 __all__ = ["AS_GIVEN", "BEST_LINEAR", "RESCALE", "cost_items", "evaluate", "items",
            "linear_items", "outputs", "rows_items", "solve_items", "solve_one", "summary_rows"]
@@ -152,18 +152,20 @@ def residual_vector(z, k, data, model, settings, out):
     return True
 
 
-@jit(inline=True)
+@jit
 def _spectrum(k, harmonics, data, model, settings):
     """Card k's load and data coefficients for the harmonic residual (:mod:`.spectrum`):
     (fk, dk), empty when the card is fitted in time (no harmonics asked, not one uniformly
-    sampled period closed by one more step, a mapped input or the log residual)."""
+    sampled period closed by one more step, more states than the harmonic residual takes,
+    a mapped input or the log residual)."""
     t, f, d, mode, _x0, period, uniform = _card(data, k)
     n_samples = t.size
     empty = np.zeros(0, np.complex128)
     if harmonics <= 0 or mode != PERIODIC or not uniform or n_samples < 3:
         return empty, empty
     h = t[1] - t[0]
-    if abs(period - n_samples * h) > 1e-9 * period or model[2][0] != NO_MAP or settings[2]:
+    if (abs(period - n_samples * h) > 1e-9 * period or model[2][0] != NO_MAP or settings[2]
+            or model[1] > MAX_STATES):
         return empty, empty
     kmax = (harmonic_width(harmonics, n_samples) - 1) // 2
     fk = np.empty(kmax + 1, np.complex128)
@@ -172,7 +174,7 @@ def _spectrum(k, harmonics, data, model, settings):
     return fk, dk
 
 
-@jit(inline=True)
+@jit
 def _rows_of(z, k, data, model, settings, fk, dk, rows):
     """:func:`residual_rows`, or its harmonic form when the card has a spectrum."""
     if fk.size == 0:
@@ -186,7 +188,7 @@ def _rows_of(z, k, data, model, settings, fk, dk, rows):
                          scale, settings[3], offset, settings[5], fk, dk, rows)
 
 
-@jit(inline=True)
+@jit
 def _vector_of(z, k, data, model, settings, fk, dk, out):
     """:func:`residual_vector`, or the harmonic residual when the card has a spectrum."""
     if fk.size == 0:

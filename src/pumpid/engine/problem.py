@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..models import Model
-from . import kernel
+from . import kernel, spectrum
 
 __all__ = [
     "MIN_SAMPLES",
@@ -276,12 +276,13 @@ class Problem:
 
     def harmonic(self, k: int) -> bool:
         """Whether the harmonic cost (:mod:`pumpid.engine.spectrum`) applies to card ``k``:
-        one uniformly sampled period closed by one more step, a model without an input
-        map, the linear residual."""
+        one uniformly sampled period closed by one more step, a model of at most three
+        states without an input map, the linear residual."""
         if not (self.valid[k] and self.mode[k] == kernel.PERIODIC and self.uniform[k]):
             return False
         t = self.card(k)[0]
-        if t.size < 3 or self.model.input_map is not None or self.residual == "log":
+        if (t.size < 3 or self.model.input_map is not None or self.residual == "log"
+                or self.model.n_states() > spectrum.MAX_STATES):
             return False
         period = float(self.period[k])
         return abs(period - t.size * float(t[1] - t[0])) <= 1e-9 * period

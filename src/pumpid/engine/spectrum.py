@@ -30,13 +30,17 @@ import math
 import numpy as np
 
 from .compiled import jit
-from .kernel import lu_factor, lu_solve, system
+from .kernel import system
 
-__all__ = ["SEARCH_HARMONICS", "card_spectrum", "harmonic_rows", "harmonic_width"]
+__all__ = ["MAX_STATES", "SEARCH_HARMONICS", "card_spectrum", "harmonic_rows",
+           "harmonic_width"]
 
 #: Harmonics the searches look at: those that carry a field card (above them its model's
 #: response is small, and the hold's aliases grow).
 SEARCH_HARMONICS = 24
+#: The largest model the harmonic residual takes (every built-in model has at most three
+#: states): its small systems are solved by the adjugate of a 3 x 3 matrix.
+MAX_STATES = 3
 
 
 @jit
@@ -80,10 +84,11 @@ def card_spectrum(f, d, kmax, fk, dk):
 def _inverse3(m, inv):
     """inv = m^-1 for a complex 3 x 3 matrix by its adjugate; False when singular.
 
-    The model's small systems (two or three states, padded with an identity) are solved
-    about twenty-five times an evaluation: the adjugate costs a third of a pivoted
-    elimination, and the solves after it are products. The harmonic residual is a search's
-    cost, not an answer's (see the module's docstring).
+    The model's small system (up to three states, padded with an identity) is solved about
+    twenty-five times an evaluation: the adjugate costs a third of a pivoted elimination,
+    the solves after it are products, and it compiles in a fraction of the time a complex
+    elimination does (a fresh install compiles this into the solver). The harmonic
+    residual is a search's cost, not an answer's (see the module's docstring).
     """
     inv[0, 0] = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
     inv[0, 1] = m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
@@ -111,8 +116,9 @@ def harmonic_rows(lz, free, code, n, obs, period, n_samples, scale, scale_free, 
     ``lz`` (p,) log-parameters, differentiated along ``free``; ``scale`` and ``offset``
     the output's factor and offset (columns for them when free: d/d ln C and d/d offset);
     ``fk``, ``dk`` the load's and data's coefficients at harmonics 0..K
-    (:func:`card_spectrum`) of a card of ``n_samples`` samples over ``period`` s. False
-    when the model has no finite response at some harmonic (a singular ``i w I - A``).
+    (:func:`card_spectrum`) of a card of ``n_samples`` samples over ``period`` s; a model of
+    at most three states (:data:`MAX_STATES`). False when the model has no finite response
+    at some harmonic (a singular ``i w I - A``).
     """
     nf = free.size
     p_count = nf + 1
@@ -120,61 +126,43 @@ def harmonic_rows(lz, free, code, n, obs, period, n_samples, scale, scale_free, 
     a = np.empty((p_count, n, n))
     b = np.empty((p_count, n))
     system(lz, free, code, a, b)
-    lu = np.empty((n, n), np.complex128)
-    piv = np.empty(n, np.int64)
-    small = n <= 3
     pad = np.zeros((3, 3), np.complex128)
     inv = np.empty((3, 3), np.complex128)
-    x = np.empty((n, 1), np.complex128)
-    dx = np.empty((n, nf), np.complex128)
+    x = np.empty(n, np.complex128)
+    dx = np.empty(nf, np.complex128)
     w0 = 2.0 * math.pi / period
     root = math.sqrt(n_samples)
     for k in range(fk.size):
         s = 1j * (w0 * k)
-        # (i w I - A) x = B, then its derivatives: d x = (i w I - A)^-1 (dA x + dB).
-        if small:
-            for r in range(3):
-                for c in range(3):
-                    pad[r, c] = (s if r == c else 0.0) - (a[0, r, c] if (r < n and c < n)
-                                                           else 0.0)
-                if r >= n:
-                    pad[r, r] = 1.0
-            if not _inverse3(pad, inv):
-                return False
-            for r in range(n):
-                v = 0.0j
-                for c in range(n):
-                    v += inv[r, c] * b[0, c]
-                x[r, 0] = v
-        else:
-            for r in range(n):
-                for c in range(n):
-                    lu[r, c] = -a[0, r, c]
-                lu[r, r] += s
-                x[r, 0] = b[0, r]
-            if not lu_factor(lu, piv):
-                return False
-            lu_solve(lu, piv, x)
+        # (i w I - A) x = B, then the observed state's derivatives: d x = (i w I - A)^-1
+        # (dA x + dB).
+        for r in range(3):
+            for c in range(3):
+                pad[r, c] = (s if r == c else 0.0) - (a[0, r, c] if (r < n and c < n)
+                                                       else 0.0)
+            if r >= n:
+                pad[r, r] = 1.0
+        if not _inverse3(pad, inv):
+            return False
+        for r in range(n):
+            v = 0.0j
+            for c in range(n):
+                v += inv[r, c] * b[0, c]
+            x[r] = v
         for i in range(nf):
+            v = 0.0j
             for r in range(n):
-                v = b[i + 1, r] + 0.0j
+                w = b[i + 1, r] + 0.0j
                 for c in range(n):
-                    v += a[i + 1, r, c] * x[c, 0]
-                dx[r, i] = v
-        if small:
-            for i in range(nf):
-                v = 0.0j
-                for c in range(n):
-                    v += inv[obs, c] * dx[c, i]
-                dx[obs, i] = v
-        else:
-            lu_solve(lu, piv, dx)
+                    w += a[i + 1, r, c] * x[c]
+                v += inv[obs, r] * w
+            dx[i] = v
         hold = 1.0
         if k > 0:
             arg = math.pi * k / n_samples
             hold = (math.sin(arg) / arg) ** 2
         base = hold * fk[k]
-        u = x[obs, 0] * base
+        u = x[obs] * base
         res = scale * u - dk[k]
         if k == 0:
             res += offset * n_samples
@@ -187,7 +175,7 @@ def harmonic_rows(lz, free, code, n, obs, period, n_samples, scale, scale_free, 
         for part in range(parts):
             c = col + part
             for i in range(nf):
-                v = weight * scale * dx[obs, i] * base
+                v = weight * scale * dx[i] * base
                 rows[i, c] = v.real if part == 0 else v.imag
             j = nf
             if scale_free:
