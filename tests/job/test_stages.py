@@ -128,3 +128,13 @@ def test_a_solve_that_converges_at_once_never_leaves_the_exact_cost() -> None:
     assert alone.cost[0] == res.cost
     np.testing.assert_array_equal(np.exp(alone.z[0, :4]),
                                   [res.params[name] for name in pumpid.Kelvin.param_names()])
+
+
+def test_a_small_budget_is_the_whole_solve() -> None:
+    # A solver budget at or below the quick exact one is kept: the solve stops there, as
+    # the user asked, with no harmonic stage after it.
+    res = pumpid.fit(pumpid.Kelvin, _missed_card(),
+                     options=pumpid.FitOptions.for_cards(multistart=False, boundaries=False),
+                     solver=pumpid.LevenbergMarquardt(max_evaluations=5),
+                     x0={"k0": 50.0, "m": 5.0, "c1": 20.0, "k1": 40.0})
+    assert res.nfev <= 5

@@ -184,8 +184,11 @@ def _lm_solve(problem: Problem, cards: NDArray[np.int64], z0: Array, fits: list[
     """
     solver = options.solver
     z_from = z0.copy()
-    periodic = np.array([problem.harmonic(int(k)) for k in cards], dtype=bool)
-    budget = np.where(periodic, QUICK_EVALUATIONS, solver.budget(problem.q))
+    full = solver.budget(problem.q)
+    # A budget the user set at or below the quick one is the whole solve, as it says.
+    periodic = np.array([problem.harmonic(int(k)) and QUICK_EVALUATIONS < full
+                         for k in cards], dtype=bool)
+    budget = np.where(periodic, QUICK_EVALUATIONS, full)
     first = solver.solve(problem, cards, z0, budget=budget, history=history,
                          workers=options.workers)
     for j in range(cards.size):
