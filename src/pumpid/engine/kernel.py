@@ -104,8 +104,7 @@ def lu_factor(a, piv):
                 a[k, c] = a[p, c]
                 a[p, c] = tmp
         d = a[k, k]
-        # abs: the test also serves complex matrices (the harmonic residual's solves).
-        if d == 0.0 or not abs(d) < math.inf:
+        if d == 0.0 or not math.isfinite(d):
             return False
         for r in range(k + 1, m):
             a[r, k] /= d

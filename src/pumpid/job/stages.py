@@ -130,10 +130,10 @@ QUICK_EVALUATIONS = 40
 def _harmonic_stage(problem: Problem, cards: NDArray[np.int64], z0: Array,
                     fits: list[CardState], options: JobOptions,
                     history: bool) -> tuple[Array, Array]:
-    """The starts of the exact solve: on the cards the harmonic cost applies to, its
-    optimum from z0 (its evaluations counted on the cards); z0 elsewhere. With
-    ``history`` (one card), also the stage's accepted points with their exact costs
-    (rows ``z, cost``; none when the stage did not run).
+    """The starts of the exact solve: for cards the harmonic cost applies to
+    (:meth:`Problem.harmonic`), its optimum from z0 (its evaluations counted on the cards),
+    or z0 where that is not finite. With ``history`` (one card), also the stage's accepted
+    points with their exact costs (rows ``z, cost``).
 
     A real card's residual is model error and its parameters often lie along a long flat
     valley: from the automatic start the exact solver crawled it for a median of 289
@@ -144,19 +144,15 @@ def _harmonic_stage(problem: Problem, cards: NDArray[np.int64], z0: Array,
     """
     z_run = z0.copy()
     path = np.zeros((0, problem.q + 1))
-    on = np.flatnonzero([problem.harmonic(int(k)) for k in cards])
-    if not on.size:
-        return z_run, path
     solver = dataclasses.replace(options.solver, harmonics=SEARCH_HARMONICS)
-    first = solver.solve(problem, cards[on], z0[on], history=history and on.size == 1,
-                         workers=options.workers)
-    for j, i in enumerate(on):
-        fits[i].evaluations += int(first.evaluations[j])
-        if np.all(np.isfinite(first.z[j])) and math.isfinite(first.cost[j]):
-            z_run[i] = first.z[j]
+    first = solver.solve(problem, cards, z0, history=history, workers=options.workers)
+    for i in range(cards.size):
+        fits[i].evaluations += int(first.evaluations[i])
+        if np.all(np.isfinite(first.z[i])) and math.isfinite(first.cost[i]):
+            z_run[i] = first.z[i]
     if first.history.size:
         points = first.history[:, :-1]
-        exact = drive.cost_items(np.full(points.shape[0], cards[on[0]], dtype=np.int64),
+        exact = drive.cost_items(np.full(points.shape[0], cards[0], dtype=np.int64),
                                  points, *problem.arrays)
         path = np.column_stack([points, exact])
     return z_run, path
