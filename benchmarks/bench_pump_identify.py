@@ -28,13 +28,18 @@ Sections:
    residuals are serially correlated) holds the truth, for the fluid load, the damping and
    the fillage. A card the fit could not give an error for counts as not covered. The last
    column counts the cards whose fitted model does not reach a periodic stroke at the
-   optimum (the march's last stroke still changing by over 1e-6 of the load range).
+   optimum (the march's last stroke still changing by over 1e-6 of the load range), and the
+   one after it checks the predictive solver against the diagnostic one on each card: the
+   fitted pump card against the diagnostic pump card of the fitted surface load
+   (``PumpFit.consistency``), RMS after a constant: median, largest, and how many cards
+   are over 1 % of the load range.
    Cards run on ``--processes`` worker processes (2 by default); the elapsed time is printed.
 2. **Real cards.** The two public CMCM 2012 cards (``../shared/data/raw/cmcm2012_rod_pump``
    beside the repository; skipped when absent), each with its well built from the data
    set's ``wells.json``: status, R^2, the residuals' lag-1 autocorrelation, each pump
    quantity with its error and unit, the damping with its error and rule, the energy balance
-   and the agreement of the fitted pump card with the diagnostic one.
+   and the agreement of the fitted pump card with the diagnostic one (of the measured
+   surface load, and of the fitted one).
 3. **Speed.** On the first 20 white-noise cards of each case (the quick run's cards): the
    median time of :func:`pumpid.pump.identify_card` per card, and cards/s of
    :func:`pumpid.pump.identify_cards` over the list in one call, against the diagnostic
@@ -174,6 +179,7 @@ def record(case: str, index: int, noise: str, made: dict[str, Any], got: PumpFit
         "fillage": _real(q["fillage"]["value"]), "fillage_se": _real(q["fillage"]["stderr"]),
         "nu": _real(d["value"]), "nu_se": _real(d["stderr"]),
         "nu_fitted": f.params["damping"],
+        "agreement": got.agreement, "consistency": got.consistency,
         # Does the fit's model reach a periodic stroke at the optimum? (When it does not, its
         # output and its forward-difference sensitivities depend on where the march started.)
         "periodic": _periodic(got.model, np.array(list(f.params.values()))),
@@ -234,6 +240,8 @@ def section_recovery(count: int, processes: int, seed: int, save: str | None) ->
             fluid_err = [100 * abs(r["fluid"] - r["true_fluid"]) / r["true_fluid"]
                          for r in fitted]
             rhos = np.array([r["rho"] for r in fitted], dtype=float)
+            solvers = np.array([r["consistency"] for r in fitted], dtype=float)
+            solvers = 100 * solvers[np.isfinite(solvers)]
             out.append([case, noise, ", ".join(f"{k} {v}" for k, v in sorted(counts.items())),
                         f"{np.median(fill_err):.2f}" if fill_err else "-",
                         f"{np.median(fluid_err):.2f}" if fluid_err else "-",
@@ -242,14 +250,18 @@ def section_recovery(count: int, processes: int, seed: int, save: str | None) ->
                         pct([r["cover_fillage"] for r in fitted]),
                         # over the fits that have residuals (a failed fit has none)
                         f"{np.nanmedian(rhos):.2f}" if np.any(np.isfinite(rhos)) else "-",
-                        str(sum(not r["periodic"] for r in fitted))])
+                        str(sum(not r["periodic"] for r in fitted)),
+                        f"{np.median(solvers):.2f} / {solvers.max():.2f} / "
+                        f"{np.sum(solvers > 1)}" if solvers.size else "-"])
     table(f"(1) recovery and coverage: {count} cards per case and noise, three-taper strings "
           f"drawn card by card, cards by the predictive solver at {TRUTH_ELEMENTS} elements, "
           f"{100 * NOISE:g} % load noise; 95 % intervals value +- t x stderr as shown "
           "(robust where the residuals are serially correlated)",
           ["case", "noise", "statuses", "fillage |err| median, points",
            "fluid load |err| median, %", "cover fluid load", "cover damping",
-           "cover fillage", "residual lag-1 rho median", "optimum not periodic"], out)
+           "cover fillage", "residual lag-1 rho median", "optimum not periodic",
+           "two solvers on the fitted card, % of the load range: median / max / cards "
+           "over 1 %"], out)
     ms = [r["ms"] for r in rows]
     print(f"  elapsed: {elapsed:.0f} s for {len(rows)} fits on {processes} process(es) "
           f"({len(rows) / elapsed:.2f} cards/s; identify_card inside the workers, card making "
@@ -311,7 +323,8 @@ def section_real() -> None:
               f"fitted pump card {e['pump_work']:.4g}; string loss "
               f"{100 * e['string_loss']:.1f} % of the fitted surface work")
         print(f"    agreement with the diagnostic pump card (RMS after a constant, of its load "
-              f"range): {100 * got.agreement:.2f} %")
+              f"range): {100 * got.agreement:.2f} %; with the diagnostic of the fitted "
+              f"surface load (the two solvers on one card): {100 * got.consistency:.2f} %")
         print(f"    full pump: {got.full_pump}; parameters: "
               + ", ".join(f"{k} {v['value']:.4g} {v['unit']}"
                           for k, v in doc["parameters"].items()))

@@ -285,7 +285,8 @@ def _report_extra(res: DownholeCard) -> dict[str, Any] | None:
             "residual_autocorrelation": res.residual_autocorrelation(),
             "identification": None if ident is None else {
                 k: ident.get(k) for k in ("status", "reason", "used", "parameters",
-                                          "agreement", "energy", "identifiability",
+                                          "agreement", "consistency", "energy",
+                                          "identifiability",
                                           "warnings", "notes", "pump")},
             "skipped": res.skipped}
 

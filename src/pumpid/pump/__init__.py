@@ -13,7 +13,7 @@ The pump itself is identified from a surface card and its well by fitting the wh
 
 from .choose import CANDIDATES, Candidate, ModelChoice, NestedTest, choose_model
 from .fit import evaluate_prediction, predict, predict_card
-from .identify import PumpFit, identify_card, identify_cards
+from .identify import PumpFit, identify_card, identify_cards, solver_difference
 from .system import PumpSystem, SurfaceCard
 
 __all__ = [
@@ -30,4 +30,5 @@ __all__ = [
            "identify_cards",
            "predict",
            "predict_card",
+           "solver_difference",
 ]

@@ -53,7 +53,8 @@ from .system import (
     SurfaceCard,
 )
 
-__all__ = ["SHOWN", "PumpFit", "discretization_errors", "identify_card", "identify_cards"]
+__all__ = ["SHOWN", "PumpFit", "discretization_errors", "identify_card", "identify_cards",
+           "solver_difference"]
 
 Array = NDArray[np.float64]
 
@@ -115,7 +116,16 @@ class PumpFit:
         Where the diagnostic's damping came from.
     agreement : float
         RMS difference between the fitted and the diagnostic pump loads, after a constant,
-        over the diagnostic pump card's load range (NaN when not computed).
+        over the diagnostic pump card's load range (NaN when not computed). It holds the
+        surface residual carried down the string as well as any disagreement of the two
+        solvers: see ``consistency``.
+    consistency : float
+        The same difference between the fitted pump card and the diagnostic pump card of
+        the *fitted* surface load (at the fitted damping, both cards in the band of the
+        harmonics that drive the march): the predictive and the diagnostic solvers on one
+        surface card, so what remains is the solvers' own disagreement (mostly the march's
+        elements), not the fit's residual (NaN when not computed; see
+        :func:`solver_difference`).
     full_pump : bool
         The card was fitted as a full pump (liquid fraction held at 1).
     discretization : dict of str to float
@@ -134,6 +144,7 @@ class PumpFit:
     downhole: DownholeResult | None = None
     damping_rule: str = ""
     agreement: float = math.nan
+    consistency: float = math.nan
     full_pump: bool = False
     discretization: dict[str, float] = field(default_factory=dict)
     notes: tuple[str, ...] = field(default=())
@@ -228,6 +239,7 @@ class PumpFit:
                            for n, v in f.params.items()},
             "full_pump": self.full_pump,
             "agreement": _num(self.agreement),
+            "consistency": _num(self.consistency),
             "energy": self.energy(),
             "identifiability": list(f.identifiability),
             "warnings": list(f.warnings),
@@ -408,24 +420,86 @@ def _finish(card: Card, well: Well, surface: SurfaceCard, model: PumpSystem, res
                      "cannot move the card and is held too")
     down = diagnose_cards([card], well, damping=nu, **diag)[0]
     down = DownholeResult(**{**down.__dict__, "damping_rule": rule})
-    agreement = math.nan
+    agreement = consistency = math.nan
     try:
         fitted_card = model.pump_card(np.array(list(res.params.values())))
     except (ArithmeticError, ValueError) as exc:
         fitted_card = None
         notes.append(f"the fitted pump card could not be drawn: {exc}")
-    if down.ok and down.pump_load is not None and fitted_card is not None:
+    if fitted_card is not None:
         got = fitted_card[1] / surface.load_factor
-        ref = np.asarray(down.pump_load, dtype=float)
-        if surface.reversed:
-            ref = ref[::-1]
-        if diag.get("convention") == "effective":
-            diff = got - ref
-            agreement = float(np.sqrt(np.mean((diff - diff.mean()) ** 2)) / np.ptp(ref))
+        if down.ok and down.pump_load is not None and diag.get("convention") == "effective":
+            agreement = _apart(got, down, surface)
+        try:
+            consistency = solver_difference(model, np.array(list(res.params.values())),
+                                            method=diag.get("method", "fourier"))
+        except (ArithmeticError, ValueError) as exc:
+            notes.append(f"the fitted card could not be checked against the diagnostic "
+                         f"solver: {exc}")
     return PumpFit(card=card, status=str(res.status), discretization=grid_error,
                    reason=res.reason, well=well, fit=res, model=model, downhole=down,
-                   damping_rule=rule, agreement=agreement, full_pump=full,
+                   damping_rule=rule, agreement=agreement, consistency=consistency,
+                   full_pump=full,
                    notes=tuple(dict.fromkeys(notes)))
+
+
+def solver_difference(model: PumpSystem, values: Array, method: str = "fourier") -> float:
+    """How far the predictive model's pump card lies from the diagnostic solver's pump card
+    of the model's own surface card: the two solvers on one surface card.
+
+    The model's surface load at ``values`` is put in place of the card's measured load and
+    taken down the string by :func:`pumpid.rods.diagnose_cards` (at the model's damping,
+    with the harmonics that drive its march); both pump cards are compared in that band,
+    as an RMS difference after a constant over the diagnostic card's load range. What is
+    left is the solvers' own disagreement, not a fit's residual: mostly the march's
+    elements (it about halves as they double).
+
+    Parameters
+    ----------
+    model : PumpSystem
+        The model, with its card and well.
+    values : ndarray
+        Its parameter values (the order of ``model.parameters``).
+    method : {"fourier", "fd"}
+        The diagnostic solver's method.
+
+    Returns
+    -------
+    float
+        The difference, as a fraction of the load range (NaN when the diagnostic cannot
+        compute the card).
+
+    Raises
+    ------
+    ArithmeticError, ValueError
+        The march reaches no periodic stroke at ``values``, or they are out of range.
+    """
+    surface = model.surface
+    values = np.asarray(values, dtype=float)
+    load, _ = model.simulate(values, surface, False)
+    got = model.pump_card(values)[1] / surface.load_factor
+    own_card = surface.card.replace(load=load[::-1] if surface.reversed else load,
+                                    note="the load replaced by the model's surface load")
+    own = diagnose_cards([own_card], surface.well, damping=float(values[1]),
+                         harmonics=surface.harmonics, method=method,
+                         convention="effective")[0]
+    if not own.ok or own.pump_load is None:
+        return math.nan
+    # Compared in the band the diagnostic carries: above it a fluid pound's sharp edge is
+    # what a truncated Fourier series cannot draw (ringing), not a difference of physics.
+    spectrum = np.fft.rfft(got)
+    spectrum[surface.harmonics + 1:] = 0.0
+    return _apart(np.fft.irfft(spectrum, n=got.size), own, surface)
+
+
+def _apart(got: Array, down: DownholeResult, surface: SurfaceCard) -> float:
+    # RMS after a constant over the diagnostic card's load range: the effective load's
+    # level depends on the buoyancy convention, its shape does not.
+    ref = np.asarray(down.pump_load, dtype=float)
+    if surface.reversed:
+        ref = ref[::-1]
+    diff = got - ref
+    return float(np.sqrt(np.mean((diff - diff.mean()) ** 2)) / np.ptp(ref))
 
 
 def discretization_errors(surface: SurfaceCard, model: PumpSystem,

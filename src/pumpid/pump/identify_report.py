@@ -179,7 +179,8 @@ class DownholeCard:
             return out
         assert self.fit.fit is not None
         out.update({k: d.get(k) for k in ("pump", "parameters", "rmse", "full_pump",
-                                          "agreement", "energy", "identifiability",
+                                          "agreement", "consistency", "energy",
+                                          "identifiability",
                                           "warnings", "notes")})
         out["fitted_damping"] = d["parameters"]["damping"]
         pump = self.fit.pump_card()
@@ -256,8 +257,18 @@ class DownholeCard:
                  f"  damping: {rule}" if "nu = " in rule else f"  damping nu = {nu} ({rule})"]
         if self.identified and self.fit is not None and not math.isnan(self.fit.agreement):
             lines.append(f"  fitted and diagnostic pump cards differ by RMS "
-                         f"{100 * self.fit.agreement:.2f} % of the load range")
+                         f"{100 * self.fit.agreement:.2f} % of the load range"
+                         + _solvers(self.fit.consistency))
         return lines
+
+
+def _solvers(consistency: float | None) -> str:
+    """The words on the two solvers' own disagreement, after the measured card's."""
+    if consistency is None or not math.isfinite(consistency):
+        return ""
+    return (f" (the fitted pump card and the diagnostic of the fitted surface load: "
+            f"{100 * consistency:.2f} %, the two solvers' own difference; the rest is the "
+            "surface residual carried down)")
 
 
 def _fmt(value: float | None) -> str:

@@ -126,7 +126,7 @@ class SurfaceCard:
 
     Build it with :meth:`of`; ``position`` and ``load`` are in m and N, upwards, in time order
     (a card stored in reverse time order is turned round: ``reversed`` says so); ``drive``
-    is the position the march is driven with.
+    is the position the march is driven with, its first ``harmonics`` harmonics.
     """
 
     card: Card
@@ -137,6 +137,7 @@ class SurfaceCard:
     reversed: bool
     notes: tuple[str, ...]
     drive: Array
+    harmonics: int = DRIVE_HARMONICS
 
     @classmethod
     def of(cls, card: Card, well: Well, harmonics: int = DRIVE_HARMONICS) -> SurfaceCard:
@@ -152,7 +153,7 @@ class SurfaceCard:
         spectrum[int(harmonics) + 1:] = 0.0
         drive = np.asarray(np.fft.irfft(spectrum, n=y.size), dtype=float)
         return cls(card=card, well=well, position=y, load=f, period=period, reversed=rev,
-                   notes=tuple(notes), drive=drive)
+                   notes=tuple(notes), drive=drive, harmonics=int(harmonics))
 
     @property
     def n(self) -> int:

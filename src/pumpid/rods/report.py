@@ -108,8 +108,9 @@ class DownholeReport:
             The identification as plain data: ``pump`` (each quantity ``{"value", "stderr",
             "unit"}``, the ones shown), ``damping`` (``{"value", "stderr", "unit", "rule"}``),
             ``r2``, ``residual_autocorrelation``, ``identification`` (``status``, ``reason``,
-            ``used``, ``parameters``, ``agreement``, ``energy``, ``identifiability``,
-            ``warnings``, ``notes``, or None when not run) and ``skipped`` (why not run).
+            ``used``, ``parameters``, ``agreement``, ``consistency``, ``energy``,
+            ``identifiability``, ``warnings``, ``notes``, or None when not run) and
+            ``skipped`` (why not run).
         png : bytes, optional
             The card's figure, already drawn; else the surface card beside the pump card is
             drawn here.
@@ -306,8 +307,15 @@ def _identification_said(extra: Mapping[str, Any], ident: Mapping[str, Any]) -> 
     words.append(_e(rule))
     agreement = ident.get("agreement")
     if agreement is not None:
+        consistency = ident.get("consistency")
+        solvers = ("" if consistency is None else
+                   f"; the fitted pump card and the diagnostic of the fitted surface load "
+                   f"by "
+                   f"{_e(f'{100 * consistency:.2f}')} % (the two solvers' own difference: the "
+                   "rest is the surface residual carried down the string)")
         words.append(f"fitted and diagnostic pump cards differ by RMS "
-                     f"{_e(f'{100 * agreement:.2f}')} % of the load range (after a constant)")
+                     f"{_e(f'{100 * agreement:.2f}')} % of the load range (after a constant)"
+                     + solvers)
     energy = ident.get("energy") or {}
     if energy.get("surface_work") is not None and energy.get("pump_work") is not None:
         loss = energy.get("string_loss")
