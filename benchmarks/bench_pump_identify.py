@@ -321,7 +321,9 @@ def section_real() -> None:
         print(f"    energy per stroke ({e['unit']}): measured surface card "
               f"{e['surface_work']:.4g}, fitted surface card {e['fitted_surface_work']:.4g}, "
               f"fitted pump card {e['pump_work']:.4g}; string loss "
-              f"{100 * e['string_loss']:.1f} % of the fitted surface work")
+              f"{100 * e['string_loss']:.1f} % of the fitted surface work; the measured card "
+              f"against the diagnostic pump card ({e['diagnostic_pump_work']:.4g}) at the "
+              f"damping used: {100 * e['measured_loss']:.1f} %")
         print(f"    agreement with the diagnostic pump card (RMS after a constant, of its load "
               f"range): {100 * got.agreement:.2f} %; with the diagnostic of the fitted "
               f"surface load (the two solvers on one card): {100 * got.consistency:.2f} %")

@@ -190,7 +190,11 @@ class PumpFit:
     def energy(self) -> dict[str, Any]:
         """The energy balance of the stroke, in the card's load x position unit: the
         measured surface card's work, the fitted surface card's, the fitted pump card's,
-        and the share of the surface work the string lost (by the fit)."""
+        and the share of the surface work the string lost (by the fit); then the
+        diagnostic pump card's work (the measured card taken down at the damping used) and
+        the share of the measured work lost on the way (``measured_loss``). The two losses
+        agree when the damping is consistent with the energy the measured card loses in the
+        string."""
         if not self.ok:
             return {}
         assert self.fit is not None and self.model is not None
@@ -202,9 +206,18 @@ class PumpFit:
         measured = loop_work(s.position, s.load) / (kl * kp)
         fitted = loop_work(s.position, np.asarray(self.fit.fitted) * kl) / (kl * kp)
         pump = loop_work(pos, load) / (kl * kp)
+        down = math.nan
+        d = self.downhole
+        if d is not None and d.ok and d.pump_position is not None and d.pump_load is not None:
+            # In time order, as the surface card's work above (the file may run backwards).
+            step = -1 if s.reversed else 1
+            down = float(loop_work(np.asarray(d.pump_position, dtype=float)[None, ::step],
+                                   np.asarray(d.pump_load, dtype=float)[None, ::step])[0])
         return {"surface_work": _num(measured), "fitted_surface_work": _num(fitted),
                 "pump_work": _num(pump),
                 "string_loss": _num((fitted - pump) / fitted if fitted else math.nan),
+                "diagnostic_pump_work": _num(down),
+                "measured_loss": _num((measured - down) / measured if measured else math.nan),
                 "unit": unit}
 
     def pump_card(self) -> tuple[Array, Array] | None:

@@ -319,9 +319,13 @@ def _identification_said(extra: Mapping[str, Any], ident: Mapping[str, Any]) -> 
     energy = ident.get("energy") or {}
     if energy.get("surface_work") is not None and energy.get("pump_work") is not None:
         loss = energy.get("string_loss")
+        measured = energy.get("measured_loss")
         words.append(f"work per stroke: surface {_e(_num(energy['surface_work']))}, pump "
                      f"{_e(_num(energy['pump_work']))} {_e(energy.get('unit', ''))}"
-                     + ("" if loss is None else f", lost in the string {100 * loss:.0f} %"))
+                     + ("" if loss is None else f", lost in the string {100 * loss:.1f} %")
+                     + ("" if measured is None else
+                        f" (the measured card against the diagnostic pump card: "
+                        f"{100 * measured:.1f} %)"))
     return "<p>" + "; ".join(words) + ".</p>"
 
 
