@@ -20,7 +20,10 @@ walks along their flat valleys ended elsewhere (costs 0.20 % lower, 0.18 % and 0
 higher; a third card's fit moved from a boundary to undetermined at a cost 1.3e-5 higher).
 And again when a periodic card's solve that crawls went on along the harmonic cost: the
 controller cards' costs 0.43 %, 0.33 % and 0.09 % lower, the Maxwell card's 0.04 % higher
-(undetermined to boundary), the periodic arrays' 4e-9 higher.
+(undetermined to boundary), the periodic arrays' 4e-9 higher. And again when the harmonic
+cost's transfer function became a ratio of polynomials (rounding-level): the controller
+cards' walks ended elsewhere along their flat valleys (costs 2.1e-5 and 3.0e-5 lower,
+1.0e-6 higher), the Maxwell card's 3.6e-5 lower, the periodic arrays' by 5e-15.
 """
 
 from __future__ import annotations

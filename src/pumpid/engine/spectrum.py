@@ -33,14 +33,19 @@ from .compiled import jit
 from .kernel import system
 
 __all__ = ["MAX_STATES", "SEARCH_HARMONICS", "card_spectrum", "harmonic_rows",
-           "harmonic_width"]
+           "harmonic_width", "transfer_coefficients"]
 
 #: Harmonics the searches look at: those that carry a field card (above them its model's
 #: response is small, and the hold's aliases grow).
 SEARCH_HARMONICS = 24
 #: The largest model the harmonic residual takes (every built-in model has at most three
-#: states): its small systems are solved by the adjugate of a 3 x 3 matrix.
+#: states): its transfer function is a ratio of polynomials of degree three at most
+#: (:func:`transfer_coefficients`).
 MAX_STATES = 3
+#: The complex step of the coefficients' sensitivities: the coefficients are polynomials in
+#: the system's entries, so the step only has to keep its square's terms below rounding
+#: (and its cube above underflow).
+COMPLEX_STEP = 1e-30
 
 
 @jit
@@ -81,31 +86,70 @@ def card_spectrum(f, d, kmax, fk, dk):
 
 
 @jit
-def _inverse3(m, inv):
-    """inv = m^-1 for a complex 3 x 3 matrix by its adjugate; False when singular.
+def _entry(a, n, i, j):
+    """Entry (i, j) of s I - a, padded to 3 x 3 with an identity block, as (s-coefficient,
+    constant)."""
+    if i < n and j < n:
+        return (1.0 if i == j else 0.0), -a[i, j]
+    return 0.0, (1.0 if i == j else 0.0) + 0.0 * a[0, 0]
 
-    The model's small system (up to three states, padded with an identity) is solved about
-    twenty-five times an evaluation: the adjugate costs a third of a pivoted elimination,
-    the solves after it are products, and it compiles in a fraction of the time a complex
-    elimination does (a fresh install compiles this into the solver). The harmonic
-    residual is a search's cost, not an answer's (see the module's docstring).
+
+@jit
+def _minor(a, n, r1, r2, c1, c2):
+    """A 2 x 2 minor of the padded s I - a: its coefficients of s^2, s, 1."""
+    a1, b1 = _entry(a, n, r1, c1)
+    a2, b2 = _entry(a, n, r1, c2)
+    a3, b3 = _entry(a, n, r2, c1)
+    a4, b4 = _entry(a, n, r2, c2)
+    return a1 * a4 - a2 * a3, a1 * b4 + b1 * a4 - a2 * b3 - b2 * a3, b1 * b4 - b2 * b3
+
+
+@jit
+def _others(i):
+    """The two indices of 0, 1, 2 other than i, in order."""
+    if i == 0:
+        return 1, 2
+    if i == 1:
+        return 0, 2
+    return 0, 1
+
+
+@jit
+def transfer_coefficients(a, b, n, obs, top, bottom):
+    """The observed state's transfer function ((s I - a)^-1 b)[obs] of a model of n <= 3
+    states as a ratio of polynomials: ``top`` gets the coefficients of 1, s, s^2 and
+    ``bottom`` (det(s I - a)) those of 1, s, s^2, s^3.
+
+    Cramer's rule on the system padded to 3 x 3 with an identity block, each 2 x 2 minor
+    expanded as a product of linear polynomials in s. Evaluating the ratio at a harmonic is
+    then a few products, where solving the complex system at every harmonic costs several
+    times as much. Real or complex arrays (complex ones give sensitivities by the complex
+    step: the coefficients are polynomials in the entries).
     """
-    inv[0, 0] = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
-    inv[0, 1] = m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
-    inv[0, 2] = m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
-    inv[1, 0] = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]
-    inv[1, 1] = m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0]
-    inv[1, 2] = m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]
-    inv[2, 0] = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]
-    inv[2, 1] = m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]
-    inv[2, 2] = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
-    det = m[0, 0] * inv[0, 0] + m[0, 1] * inv[1, 0] + m[0, 2] * inv[2, 0]
-    if det == 0.0 or not abs(det) < math.inf:
-        return False
-    for r in range(3):
-        for c in range(3):
-            inv[r, c] /= det
-    return True
+    for k in range(4):
+        bottom[k] = 0.0
+    for k in range(3):
+        top[k] = 0.0
+    r1, r2 = _others(0)
+    for c in range(3):
+        # The first row's expansion: entry (0, c) times its cofactor.
+        c1, c2 = _others(c)
+        q2, q1, q0 = _minor(a, n, r1, r2, c1, c2)
+        al, be = _entry(a, n, 0, c)
+        sign = -1.0 if c == 1 else 1.0
+        bottom[3] += sign * al * q2
+        bottom[2] += sign * (al * q1 + be * q2)
+        bottom[1] += sign * (al * q0 + be * q1)
+        bottom[0] += sign * be * q0
+    c1, c2 = _others(obs)
+    for r in range(n):
+        # The column obs replaced by b: b_r times the cofactor (r, obs).
+        s1, s2 = _others(r)
+        q2, q1, q0 = _minor(a, n, s1, s2, c1, c2)
+        sign = -1.0 if (r + obs) % 2 == 1 else 1.0
+        top[2] += sign * b[r] * q2
+        top[1] += sign * b[r] * q1
+        top[0] += sign * b[r] * q0
 
 
 @jit
@@ -126,43 +170,50 @@ def harmonic_rows(lz, free, code, n, obs, period, n_samples, scale, scale_free, 
     a = np.empty((p_count, n, n))
     b = np.empty((p_count, n))
     system(lz, free, code, a, b)
-    pad = np.zeros((3, 3), np.complex128)
-    inv = np.empty((3, 3), np.complex128)
-    x = np.empty(n, np.complex128)
+    top = np.empty(3)
+    bottom = np.empty(4)
+    transfer_coefficients(a[0], b[0], n, obs, top, bottom)
+    # Each free parameter's derivative of the coefficients by the complex step: exact to
+    # rounding for polynomials, and one pass per parameter, not one per harmonic.
+    d_top = np.empty((nf, 3))
+    d_bottom = np.empty((nf, 4))
+    ac = np.empty((n, n), np.complex128)
+    bc = np.empty(n, np.complex128)
+    c_top = np.empty(3, np.complex128)
+    c_bottom = np.empty(4, np.complex128)
+    for i in range(nf):
+        for r in range(n):
+            bc[r] = complex(b[0, r], COMPLEX_STEP * b[i + 1, r])
+            for c in range(n):
+                ac[r, c] = complex(a[0, r, c], COMPLEX_STEP * a[i + 1, r, c])
+        transfer_coefficients(ac, bc, n, obs, c_top, c_bottom)
+        for j in range(3):
+            d_top[i, j] = c_top[j].imag / COMPLEX_STEP
+        for j in range(4):
+            d_bottom[i, j] = c_bottom[j].imag / COMPLEX_STEP
     dx = np.empty(nf, np.complex128)
     w0 = 2.0 * math.pi / period
     root = math.sqrt(n_samples)
     for k in range(fk.size):
-        s = 1j * (w0 * k)
-        # (i w I - A) x = B, then the observed state's derivatives: d x = (i w I - A)^-1
-        # (dA x + dB).
-        for r in range(3):
-            for c in range(3):
-                pad[r, c] = (s if r == c else 0.0) - (a[0, r, c] if (r < n and c < n)
-                                                       else 0.0)
-            if r >= n:
-                pad[r, r] = 1.0
-        if not _inverse3(pad, inv):
+        om = w0 * k
+        om2 = om * om
+        den = complex(bottom[0] - bottom[2] * om2, om * (bottom[1] - bottom[3] * om2))
+        if den == 0.0:
             return False
-        for r in range(n):
-            v = 0.0j
-            for c in range(n):
-                v += inv[r, c] * b[0, c]
-            x[r] = v
+        inv = 1.0 / den
+        x_obs = complex(top[0] - top[2] * om2, top[1] * om) * inv
         for i in range(nf):
-            v = 0.0j
-            for r in range(n):
-                w = b[i + 1, r] + 0.0j
-                for c in range(n):
-                    w += a[i + 1, r, c] * x[c]
-                v += inv[obs, r] * w
-            dx[i] = v
+            # d(N / D) = (dN - (N / D) dD) / D
+            dn = complex(d_top[i, 0] - d_top[i, 2] * om2, d_top[i, 1] * om)
+            dd = complex(d_bottom[i, 0] - d_bottom[i, 2] * om2,
+                         om * (d_bottom[i, 1] - d_bottom[i, 3] * om2))
+            dx[i] = (dn - x_obs * dd) * inv
         hold = 1.0
         if k > 0:
             arg = math.pi * k / n_samples
             hold = (math.sin(arg) / arg) ** 2
         base = hold * fk[k]
-        u = x[obs] * base
+        u = x_obs * base
         res = scale * u - dk[k]
         if k == 0:
             res += offset * n_samples

@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import kernel
 from ..compiled import jit
+from ..spectrum import transfer_coefficients
 
 __all__ = ["harmonic_scan"]
 
@@ -54,71 +55,6 @@ def _complex_solve(a, b):
             s -= m[k, c] * x[c]
         x[k] = s / m[k, k]
     return x, True
-
-
-@jit
-def _entry(a, n, i, j):
-    """Entry (i, j) of s I - a, padded to 3 x 3 with an identity block, as (s-coefficient,
-    constant)."""
-    if i < n and j < n:
-        return (1.0 if i == j else 0.0), -a[i, j]
-    return 0.0, (1.0 if i == j else 0.0)
-
-
-@jit
-def _minor(a, n, r1, r2, c1, c2):
-    """A 2 x 2 minor of the padded s I - a: its coefficients of s^2, s, 1."""
-    a1, b1 = _entry(a, n, r1, c1)
-    a2, b2 = _entry(a, n, r1, c2)
-    a3, b3 = _entry(a, n, r2, c1)
-    a4, b4 = _entry(a, n, r2, c2)
-    return a1 * a4 - a2 * a3, a1 * b4 + b1 * a4 - a2 * b3 - b2 * a3, b1 * b4 - b2 * b3
-
-
-@jit
-def _others(i):
-    """The two indices of 0, 1, 2 other than i, in order."""
-    if i == 0:
-        return 1, 2
-    if i == 1:
-        return 0, 2
-    return 0, 1
-
-
-@jit
-def _rational3(a, b, n, obs, num, den):
-    """The observed state's transfer function ((s I - a)^-1 b)[obs] for n <= 3 states as a
-    ratio of polynomials (Cramer's rule on the system padded to 3 x 3): ``num`` gets the
-    coefficients of 1, s, s^2 and ``den`` those of 1, s, s^2, s^3.
-
-    The scan evaluates it for every shape at every harmonic (about 2 x 10^5 times a card):
-    the coefficients once per shape, then a few multiplications per harmonic, instead of
-    two complex 3 x 3 determinants at every harmonic.
-    """
-    for k in range(4):
-        den[k] = 0.0
-    for k in range(3):
-        num[k] = 0.0
-    r1, r2 = _others(0)
-    for c in range(3):
-        # The first row's expansion: entry (0, c) times its cofactor.
-        c1, c2 = _others(c)
-        q2, q1, q0 = _minor(a, n, r1, r2, c1, c2)
-        al, be = _entry(a, n, 0, c)
-        sign = -1.0 if c == 1 else 1.0
-        den[3] += sign * al * q2
-        den[2] += sign * (al * q1 + be * q2)
-        den[1] += sign * (al * q0 + be * q1)
-        den[0] += sign * be * q0
-    c1, c2 = _others(obs)
-    for r in range(n):
-        # The column obs replaced by b: b_r times the cofactor (r, obs).
-        s1, s2 = _others(r)
-        q2, q1, q0 = _minor(a, n, s1, s2, c1, c2)
-        sign = -1.0 if (r + obs) % 2 == 1 else 1.0
-        num[2] += sign * b[r] * q2
-        num[1] += sign * b[r] * q1
-        num[0] += sign * b[r] * q0
 
 
 @jit
@@ -170,7 +106,7 @@ def harmonic_scan(t, f, d, shapes, code, n, obs, offset_free, symmetric, scale, 
         kernel.system(np.log(shapes[s]), free, code, a, b)
         bc = b[0].astype(np.complex128)
         if n <= 3:
-            _rational3(a[0], b[0], n, obs, top, bottom)
+            transfer_coefficients(a[0], b[0], n, obs, top, bottom)
         for i in range(nk):
             k = first + i
             om = 2.0 * math.pi * k / period
