@@ -359,6 +359,12 @@ class Model:
     @classmethod
     def system_batch(cls, theta: ArrayLike) -> tuple[Array, Array, Array, Array]:
         """A (..., n, n), B (..., n), dA/dtheta (..., p, n, n), dB/dtheta (..., p, n)."""
+        return cls._system(theta, True)
+
+    @classmethod
+    def _system(cls, theta: ArrayLike, derivatives: bool) -> tuple[Array, Array, Array, Array]:
+        # The derivatives' arrays stay zero unless asked for: an offset's gap costs the
+        # static gain several times a fit and needs none.
         th = np.asarray(theta, dtype=float)
         p = len(cls.param_names())
         if th.shape[-1:] != (p,):
@@ -374,18 +380,18 @@ class Model:
             for (r, c), coef, exp in zip(a_pos, a_coef, a_exp, strict=True):
                 val = coef * np.prod(th**exp, axis=-1)
                 a[..., r, c] += val
-                for j in np.flatnonzero(exp):
+                for j in np.flatnonzero(exp) if derivatives else ():
                     da[..., j, r, c] += exp[j] * val / th[..., j]
             for r, coef, exp in zip(b_pos, b_coef, b_exp, strict=True):
                 val = coef * np.prod(th**exp, axis=-1)
                 b[..., r] += val
-                for j in np.flatnonzero(exp):
+                for j in np.flatnonzero(exp) if derivatives else ():
                     db[..., j, r] += exp[j] * val / th[..., j]
         return a, b, da, db
 
     def matrices(self) -> tuple[Array, Array]:
         """State matrix A (n, n) and input vector B (n,) of ``x' = A x + B g(F)``."""
-        a, b, _, _ = self.system_batch(self.values)
+        a, b, _, _ = self._system(self.values, False)
         return a, b
 
     def matrix_derivatives(self) -> tuple[Array, Array]:
@@ -410,7 +416,7 @@ class Model:
     def static_gains(cls, theta: ArrayLike, observe: str | None = None) -> Array:
         """:meth:`static_gain` for parameter vectors ``theta`` (..., p); NaN where there is
         no equilibrium (a singular state matrix)."""
-        a, b, _, _ = cls.system_batch(theta)
+        a, b, _, _ = cls._system(theta, False)
         k = cls.output_index(observe)
         with np.errstate(all="ignore"):
             try:
@@ -465,7 +471,7 @@ class Model:
         th = np.atleast_2d(th)
         m = th.shape[0]
         scales = np.broadcast_to(np.asarray(scale, dtype=float), (m,))
-        a, b, _, _ = cls.system_batch(th)
+        a, b, _, _ = cls._system(th, False)
         infos = cls.derived_info()
         names = [info.name for info in infos]
         out = np.full((m, len(infos)), math.nan)

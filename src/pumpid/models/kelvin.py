@@ -69,15 +69,15 @@ def viscoelastic_shapes(w0: float, series: bool, dense: bool = False) -> np.ndar
         ratios = (0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
         stiffness = (0.3, 1.0, 3.0, 30.0)
         taus = (0.1, 1.0, 10.0)
-    rows = []
-    for r in ratios:
-        for k0_over_k1 in stiffness:
-            for tau_w0 in taus:
-                k1, k0 = 1.0, k0_over_k1
-                k_static = k0 * k1 / (k0 + k1) if series else k0 + k1
-                m = k_static / (r * w0) ** 2
-                rows.append([k0, m, k1 * tau_w0 / w0, k1])
-    return np.array(rows)
+    # Every (frequency, stiffness ratio, time constant), the time constant varying fastest;
+    # k1 = 1. Broadcast: the dense grid's 3,136 rows cost a millisecond in a Python loop.
+    r = np.array(ratios)[:, None, None]
+    k0 = np.array(stiffness)[None, :, None]
+    tau = np.array(taus)[None, None, :]
+    k_static = k0 / (k0 + 1.0) if series else k0 + 1.0
+    shape = (r.size, k0.size, tau.size)
+    return np.stack([np.broadcast_to(k0, shape), np.broadcast_to(k_static / (r * w0) ** 2, shape),
+                     np.broadcast_to(tau / w0, shape), np.ones(shape)], axis=-1).reshape(-1, 4)
 
 
 @dataclass(frozen=True)
