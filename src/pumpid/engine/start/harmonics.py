@@ -111,7 +111,7 @@ def harmonic_scan(t, f, d, shapes, code, n, obs, offset_free, symmetric, scale, 
             k = first + i
             om = 2.0 * math.pi * k / period
             if n <= 3:
-                # num and den at s = i om
+                # the ratio at s = i om
                 om2 = om * om
                 dn = complex(bottom[0] - bottom[2] * om2, om * (bottom[1] - bottom[3] * om2))
                 if dn == 0.0:
