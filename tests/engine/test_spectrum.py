@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pumpid import Kelvin, LevenbergMarquardt, Maxwell, simulate
+from pumpid import FirstOrder, Kelvin, LevenbergMarquardt, MassSpringDamper, Maxwell, simulate
 from pumpid.engine.problem import CardData, build_problem
 from pumpid.engine.spectrum import card_spectrum, harmonic_rows, harmonic_width
 
@@ -66,16 +66,20 @@ def test_every_harmonic_gives_the_exact_cost() -> None:
     assert 0.5 * np.sum(cut[-1] ** 2) == pytest.approx(exact, rel=0.05)
 
 
-@pytest.mark.parametrize("model", [Kelvin, Maxwell])
+@pytest.mark.parametrize("model", [Kelvin, Maxwell, MassSpringDamper, FirstOrder])
 def test_the_jacobian_is_the_residuals_derivative(model) -> None:
+    # Three states, and fewer (the transfer function's polynomials padded to 3 x 3).
     n = 160
     _t, f, y = _card(n)
-    theta = TRUTH.values.copy() if model is Kelvin else np.array([120.0, 2.0, 60.0, 90.0])
+    theta = {Kelvin: TRUTH.values.copy(), Maxwell: np.array([120.0, 2.0, 60.0, 90.0]),
+             MassSpringDamper: np.array([2.0, 30.0, 120.0]),
+             FirstOrder: np.array([2.0, 0.5])[: len(FirstOrder.param_names())]}[model]
+    p = theta.size
     z = np.r_[np.log(theta), math.log(1.2), 0.7]
     kmax = 12
 
     def rows_at(zz):
-        return _rows(model, np.exp(zz[:4]), f, y, kmax, math.exp(zz[4]), zz[5], n)
+        return _rows(model, np.exp(zz[:p]), f, y, kmax, math.exp(zz[p]), zz[p + 1], n)
 
     base = rows_at(z)
     for j in range(z.size):
