@@ -295,9 +295,15 @@ class PumpSystem(OwnModel):
     def start_from(self, other: PumpSystem) -> None:
         """Start this model's next march from ``other``'s last one: the same card on another
         grid (:meth:`pumpid.rods.StringGrid.carry`), for a warm start instead of one from
-        rest. Nothing happens if ``other`` has not marched yet."""
+        rest. Nothing happens if ``other`` has not marched yet. Its last sensitivities' state
+        slopes come along the same way (the carry is linear)."""
         if other._last is not None:
             self._last = self.grid.carry(other._last, other.grid)
+        for j, (h, nodes, state) in other._slopes.items():
+            moved = self.grid.carry(Run(out=other._last.out if other._last else np.zeros(0),
+                                        nodes=nodes, state=state, cycles=0, change=0.0),
+                                    other.grid)
+            self._slopes[j] = (h, moved.nodes, state.copy())
 
     def _load(self, values: Array, run: Run) -> Array:
         return np.asarray((run.out[0] + self.weight) / self.surface.load_factor
