@@ -15,12 +15,14 @@ coefficients, the Nyquist term aside), so :func:`harmonic_rows` returns the Jaco
 residual as ``1 + 2 K`` real rows (``R_0 / sqrt N``, then ``sqrt(2 / N)`` times the real
 and imaginary parts of ``R_1 .. R_K``) whose cost is that sum cut at harmonic ``K``.
 
-Why: an evaluation is then ``K + 1`` small complex solves. The exact simulation needs a
-matrix exponential with its sensitivities, a transition over the period and two passes over
-the samples; on 200-sample field cards a harmonic evaluation on 24 harmonics costs a
-fraction of it (see :class:`pumpid.engine.solvers.LevenbergMarquardt`'s ``harmonics``). The
-cut cost differs from the exact one by the residual's higher harmonics, which move little
-with the parameters: good enough to tell basins apart, never used for an answer.
+Why: an evaluation is then the model's transfer function as a ratio of polynomials
+(:func:`transfer_coefficients`, once) evaluated at ``K + 1`` frequencies. The exact
+simulation needs a matrix exponential with its sensitivities, a transition over the period
+and two passes over the samples; on 200-sample field cards a harmonic evaluation on 24
+harmonics costs a fraction of it (see :class:`pumpid.engine.solvers.LevenbergMarquardt`'s
+``harmonics``). The cut cost differs from the exact one by the residual's higher harmonics,
+which move little with the parameters: good enough to tell basins apart, never used for an
+answer.
 """
 
 from __future__ import annotations

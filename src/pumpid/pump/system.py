@@ -300,10 +300,8 @@ class PumpSystem(OwnModel):
         if other._last is not None:
             self._last = self.grid.carry(other._last, other.grid)
         for j, (h, nodes, state) in other._slopes.items():
-            moved = self.grid.carry(Run(out=other._last.out if other._last else np.zeros(0),
-                                        nodes=nodes, state=state, cycles=0, change=0.0),
-                                    other.grid)
-            self._slopes[j] = (h, moved.nodes, state.copy())
+            slope = Run(out=np.zeros((3, 0)), nodes=nodes, state=state, cycles=0, change=0.0)
+            self._slopes[j] = (h, self.grid.carry(slope, other.grid).nodes, state.copy())
 
     def _load(self, values: Array, run: Run) -> Array:
         return np.asarray((run.out[0] + self.weight) / self.surface.load_factor

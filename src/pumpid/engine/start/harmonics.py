@@ -1,11 +1,11 @@
 """A fast ranking of many parameter shapes on a periodic card, by its harmonics.
 
-The wider search (:mod:`.wider`) draws hundreds of shapes from a model's dense grid and
-can polish only a few. Simulating each in time to rank them would cost as much as the
-polish; on one uniformly sampled period the response at harmonic k is instead one small
-complex solve, ``H(i k w) F_k``, so the whole grid is ranked for the price of a few
-simulations. Compiled, in a module of its own so that the cache key (see
-:mod:`pumpid.engine.compiled`) follows the compiled code only.
+The wider search (:mod:`.wider`) draws hundreds of shapes from a model's dense grid and can
+polish only a few. Simulating each in time to rank them would cost as much as the polish; on
+one uniformly sampled period the response at harmonic k is instead ``H(i k w) F_k``, the
+transfer function a ratio of polynomials whose coefficients each shape computes once, so the
+whole grid is ranked for the price of a few simulations. Compiled, in a module of its own so
+that the cache key (see :mod:`pumpid.engine.compiled`) follows the compiled code only.
 """
 
 from __future__ import annotations
@@ -93,6 +93,7 @@ def harmonic_scan(t, f, d, shapes, code, n, obs, offset_free, symmetric, scale, 
     a = np.empty((1, n, n))
     b = np.empty((1, n))
     eye = np.eye(n).astype(np.complex128)
+    bc = np.empty(n, np.complex128)
     top = np.zeros(3)
     bottom = np.zeros(4)
     y = np.empty(nk, np.complex128)
@@ -104,9 +105,11 @@ def harmonic_scan(t, f, d, shapes, code, n, obs, offset_free, symmetric, scale, 
         if not ok:
             continue
         kernel.system(np.log(shapes[s]), free, code, a, b)
-        bc = b[0].astype(np.complex128)
         if n <= 3:
             transfer_coefficients(a[0], b[0], n, obs, top, bottom)
+        else:
+            for r in range(n):
+                bc[r] = b[0, r]
         for i in range(nk):
             k = first + i
             om = 2.0 * math.pi * k / period

@@ -67,10 +67,11 @@ class WidePlan:
     the cost of those same first harmonics (:mod:`pumpid.engine.spectrum`), and each final
     follows its basin on it (up to ``final_evaluations``) before its exact run. On 130
     public field cards (every third) the polish took 1,100-1,350 evaluations a card either
-    way, at about 7 us each on the harmonics (the solver's step included) against 23 us
-    exact. With the polish alone on the harmonics the job's answers came within 1e-6 of a
-    brute force's best on 90 of those cards (91 on the exact polish); with the finals and
-    the job's solve on them too, 125.
+    way, at about 7 us each on the harmonics (the solver's step included; 5-6 us since the
+    transfer function became a ratio of polynomials) against 23 us exact. With the polish
+    alone on the harmonics the job's answers came within 1e-6 of a brute force's best on 90
+    of those cards (91 on the exact polish); with the finals and the job's solve on them
+    too, 125.
     """
 
     rounds: int = 3
