@@ -86,3 +86,26 @@ def test_a_march_carried_from_another_grid_lands_on_the_stroke_from_rest(fill: f
     span = float(np.ptp(cold.out[0]))
     assert np.max(np.abs(warm.out - cold.out)[0]) < 1e-8 * span
     assert warm.cycles < cold.cycles
+
+
+@pytest.mark.parametrize(("fill", "ratio"), [(1.0, 0.02), (0.6, 0.02), (0.7, 0.3)])
+def test_a_periodic_start_stops_after_one_stroke_on_its_stroke(fill: float,
+                                                               ratio: float) -> None:
+    # A march whose state ends the stroke where it began is periodic: started from its own
+    # periodic end state it stops after one stroke (it took two, to compare two strokes'
+    # loads), and a march stopped that way is as close to the periodic stroke as its
+    # tolerance says.
+    grid, s, pump = _grid_and_pump(fill, transfer=0.05, ratio=ratio)
+    tight = grid.march(s, pump, 0.1, None, max_cycles=2000, tol=1e-13)
+    again = grid.march(s, pump, 0.1, tight, max_cycles=2000, tol=1e-9)
+    assert again.cycles == 1
+    assert again.change < 1e-9
+    span = float(np.ptp(tight.out[0]))
+    for tol in (1e-5, 1e-7, 1e-9):
+        # From a nearby pump's stroke: off by the transient the march left.
+        other = pump.copy()
+        other[0] *= 1.01
+        near = grid.march(s, other, 0.1, tight, max_cycles=2000, tol=1e-13)
+        run = grid.march(s, pump, 0.1, near, max_cycles=2000, tol=tol)
+        assert run.change < tol
+        assert np.max(np.abs(run.out[0] - tight.out[0])) < 3 * tol * span

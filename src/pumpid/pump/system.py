@@ -70,12 +70,14 @@ ELEMENTS = 30
 #: step, so a march costs about a quarter; its own error moves the answer by about a
 #: standard error on a quiet card, which the final fit's one or two steps take back.
 SEARCH_ELEMENTS = 15
-#: Stop a march when the surface load changes less than this over a stroke (of its range),
-#: for estimates that need the stroke to a few digits only: the march's own error
-#: (:func:`pumpid.pump.identify.discretization_errors`, about 1e-3 of the range) and the
-#: pump quantities' slopes for their errors (:meth:`PumpSystem.derived`).
+#: Stop a march when the stroke repeats to this (of the load range; see
+#: :func:`pumpid.rods.march.march`), for estimates that need the stroke to a few digits
+#: only: the march's own error (:func:`pumpid.pump.identify.discretization_errors`,
+#: about 1e-3 of the range) and the pump quantities' slopes for their errors
+#: (:meth:`PumpSystem.derived`).
 ESTIMATE_TOL = 1e-7
-#: Stop a march when the surface load changes less than this over a stroke (of its range).
+#: Stop a march when the stroke repeats to this (of the load range): its end state is its
+#: start state, or its surface load the stroke before's.
 TOL = 1e-9
 #: The same for a perturbed march of a forward difference: its leftover transient, relative
 #: to the difference it measures (about FD_TOL / STEP), is the derivative's relative error.
@@ -192,8 +194,7 @@ class PumpSystem(OwnModel):
         Measure the pump quantities of a fit (:meth:`derived`); False for a search whose
         answer only starts another fit (the attribute may be switched between fits).
     tol : float
-        A march stops when the surface load changes less than this over a stroke
-        (relative to its range).
+        A march stops when the stroke repeats to this (relative to the load range).
     """
 
     name = "rod string and pump"

@@ -103,7 +103,8 @@ class Prediction:
     cycles : int
         Strokes simulated.
     change : float
-        Largest change of the surface load over the last stroke, relative to its range.
+        The last stroke's change, relative to the load range (of its state, or of its
+        surface load against the stroke before; see :func:`pumpid.rods.march.march`).
     """
 
     surface_load: Array
@@ -135,8 +136,8 @@ def predict_surface(well: Well, position: ArrayLike, period: float, pump: PumpMo
     max_cycles : int
         Most strokes simulated.
     tol : float
-        Stop when the surface load changes less than this (relative to its range) over a
-        stroke.
+        Stop when the stroke repeats to this (relative to the load range): its end state
+        is its start state, or its surface load the stroke before's.
 
     Returns
     -------
