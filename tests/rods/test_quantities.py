@@ -81,3 +81,27 @@ def test_quantities_carry_units_of_card_and_well_file() -> None:
     assert any("converted" in n for n in metric.notes)
     row = metric.to_row()
     assert row["pump_fluid_load_unit"] == "kN" and row["downhole_status"] == "computed"
+
+
+def test_a_coarse_card_measures_its_lines_from_the_nearest_samples() -> None:
+    # Four samples a stroke: no downstroke sample lies in the lower line's band (5-30 % of
+    # the stroke), so the line is the median of the three downstroke samples nearest the
+    # band's middle; a batch measures each card as alone.
+    from pumpid.rods import measure_pump_cards
+
+    well = three_tapers()
+    y = 1 - np.cos(2 * np.pi * np.arange(4) / 4)
+    load = np.array([900.0, 20000.0, 19000.0, 300.0])
+    m = measure_pump_card(y, load, well, 8.0)
+    h = (y - y.min()) / np.ptp(y)
+    top = int(np.argmax(y))
+    down = [i % 4 for i in range(top, 5)]
+    nearest = sorted(down, key=lambda i: abs(h[i] - 0.175))[:3]
+    assert not any(0.05 <= h[i] <= 0.3 for i in down)
+    assert m.lower_load == pytest.approx(np.median(load[nearest]))
+    assert m.upper_load == pytest.approx(np.median(load[[i for i in range(top + 1)
+                                                         if 0.4 <= h[i] <= 0.9]]))
+    other = load[::-1].copy()
+    both = measure_pump_cards(np.array([y, y]), np.array([load, other]), [well, well],
+                              [8.0, 8.0])
+    assert both == [m, measure_pump_card(y, other, well, 8.0)]

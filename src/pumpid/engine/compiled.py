@@ -44,6 +44,7 @@ COMPILED_MODULES = (
     "inference/hac.py",
     "inference/uncertainty.py",
     "rods/march.py",
+    "rods/quantities.py",
 )
 
 
