@@ -384,19 +384,27 @@ class PumpSystem(OwnModel):
         load and fillage, a fluid-pound and a gas-interference intake ratio, the transfer
         travel of the well's tubing, and the offset that levels the prediction."""
         s = self.surface
-        strings = StringArrays.of([s.well])
         last = len(s.well.tapers) - 1
         transfer = START_TRANSFER
         tubing = s.well.tubing
+        # The diagnostic pump cards at every damping in one call, measured in one call.
+        count = len(START_DAMPING)
+        pos, ten = fourier_diagnostic(np.repeat(s.position[None], count, axis=0),
+                                      np.repeat((s.load - self.weight)[None], count, axis=0),
+                                      s.period, StringArrays.of([s.well] * count),
+                                      np.array(START_DAMPING))
+        plunger, pump = pos[:, last], ten[:, last]
+        moving = np.ptp(plunger, axis=1) > 0
+        measured = iter(measure_pump_cards(plunger[moving], pump[moving],
+                                           [s.well] * int(moving.sum()),
+                                           [s.spm] * int(moving.sum())))
         starts = []
-        for nu in START_DAMPING:
-            pos, ten = fourier_diagnostic(s.position[None], (s.load - self.weight)[None],
-                                          s.period, strings, nu)
-            try:
-                m = measure_pump_cards(pos[:, last], ten[:, last], [s.well], [s.spm])[0]
+        for i, nu in enumerate(START_DAMPING):
+            if moving[i]:
+                m = next(measured)
                 fluid, fill = m.fluid_load, m.fillage
-            except ValueError:
-                fluid, fill = float(np.ptp(ten[0, last])) / 2, 1.0
+            else:  # no pump card to measure
+                fluid, fill = float(np.ptp(pump[i])) / 2, 1.0
             fluid = max(fluid, 1e-3 * float(np.ptp(s.load)), 1e-9)
             if not tubing.anchored and tubing.area is not None:
                 transfer = START_TRANSFER + fluid * s.well.pump.depth / (
