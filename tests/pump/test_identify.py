@@ -312,3 +312,32 @@ def test_a_card_the_coarse_march_cannot_start_is_searched_on_the_model(made,
     monkeypatch.undo()
     surface = SurfaceCard.of(fits[1].card, well)
     _same_answer(got, fit(PumpSystem(surface), surface, solver=SOLVER))
+
+
+@pytest.mark.parametrize("index", range(len(CASES)))
+def test_the_quantities_errors_are_the_delta_method_over_the_fit(made, index: int) -> None:
+    # The pump quantities' errors come from the fit's own sensitivity strokes where the
+    # fit ended (forward differences); they are the delta method over the parameters'
+    # covariance, whose slopes central differences of the fitted model give independently.
+    got = made[3][index]
+    model, fit = got.model, got.fit
+    names = model.param_names()
+    values = np.array([fit.params[n] for n in names])
+    cov = fit.covariance
+    grad = np.zeros((len(cov["names"]), 2))
+    for a, name in enumerate(cov["names"]):
+        j = names.index(name)
+        if name == "load_offset":
+            continue
+        step = 1e-4 * values[j]
+        up, down = values.copy(), values.copy()
+        up[j] += step
+        down[j] -= step
+        if up[j] > model.parameters[j].upper:
+            up[j] = values[j]
+            step /= 2
+        q_up, q_down = model.quantities(up), model.quantities(down)
+        grad[a] = (q_up - q_down)[[0, 1]] / (up[j] - down[j])
+    expected = np.sqrt(np.einsum("ai,ab,bi->i", grad, np.array(cov["matrix"]), grad))
+    for k, q in enumerate(("fillage", "gross_stroke")):
+        assert fit.derived[q].stderr_white == pytest.approx(expected[k], rel=0.05)
