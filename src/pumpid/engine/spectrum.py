@@ -34,8 +34,8 @@ import numpy as np
 from .compiled import jit
 from .kernel import system
 
-__all__ = ["MAX_STATES", "SEARCH_HARMONICS", "card_spectrum", "harmonic_rows",
-           "harmonic_width", "transfer_coefficients"]
+__all__ = ["MAX_STATES", "SEARCH_HARMONICS", "at_frequency", "card_spectrum",
+           "harmonic_rows", "harmonic_width", "transfer_coefficients"]
 
 #: Harmonics the searches look at: those that carry a field card (above them its model's
 #: response is small, and the hold's aliases grow).
@@ -93,6 +93,7 @@ def _entry(a, n, i, j):
     constant)."""
     if i < n and j < n:
         return (1.0 if i == j else 0.0), -a[i, j]
+    # Times a[0, 0]'s zero: both branches then return a's type, real or complex.
     return 0.0, (1.0 if i == j else 0.0) + 0.0 * a[0, 0]
 
 
@@ -155,6 +156,17 @@ def transfer_coefficients(a, b, n, obs, top, bottom):
 
 
 @jit
+def at_frequency(coefficients, om):
+    """A polynomial of :func:`transfer_coefficients` (3 or 4 real coefficients, of 1, s,
+    s^2[, s^3]) at s = i om."""
+    om2 = om * om
+    c = coefficients
+    if c.size == 4:
+        return complex(c[0] - c[2] * om2, om * (c[1] - c[3] * om2))
+    return complex(c[0] - c[2] * om2, c[1] * om)
+
+
+@jit
 def harmonic_rows(lz, free, code, n, obs, period, n_samples, scale, scale_free, offset,
                   offset_free, fk, dk, rows):
     """Jacobian columns and residual on the first harmonics, as rows (q + 1, 1 + 2 K).
@@ -198,18 +210,14 @@ def harmonic_rows(lz, free, code, n, obs, period, n_samples, scale, scale_free, 
     root = math.sqrt(n_samples)
     for k in range(fk.size):
         om = w0 * k
-        om2 = om * om
-        den = complex(bottom[0] - bottom[2] * om2, om * (bottom[1] - bottom[3] * om2))
+        den = at_frequency(bottom, om)
         if den == 0.0:
             return False
         inv = 1.0 / den
-        x_obs = complex(top[0] - top[2] * om2, top[1] * om) * inv
+        x_obs = at_frequency(top, om) * inv
         for i in range(nf):
             # d(N / D) = (dN - (N / D) dD) / D
-            dn = complex(d_top[i, 0] - d_top[i, 2] * om2, d_top[i, 1] * om)
-            dd = complex(d_bottom[i, 0] - d_bottom[i, 2] * om2,
-                         om * (d_bottom[i, 1] - d_bottom[i, 3] * om2))
-            dx[i] = (dn - x_obs * dd) * inv
+            dx[i] = (at_frequency(d_top[i], om) - x_obs * at_frequency(d_bottom[i], om)) * inv
         hold = 1.0
         if k > 0:
             arg = math.pi * k / n_samples

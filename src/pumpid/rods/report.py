@@ -309,8 +309,7 @@ def _identification_said(extra: Mapping[str, Any], ident: Mapping[str, Any]) -> 
     if agreement is not None:
         consistency = ident.get("consistency")
         solvers = ("" if consistency is None else
-                   f"; the fitted pump card and the diagnostic of the fitted surface load "
-                   f"by "
+                   "; the fitted pump card and the diagnostic of the fitted surface load by "
                    f"{_e(f'{100 * consistency:.2f}')} % (the two solvers' own difference: the "
                    "rest is the surface residual carried down the string)")
         words.append(f"fitted and diagnostic pump cards differ by RMS "

@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import kernel
 from ..compiled import jit
-from ..spectrum import transfer_coefficients
+from ..spectrum import at_frequency, transfer_coefficients
 
 __all__ = ["harmonic_scan"]
 
@@ -114,13 +114,11 @@ def harmonic_scan(t, f, d, shapes, code, n, obs, offset_free, symmetric, scale, 
             k = first + i
             om = 2.0 * math.pi * k / period
             if n <= 3:
-                # the ratio at s = i om
-                om2 = om * om
-                dn = complex(bottom[0] - bottom[2] * om2, om * (bottom[1] - bottom[3] * om2))
+                dn = at_frequency(bottom, om)
                 if dn == 0.0:
                     ok = False
                     break
-                h = complex(top[0] - top[2] * om2, top[1] * om) / dn
+                h = at_frequency(top, om) / dn
                 if not math.isfinite(h.real):
                     ok = False
                     break
