@@ -316,9 +316,9 @@ def test_a_card_the_coarse_march_cannot_start_is_searched_on_the_model(made,
 
 @pytest.mark.parametrize("index", range(len(CASES)))
 def test_the_quantities_errors_are_the_delta_method_over_the_fit(made, index: int) -> None:
-    # The pump quantities' errors are the delta method over the parameters' covariance,
-    # with slopes that central differences of the fitted model (over 1e-3 of each value,
-    # the errors' own step) give independently.
+    # The pump quantities' errors come from the fit's own sensitivity strokes where the
+    # fit ended (forward differences); they are the delta method over the parameters'
+    # covariance, whose slopes central differences of the fitted model give independently.
     got = made[3][index]
     model, fit = got.model, got.fit
     names = model.param_names()
@@ -329,7 +329,7 @@ def test_the_quantities_errors_are_the_delta_method_over_the_fit(made, index: in
         j = names.index(name)
         if name == "load_offset":
             continue
-        step = 1e-3 * values[j]
+        step = 1e-4 * values[j]
         up, down = values.copy(), values.copy()
         up[j] += step
         down[j] -= step

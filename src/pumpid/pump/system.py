@@ -97,13 +97,7 @@ MEANINGS = {
     "intake_pressure": "discharge pressure of the fluid column less fluid load / plunger area",
 }
 #: Central-difference step (in the log of a parameter) of the derived quantities' errors.
-#: A fitted stroke can sit beside another periodic stroke of the same values (on a
-#: simulated 70 % pound, fillage 2e-5 and the plunger's lowest point 0.4 mm apart: the
-#: fit's warm starts reach one, a march from rest the other). A slope over 1e-4 that
-#: straddles the two takes that step for a slope (one card's gross-stroke error came out
-#: 2.6 times what smooth forward differences give); over 1e-3 it is diluted tenfold, at
-#: 0.7 strokes more a neighbour.
-DERIVED_STEP = 1e-3
+DERIVED_STEP = 1e-4
 #: Forward-difference step: relative for positive parameters, absolute for the fillage.
 STEP = 1e-5
 #: Harmonics of the measured position that drive the march. A pumping unit's crank moves
@@ -490,7 +484,7 @@ class PumpSystem(OwnModel):
                         continue
                     try:
                         # A neighbour's stroke to 1e-7 of the load range: its quantities
-                        # move by about 1e-3 of themselves, so the slope keeps 4 digits.
+                        # move by about 1e-4 of themselves, so the slope keeps 3 digits.
                         # It starts where the sensitivities, if taken here, predict it.
                         card = self.pump_card(moved, ESTIMATE_TOL,
                                               self._neighbour(values, j, moved[j] - values[j]))
