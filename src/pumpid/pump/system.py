@@ -84,6 +84,10 @@ TOL = 1e-9
 FD_TOL = 1e-8
 #: Periodic strokes kept by their parameter values (the last simulated ones).
 KEPT_RUNS = 16
+#: Low bits of each parameter's binary fraction a kept stroke's key leaves out
+#: (:func:`_march_key`): 2**-44, about 6e-14 of the value, is far below any step the solver
+#: or a difference takes (:data:`STEP`) and above a round trip through the solver's log scale.
+KEY_BITS = 8
 #: Strokes a march may take (a lightly damped string needs the most).
 MAX_CYCLES = 300
 #: The pump quantities each fit derives from its pump card, with errors.
@@ -120,6 +124,18 @@ START_TRANSFER = 0.02
 #: Pump intake over discharge pressure the start assumes (a fluid pound's thin gas; also
 #: the value a full pump's fit holds, where the card cannot tell it).
 START_INTAKE_RATIO = 0.02
+
+
+def _march_key(values: Array) -> bytes:
+    """The key of the stroke marched at ``values``.
+
+    The march depends on every parameter but the load offset (the last), and values that
+    went through the solver's log scale and back differ in their last bits: both still mean
+    the stroke kept. Keyed exactly on all six, the search marched each of its starts twice,
+    the second time warm from another damping's stroke (35 of its 216 strokes a card). Two
+    values a few bits apart may still fall either side of a cut: a march more, no error.
+    """
+    return (np.asarray(values[:5], dtype=np.float64).view(np.int64) >> KEY_BITS).tobytes()
 
 
 @dataclass(frozen=True)
@@ -252,11 +268,11 @@ class PumpSystem(OwnModel):
         else from the last march)."""
         values = np.asarray(values, dtype=float)
         tol = self.tol if tol is None else tol
-        key = values.tobytes()
-        if key in self._runs:
+        kept = self._kept(values)
+        if kept is not None:
             # The stroke these values already gave: a nonlinear pump may settle into another
             # stroke from another start, and a fit's answer is the stroke it was fitted with.
-            return self._runs[key]
+            return kept
         if warm is None:
             warm = self._last
         got = self.grid.march(self.surface.drive, self._pump(values), float(values[1]),
@@ -273,6 +289,10 @@ class PumpSystem(OwnModel):
                                       f"strokes (last change {got.change:.2g} of the load "
                                       "range)")
         return got
+
+    def _kept(self, values: Array) -> Run | None:
+        """The stroke kept for ``values``, if any (see :func:`_march_key`)."""
+        return self._runs.get(_march_key(values))
 
     def _neighbour(self, values: Array, j: int, change: float) -> Run | None:
         """Where a march at ``values`` with parameter j moved by ``change`` starts: predicted
@@ -342,7 +362,7 @@ class PumpSystem(OwnModel):
                                  f"{par.upper:g}]")
         base = self.run(values)
         self._last = base
-        key = values.tobytes()
+        key = _march_key(values)
         if key not in self._runs:
             if len(self._runs) >= KEPT_RUNS:
                 self._runs.pop(next(iter(self._runs)))  # the oldest
