@@ -35,6 +35,11 @@ PUMP_STATE = ("floor", "liquid", "gas", "pressure")
 #: 20 strokes, while a non-repeating one stays within a few per cent of its level for
 #: hundreds of strokes.
 STALL = 20
+#: The shut barrel's Newton iteration stops at a step (in the pressure over the discharge
+#: pressure) below this; the pressure is then within about 1e-12 of exact. Against a
+#: Newton run to rounding, 40 strokes from rest on 15 simulated cards at 15-60 elements
+#: gave surface loads within 1.7e-12 of the load range.
+NEWTON_DONE = 1e-7
 
 
 @jit
@@ -70,19 +75,26 @@ def _pump_load(y: float, pump: Array, state: Array, top: float) -> tuple[float, 
         stiffness = 0.0
     else:
         # Both valves shut: the excess at pressure q is convex and decreasing in q; Newton
-        # from either side.
+        # from either side. It stops once a step is below NEWTON_DONE: the next would be
+        # of its square's order, so the pressure is as exact as one more power would make
+        # it, and the slope at the last point is carried to the new one to first order
+        # instead of a power more (a power costs as much as several nodes' update; the
+        # shut barrel took four a step before, about a fifth of a fluid pound's march).
         q = min(max(p, ri), 1.0)
+        expanded = gas * (ri / q) ** inv_gamma
         for _ in range(30):
-            expanded = gas * (ri / q) ** inv_gamma
             f = liquid + expanded - delta * (q - ri) / span - volume
             slope = -expanded * inv_gamma / q - delta / span
             step = min(max(q - f / slope, ri), 1.0)
-            done = abs(step - q) < 1e-14
-            q = step
-            if done:
+            moved = step - q
+            if abs(moved) < NEWTON_DONE:
+                expanded *= 1.0 - inv_gamma * moved / q
+                q = step
                 break
+            q = step
+            expanded = gas * (ri / q) ** inv_gamma
         p = q
-        slope = -gas * inv_gamma * (ri / q) ** inv_gamma / q - delta / span
+        slope = -expanded * inv_gamma / q - delta / span
         stiffness = -fo / (span * slope)
     state[1], state[2], state[3] = liquid, gas, p
     return fo * (1.0 - p) / span, stiffness
