@@ -45,7 +45,6 @@ from ..rods import (
 )
 from .system import (
     ELEMENTS,
-    ESTIMATE_TOL,
     QUANTITIES,
     SEARCH_ELEMENTS,
     START_INTAKE_RATIO,
@@ -69,6 +68,11 @@ LR_TWO = 5.991
 #: A second-order march's error against the continuous string, per unit of its change from
 #: N to 2N elements: e_N = (4/3) (q_N - q_2N).
 RICHARDSON = 4.0 / 3.0
+#: The finer march of :func:`discretization_errors` stops when its stroke repeats to this
+#: (of the load range): the change it measures is about 1e-3 of the range, so this leaves
+#: it within about 1 %. Measured on 40 simulated cards against 1e-7: every parameter's and
+#: quantity's estimate within 2.6 %, 3.8 strokes of the finer march instead of 5.3.
+DISCRETIZATION_TOL = 1e-5
 #: The solver's noise test (see :class:`pumpid.LevenbergMarquardt`): stop when a full
 #: Gauss-Newton step would gain less than this fraction of the residual variance, i.e. the
 #: answer is within sqrt(2 x NOISE_TOL) = 0.045 standard errors of the optimum. The
@@ -535,7 +539,7 @@ def discretization_errors(surface: SurfaceCard, model: PumpSystem,
         return {}
     names = model.param_names()
     values = np.array([res.params[n] for n in names])
-    fine = PumpSystem(surface, elements=2 * model.elements, tol=ESTIMATE_TOL)
+    fine = PumpSystem(surface, elements=2 * model.elements, tol=DISCRETIZATION_TOL)
     fine.start_from(model)
     coarse_load, _ = model.simulate(values, surface, False)
     fine_load, _ = fine.simulate(values, surface, False)

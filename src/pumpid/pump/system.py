@@ -72,9 +72,7 @@ ELEMENTS = 30
 SEARCH_ELEMENTS = 15
 #: Stop a march when the stroke repeats to this (of the load range; see
 #: :func:`pumpid.rods.march.march`), for estimates that need the stroke to a few digits
-#: only: the march's own error (:func:`pumpid.pump.identify.discretization_errors`,
-#: about 1e-3 of the range) and the pump quantities' slopes for their errors
-#: (:meth:`PumpSystem.derived`).
+#: only: the pump quantities' slopes for their errors (:meth:`PumpSystem.derived`).
 ESTIMATE_TOL = 1e-7
 #: Stop a march when the stroke repeats to this (of the load range): its end state is its
 #: start state, or its surface load the stroke before's.
