@@ -222,6 +222,22 @@ def march(sf: Array, factor: int, stiff: Array, mass: Array, c: float, dt: float
             force = t_prev - pload
             new[e] = (force * r_pump + 2.0 * u[e] - (1.0 - damp) * u_prev[e]
                       + kp * r_pump * u[e]) / (1.0 + damp + kp * r_pump)
+            if kp > 0.0:
+                # A valve that opens within the step: the spring's load stops at the open
+                # valve's (the fluid load, or none), so the step is the implicit one with
+                # the load clipped there, whose root is unique. Extrapolated past it, the
+                # load kicked the plunger by an amount that depended on where in the step
+                # the valve opened: the march's stroke was not a continuous function of its
+                # start, and a fluid pound could repeat two strokes 1e-3 to 1e-2 of the
+                # load range apart (from rest and from a nearby stroke), which made the
+                # solver crawl between them.
+                reached = pload + kp * (new[e] - u[e])
+                if reached > pump[0]:
+                    new[e] = ((t_prev - pump[0]) * r_pump + 2.0 * u[e]
+                              - (1.0 - damp) * u_prev[e]) / (1.0 + damp)
+                elif reached < 0.0:
+                    new[e] = (t_prev * r_pump + 2.0 * u[e] - (1.0 - damp) * u_prev[e]) \
+                        / (1.0 + damp)
             for i in range(e + 1):
                 u_prev[i] = u[i]
                 u[i] = new[i]
