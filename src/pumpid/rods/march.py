@@ -30,7 +30,7 @@ Array = NDArray[np.float64]
 #: discharge pressure).
 PUMP_STATE = ("floor", "liquid", "gas", "pressure")
 #: A march whose change has not halved over this many strokes stops: the stroke does not
-#: repeat (a pump alternating between two fillings, say). A damped string's transient falls
+#: repeat (an undamped string, whose free vibration never dies out). A damped string's transient falls
 #: geometrically; the slowest periodic march seen (gas at nu 0.05) still fell 18-fold over
 #: 20 strokes, while a non-repeating one stays within a few per cent of its level for
 #: hundreds of strokes.
