@@ -30,10 +30,10 @@ Array = NDArray[np.float64]
 #: discharge pressure).
 PUMP_STATE = ("floor", "liquid", "gas", "pressure")
 #: A march whose change has not halved over this many strokes stops: the stroke does not
-#: repeat (an undamped string, whose free vibration never dies out). A damped string's transient falls
-#: geometrically; the slowest periodic march seen (gas at nu 0.05) still fell 18-fold over
-#: 20 strokes, while a non-repeating one stays within a few per cent of its level for
-#: hundreds of strokes.
+#: repeat (an undamped string, whose free vibration never dies out). A damped string's
+#: transient falls geometrically; the slowest periodic march seen (gas at nu 0.05) still
+#: fell 18-fold over 20 strokes, while a non-repeating one stays within a few per cent of
+#: its level for hundreds of strokes.
 STALL = 20
 #: The shut barrel's Newton iteration stops at a step (in the pressure over the discharge
 #: pressure) below this; the pressure is then within about 1e-12 of exact. Against a
