@@ -87,3 +87,18 @@ def test_a_fluid_pound_repeats_one_stroke_from_any_start() -> None:
     near[3] *= 1.1  # the intake ratio
     strokes = [m.run(v, warm, 1e-12).out[0] for warm in (None, m.run(near, None, 1e-12))]
     assert np.max(np.abs(strokes[0] - strokes[1])) < 1e-8 * np.ptp(strokes[0])
+
+
+def test_a_full_pump_s_intake_ratio_moves_nothing(pound) -> None:
+    # Without gas (a liquid fraction of 1) the barrel's load is the liquid's spring alone,
+    # whatever the intake ratio: its derivative is zero, not the march's rounding.
+    surface, v, _pred = pound
+    full = v.copy()
+    full[2] = 1.0
+    m = PumpSystem(surface, 15, derive=False)
+    _load, jac = m.simulate(full, None, True)
+    assert np.all(jac[:, 3] == 0.0)
+    assert np.all(np.abs(jac[:, [0, 1, 2, 4]]).max(axis=0) > 0)
+    # With gas it does move the card.
+    _load, jac = m.simulate(v, None, True)
+    assert np.abs(jac[:, 3]).max() > 0
