@@ -20,7 +20,9 @@ by the delta method.
 
 The march treats the pump's spring (the barrel's content while both valves are shut)
 implicitly: a stiff transfer (a few centimetres of travel for the whole fluid load) is
-beyond the explicit step's stability limit and would make the stroke never repeat.
+beyond the explicit step's stability limit and would make the stroke never repeat. A valve
+that opens within a step stops the spring's load at the open valve's, so the periodic
+stroke is a continuous function of where the march starts (one stroke, not two).
 
 Sensitivities are forward differences of the march, each perturbed march started from the
 unperturbed one's final state (a warm start): it is then periodic again within a few
