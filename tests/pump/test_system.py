@@ -52,7 +52,6 @@ def test_the_march_converges_to_the_string_it_stands_for(pound) -> None:
     assert diff < 1e-6 and diff < 1e-3 * err[30]
 
 
-
 def test_a_stroke_marched_once_is_not_marched_again_for_its_offset(pound) -> None:
     # The solver evaluates each start after the start has marched it, with the offset
     # levelled and the positive parameters back from its log scale (a few bits off).
