@@ -268,7 +268,7 @@ class PumpSystem(OwnModel):
         else from the last march)."""
         values = np.asarray(values, dtype=float)
         tol = self.tol if tol is None else tol
-        kept = self._kept(values)
+        kept = self._runs.get(_march_key(values))
         if kept is not None:
             # The stroke these values already gave: a nonlinear pump may settle into another
             # stroke from another start, and a fit's answer is the stroke it was fitted with.
@@ -289,10 +289,6 @@ class PumpSystem(OwnModel):
                                       f"strokes (last change {got.change:.2g} of the load "
                                       "range)")
         return got
-
-    def _kept(self, values: Array) -> Run | None:
-        """The stroke kept for ``values``, if any (see :func:`_march_key`)."""
-        return self._runs.get(_march_key(values))
 
     def _neighbour(self, values: Array, j: int, change: float) -> Run | None:
         """Where a march at ``values`` with parameter j moved by ``change`` starts: predicted

@@ -232,12 +232,10 @@ def march(sf: Array, factor: int, stiff: Array, mass: Array, c: float, dt: float
                 # load range apart (from rest and from a nearby stroke), which made the
                 # solver crawl between them.
                 reached = pload + kp * (new[e] - u[e])
-                if reached > pump[0]:
-                    new[e] = ((t_prev - pump[0]) * r_pump + 2.0 * u[e]
+                if reached > pump[0] or reached < 0.0:
+                    held = min(max(reached, 0.0), pump[0])
+                    new[e] = ((t_prev - held) * r_pump + 2.0 * u[e]
                               - (1.0 - damp) * u_prev[e]) / (1.0 + damp)
-                elif reached < 0.0:
-                    new[e] = (t_prev * r_pump + 2.0 * u[e] - (1.0 - damp) * u_prev[e]) \
-                        / (1.0 + damp)
             for i in range(e + 1):
                 u_prev[i] = u[i]
                 u[i] = new[i]
