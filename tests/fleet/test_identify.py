@@ -148,3 +148,77 @@ def test_identifying_batches_default_to_small_partitions(tmp_path: Path) -> None
         options = ResultsStore.options_of(out)
         assert options is not None and options["partition_size"] == size
     assert IDENTIFY_PARTITION_SIZE < PARTITION_SIZE
+
+
+@pytest.fixture(scope="module")
+def pump_only(identified, tmp_path_factory: pytest.TempPathFactory) -> pd.DataFrame:
+    """The same field batched with ``--pump-only``: no lumped model fitted."""
+    root, _, _ = identified
+    out = tmp_path_factory.mktemp("pump-only") / "results"
+    run_batch([root / "field"], out, partition_size=PARTS,
+              downhole=DownholeSpec.load(root / "wells.json", lumped=False))
+    return read_results(out)
+
+
+def test_pump_only_rows_are_the_identification(identified, pump_only) -> None:
+    _, _, both = identified
+    table = pump_only
+    # no lumped model: no parameter or derived columns, the fit's columns the pump's
+    assert not [c for c in table.columns if c.startswith(("p_", "d_"))]
+    assert set(table["model"]) == {"rod string and pump"}
+    assert set(table["observe"]) == {"polished-rod load"}
+    assert table["status"].tolist() == table["identify_status"].tolist()
+    assert table["reason"].tolist() == table["identify_reason"].tolist()
+    ok = table["identify_status"] != "invalid-input"
+    assert (table.loc[ok, "r2"] == table.loc[ok, "pump_r2"]).all()
+    # the identification's evaluations (pumpid.pump.PumpFit.evaluations), nulls elsewhere
+    assert (table.loc[ok, "nfev"] > 0).all() and table.loc[ok, "nfev"].sum() > 4 * 3 * CARDS
+    assert table.loc[~ok, "r2"].isna().all()
+    assert "STRAY" in table.loc[~ok, "reason"].iloc[0]
+    # the pump's columns are the ones the run with the lumped fits gives, to the bit
+    pump = [c for c in both.columns if c.startswith(("pump_", "identify_", "downhole_"))]
+    pd.testing.assert_frame_equal(table[["card_id", *pump]], both[["card_id", *pump]])
+    # the change detector finds the same pump alerts (its threshold is higher with the
+    # lumped quantities tested too: the false-alarm rate is split among more of them)
+    found = ["well_id", "quantity", "direction", "first_index", "alarm_index"]
+    got = detect_changes(table)
+    want = detect_changes(both)
+    assert set(got["kind"]) == {"pump"}
+    pd.testing.assert_frame_equal(got[found].reset_index(drop=True),
+                                  want.loc[want["kind"] == "pump", found].reset_index(drop=True))
+
+
+def test_pump_only_is_kept_on_resume_and_checked(identified, tmp_path: Path) -> None:
+    root, _, _ = identified
+    wells = root / "wells.json"
+    with pytest.raises(ValueError, match=r"--pump-only.*--no-identify"):
+        DownholeSpec.load(wells, identify=False, lumped=False)
+    spec = DownholeSpec.load(wells, lumped=False)
+    assert DownholeSpec.from_dict(spec.to_dict()) == spec
+    # a manifest from before --pump-only: the lumped model was fitted too
+    old = {k: v for k, v in spec.to_dict().items() if k != "lumped"}
+    assert DownholeSpec.from_dict(old).lumped is True
+    card = root / "field" / "X_STRAY.json"
+    out = tmp_path / "r"
+    run_batch([card], out, downhole=spec)
+    with pytest.raises(ResultsFolderError, match="downhole"):
+        run_batch([card], out, resume=True, downhole=DownholeSpec.load(wells))
+    run_batch([card], out, resume=True)  # the run's own options
+    assert read_results(out)["model"].tolist() == ["rod string and pump"]
+
+
+@pytest.mark.parametrize(("extra", "words"), [
+    (["--pump-only"], "need --well-file"),
+    (["--well-file", "WELLS", "--pump-only", "--no-identify"], "--no-identify"),
+    (["--well-file", "WELLS", "--pump-only", "--model", "msd"], "leave out --model"),
+])
+def test_pump_only_options_refused_with_the_reason(identified, tmp_path: Path, capsys,
+                                                   extra: list[str], words: str) -> None:
+    from pumpid.cli.main import main
+
+    root, _, _ = identified
+    args = [str(root / "wells.json") if a == "WELLS" else a for a in extra]
+    code = main(["batch", str(root / "field" / "X_STRAY.json"), "--out",
+                 str(tmp_path / "r"), *args])
+    assert code == 2 and words in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()

@@ -341,3 +341,22 @@ def test_the_quantities_errors_are_the_delta_method_over_the_fit(made, index: in
     expected = np.sqrt(np.einsum("ai,ab,bi->i", grad, np.array(cov["matrix"]), grad))
     for k, q in enumerate(("fillage", "gross_stroke")):
         assert fit.derived[q].stderr_white == pytest.approx(expected[k], rel=0.05)
+
+
+def test_evaluations_count_every_fit_of_the_identification(made, monkeypatch) -> None:
+    import pumpid.pump.identify as identify_module
+
+    well, _pred, _fluid, fits = made
+    spent: list[int] = []
+    real_fit = identify_module.fit
+
+    def counted(*args, **kwargs):
+        res = real_fit(*args, **kwargs)
+        spent.append(res.nfev)
+        return res
+
+    monkeypatch.setattr(identify_module, "fit", counted)
+    got = identify_card(fits[1].card, well)
+    assert len(spent) >= 2  # the search, then the final fit
+    assert got.evaluations == sum(spent) > got.fit.nfev
+    assert got.to_dict()["evaluations"] == got.evaluations

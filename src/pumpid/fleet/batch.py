@@ -40,6 +40,7 @@ import pyarrow as pa
 
 from pumpid import interrupts
 from pumpid.models import Model
+from pumpid.pump import PumpSystem
 from pumpid.pump.runner import FitSpec, fit_cards_each
 from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
 from pumpid.result import CardInfo
@@ -70,17 +71,30 @@ def _utc(value: Any) -> pd.Timestamp | None:
     return stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
 
 
-def _card_row(item: CardItem, result: Any, reason: str, status: str | None,
-              cls: type[Model], spec: FitSpec) -> dict[str, Any]:
+def _fit_card_row(item: CardItem, result: Any, reason: str, status: str | None,
+                  cls: type[Model], spec: FitSpec) -> dict[str, Any]:
     card = item.card
     if result is not None:
-        row = fit_row(result)
-    else:
-        row = unfitted_row(None, model=cls.__name__,
-                           observe=spec.options.get("observe") or cls.default_output,
-                           status=status or "invalid-input", reason=reason,
-                           n_samples=card.n, position_unit=card.position_unit,
-                           load_unit=card.load_unit)
+        return _card_row(item, fit_row(result))
+    return _card_row(item, unfitted_row(
+        None, model=cls.__name__, observe=spec.options.get("observe") or cls.default_output,
+        status=status or "invalid-input", reason=reason, n_samples=card.n,
+        position_unit=card.position_unit, load_unit=card.load_unit))
+
+
+def _pump_only_row(item: CardItem) -> dict[str, Any]:
+    """A card's row before its pump is identified (``--pump-only``: the identification
+    then fills the fit's columns, pumpid.fleet.downhole)."""
+    card = item.card
+    return _card_row(item, unfitted_row(
+        None, model=PumpSystem.name, observe=PumpSystem.output, status="failed",
+        reason="the pump was not identified", n_samples=card.n,
+        position_unit=card.position_unit, load_unit=card.load_unit))
+
+
+def _card_row(item: CardItem, row: dict[str, Any]) -> dict[str, Any]:
+    """``row`` with the card's identity, time and reading warnings."""
+    card = item.card
     meta = card.metadata
     stamp = meta.get("time", meta.get("timestamp"))
     time_value = _utc(stamp)
@@ -134,12 +148,16 @@ def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: i
     for i, item in enumerate(items):
         if not isinstance(item, CardItem):
             rows[i] = _bad_row(item, cls, spec)
-    outcomes = fit_cards_each([items[i].card for i in idx], spec,  # type: ignore[union-attr]
-                              workers=threads)
-    for i, got in zip(idx, outcomes, strict=True):
-        status = None if got.result is not None else got.status
-        rows[i] = _card_row(items[i], got.result, got.reason, status, cls,  # type: ignore[arg-type]
-                            spec)
+    if downhole is not None and not downhole.lumped:
+        for i in idx:
+            rows[i] = _pump_only_row(items[i])  # type: ignore[arg-type]
+    else:
+        outcomes = fit_cards_each([items[i].card for i in idx],  # type: ignore[union-attr]
+                                  spec, workers=threads)
+        for i, got in zip(idx, outcomes, strict=True):
+            status = None if got.result is not None else got.status
+            rows[i] = _fit_card_row(items[i], got.result, got.reason,  # type: ignore[arg-type]
+                                    status, cls, spec)
     if downhole is not None:  # the pump quantities (pumpid.fleet.downhole)
         add_pump_columns(items, rows, downhole, threads=threads)
     out: list[dict[str, Any]] = []
@@ -326,7 +344,8 @@ def run_batch(
     except BaseException:
         runner.close()
         raise
-    schema = results_schema(fit.model_classes())
+    pump_only = downhole is not None and not downhole.lumped
+    schema = results_schema(() if pump_only else fit.model_classes())
     if downhole is not None:
         schema = pump_schema(schema, identify=downhole.identify)
     summary = BatchSummary(results=folder)

@@ -49,6 +49,14 @@ Columns added by the identification:
 ``pump_r2``, ``pump_residual_rho``
     The surface-load fit's R^2 and its residuals' lag-1 autocorrelation.
 
+With ``lumped=False`` (``--pump-only``) no lumped model is fitted: the row's fit columns
+are the identification's (``model`` is ``rod string and pump``, ``observe`` the
+polished-rod load; ``status``, ``reason``, ``r2``, ``rmse``, ``cost`` those of
+``identify_status``'s fit, ``nfev`` the identification's model evaluations, its searches'
+included) and the table has no ``p_`` or ``d_`` columns. The lumped fit is
+most of a card's time beside the identification: leaving it out more than doubles the
+cards a second.
+
 A one-well file applies to every card; otherwise a card is matched to its well by its well
 id (:meth:`pumpid.rods.WellFile.for_card`).
 
@@ -74,7 +82,7 @@ import pandas as pd
 import pyarrow as pa
 
 from pumpid.engine.threads import run_chunks
-from pumpid.pump import PumpFit, identify_cards
+from pumpid.pump import PumpFit, PumpSystem, identify_cards
 from pumpid.pump.identify import SHOWN
 from pumpid.rods import DownholeResult, WellFile, diagnose_cards, read_well_file
 
@@ -124,6 +132,10 @@ class DownholeSpec:
     identify : bool
         Identify each card's pump (:func:`pumpid.pump.identify_cards`); False: the
         diagnostic pump card only.
+    lumped : bool
+        Also fit the lumped model to each card (the row's fit columns, as without a well
+        file). False (``--pump-only``): the pump's identification is the row's fit (see
+        :func:`add_pump_columns`); needs ``identify``.
     """
 
     well_file: str
@@ -132,11 +144,16 @@ class DownholeSpec:
     damping: float | None = None
     harmonics: int | None = None
     identify: bool = True
+    lumped: bool = True
 
     @classmethod
     def load(cls, well_file: str | os.PathLike[str], *, damping: float | None = None,
-             harmonics: int | None = None, identify: bool = True) -> DownholeSpec:
+             harmonics: int | None = None, identify: bool = True,
+             lumped: bool = True) -> DownholeSpec:
         """Read the well file and check the options (WellError / ValueError naming them)."""
+        if not lumped and not identify:
+            raise ValueError("--pump-only makes the pump's identification each card's fit: "
+                             "it cannot go with --no-identify")
         if damping is not None and not (np.isfinite(damping) and damping >= 0):
             raise ValueError(f"--damping must be a non-negative number, got {damping}")
         if identify and damping == 0:
@@ -150,20 +167,23 @@ class DownholeSpec:
         wells = read_well_file(path)
         digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
         return cls(well_file=path, wells=wells, digest=digest, damping=damping,
-                   harmonics=harmonics, identify=bool(identify))
+                   harmonics=harmonics, identify=bool(identify), lumped=bool(lumped))
 
     def to_dict(self) -> dict[str, Any]:
         """The manifest's form."""
         return {"well_file": self.well_file, "sha256": self.digest, "damping": self.damping,
-                "harmonics": self.harmonics, "identify": self.identify}
+                "harmonics": self.harmonics, "identify": self.identify,
+                "lumped": self.lumped}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> DownholeSpec:
         """The spec of :meth:`to_dict`'s form, the well file read again (a manifest that
-        does not say ``identify`` is from before identification: diagnostic only)."""
+        does not say ``identify`` is from before identification: diagnostic only; one that
+        does not say ``lumped`` fitted the lumped model too)."""
         return cls.load(str(data["well_file"]), damping=data.get("damping"),
                         harmonics=data.get("harmonics"),
-                        identify=bool(data.get("identify", False)))
+                        identify=bool(data.get("identify", False)),
+                        lumped=bool(data.get("lumped", True)))
 
 
 def pump_schema(base: pa.Schema, identify: bool = False) -> pa.Schema:
@@ -236,6 +256,8 @@ def add_pump_columns(items: Sequence[CardItem | BadItem], rows: list[dict[str, A
         _diagnostic_columns(row, res, spec.identify)
         if spec.identify:
             _identified_columns(row, fits[k])
+        if not spec.lumped:
+            _fit_columns(row, fits[k])
 
 
 def _add_warning(row: dict[str, Any], warning: str) -> None:
@@ -295,6 +317,17 @@ def _identified_columns(row: dict[str, Any], fit: PumpFit | None) -> None:
     if fit.notes:
         row["downhole_notes"] = " | ".join(
             n for n in (row.get("downhole_notes") or "", *fit.notes) if n)
+
+
+def _fit_columns(row: dict[str, Any], fit: PumpFit | None) -> None:
+    """``--pump-only``: the identification is the row's fit (status, reason, R^2, ...)."""
+    if fit is None:  # not reached: every readable card is identified
+        return
+    row.update(model=PumpSystem.name, observe=PumpSystem.output, status=fit.status,
+               reason=fit.reason)
+    if fit.fit is not None:
+        row.update(r2=_finite(fit.fit.r2), rmse=_finite(fit.fit.rmse),
+                   cost=_finite(fit.fit.cost), nfev=fit.evaluations)
 
 
 # --------------------------------------------------------------------------- trending

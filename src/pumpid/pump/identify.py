@@ -136,6 +136,9 @@ class PumpFit:
         The march's own error in each parameter and pump quantity (in its unit), estimated
         from a march with twice the elements (see :func:`discretization_errors`); the errors
         shown include it.
+    evaluations : int
+        Model evaluations of the whole identification: the searches' and the final fit's
+        (``fit.nfev`` counts the final fit's alone).
     notes : tuple of str
     """
 
@@ -151,6 +154,7 @@ class PumpFit:
     consistency: float = math.nan
     full_pump: bool = False
     discretization: dict[str, float] = field(default_factory=dict)
+    evaluations: int = 0
     notes: tuple[str, ...] = field(default=())
 
     @property
@@ -255,6 +259,7 @@ class PumpFit:
                                "determined": n in f.determined.get("parameters", ())}
                            for n, v in f.params.items()},
             "full_pump": self.full_pump,
+            "evaluations": self.evaluations,
             "agreement": _num(self.agreement),
             "consistency": _num(self.consistency),
             "energy": self.energy(),
@@ -277,16 +282,19 @@ def _stderr(result: FitResult | None, name: str) -> float:
     return math.nan if value is None else float(value)
 
 
-def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, FitResult, bool]:
+def _fit_one(surface: SurfaceCard, damping: float | None
+             ) -> tuple[PumpSystem, FitResult, bool, int]:
     """Search on the coarse march (:data:`SEARCH_ELEMENTS`), then fit the model's own march
     (:data:`ELEMENTS`) from the search's answer.
 
-    Returns the fitted model, its fit and whether it is the full pump.
+    Returns the fitted model, its fit, whether it is the full pump and the model
+    evaluations of the searches and the fits.
     """
     search = PumpSystem(surface, SEARCH_ELEMENTS, derive=False)
     final: FitResult | None = None
+    spent = 0
     try:
-        found, fixed, full = _search(search, surface, damping)
+        found, fixed, full, spent = _search(search, surface, damping)
     except (ValueError, ArithmeticError):
         pass  # no start reaches a periodic stroke of the coarse march: see below
     else:
@@ -297,6 +305,8 @@ def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, F
                         solver=SOLVER)
         except (ValueError, ArithmeticError):
             final = None
+        else:
+            spent += final.nfev
     if final is None or str(final.status) == "failed":
         # The coarse march found nothing, or the model's march reaches no periodic stroke
         # at the search's answer or beside it, from the search's stroke nor from rest (a
@@ -304,16 +314,18 @@ def _fit_one(surface: SurfaceCard, damping: float | None) -> tuple[PumpSystem, F
         # the model's march itself, from its own starts, each march starting from the one
         # before.
         model = PumpSystem(surface, ELEMENTS, derive=False)
-        found, fixed, full = _search(model, surface, damping)
+        found, fixed, full, more = _search(model, surface, damping)
         model.derive = True
         final = fit(model, surface, options=FitOptions(fixed=fixed), x0=found, solver=SOLVER)
-    return model, final, full
+        spent += more + final.nfev
+    return model, final, full, spent
 
 
 def _search(model: PumpSystem, surface: SurfaceCard, damping: float | None
-            ) -> tuple[Array, dict[str, float], bool]:
+            ) -> tuple[Array, dict[str, float], bool, int]:
     """The optimum of ``model`` from its automatic start (the damping held if given), as a
-    full pump when that fits as well: the values, the parameters held, and whether full."""
+    full pump when that fits as well: the values, the parameters held, whether full, and
+    the model evaluations spent."""
     fixed = {} if damping is None else {"damping": float(damping)}
     x0 = None
     if damping is not None:
@@ -323,7 +335,7 @@ def _search(model: PumpSystem, surface: SurfaceCard, damping: float | None
     quick = FitOptions(fixed=fixed, boundaries=False)
     res = fit(model, surface, options=quick, x0=x0, solver=SEARCH_SOLVER)
     if not res.params["liquid_fraction"] >= FULL_PUMP:
-        return _values(res), fixed, False
+        return _values(res), fixed, False, res.nfev
     # Nearly full: fitted again as a full pump (no gas, so the intake ratio moves nothing;
     # both held), kept when it fits as well (likelihood ratio, 95 %, two parameters fewer).
     start = _values(res)
@@ -334,12 +346,14 @@ def _search(model: PumpSystem, surface: SurfaceCard, damping: float | None
         full = fit(model, surface, options=quick.replace(fixed=held), x0=start,
                solver=SEARCH_SOLVER)
     except (ValueError, ArithmeticError):
-        return _values(res), fixed, False  # no periodic full-pump stroke: the free fit stands
+        # No periodic full-pump stroke: the free fit stands.
+        return _values(res), fixed, False, res.nfev
     n, q = np.asarray(res.data).size, len(res.free)
     sigma2 = 2.0 * res.cost / max(n - q, 1)
+    spent = res.nfev + full.nfev
     if math.isfinite(full.cost) and 2.0 * (full.cost - res.cost) <= LR_TWO * sigma2:
-        return _values(full), held, True
-    return _values(res), fixed, False
+        return _values(full), held, True, spent
+    return _values(res), fixed, False, spent
 
 
 def _values(res: FitResult) -> Array:
@@ -394,13 +408,13 @@ def _identify(card: Card, well: Well | Exception, damping: float | None,
     except ValueError as exc:
         return PumpFit(card=card, status="invalid-input", reason=str(exc), well=well)
     try:
-        model, res, full = _fit_one(surface, damping)
+        model, res, full, spent = _fit_one(surface, damping)
     except MemoryError:
         raise
     except (ValueError, ArithmeticError) as exc:
         return PumpFit(card=card, status="failed", well=well,
                        reason=f"the system model could not be fitted: {exc}")
-    return _finish(card, well, surface, model, res, full, damping, diag)
+    return _finish(card, well, surface, model, res, full, damping, diag, spent)
 
 
 def identify_card(card: Card, well: Well | WellFile, **options: Any) -> PumpFit:
@@ -409,7 +423,7 @@ def identify_card(card: Card, well: Well | WellFile, **options: Any) -> PumpFit:
 
 
 def _finish(card: Card, well: Well, surface: SurfaceCard, model: PumpSystem, res: FitResult,
-            full: bool, damping: float | None, diag: dict[str, Any]) -> PumpFit:
+            full: bool, damping: float | None, diag: dict[str, Any], spent: int) -> PumpFit:
     notes = list(surface.notes)
     try:
         grid_error = discretization_errors(surface, model, res)
@@ -456,7 +470,7 @@ def _finish(card: Card, well: Well, surface: SurfaceCard, model: PumpSystem, res
     return PumpFit(card=card, status=str(res.status), discretization=grid_error,
                    reason=res.reason, well=well, fit=res, model=model, downhole=down,
                    damping_rule=rule, agreement=agreement, consistency=consistency,
-                   full_pump=full,
+                   full_pump=full, evaluations=spent,
                    notes=tuple(dict.fromkeys(notes)))
 
 
