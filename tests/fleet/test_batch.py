@@ -322,3 +322,18 @@ def test_reasons_are_grouped_by_kind() -> None:
     a = reason_kind("card 'W1_2024': NaN value in load_lbf (sample 33)")
     b = reason_kind("card 'W7_2023': NaN value in load_lbf (sample 4)")
     assert a == b == "card '…': NaN value in load_lbf (sample N)"
+
+
+def test_process_engine_reports_a_dead_worker_and_checks_its_options() -> None:
+    from pumpid.fleet.engines import EngineError, make_engine
+
+    with pytest.raises(ValueError, match="--engine dask"):
+        make_engine("processes", scheduler="tcp://127.0.0.1:1")
+    engine = make_engine("processes", workers=1)
+    try:
+        assert (engine.threads, engine.capacity) == (1, 2)
+        assert engine.result(engine.submit(divmod, 7, 2)) == (3, 1)
+        with pytest.raises(EngineError, match="worker process died"):
+            engine.result(engine.submit(os._exit, 1))
+    finally:
+        engine.close()

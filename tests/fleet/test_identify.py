@@ -222,3 +222,15 @@ def test_pump_only_options_refused_with_the_reason(identified, tmp_path: Path, c
                  str(tmp_path / "r"), *args])
     assert code == 2 and words in capsys.readouterr().err
     assert not (tmp_path / "r").exists()
+
+
+def test_worker_processes_give_the_same_table(identified, pump_only, tmp_path: Path) -> None:
+    # The partitions go to two worker processes (one thread each) instead of this
+    # process's threads: every row the same, to the bit.
+    root, _, _ = identified
+    out = tmp_path / "processes"
+    summary = run_batch([root / "field"], out, partition_size=PARTS, engine="processes",
+                        workers=2, downhole=DownholeSpec.load(root / "wells.json",
+                                                              lumped=False))
+    assert summary.engine == "processes (2 worker processes)"
+    pd.testing.assert_frame_equal(read_results(out), pump_only)

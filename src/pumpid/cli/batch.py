@@ -209,14 +209,16 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                    help="also write the table as CSV (default path: RESULTS.csv beside the "
                         "folder)")
     run = p.add_argument_group("engine")
-    run.add_argument("--engine", default="local", choices=["local", "dask"],
-                     help="local: this process on every core (default); dask: "
-                          "dask.distributed (pip install \"pumpid[fleet]\")")
+    run.add_argument("--engine", default="local", choices=["local", "processes", "dask"],
+                     help="local: this process on every core (default); processes: a "
+                          "worker process per core (faster where much of a fit is "
+                          "Python, as with --well-file); dask: dask.distributed (pip "
+                          "install \"pumpid[fleet]\")")
     run.add_argument("--scheduler", metavar="ADDRESS",
                      help="with --engine dask: a running scheduler (else a LocalCluster)")
     run.add_argument("--workers", type=int,
-                     help="local: threads; dask LocalCluster: worker processes (default: "
-                          "one per core)")
+                     help="local: threads; processes and dask LocalCluster: worker "
+                          "processes (default: one per core)")
     run.add_argument("--partition-size", type=int, metavar="N",
                      help=f"cards per partition and results file (default {PARTITION_SIZE}; "
                           f"{IDENTIFY_PARTITION_SIZE} when --well-file identifies pumps)")

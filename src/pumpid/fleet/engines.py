@@ -9,6 +9,12 @@ engine, from its name:
     Threads of this process. Partitions are fitted one after another, each by
     :func:`pumpid.fit` on every core (its compiled passes release the GIL), while
     the run reads the next partition and writes the last one.
+``"processes"`` (:class:`ProcessEngine`)
+    Worker processes of this machine (one per core, or as many as asked), each fitting
+    one partition at a time on one thread. About a third of an identified pump's work, and
+    more of a lumped fit's, is Python that holds the interpreter's lock, so two threads of
+    one process do not make two cores' work; two processes do. The cards travel to the
+    workers with the task and the rows come back, as on Dask, without Dask's scheduler.
 ``"dask"`` (:class:`DaskEngine`)
     A ``dask.distributed`` cluster: an existing one by its scheduler's address, else a
     ``LocalCluster`` of single-threaded worker processes (one per core, or as many as
@@ -25,16 +31,19 @@ from __future__ import annotations
 import concurrent.futures as cf
 import logging
 import math
+import multiprocessing
+import signal
 import time
 from collections.abc import Callable, Iterable
 from typing import Any, Protocol
 
 from pumpid.engine.threads import default_workers
 
-__all__ = ["ENGINES", "DaskEngine", "Engine", "EngineError", "LocalEngine", "make_engine"]
+__all__ = ["ENGINES", "DaskEngine", "Engine", "EngineError", "LocalEngine", "ProcessEngine",
+           "make_engine"]
 
 #: Engine names :func:`make_engine` knows.
-ENGINES = ("local", "dask")
+ENGINES = ("local", "processes", "dask")
 
 
 class EngineError(RuntimeError):
@@ -98,6 +107,56 @@ class LocalEngine:
 
     def result(self, handle: cf.Future[Any]) -> Any:
         return handle.result()
+
+    def cancel(self, handles: Iterable[cf.Future[Any]]) -> None:
+        for h in handles:
+            h.cancel()
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _ignore_interrupts() -> None:
+    """A worker process leaves Ctrl-C to the run: it finishes the partition it holds (the
+    run then writes it, or drops it at a second Ctrl-C)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class ProcessEngine:
+    """Partitions fitted by worker processes of this machine, one partition each at a time.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Worker processes; default: one per core this process may use.
+
+    The workers are forked from a server process that has imported pumpid once (the
+    ``forkserver`` start method: no threads of the run are copied into them); each loads
+    the compiled code from its cache on its first partition.
+    """
+
+    def __init__(self, workers: int | None = None) -> None:
+        n = default_workers() if workers is None else max(1, int(workers))
+        context = multiprocessing.get_context("forkserver")
+        context.set_forkserver_preload(["pumpid.fleet.batch"])
+        self._pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=context,
+                                            initializer=_ignore_interrupts)
+        self.threads = 1
+        self.capacity = 2 * n
+        self.description = f"processes ({n} worker process{'es' if n > 1 else ''})"
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> cf.Future[Any]:
+        return self._pool.submit(fn, *args)
+
+    def wait(self, handles: Iterable[cf.Future[Any]], timeout: float) -> list[cf.Future[Any]]:
+        done, _ = cf.wait(list(handles), timeout=timeout, return_when=cf.FIRST_COMPLETED)
+        return list(done)
+
+    def result(self, handle: cf.Future[Any]) -> Any:
+        try:
+            return handle.result()
+        except cf.process.BrokenProcessPool as exc:
+            raise EngineError(f"a worker process died with a partition: {exc}") from exc
 
     def cancel(self, handles: Iterable[cf.Future[Any]]) -> None:
         for h in handles:
@@ -199,11 +258,12 @@ def make_engine(name: str = "local", *, scheduler: str | None = None,
 
     Parameters
     ----------
-    name : {"local", "dask"}
+    name : {"local", "processes", "dask"}
     scheduler : str, optional
         Dask only: a running scheduler's address.
     workers : int, optional
-        Local: threads per partition. Dask: processes of the LocalCluster.
+        Local: threads per partition. Processes: worker processes. Dask: processes of the
+        LocalCluster.
 
     Returns
     -------
@@ -223,6 +283,10 @@ def make_engine(name: str = "local", *, scheduler: str | None = None,
         if scheduler is not None:
             raise ValueError("a scheduler address needs --engine dask")
         return LocalEngine(workers)
+    if name == "processes":
+        if scheduler is not None:
+            raise ValueError("a scheduler address needs --engine dask")
+        return ProcessEngine(workers)
     if name == "dask":
         return DaskEngine(scheduler, workers)
     raise ValueError(f"unknown engine {name!r}; choose one of {', '.join(ENGINES)}")
