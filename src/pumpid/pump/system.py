@@ -82,6 +82,9 @@ TOL = 1e-9
 #: The same for a perturbed march of a forward difference: its leftover transient, relative
 #: to the difference it measures (about FD_TOL / STEP), is the derivative's relative error.
 FD_TOL = 1e-8
+#: Largest change of a parameter, relative to its value, over which a march starts from the
+#: stroke the last sensitivities predict (:meth:`PumpSystem._predicted`).
+PREDICTED = 4.0
 #: Periodic strokes kept by their parameter values (the last simulated ones).
 KEPT_RUNS = 16
 #: Low bits of each parameter's binary fraction a kept stroke's key leaves out
@@ -274,7 +277,7 @@ class PumpSystem(OwnModel):
             # stroke from another start, and a fit's answer is the stroke it was fitted with.
             return kept
         if warm is None:
-            warm = self._last
+            warm = self._predicted(values)
         got = self.grid.march(self.surface.drive, self._pump(values), float(values[1]),
                               warm, MAX_CYCLES, tol, self._refined)
         if not got.change < 1e3 * tol or not np.all(np.isfinite(got.out)):
@@ -289,6 +292,28 @@ class PumpSystem(OwnModel):
                                       f"strokes (last change {got.change:.2g} of the load "
                                       "range)")
         return got
+
+    def _predicted(self, values: Array) -> Run | None:
+        """Where a march at ``values`` starts: the stroke of the last sensitivities moved by
+        their state slopes to ``values`` (its end state to first order in the change), else
+        the last march. A solver's trial point then took 7 strokes instead of 9.5 on the
+        coarse march (field cards of the demo's pump field). Beyond :data:`PREDICTED`
+        (relative to a parameter) the first order says nothing: the sensitivities' own
+        stroke, unmoved (a boundary test pushes a parameter a thousandfold)."""
+        if self._slopes_at is None:
+            return self._last
+        at, base = self._slopes_at
+        steps = {j: float(values[j] - at[j]) for j in self._slopes if values[j] != at[j]}
+        if any(abs(h) > PREDICTED * abs(at[j]) for j, h in steps.items()):
+            return base
+        run = self._step_from(base, steps)
+        state = run.state
+        # A large step can carry the barrel's contents past what they can be; held inside,
+        # the march starts from a state it can reach.
+        state[1] = max(state[1], 0.0)
+        state[2] = max(state[2], 0.0)
+        state[3] = min(max(state[3], float(values[3])), 1.0)
+        return run
 
     def _neighbour(self, values: Array, j: int, change: float) -> Run | None:
         """Where a march at ``values`` with parameter j moved by ``change`` starts: predicted
