@@ -360,3 +360,22 @@ def test_evaluations_count_every_fit_of_the_identification(made, monkeypatch) ->
     assert len(spent) >= 2  # the search, then the final fit
     assert got.evaluations == sum(spent) > got.fit.nfev
     assert got.to_dict()["evaluations"] == got.evaluations
+
+
+def test_the_solvers_check_is_made_when_asked_and_once(made, monkeypatch) -> None:
+    import pumpid.pump.identify as identify_module
+
+    well, _pred, _fluid, fits = made
+    calls: list[int] = []
+    real = identify_module.solver_difference
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(identify_module, "solver_difference", counted)
+    got = identify_card(fits[2].card, well)
+    assert calls == []  # a batch that never asks does not pay for it
+    first = got.consistency
+    assert 0 < first < 0.01 and got.consistency == first and len(calls) == 1
+    assert got.to_dict()["consistency"] == first and len(calls) == 1

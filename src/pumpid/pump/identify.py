@@ -21,8 +21,9 @@ it fits as well (a likelihood-ratio test at 95 %), and said so.
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
@@ -128,8 +129,9 @@ class PumpFit:
         the *fitted* surface load (at the fitted damping, both cards in the band of the
         harmonics that drive the march): the predictive and the diagnostic solvers on one
         surface card, so what remains is the solvers' own disagreement (mostly the march's
-        elements), not the fit's residual (NaN when not computed; see
-        :func:`solver_difference`).
+        elements), not the fit's residual (NaN when it cannot be computed; see
+        :func:`solver_difference`). Worked out when first asked for (a diagnostic card
+        more, about 4 % of an identification, that a batch does not use).
     full_pump : bool
         The card was fitted as a full pump (liquid fraction held at 1).
     discretization : dict of str to float
@@ -139,6 +141,8 @@ class PumpFit:
     evaluations : int
         Model evaluations of the whole identification: the searches' and the final fit's
         (``fit.nfev`` counts the final fit's alone).
+    check : callable or None
+        Works out ``consistency`` (None: not computable, no fitted pump card).
     notes : tuple of str
     """
 
@@ -151,11 +155,21 @@ class PumpFit:
     downhole: DownholeResult | None = None
     damping_rule: str = ""
     agreement: float = math.nan
-    consistency: float = math.nan
+    check: Callable[[], float] | None = field(default=None, repr=False)
     full_pump: bool = False
     discretization: dict[str, float] = field(default_factory=dict)
     evaluations: int = 0
     notes: tuple[str, ...] = field(default=())
+
+    @functools.cached_property
+    def consistency(self) -> float:
+        """The two solvers' difference on the fitted surface card (see the class's text)."""
+        if self.check is None:
+            return math.nan
+        try:
+            return float(self.check())
+        except (ArithmeticError, ValueError):
+            return math.nan  # the march reaches no stroke there: nothing to compare
 
     @property
     def ok(self) -> bool:
@@ -451,7 +465,8 @@ def _finish(card: Card, well: Well, surface: SurfaceCard, model: PumpSystem, res
                      "cannot move the card and is held too")
     down = diagnose_cards([card], well, damping=nu, **diag)[0]
     down = DownholeResult(**{**down.__dict__, "damping_rule": rule})
-    agreement = consistency = math.nan
+    agreement = math.nan
+    check: Callable[[], float] | None = None
     try:
         fitted_card = model.pump_card(np.array(list(res.params.values())))
     except (ArithmeticError, ValueError) as exc:
@@ -461,15 +476,12 @@ def _finish(card: Card, well: Well, surface: SurfaceCard, model: PumpSystem, res
         got = fitted_card[1] / surface.load_factor
         if down.ok and down.pump_load is not None and diag.get("convention") == "effective":
             agreement = _apart(got, down, surface)
-        try:
-            consistency = solver_difference(model, np.array(list(res.params.values())),
-                                            method=diag.get("method", "fourier"))
-        except (ArithmeticError, ValueError) as exc:
-            notes.append(f"the fitted card could not be checked against the diagnostic "
-                         f"solver: {exc}")
+        values = np.array(list(res.params.values()))
+        check = functools.partial(solver_difference, model, values,
+                                  method=diag.get("method", "fourier"))
     return PumpFit(card=card, status=str(res.status), discretization=grid_error,
                    reason=res.reason, well=well, fit=res, model=model, downhole=down,
-                   damping_rule=rule, agreement=agreement, consistency=consistency,
+                   damping_rule=rule, agreement=agreement, check=check,
                    full_pump=full, evaluations=spent,
                    notes=tuple(dict.fromkeys(notes)))
 
