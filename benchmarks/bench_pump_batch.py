@@ -13,8 +13,10 @@ card, the Parquet partitions), on the 2 cores the command finds:
 
 * ``--well-file``: the lumped model (Kelvin) and the pump, the default;
 * ``--well-file --pump-only``: the pump alone, on the local engine's threads;
-* ``--well-file --pump-only --engine dask --workers 2``: the pump alone on two worker
-  processes (the threads share one interpreter: about a third of a card's work holds it).
+* ``--well-file --pump-only --engine processes``: the pump alone on a worker process per
+  core (the threads share one interpreter: about a third of a card's work holds it);
+* ``--well-file --pump-only --engine dask --workers 2``: the same on a Dask LocalCluster;
+* ``--well-file --engine processes``: the lumped model and the pump, on worker processes.
 
 For each: the whole command's wall time and cards/s, the fitting part's cards/s as the
 command's summary gives it (from the first card read to the last row written), and the
@@ -46,8 +48,10 @@ from pumpid.rods import read_well_file
 RUNS = {
     "--well-file (lumped fit and pump)": [],
     "--well-file --pump-only": ["--pump-only"],
+    "--well-file --pump-only --engine processes": ["--pump-only", "--engine", "processes"],
     "--well-file --pump-only, dask 2 processes": ["--pump-only", "--engine", "dask",
                                                   "--workers", "2"],
+    "--well-file --engine processes": ["--engine", "processes"],
 }
 _FITTED = re.compile(r"fitted in this run in ([0-9.]+) s, ([0-9.]+) cards/s")
 
@@ -95,12 +99,12 @@ def main() -> None:
             identify_cards(cards, well_file)
             alone = min(alone, time.perf_counter() - start)
         base_rate = best[next(iter(RUNS))][1]
-        print(f"\n{'pumpid batch FIELD':<44}{'wall s':>8}{'cards/s':>9}{'fitting cards/s':>17}"
+        print(f"\n{'pumpid batch FIELD':<46}{'wall s':>8}{'cards/s':>9}{'fitting cards/s':>17}"
               f"{'ratio':>7}")
         for name, (wall, rate) in best.items():
-            print(f"{name:<44}{wall:>8.2f}{total / wall:>9.1f}{rate:>17.1f}"
+            print(f"{name:<46}{wall:>8.2f}{total / wall:>9.1f}{rate:>17.1f}"
                   f"{rate / base_rate:>7.2f}")
-        print(f"{'identify_cards alone, one thread (baseline)':<44}{alone:>8.2f}"
+        print(f"{'identify_cards alone, one thread (baseline)':<46}{alone:>8.2f}"
               f"{total / alone:>9.1f}{total / alone:>17.1f}{total / alone / base_rate:>7.2f}")
         print(f"\nratio: the fitting part's cards/s over the default run's (same field, same "
               f"run; best of {args.repeats}); wall includes the command's start (imports, "

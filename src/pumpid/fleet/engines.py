@@ -81,22 +81,10 @@ class Engine(Protocol):
         ...
 
 
-class LocalEngine:
-    """Partitions fitted in this process, one at a time on every core.
+class _PoolEngine:
+    """An engine over a :mod:`concurrent.futures` executor (``self._pool``)."""
 
-    Parameters
-    ----------
-    workers : int, optional
-        Cores (threads) for each partition's fit; default: every core this process may use.
-    """
-
-    def __init__(self, workers: int | None = None) -> None:
-        self.threads = default_workers() if workers is None else max(1, int(workers))
-        # One partition fits at a time on all threads; one more waits, already read, so the
-        # cores never idle while the run reads and writes.
-        self._pool = cf.ThreadPoolExecutor(max_workers=1, thread_name_prefix="pumpid-fit")
-        self.capacity = 2
-        self.description = f"local ({self.threads} thread{'s' if self.threads > 1 else ''})"
+    _pool: cf.Executor
 
     def submit(self, fn: Callable[..., Any], *args: Any) -> cf.Future[Any]:
         return self._pool.submit(fn, *args)
@@ -116,13 +104,30 @@ class LocalEngine:
         self._pool.shutdown(wait=True, cancel_futures=True)
 
 
+class LocalEngine(_PoolEngine):
+    """Partitions fitted in this process, one at a time on every core.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Cores (threads) for each partition's fit; default: every core this process may use.
+    """
+
+    def __init__(self, workers: int | None = None) -> None:
+        self.threads = default_workers() if workers is None else max(1, int(workers))
+        # One partition fits at a time on all threads; one more waits, already read, so the
+        # cores never idle while the run reads and writes.
+        self._pool = cf.ThreadPoolExecutor(max_workers=1, thread_name_prefix="pumpid-fit")
+        self.capacity = 2
+        self.description = f"local ({self.threads} thread{'s' if self.threads > 1 else ''})"
+
 def _ignore_interrupts() -> None:
     """A worker process leaves Ctrl-C to the run: it finishes the partition it holds (the
     run then writes it, or drops it at a second Ctrl-C)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-class ProcessEngine:
+class ProcessEngine(_PoolEngine):
     """Partitions fitted by worker processes of this machine, one partition each at a time.
 
     Parameters
@@ -145,25 +150,11 @@ class ProcessEngine:
         self.capacity = 2 * n
         self.description = f"processes ({n} worker process{'es' if n > 1 else ''})"
 
-    def submit(self, fn: Callable[..., Any], *args: Any) -> cf.Future[Any]:
-        return self._pool.submit(fn, *args)
-
-    def wait(self, handles: Iterable[cf.Future[Any]], timeout: float) -> list[cf.Future[Any]]:
-        done, _ = cf.wait(list(handles), timeout=timeout, return_when=cf.FIRST_COMPLETED)
-        return list(done)
-
     def result(self, handle: cf.Future[Any]) -> Any:
         try:
             return handle.result()
         except cf.process.BrokenProcessPool as exc:
             raise EngineError(f"a worker process died with a partition: {exc}") from exc
-
-    def cancel(self, handles: Iterable[cf.Future[Any]]) -> None:
-        for h in handles:
-            h.cancel()
-
-    def close(self) -> None:
-        self._pool.shutdown(wait=True, cancel_futures=True)
 
 
 class DaskEngine:
