@@ -189,3 +189,27 @@ def test_the_answer_s_sensitivities_are_not_computed_twice() -> None:
     assert res.status is pumpid.Status.CONVERGED and len(calls) >= 2
     assert len(set(calls)) == len(calls)
     assert res.jacobian is not None and res.uncertainty is not None
+
+
+def test_a_model_that_asks_for_no_analysis_gets_its_optimum_alone() -> None:
+    # A search's fit: the same optimum, the fit's statistics and the solver's status, no
+    # errors or identifiability, and no sensitivities asked for at the answer beyond the
+    # solver's own.
+    calls: list[bytes] = []
+
+    class Search(Step):
+        analyse = False
+
+        def simulate(self, values, data, sensitivities):
+            if sensitivities:
+                calls.append(np.asarray(values, dtype=float).tobytes())
+            return super().simulate(values, data, sensitivities)
+
+    full = pumpid.fit(Step(), _record(2))
+    res = pumpid.fit(Search(), _record(2))
+    assert res.status is pumpid.Status.CONVERGED
+    assert res.params == full.params and res.cost == full.cost and res.r2 == full.r2
+    assert res.uncertainty is None and res.jacobian is None and res.derived == {}
+    assert res.identifiability[0].startswith("not analysed")
+    assert len(calls) <= res.iterations + 1  # the start and each accepted step
+    np.testing.assert_array_equal(res.fitted, full.fitted)

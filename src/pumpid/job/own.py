@@ -331,16 +331,21 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
     model = prob.model
     z = out.z[0]
     theta = prob.theta(z)
-    rows = prob.rows(z)
     status = Status.CONVERGED if out.stops[0].converged else Status.FAILED
     reason = out.messages[0]
     y = prob.y
-    if rows is None:
+    # Without the analysis (a search's fit) the sensitivities at the answer are not needed:
+    # its prediction is the stroke the solver kept.
+    rows = prob.rows(z) if model.analyse else None
+    got = prob.simulate(z, False) if not model.analyse else None
+    if rows is not None:
+        fitted = rows[prob.q] + y
+    elif got is not None:
+        fitted = got[0]
+    else:
         status = Status.FAILED
         reason += "; the model cannot be simulated at the final values"
         fitted = np.full_like(y, np.nan)
-    else:
-        fitted = rows[prob.q] + y
     res = fitted - y
     finite = bool(np.all(np.isfinite(res)))
     sst = float(np.sum((y - y.mean()) ** 2))
@@ -393,6 +398,9 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
         f = findings_of(None, model_names=names, gauge_fixed=False, initial_state=model.name,
                         residual="linear")
         findings, determined = f.sentences, f.determined
+        if not model.analyse:
+            findings = ("not analysed: the model asks for its optimum alone (a search whose "
+                        "answer starts another fit), without errors or identifiability",)
     t = model.time(prob.item)
     drive_in = model.driving(prob.item)
     history = tuple(

@@ -114,6 +114,11 @@ class OwnModel(abc.ABC):
     #: How it simulates and from what state, in words (for reports).
     integrator: str = "the model's own simulator"
     initial_state: str = "defined by the model"
+    #: Analyse the answer: its errors, identifiability and derived quantities. A model that
+    #: only searches for a start of another fit may say False: its result then has the
+    #: values, cost, fit statistics and the solver's status alone (no ``uncertainty``), and
+    #: the sensitivities at the answer are not asked for.
+    analyse: bool = True
 
     @abc.abstractmethod
     def simulate(self, values: Array, data: Any, sensitivities: bool

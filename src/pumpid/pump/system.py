@@ -210,8 +210,9 @@ class PumpSystem(OwnModel):
     elements : int
         About this many elements over the string.
     derive : bool
-        Measure the pump quantities of a fit (:meth:`derived`); False for a search whose
-        answer only starts another fit (the attribute may be switched between fits).
+        Analyse a fit and measure its pump quantities (:meth:`derived`); False for a search
+        whose answer only starts another fit (the attribute may be switched between fits):
+        its result has no errors, and its sensitivities at the answer are not asked for.
     tol : float
         A march stops when the stroke repeats to this (relative to the load range).
     """
@@ -259,6 +260,11 @@ class PumpSystem(OwnModel):
         # change of the periodic stroke's end state (nodes, pump) it made.
         self._slopes: dict[int, tuple[float, Array, Array]] = {}
         self._slopes_at: tuple[Array, Run] | None = None
+
+    @property  # type: ignore[override]
+    def analyse(self) -> bool:
+        """Whether a fit's answer is analysed: as :attr:`derive` says."""
+        return self.derive
 
     # ------------------------------------------------------------------ the march
     def _pump(self, values: Array) -> Array:
