@@ -199,18 +199,24 @@ def test_pump_only_is_kept_on_resume_and_checked(identified, tmp_path: Path) -> 
     old = {k: v for k, v in spec.to_dict().items() if k != "lumped"}
     assert DownholeSpec.from_dict(old).lumped is True
     card = root / "field" / "X_STRAY.json"
+    broken = tmp_path / "broken.json"
+    broken.write_text('{"cards": [', encoding="utf-8")
     out = tmp_path / "r"
-    run_batch([card], out, downhole=spec)
+    run_batch([card, broken], out, downhole=spec)
     with pytest.raises(ResultsFolderError, match="downhole"):
-        run_batch([card], out, resume=True, downhole=DownholeSpec.load(wells))
-    run_batch([card], out, resume=True)  # the run's own options
-    assert read_results(out)["model"].tolist() == ["rod string and pump"]
+        run_batch([card, broken], out, resume=True, downhole=DownholeSpec.load(wells))
+    run_batch([], out, resume=True)  # the run's own inputs and options
+    table = read_results(out)
+    # an unreadable file's row names the model of the run too
+    assert table["model"].tolist() == ["rod string and pump"] * 2
+    assert table["status"].tolist() == ["invalid-input"] * 2
 
 
 @pytest.mark.parametrize(("extra", "words"), [
     (["--pump-only"], "need --well-file"),
     (["--well-file", "WELLS", "--pump-only", "--no-identify"], "--no-identify"),
-    (["--well-file", "WELLS", "--pump-only", "--model", "msd"], "leave out --model"),
+    (["--well-file", "WELLS", "--pump-only", "--model", "msd"], "lumped fit's options"),
+    (["--well-file", "WELLS", "--pump-only", "--observe", "u"], "lumped fit's options"),
 ])
 def test_pump_only_options_refused_with_the_reason(identified, tmp_path: Path, capsys,
                                                    extra: list[str], words: str) -> None:

@@ -106,8 +106,6 @@ def _downhole(args: argparse.Namespace) -> Any:
             raise ValueError("--damping, --harmonics, --no-identify and --pump-only need "
                              "--well-file")
         return None
-    if args.pump_only and args.model is not None:
-        raise ValueError("--pump-only fits no lumped model: leave out --model")
     from ..fleet.downhole import DownholeSpec
     return DownholeSpec.load(args.well_file, damping=args.damping, harmonics=args.harmonics,
                              identify=not args.no_identify, lumped=not args.pump_only)
@@ -160,6 +158,12 @@ def cmd_batch(args: argparse.Namespace) -> int:
     csv = _csv_path(args)
     _check_csv(csv)
     downhole = _downhole(args)
+    if downhole is not None and not downhole.lumped:
+        from ..fleet.batch import FitSpec
+
+        if fit.to_dict() != FitSpec().to_dict():
+            raise ValueError("--pump-only fits no lumped model: leave out the lumped fit's "
+                             "options (--model, --observe, --x0, ...)")
     mode = "quiet" if args.quiet else args.progress
     progress = make_progress(mode, interval=args.progress_interval)
     try:

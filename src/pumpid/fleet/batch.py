@@ -39,7 +39,6 @@ import pandas as pd
 import pyarrow as pa
 
 from pumpid import interrupts
-from pumpid.models import Model
 from pumpid.pump import PumpSystem
 from pumpid.pump.runner import FitSpec, fit_cards_each
 from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
@@ -71,25 +70,15 @@ def _utc(value: Any) -> pd.Timestamp | None:
     return stamp.tz_localize("UTC") if stamp.tzinfo is None else stamp.tz_convert("UTC")
 
 
-def _fit_card_row(item: CardItem, result: Any, reason: str, status: str | None,
-                  cls: type[Model], spec: FitSpec) -> dict[str, Any]:
+def _fit_card_row(item: CardItem, result: Any, reason: str, status: str | None, model: str,
+                  observe: str | None) -> dict[str, Any]:
+    """A readable card's row: its fit's, or (``result`` None) the row of a card without one."""
     card = item.card
     if result is not None:
         return _card_row(item, fit_row(result))
     return _card_row(item, unfitted_row(
-        None, model=cls.__name__, observe=spec.options.get("observe") or cls.default_output,
-        status=status or "invalid-input", reason=reason, n_samples=card.n,
-        position_unit=card.position_unit, load_unit=card.load_unit))
-
-
-def _pump_only_row(item: CardItem) -> dict[str, Any]:
-    """A card's row before its pump is identified (``--pump-only``: the identification
-    then fills the fit's columns, pumpid.fleet.downhole)."""
-    card = item.card
-    return _card_row(item, unfitted_row(
-        None, model=PumpSystem.name, observe=PumpSystem.output, status="failed",
-        reason="the pump was not identified", n_samples=card.n,
-        position_unit=card.position_unit, load_unit=card.load_unit))
+        None, model=model, observe=observe, status=status or "invalid-input", reason=reason,
+        n_samples=card.n, position_unit=card.position_unit, load_unit=card.load_unit))
 
 
 def _card_row(item: CardItem, row: dict[str, Any]) -> dict[str, Any]:
@@ -109,11 +98,10 @@ def _card_row(item: CardItem, row: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
-def _bad_row(item: BadItem, cls: type[Model], spec: FitSpec) -> dict[str, Any]:
+def _bad_row(item: BadItem, model: str, observe: str | None) -> dict[str, Any]:
     row = unfitted_row(CardInfo(id=item.card_id, well=item.well_id, source=item.source),
-                       model=cls.__name__,
-                       observe=spec.options.get("observe") or cls.default_output,
-                       status="invalid-input", reason=item.reason)
+                       model=model, observe=observe, status="invalid-input",
+                       reason=item.reason)
     row.update(file=item.file, time=_utc(item.time))
     return row
 
@@ -145,19 +133,24 @@ def fit_partition(items: Sequence[CardItem | BadItem], spec: FitSpec, threads: i
     cls = spec.model_class()
     rows: list[dict[str, Any] | None] = [None] * len(items)
     idx = [i for i, item in enumerate(items) if isinstance(item, CardItem)]
+    pump_only = downhole is not None and not downhole.lumped
+    model, observe = ((PumpSystem.name, PumpSystem.output) if pump_only else
+                      (cls.__name__, spec.options.get("observe") or cls.default_output))
     for i, item in enumerate(items):
         if not isinstance(item, CardItem):
-            rows[i] = _bad_row(item, cls, spec)
-    if downhole is not None and not downhole.lumped:
+            rows[i] = _bad_row(item, model, observe)
+    if pump_only:
+        # The identification fills the fit's columns (pumpid.fleet.downhole).
         for i in idx:
-            rows[i] = _pump_only_row(items[i])  # type: ignore[arg-type]
+            rows[i] = _fit_card_row(items[i], None,  # type: ignore[arg-type]
+                                    "the pump was not identified", "failed", model, observe)
     else:
         outcomes = fit_cards_each([items[i].card for i in idx],  # type: ignore[union-attr]
                                   spec, workers=threads)
         for i, got in zip(idx, outcomes, strict=True):
             status = None if got.result is not None else got.status
             rows[i] = _fit_card_row(items[i], got.result, got.reason,  # type: ignore[arg-type]
-                                    status, cls, spec)
+                                    status, model, observe)
     if downhole is not None:  # the pump quantities (pumpid.fleet.downhole)
         add_pump_columns(items, rows, downhole, threads=threads)
     out: list[dict[str, Any]] = []
