@@ -103,6 +103,7 @@ def test_json_shape_and_units(tmp_path: Path, surface, capsys) -> None:
     assert ident["parameters"]["fluid_load"]["unit"] == "lbf"
     assert ident["parameters"]["fluid_load"]["stderr"] > 0
     assert ident["agreement"] < 0.02 and ident["consistency"] < 0.01
+    assert isinstance(ident["evaluations"], int) and ident["evaluations"] >= 3
     assert ident["energy"]["unit"] == "lbf*in" and ident["energy"]["pump_work"] > 0
     assert len(ident["pump_card"]["load"]) == len(ident["surface_fit"]["load"]) == 120
     summary = doc["summary"]

@@ -179,9 +179,9 @@ class DownholeCard:
             return out
         assert self.fit.fit is not None
         out.update({k: d.get(k) for k in ("pump", "parameters", "rmse", "full_pump",
-                                          "agreement", "consistency", "energy",
-                                          "identifiability",
-                                          "warnings", "notes")})
+                                          "evaluations", "agreement", "consistency",
+                                          "energy", "identifiability", "warnings",
+                                          "notes")})
         out["fitted_damping"] = d["parameters"]["damping"]
         pump = self.fit.pump_card()
         card = self.downhole.card
