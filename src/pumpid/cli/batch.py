@@ -1,8 +1,9 @@
 """``pumpid batch``: fit every card of files and folders into one results table.
 
     pumpid batch INPUT... --out RESULTS [--resume] [--csv [PATH]]
-                 [--engine local|dask] [--scheduler ADDRESS] [--workers N]
+                 [--engine local|processes|dask] [--scheduler ADDRESS] [--workers N]
                  [--model kelvin] [--observe u] [--spm X] [--load-unit lbf] ... [--quiet]
+                 [--well-file WELLS.json [--no-identify | --pump-only]]
 
 A thin shell over :func:`pumpid.fleet.batch.run_batch`; the results folder is described
 in :mod:`pumpid.fleet.store`, the inputs in :mod:`pumpid.fleet.inputs`.
