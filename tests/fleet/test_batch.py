@@ -332,8 +332,23 @@ def test_process_engine_reports_a_dead_worker_and_checks_its_options() -> None:
     engine = make_engine("processes", workers=1)
     try:
         assert (engine.threads, engine.capacity) == (1, 2)
+        assert engine.start_method == "forkserver"
         assert engine.result(engine.submit(divmod, 7, 2)) == (3, 1)
         with pytest.raises(EngineError, match="worker process died"):
             engine.result(engine.submit(os._exit, 1))
+    finally:
+        engine.close()
+
+
+def test_process_engine_starts_without_fork_where_there_is_none(monkeypatch) -> None:
+    import multiprocessing
+
+    from pumpid.fleet.engines import make_engine
+
+    monkeypatch.setattr(multiprocessing, "get_all_start_methods", lambda: ["spawn"])
+    engine = make_engine("processes", workers=1)
+    try:
+        assert engine.result(engine.submit(divmod, 9, 4)) == (2, 1)
+        assert engine.start_method == "spawn"
     finally:
         engine.close()

@@ -136,16 +136,22 @@ class ProcessEngine(_PoolEngine):
         Worker processes; default: one per core this process may use.
 
     The workers are forked from a server process that has imported pumpid once (the
-    ``forkserver`` start method: no threads of the run are copied into them); each loads
-    the compiled code from its cache on its first partition.
+    ``forkserver`` start method: no threads of the run are copied into them; where the
+    system has no fork, ``spawn``); each loads the compiled code from its cache on its
+    first partition.
     """
 
     def __init__(self, workers: int | None = None) -> None:
         n = default_workers() if workers is None else max(1, int(workers))
-        context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload(["pumpid.fleet.batch"])
+        if "forkserver" in multiprocessing.get_all_start_methods():
+            context = multiprocessing.get_context("forkserver")
+            context.set_forkserver_preload(["pumpid.fleet.batch"])
+        else:  # no fork on this system: each worker starts a Python of its own
+            context = multiprocessing.get_context("spawn")
         self._pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=context,
                                             initializer=_ignore_interrupts)
+        #: How the workers start: ``forkserver``, or ``spawn`` where there is no fork.
+        self.start_method = context.get_start_method()
         self.threads = 1
         self.capacity = 2 * n
         self.description = f"processes ({n} worker process{'es' if n > 1 else ''})"
