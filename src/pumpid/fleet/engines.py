@@ -276,13 +276,11 @@ def make_engine(name: str = "local", *, scheduler: str | None = None,
     if workers is not None and (isinstance(workers, bool) or not workers >= 1
                                 or not math.isfinite(workers)):
         raise ValueError(f"workers must be a whole number >= 1, got {workers!r}")
+    if name in ("local", "processes") and scheduler is not None:
+        raise ValueError("a scheduler address needs --engine dask")
     if name == "local":
-        if scheduler is not None:
-            raise ValueError("a scheduler address needs --engine dask")
         return LocalEngine(workers)
     if name == "processes":
-        if scheduler is not None:
-            raise ValueError("a scheduler address needs --engine dask")
         return ProcessEngine(workers)
     if name == "dask":
         return DaskEngine(scheduler, workers)

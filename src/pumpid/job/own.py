@@ -337,7 +337,7 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
     # Without the analysis (a search's fit) the sensitivities at the answer are not needed:
     # its prediction is the stroke the solver kept.
     rows = prob.rows(z) if model.analyse else None
-    got = prob.simulate(z, False) if not model.analyse else None
+    got = None if model.analyse else prob.simulate(z, False)
     if rows is not None:
         fitted = rows[prob.q] + y
     elif got is not None:

@@ -321,13 +321,6 @@ class PumpSystem(OwnModel):
         state[3] = min(max(state[3], float(values[3])), 1.0)
         return run
 
-    def _neighbour(self, values: Array, j: int, change: float) -> Run | None:
-        """Where a march at ``values`` with parameter j moved by ``change`` starts: predicted
-        from the last sensitivities when they were taken at ``values``, else None."""
-        if self._slopes_at is None or not np.array_equal(self._slopes_at[0], values):
-            return None
-        return self._step_from(self._slopes_at[1], {j: change})
-
     def _step_from(self, base: Run, steps: dict[int, float]) -> Run:
         """``base`` moved by the last sensitivities' state slopes for parameter ``steps``
         (index: change), to start a nearby march from; ``base`` itself without them."""
@@ -541,9 +534,9 @@ class PumpSystem(OwnModel):
                     try:
                         # A neighbour's stroke to 1e-7 of the load range: its quantities
                         # move by about 1e-4 of themselves, so the slope keeps 3 digits.
-                        # It starts where the sensitivities, if taken here, predict it.
-                        card = self.pump_card(moved, ESTIMATE_TOL,
-                                              self._neighbour(values, j, moved[j] - values[j]))
+                        # It starts where the sensitivities taken here predict it
+                        # (:meth:`_predicted`).
+                        card = self.pump_card(moved, ESTIMATE_TOL)
                     except (ArithmeticError, ValueError):
                         continue  # no periodic stroke there
                     if np.ptp(card[0]) > 0:  # else no pump card to measure
