@@ -113,10 +113,12 @@ def jit(fn: F | None = None, *, inline: bool = False) -> Any:
     """Compile ``fn`` (no Python objects, GIL released, numpy's error rules) with the cache.
 
     ``inline=True`` (as ``@jit(inline=True)``) for a thin wrapper between the simulation and
-    its compiled callers: numba then copies its body into each caller instead of compiling
-    it as a function of its own. Every function of its own re-optimises all the compiled
-    code it calls when it is compiled (about 15 s for the simulation on one core), so each
-    wrapper level in the call chain cost a fresh install that much again.
+    its compiled callers, or a small step called in a hot loop: numba then copies its body
+    into each caller instead of compiling it as a function of its own. Every function of
+    its own re-optimises all the compiled code it calls when it is compiled (about 15 s for
+    the simulation on one core), so each wrapper level in the call chain cost a fresh
+    install that much again; and a call per step keeps the loop from being optimised
+    across it (the pump's step in the rod string's march).
     """
     if fn is None:
         return functools.partial(jit, inline=inline)
