@@ -35,6 +35,7 @@ def test_main_job_functions_are_registered() -> None:
 
     names = set(compiled.registered())
     assert set(compiled.MAIN_JOB) <= names
+    assert set(compiled.PUMP_JOB) <= names
 
 
 def test_notice_on_stderr_once_and_not_in_json(tmp_path, monkeypatch, capsys) -> None:
@@ -56,6 +57,43 @@ def test_notice_only_when_something_is_missing(missing, monkeypatch, capsys) -> 
     monkeypatch.setattr(compiled, "uncached", lambda names=compiled.MAIN_JOB: missing)
     assert compile_notice() is bool(missing)
     assert ("compiling" in capsys.readouterr().err) is bool(missing)
+
+
+_MAIN, _PUMP = compiled.MAIN_JOB, compiled.PUMP_JOB
+
+
+@pytest.mark.parametrize(("argv", "checked"), [
+    (["fit", "CARDS"], _MAIN),
+    (["batch", "CARDS", "--out", "OUT"], _MAIN),
+    (["batch", "CARDS", "--out", "OUT", "--well-file", "WELLS"], _MAIN + _PUMP),
+    (["batch", "CARDS", "--out", "OUT", "--well-file", "WELLS", "--pump-only"], _PUMP),
+    (["batch", "CARDS", "--out", "OUT", "--well-file", "WELLS", "--no-identify"], _MAIN),
+    (["downhole", "CARDS", "--well", "WELLS"], _PUMP),
+    (["downhole", "CARDS", "--well", "WELLS", "--no-identify"], ()),
+    (["downhole", "CARDS", "--well", "WELLS", "--damping", "0"], ()),
+    (["report", "OUT"], ()),
+])
+def test_notice_checks_what_the_command_compiles(argv, checked, tmp_path, monkeypatch,
+                                                 capsys) -> None:
+    # Each command is told of the compile it will do: a pump-only run never calls the lumped
+    # fit's entry point, so it must not be told of that one's compile on every run (nor a
+    # first identification left to compile in silence). The runs below then fail on their
+    # missing files; the notice comes before.
+    asked: list[tuple[str, ...]] = []
+
+    def uncached(names=compiled.MAIN_JOB):
+        asked.append(tuple(names))
+        return list(names)
+
+    monkeypatch.setattr(compiled, "uncached", uncached)
+    argv = [str(tmp_path / a) if a in ("CARDS", "OUT", "WELLS") else a for a in argv]
+    main(argv)
+    err = capsys.readouterr().err
+    assert asked == ([checked] if checked else [])
+    assert ("compiling the numerical core" in err) is bool(checked)
+    if checked == _PUMP:
+        low, high = compiled.PUMP_COLD_SECONDS
+        assert f"about {low}-{high} s" in err
 
 
 def _times_two(x: float) -> float:

@@ -105,16 +105,24 @@ def check_paths(args: Any) -> None:
                            f"{'file' if attr != 'out' else 'folder'} to write")
 
 
-def compile_notice(stream: TextIO | None = None) -> bool:
+def compile_notice(stream: TextIO | None = None,
+                   names: tuple[str, ...] = compiled.MAIN_JOB) -> bool:
     """Say on standard error, before a fit, that this build's compiled code is not cached yet:
-    the first fit compiles it once (a silent wait of a minute looks like a hang). True if
-    said."""
-    if not compiled.uncached():
+    the first fit compiles it once (a silent wait of a minute looks like a hang). ``names``
+    are the compiled functions the command calls (:data:`pumpid.engine.compiled.MAIN_JOB`,
+    :data:`~pumpid.engine.compiled.PUMP_JOB` or both). True if said."""
+    missing = compiled.uncached(names)
+    if not missing:
         return False
-    low, high = compiled.COLD_MINUTES
-    err(f"compiling the numerical core for this machine, once per installed version: about "
-        f"{low}-{high} minutes on 2 cores (longer on a busy machine); later runs load it in a "
-        "fraction of a second", stream)
+    if any(name in compiled.MAIN_JOB for name in missing):
+        low, high = compiled.COLD_MINUTES
+        wait = f"about {low}-{high} minutes"
+    else:
+        low, high = compiled.PUMP_COLD_SECONDS
+        wait = f"about {low}-{high} s"
+    err(f"compiling the numerical core for this machine, once per installed version: {wait} "
+        "on 2 cores (longer on a busy machine); later runs load it in a fraction of a second",
+        stream)
     return True
 
 

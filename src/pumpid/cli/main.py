@@ -22,6 +22,7 @@ import sys
 from collections.abc import Sequence
 
 from .. import interrupts
+from ..engine import compiled
 from ..report.output import OutputError
 from ..version import __version__
 from . import batch, demo, downhole, fit, flow, report, reproduce, simulate
@@ -48,6 +49,19 @@ results so far kept); 141 output pipe closed"""
 
 #: The commands that fit (and so may compile the main job on a fresh install).
 _FITTING = ("fit", "batch", "demo", "reproduce")
+
+
+def _compiled_for(args: argparse.Namespace) -> tuple[str, ...]:
+    """The compiled functions a command will call (what its compile notice checks)."""
+    if args.command == "downhole":
+        identify = not args.no_identify and args.damping != 0
+        return compiled.PUMP_JOB if identify else ()
+    if args.command not in _FITTING:
+        return ()
+    if args.command == "batch" and getattr(args, "well_file", None) is not None \
+            and not args.no_identify:
+        return compiled.PUMP_JOB if args.pump_only else compiled.MAIN_JOB + compiled.PUMP_JOB
+    return compiled.MAIN_JOB
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -79,8 +93,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         err("interrupted (Ctrl-C)")
         return EXIT_INTERRUPTED
-    if args.command in _FITTING:
-        compile_notice()
+    names = _compiled_for(args)
+    if names:
+        compile_notice(names=names)
     counter = WarningCounter()
     try:
         with counter.active(), interrupts.recorded():

@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ..engine.compiled import jit
+from ..engine.compiled import copy_into, jit
 
 __all__ = ["PUMP_STATE", "STALL", "march"]
 
@@ -201,7 +201,8 @@ def march(sf: Array, factor: int, stiff: Array, mass: Array, c: float, dt: float
     # next.
     drive = np.empty(steps + 2)
     drive[0] = sf[steps - 1]
-    drive[1:steps + 1] = sf
+    for j in range(steps):
+        drive[j + 1] = sf[j]
     drive[steps + 1] = sf[0]
     cur = u.copy()
     prv = u_prev.copy()
@@ -296,6 +297,6 @@ def march(sf: Array, factor: int, stiff: Array, mass: Array, c: float, dt: float
             history[slot] = change
         for k in range(n):
             last[k] = out[0, k]
-    u[:] = cur
-    u_prev[:] = prv
+    copy_into(u, cur)
+    copy_into(u_prev, prv)
     return cycles, change
