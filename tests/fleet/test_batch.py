@@ -8,6 +8,8 @@ import json
 import os
 import re
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -332,12 +334,43 @@ def test_process_engine_reports_a_dead_worker_and_checks_its_options() -> None:
     engine = make_engine("processes", workers=1)
     try:
         assert (engine.threads, engine.capacity) == (1, 2)
-        assert engine.start_method == "forkserver"
+        assert engine.start_method in ("fork", "forkserver")
         assert engine.result(engine.submit(divmod, 7, 2)) == (3, 1)
         with pytest.raises(EngineError, match="worker process died"):
             engine.result(engine.submit(os._exit, 1))
     finally:
         engine.close()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fork: Linux only")
+def test_process_engine_forks_a_single_threaded_run_else_uses_a_server(tmp_path) -> None:
+    import threading
+
+    from pumpid.fleet.engines import make_engine
+
+    # A command line run has one thread when it makes its engine: the workers are forked
+    # from it (no second import of pumpid).
+    script = ("from pumpid.fleet.engines import make_engine\n"
+              "e = make_engine('processes', workers=2)\n"
+              "print(e.start_method, e.result(e.submit(divmod, 7, 2)))\n"
+              "e.close()\n")
+    got = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         check=True, timeout=120, cwd=tmp_path)
+    assert got.stdout.split() == ["fork", "(3,", "1)"]
+    # Another thread alive: a fork could copy a lock it holds; a server forks instead.
+    stop = threading.Event()
+    other = threading.Thread(target=stop.wait)
+    other.start()
+    try:
+        engine = make_engine("processes", workers=1)
+        try:
+            assert engine.start_method == "forkserver"
+            assert engine.result(engine.submit(divmod, 9, 4)) == (2, 1)
+        finally:
+            engine.close()
+    finally:
+        stop.set()
+        other.join()
 
 
 def test_process_engine_starts_without_fork_where_there_is_none(monkeypatch) -> None:

@@ -33,6 +33,8 @@ import logging
 import math
 import multiprocessing
 import signal
+import sys
+import threading
 import time
 from collections.abc import Callable, Iterable
 from typing import Any, Protocol
@@ -135,23 +137,35 @@ class ProcessEngine(_PoolEngine):
     workers : int, optional
         Worker processes; default: one per core this process may use.
 
-    The workers are forked from a server process that has imported pumpid once (the
-    ``forkserver`` start method: no threads of the run are copied into them; where the
-    system has no fork, ``spawn``); each loads the compiled code from its cache on its
-    first partition.
+    How the workers start (:attr:`start_method`): on Linux, from a process that runs one
+    thread only (a command line run, when its engine is made), they are forked from it at
+    once (``fork``): they have pumpid imported already, where a server process would import
+    it again first (1.2-1.4 s of a run's start). Forking a process with other threads can
+    leave a lock held for ever in the copy, so otherwise they are forked from a server
+    process that has imported pumpid (``forkserver``), and where the system has no fork,
+    each starts a Python of its own (``spawn``). Each worker loads the compiled code from
+    its cache on its first partition.
     """
 
     def __init__(self, workers: int | None = None) -> None:
         n = default_workers() if workers is None else max(1, int(workers))
-        if "forkserver" in multiprocessing.get_all_start_methods():
+        methods = multiprocessing.get_all_start_methods()
+        if ("fork" in methods and sys.platform.startswith("linux")
+                and threading.active_count() == 1):
+            context = multiprocessing.get_context("fork")
+        elif "forkserver" in methods:
             context = multiprocessing.get_context("forkserver")
             context.set_forkserver_preload(["pumpid.fleet.batch"])
         else:  # no fork on this system: each worker starts a Python of its own
             context = multiprocessing.get_context("spawn")
         self._pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=context,
                                             initializer=_ignore_interrupts)
-        #: How the workers start: ``forkserver``, or ``spawn`` where there is no fork.
+        #: How the workers start: ``fork``, ``forkserver`` or ``spawn`` (see above).
         self.start_method = context.get_start_method()
+        if self.start_method == "fork":
+            # A first task forks every worker now, while this is the only thread: the pool's
+            # own thread starts after them.
+            self._pool.submit(int)
         self.threads = 1
         self.capacity = 2 * n
         self.description = f"processes ({n} worker process{'es' if n > 1 else ''})"
