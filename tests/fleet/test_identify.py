@@ -152,12 +152,15 @@ def test_identifying_batches_default_to_small_partitions(tmp_path: Path) -> None
 
 @pytest.fixture(scope="module")
 def pump_only(identified, tmp_path_factory: pytest.TempPathFactory) -> pd.DataFrame:
-    """The same field batched with ``--pump-only``: no lumped model fitted."""
+    """The same field batched with ``--pump-only``: no lumped model fitted (the summary's
+    words in ``attrs["summary"]``)."""
     root, _, _ = identified
     out = tmp_path_factory.mktemp("pump-only") / "results"
-    run_batch([root / "field"], out, partition_size=PARTS,
-              downhole=DownholeSpec.load(root / "wells.json", lumped=False))
-    return read_results(out)
+    summary = run_batch([root / "field"], out, partition_size=PARTS,
+                        downhole=DownholeSpec.load(root / "wells.json", lumped=False))
+    table = read_results(out)
+    table.attrs["summary"] = summary.text()
+    return table
 
 
 def test_pump_only_rows_are_the_identification(identified, pump_only) -> None:
@@ -175,6 +178,10 @@ def test_pump_only_rows_are_the_identification(identified, pump_only) -> None:
     assert (table.loc[ok, "nfev"] > 0).all() and table.loc[ok, "nfev"].sum() > 4 * 3 * CARDS
     assert table.loc[~ok, "r2"].isna().all()
     assert "STRAY" in table.loc[~ok, "reason"].iloc[0]
+    # the summary says the statuses once: they are the identification's
+    text = table.attrs["summary"]
+    assert "cards per status (the pump identified): converged" in text
+    assert "pumps identified, cards per status" not in text
     # the pump's columns are the ones the run with the lumped fits gives, to the bit
     pump = [c for c in both.columns if c.startswith(("pump_", "identify_", "downhole_"))]
     pd.testing.assert_frame_equal(table[["card_id", *pump]], both[["card_id", *pump]])

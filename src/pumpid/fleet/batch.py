@@ -341,7 +341,7 @@ def run_batch(
     schema = results_schema(() if pump_only else fit.model_classes())
     if downhole is not None:
         schema = pump_schema(schema, identify=downhole.identify)
-    summary = BatchSummary(results=folder)
+    summary = BatchSummary(results=folder, pump_only=pump_only)
     summary.engine = runner.description
     started = time.monotonic()
     progress.start(sum(max(f.size, 0) for f in files), runner.description)

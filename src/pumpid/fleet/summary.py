@@ -63,6 +63,9 @@ class BatchSummary:
         empty without it or with ``--no-identify``).
     interrupted : bool
         The run was stopped before the end; ``discarded`` partitions were dropped.
+    pump_only : bool
+        The pump's identification is each card's fit (``--pump-only``): its statuses are
+        the cards' own, said once.
     """
 
     results: Path
@@ -80,6 +83,7 @@ class BatchSummary:
     duplicates: int = 0
     interrupted: bool = False
     discarded: int = 0
+    pump_only: bool = False
     _heap: list[tuple[int, int, str]] = field(default_factory=list, repr=False)
     _reasons: dict[str, list[Any]] = field(default_factory=dict, repr=False)
 
@@ -133,9 +137,9 @@ class BatchSummary:
             lines.append(f"  partitions dropped at the interrupt: {self.discarded}; "
                          "continue with: pumpid batch --resume --out RESULTS")
         statuses = sorted(self.statuses.items(), key=lambda x: -x[1])
-        lines.append("  cards per status: "
+        lines.append(f"  cards per status{' (the pump identified)' if self.pump_only else ''}: "
                      + (", ".join(f"{printable(str(s))} {n}" for s, n in statuses) or "none"))
-        if self.pump_statuses:
+        if self.pump_statuses and not self.pump_only:
             pumps = sorted(self.pump_statuses.items(), key=lambda x: -x[1])
             lines.append("  pumps identified, cards per status: "
                          + ", ".join(f"{printable(str(s))} {n}" for s, n in pumps))
