@@ -5,6 +5,7 @@ rows, resume exact; the change detector finds the demo's fluid pound and leaking
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -247,3 +248,31 @@ def test_worker_processes_give_the_same_table(identified, pump_only, tmp_path: P
                                                               lumped=False))
     assert summary.engine == "processes (2 worker processes)"
     pd.testing.assert_frame_equal(read_results(out), pump_only)
+
+
+def test_the_command_identifying_pumps_runs_on_worker_processes(identified, tmp_path: Path,
+                                                                capsys) -> None:
+    # pumpid batch's default engine: worker processes when --well-file identifies pumps
+    # (about a third of an identification holds the interpreter's lock), threads otherwise;
+    # a resume takes the run's own well file; --engine always wins.
+    from pumpid.cli.main import main
+
+    root, _, _ = identified
+    stray, wells = str(root / "field" / "X_STRAY.json"), str(root / "wells.json")
+
+    def engine(*argv: str) -> str:
+        main(["batch", *argv])
+        found = re.search(r"engine: (\w+)", capsys.readouterr().out)
+        assert found is not None
+        return found.group(1)
+
+    out = str(tmp_path / "pumps")
+    assert engine(stray, "--out", out, "--well-file", wells) == "processes"
+    assert engine("--resume", "--out", out) == "processes"
+    assert engine(stray, "--out", str(tmp_path / "b"), "--well-file", wells,
+                  "--pump-only") == "processes"
+    assert engine(stray, "--out", str(tmp_path / "c")) == "local"
+    assert engine(stray, "--out", str(tmp_path / "d"), "--well-file", wells,
+                  "--no-identify") == "local"
+    assert engine(stray, "--out", str(tmp_path / "e"), "--well-file", wells,
+                  "--engine", "local") == "local"

@@ -139,6 +139,29 @@ def _check_csv(path: Path | None) -> None:
         raise OutputError(f"--csv {where}: cannot create folders in {printable(str(parent))}")
 
 
+def _engine(args: argparse.Namespace, downhole: Any) -> str:
+    """The engine asked for, else the default: worker processes when the run identifies
+    pumps, this process's threads otherwise.
+
+    About a third of an identification is Python that holds the interpreter's lock, so two
+    threads of one process do not make two cores' work on it; on 1,024 cards of the demo's
+    pump field, worker processes fitted 104.6 cards/s against 71.0 on threads with
+    ``--pump-only``, 44.5 against 29.8 with the lumped fits; the demo's 64 cards (MSD fits
+    and pumps) took 2.9-3.1 s against 3.4-3.5 s. A lumped fit's compiled passes release the
+    lock and use the threads.
+    """
+    if args.engine is not None:
+        return str(args.engine)
+    if downhole is None and args.resume:
+        from ..fleet.store import ResultsStore
+
+        earlier = ResultsStore.options_of(args.out) or {}
+        identify = bool((earlier.get("downhole") or {}).get("identify", False))
+    else:
+        identify = downhole is not None and downhole.identify
+    return "processes" if identify else "local"
+
+
 def cmd_batch(args: argparse.Namespace) -> int:
     """Run ``pumpid batch``; print the summary; exit as ``pumpid fit`` does.
 
@@ -168,7 +191,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
     mode = "quiet" if args.quiet else args.progress
     progress = make_progress(mode, interval=args.progress_interval)
     try:
-        summary = run_batch(args.input, args.out, fit=fit, read=read, engine=args.engine,
+        summary = run_batch(args.input, args.out, fit=fit, read=read,
+                            engine=_engine(args, downhole),
                             scheduler=args.scheduler, workers=args.workers, resume=args.resume,
                             partition_size=args.partition_size, progress=progress,
                             csv=csv, downhole=downhole)
@@ -214,11 +238,12 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                    help="also write the table as CSV (default path: RESULTS.csv beside the "
                         "folder)")
     run = p.add_argument_group("engine")
-    run.add_argument("--engine", default="local", choices=["local", "processes", "dask"],
-                     help="local: this process on every core (default); processes: a "
-                          "worker process per core (faster where much of a fit is "
-                          "Python, as with --well-file); dask: dask.distributed (pip "
-                          "install \"pumpid[fleet]\")")
+    run.add_argument("--engine", choices=["local", "processes", "dask"],
+                     help="local: this process on every core; processes: a worker process "
+                          "per core (faster where much of a fit is Python, as when "
+                          "--well-file identifies pumps); dask: dask.distributed (pip "
+                          "install \"pumpid[fleet]\"). Default: processes when --well-file "
+                          "identifies pumps, else local")
     run.add_argument("--scheduler", metavar="ADDRESS",
                      help="with --engine dask: a running scheduler (else a LocalCluster)")
     run.add_argument("--workers", type=int,
