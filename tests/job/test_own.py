@@ -213,3 +213,28 @@ def test_a_model_that_asks_for_no_analysis_gets_its_optimum_alone() -> None:
     assert res.identifiability[0].startswith("not analysed")
     assert len(calls) <= res.iterations + 1  # the start and each accepted step
     np.testing.assert_array_equal(res.fitted, full.fitted)
+
+
+def test_a_model_is_told_which_parameters_each_fit_holds() -> None:
+    # Before each fit the engine names the held parameters: a model that differentiates by
+    # finite differences need not simulate their columns, which the solver never reads.
+    told: list[frozenset[str]] = []
+
+    class Lazy(Step):
+        def hold(self, names):
+            told.append(names)
+
+        def simulate(self, values, data, sensitivities):
+            y, dy = super().simulate(values, data, sensitivities)
+            if dy is not None:
+                dy = dy.copy()
+                dy[:, [i for i, p in enumerate(self.parameters) if p.name in told[-1]]] = 0.0
+            return y, dy
+
+    free = pumpid.fit(Step(), _record(3), options=pumpid.FitOptions(fixed={"b": 0.5}))
+    lazy = Lazy()
+    res = pumpid.fit(lazy, _record(3), options=pumpid.FitOptions(fixed={"b": 0.5}))
+    assert told == [frozenset({"b"})]
+    assert res.params == free.params and res.stderr == free.stderr
+    pumpid.fit(lazy, _record(3))
+    assert told[-1] == frozenset()

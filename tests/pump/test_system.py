@@ -96,3 +96,29 @@ def test_a_full_pump_s_intake_ratio_moves_nothing(pound) -> None:
     # With gas it does move the card.
     _load, jac = m.simulate(v, None, True)
     assert np.abs(jac[:, 3]).max() > 0
+
+
+def test_a_held_parameter_s_sensitivity_is_not_marched(pound, monkeypatch) -> None:
+    # A fit that holds a parameter never reads its column: the march it would cost is
+    # saved, and the other columns are the same.
+    from pumpid.rods.predict import StringGrid
+
+    surface, v, _pred = pound
+    marches = []
+    march = StringGrid.march
+
+    def counted(self, *args, **kwargs):
+        marches.append(1)
+        return march(self, *args, **kwargs)
+
+    monkeypatch.setattr(StringGrid, "march", counted)
+    free = PumpSystem(surface, 15, derive=False)
+    _load, jac_free = free.simulate(v, None, True)
+    n_free = len(marches)
+    held = PumpSystem(surface, 15, derive=False)
+    held.hold(frozenset({"liquid_fraction", "transfer"}))
+    marches.clear()
+    _load, jac = held.simulate(v, None, True)
+    assert len(marches) == n_free - 2
+    assert np.all(jac[:, [2, 4]] == 0.0)
+    np.testing.assert_array_equal(jac[:, [0, 1, 3, 5]], jac_free[:, [0, 1, 3, 5]])

@@ -250,6 +250,7 @@ def _starts(model: OwnModel, item: Any, x0: Any) -> Array:
 def _fit_item(model: OwnModel, item: Any, options: FitOptions, solver: LevenbergMarquardt,
               x0: Any) -> FitResult:
     prob = _Item(model, item, options)
+    model.hold(frozenset(options.fixed))
     starts = _starts(model, item, x0)
     prob.base = starts[0].copy()
     bad = [model.parameters[i].name for i in prob.free[: prob.n_log]

@@ -18,6 +18,9 @@ What the engine needs, and nothing more:
 * :meth:`OwnModel.observed`: the measured observation the prediction is compared with;
 * :meth:`OwnModel.start`: one or more starting points for an item (default: each
   parameter's ``start``).
+
+Optional: :attr:`OwnModel.analyse` (False: the answer alone, for a search) and
+:meth:`OwnModel.hold` (the parameters a fit holds, whose sensitivities it never uses).
 """
 
 from __future__ import annotations
@@ -167,6 +170,12 @@ class OwnModel(abc.ABC):
         """The input that drives the model, for plots (default: a record's ``load``)."""
         value = getattr(data, "load", None)
         return None if value is None else np.asarray(value, dtype=float)
+
+    def hold(self, names: frozenset[str]) -> None:
+        """Told by the engine before each fit: the parameters it holds (``fixed``). Their
+        sensitivities are never used, so a model that pays a simulation for each (finite
+        differences) may leave their columns at any finite value. Default: nothing."""
+        return None
 
     def start(self, data: Any) -> Array | Sequence[Array]:
         """One starting point (p,) or several (k, p) for ``data`` (default: each parameter's

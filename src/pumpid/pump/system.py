@@ -260,6 +260,7 @@ class PumpSystem(OwnModel):
         # change of the periodic stroke's end state (nodes, pump) it made.
         self._slopes: dict[int, tuple[float, Array, Array]] = {}
         self._slopes_at: tuple[Array, Run] | None = None
+        self._held: frozenset[int] = frozenset()
 
     @property  # type: ignore[override]
     def analyse(self) -> bool:
@@ -359,6 +360,13 @@ class PumpSystem(OwnModel):
         return out
 
     # ------------------------------------------------------------------ the protocol
+    def hold(self, names: frozenset[str]) -> None:
+        """The parameters the next fit holds: their sensitivities (a march each) are not
+        marched. A full pump's fits hold the liquid fraction (and the intake ratio, whose
+        column is zero anyway): one march of four in each of their sensitivities."""
+        order = self.param_names()
+        self._held = frozenset(order.index(n) for n in names)
+
     def observed(self, data: Any) -> Array:
         """The measured polished-rod load, in the card's unit, in time order."""
         return self.surface.load / self.surface.load_factor
@@ -392,6 +400,9 @@ class PumpSystem(OwnModel):
             return load, None
         jac = np.empty((load.size, 6))
         for j, h in self._steps(values):
+            if j in self._held:
+                jac[:, j] = 0.0  # held in this fit: its column is never used
+                continue
             if j == 3 and values[2] >= 1.0:
                 # A full pump admits no gas, and without gas the intake ratio moves nothing
                 # (the shut barrel's load is the liquid's spring alone): its derivative is
