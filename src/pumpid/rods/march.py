@@ -43,9 +43,12 @@ NEWTON_DONE = 1e-7
 
 
 @jit(inline=True)
-def _pump_load(y: float, pump: Array, state: Array, top: float) -> tuple[float, float]:
+def _pump_load(y: float, pump: Array, state: Array, top: float,
+               carried: float) -> tuple[float, float, float]:
     # One step of the valve pump (see pumpid.rods.predict.PumpModel); updates state.
-    # Returns the load and its derivative in the plunger position (0 while a valve is open).
+    # Returns the load, its derivative in the plunger position (0 while a valve is open) and
+    # the gas's volume at the barrel's pressure while both valves are shut (else -1), which
+    # the next step takes as `carried`.
     # `top` is intake_ratio ** (1 / gamma): the gas's volume at discharge pressure per unit
     # at intake pressure, the same for the whole march (a power costs as much as the
     # string's update of several nodes).
@@ -65,6 +68,7 @@ def _pump_load(y: float, pump: Array, state: Array, top: float) -> tuple[float, 
         gas += (1.0 - fill) * (-low)
         p = ri
         stiffness = 0.0
+        expanded = -1.0
     elif high >= 0.0:
         # Traveling valve open: the excess leaves, liquid and gas in proportion.
         at_top = liquid + gas * top
@@ -73,6 +77,7 @@ def _pump_load(y: float, pump: Array, state: Array, top: float) -> tuple[float, 
         gas *= keep
         p = 1.0
         stiffness = 0.0
+        expanded = -1.0
     else:
         # Both valves shut: the excess at pressure q is convex and decreasing in q; Newton
         # from either side. It stops once a step is below NEWTON_DONE: the next would be
@@ -80,8 +85,17 @@ def _pump_load(y: float, pump: Array, state: Array, top: float) -> tuple[float, 
         # it, and the slope at the last point is carried to the new one to first order
         # instead of a power more (a power costs as much as several nodes' update; the
         # shut barrel took four a step before, about a fifth of a fluid pound's march).
+        # The first point is the last step's pressure; while the valves stay shut the gas is
+        # the same, so its volume there is the one the last step ended with (to first order
+        # in its last Newton step, within about 1e-14 of itself) instead of a power: 11 %
+        # less time over the identification's 2,469 marches of 32 simulated field cards,
+        # their loads 1e-13 of the load range apart (median), 1.5e-9 at most for marches
+        # to 1e-8 or tighter.
         q = min(max(p, ri), 1.0)
-        expanded = gas * (ri / q) ** inv_gamma
+        if carried >= 0.0 and q == p:
+            expanded = carried
+        else:
+            expanded = gas * (ri / q) ** inv_gamma
         for _ in range(30):
             f = liquid + expanded - delta * (q - ri) / span - volume
             slope = -expanded * inv_gamma / q - delta / span
@@ -97,7 +111,7 @@ def _pump_load(y: float, pump: Array, state: Array, top: float) -> tuple[float, 
         slope = -expanded * inv_gamma / q - delta / span
         stiffness = -fo / (span * slope)
     state[1], state[2], state[3] = liquid, gas, p
-    return fo * (1.0 - p) / span, stiffness
+    return fo * (1.0 - p) / span, stiffness, expanded
 
 
 @jit
@@ -217,9 +231,10 @@ def march(sf: Array, factor: int, stiff: Array, mass: Array, c: float, dt: float
             start_state[i] = state[i]
         sample = 0
         k = 0
+        gas_volume = -1.0  # none carried into a stroke: its start state may have moved
         for step in range(steps):
             lowest = min(lowest, cur[e])
-            pload, kp = _pump_load(cur[e], pump, state, top)
+            pload, kp, gas_volume = _pump_load(cur[e], pump, state, top, gas_volume)
             for i in range(e):
                 tension[i] = stiff[i] * (cur[i] - cur[i + 1])
             nxt = drive[step + 2]
