@@ -11,12 +11,14 @@ valve starting half way), ``--cards`` cards a well. Each run is the whole ``pump
 command in a process of its own (reading, the fits, the pump identified, the diagnostic
 card, the Parquet partitions), on the 2 cores the command finds:
 
-* ``--well-file``: the lumped model (Kelvin) and the pump, the default;
-* ``--well-file --pump-only``: the pump alone, on the local engine's threads;
-* ``--well-file --pump-only --engine processes``: the pump alone on a worker process per
-  core (the threads share one interpreter: about a third of a card's work holds it);
-* ``--well-file --pump-only --engine dask --workers 2``: the same on a Dask LocalCluster;
-* ``--well-file --engine processes``: the lumped model and the pump, on worker processes.
+* ``--well-file``: the lumped model (Kelvin) and the pump, the default (on a worker process
+  per core, the command's default engine when it identifies pumps);
+* ``--well-file --pump-only``: the pump alone (worker processes);
+* ``--well-file --engine local``: the lumped model and the pump on the threads of one
+  process (two threads share one interpreter: about a third of a card's work holds it);
+* ``--well-file --pump-only --engine local``: the pump alone on threads;
+* ``--well-file --pump-only --engine dask --workers 2``: the pump alone on a Dask
+  LocalCluster.
 
 For each: the whole command's wall time and cards/s, the fitting part's cards/s as the
 command's summary gives it (from the first card read to the last row written), and the
@@ -48,10 +50,10 @@ from pumpid.rods import read_well_file
 RUNS = {
     "--well-file (lumped fit and pump)": [],
     "--well-file --pump-only": ["--pump-only"],
-    "--well-file --pump-only --engine processes": ["--pump-only", "--engine", "processes"],
+    "--well-file --engine local": ["--engine", "local"],
+    "--well-file --pump-only --engine local": ["--pump-only", "--engine", "local"],
     "--well-file --pump-only, dask 2 processes": ["--pump-only", "--engine", "dask",
                                                   "--workers", "2"],
-    "--well-file --engine processes": ["--engine", "processes"],
 }
 _FITTED = re.compile(r"fitted in this run in ([0-9.]+) s, ([0-9.]+) cards/s")
 
