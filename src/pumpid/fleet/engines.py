@@ -13,8 +13,9 @@ engine, from its name:
     Worker processes of this machine (one per core, or as many as asked), each fitting
     one partition at a time on one thread. About a third of an identified pump's work, and
     more of a lumped fit's, is Python that holds the interpreter's lock, so two threads of
-    one process do not make two cores' work; two processes do. The cards travel to the
-    workers with the task and the rows come back, as on Dask, without Dask's scheduler.
+    one process do not make two cores' work; two processes do (``pumpid batch`` uses them
+    by default when it identifies pumps). The cards travel to the workers with the task and
+    the rows come back, as on Dask, without Dask's scheduler.
 ``"dask"`` (:class:`DaskEngine`)
     A ``dask.distributed`` cluster: an existing one by its scheduler's address, else a
     ``LocalCluster`` of single-threaded worker processes (one per core, or as many as
