@@ -10,6 +10,7 @@ import re
 import shutil
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -310,7 +311,10 @@ def test_progress_displays() -> None:
     assert "20 of about 80 cards (25 %)" in text and "cards/s" in text and "time left" in text
     assert text.rstrip().splitlines()[-1].startswith("pumpid batch: 40 of 40 cards (100 %)")
     bar = io.StringIO()
+    threads = threading.active_count()
     progress = make_progress("bar", stream=bar)
+    # no thread of its own: the processes engine forks the run only while it has one
+    assert threading.active_count() == threads
     progress.start(100, "local")
     progress.file_read(100, 10)
     progress.all_read()
@@ -344,8 +348,6 @@ def test_process_engine_reports_a_dead_worker_and_checks_its_options() -> None:
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fork: Linux only")
 def test_process_engine_forks_a_single_threaded_run_else_uses_a_server(tmp_path) -> None:
-    import threading
-
     from pumpid.fleet.engines import make_engine
 
     # A command line run has one thread when it makes its engine: the workers are forked

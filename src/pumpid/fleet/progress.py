@@ -149,9 +149,15 @@ class BarProgress(Progress):
         super().__init__()
         from tqdm import tqdm
 
-        self._bar: Any = tqdm(total=None, unit="card", file=stream or sys.stderr,
-                              dynamic_ncols=True, smoothing=0.05, desc="pumpid batch",
-                              mininterval=0.5)
+        class Bar(tqdm):  # type: ignore[misc]
+            # No monitor thread: the run refreshes the bar at least every half second, and
+            # a thread alive when the processes engine starts keeps it from forking the run
+            # (its workers would wait for a server that imports pumpid again, 1.2-1.3 s).
+            monitor_interval = 0
+
+        self._bar: Any = Bar(total=None, unit="card", file=stream or sys.stderr,
+                             dynamic_ncols=True, smoothing=0.05, desc="pumpid batch",
+                             mininterval=0.5)
 
     def start(self, total_bytes: int, description: str) -> None:
         super().start(total_bytes, description)
