@@ -145,10 +145,10 @@ def _engine(args: argparse.Namespace, downhole: Any) -> str:
 
     About a third of an identification is Python that holds the interpreter's lock, so two
     threads of one process do not make two cores' work on it; on 1,024 cards of the demo's
-    pump field, worker processes fitted 104.6 cards/s against 71.0 on threads with
-    ``--pump-only``, 44.5 against 29.8 with the lumped fits; the demo's 64 cards (MSD fits
-    and pumps) took 2.9-3.1 s against 3.4-3.5 s. A lumped fit's compiled passes release the
-    lock and use the threads.
+    pump field (``benchmarks/bench_pump_batch.py``), worker processes fitted 111.5 cards/s
+    against 74.6 on threads with ``--pump-only``, 44.9 against 29.8 with the lumped fits;
+    the demo's 64 cards (MSD fits and pumps) took 2.9-3.1 s against 3.4-3.5 s. A lumped
+    fit's compiled passes release the lock and use the threads.
     """
     if args.engine is not None:
         return str(args.engine)
