@@ -375,6 +375,25 @@ def test_process_engine_forks_a_single_threaded_run_else_uses_a_server(tmp_path)
         other.join()
 
 
+def test_process_engine_says_where_processes_cannot_run(monkeypatch) -> None:
+    # A container without shared memory cannot make the locks the workers talk through.
+    import concurrent.futures as cf
+    import multiprocessing
+
+    from pumpid.fleet.engines import EngineError, make_engine, processes_available
+
+    assert processes_available()
+
+    def refused(*args, **kwargs):
+        raise OSError(38, "Function not implemented")
+
+    monkeypatch.setattr(cf, "ProcessPoolExecutor", refused)
+    with pytest.raises(EngineError, match=r"cannot start on this system.*--engine local"):
+        make_engine("processes", workers=1)
+    monkeypatch.setattr(multiprocessing, "Lock", refused)
+    assert not processes_available()
+
+
 def test_process_engine_starts_without_fork_where_there_is_none(monkeypatch) -> None:
     import multiprocessing
 

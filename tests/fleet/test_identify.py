@@ -251,7 +251,7 @@ def test_worker_processes_give_the_same_table(identified, pump_only, tmp_path: P
 
 
 def test_the_command_identifying_pumps_runs_on_worker_processes(identified, tmp_path: Path,
-                                                                capsys) -> None:
+                                                                capsys, monkeypatch) -> None:
     # pumpid batch's default engine: worker processes when --well-file identifies pumps
     # (about a third of an identification holds the interpreter's lock), threads otherwise;
     # a resume takes the run's own well file; --engine always wins.
@@ -276,3 +276,11 @@ def test_the_command_identifying_pumps_runs_on_worker_processes(identified, tmp_
                   "--no-identify") == "local"
     assert engine(stray, "--out", str(tmp_path / "e"), "--well-file", wells,
                   "--engine", "local") == "local"
+    # where worker processes cannot run (no shared memory for their locks), threads
+    import multiprocessing
+
+    def refused():
+        raise OSError(38, "Function not implemented")
+
+    monkeypatch.setattr(multiprocessing, "Lock", refused)
+    assert engine(stray, "--out", str(tmp_path / "f"), "--well-file", wells) == "local"

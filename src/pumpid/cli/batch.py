@@ -148,8 +148,11 @@ def _engine(args: argparse.Namespace, downhole: Any) -> str:
     pump field (``benchmarks/bench_pump_batch.py``), worker processes fitted 111.5 cards/s
     against 74.6 on threads with ``--pump-only``, 44.9 against 29.8 with the lumped fits;
     the demo's 64 cards (MSD fits and pumps) took 2.9-3.1 s against 3.4-3.5 s. A lumped
-    fit's compiled passes release the lock and use the threads.
+    fit's compiled passes release the lock and use the threads. Where worker processes
+    cannot run (a container without shared memory), the default stays local.
     """
+    from ..fleet.engines import processes_available
+
     if args.engine is not None:
         return str(args.engine)
     if downhole is None and args.resume:
@@ -159,7 +162,7 @@ def _engine(args: argparse.Namespace, downhole: Any) -> str:
         identify = bool((earlier.get("downhole") or {}).get("identify", False))
     else:
         identify = downhole is not None and downhole.identify
-    return "processes" if identify else "local"
+    return "processes" if identify and processes_available() else "local"
 
 
 def cmd_batch(args: argparse.Namespace) -> int:

@@ -43,7 +43,7 @@ from typing import Any, Protocol
 from pumpid.engine.threads import default_workers
 
 __all__ = ["ENGINES", "DaskEngine", "Engine", "EngineError", "LocalEngine", "ProcessEngine",
-           "make_engine"]
+           "make_engine", "processes_available"]
 
 #: Engine names :func:`make_engine` knows.
 ENGINES = ("local", "processes", "dask")
@@ -159,8 +159,12 @@ class ProcessEngine(_PoolEngine):
             context.set_forkserver_preload(["pumpid.fleet.batch"])
         else:  # no fork on this system: each worker starts a Python of its own
             context = multiprocessing.get_context("spawn")
-        self._pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=context,
-                                            initializer=_ignore_interrupts)
+        try:
+            self._pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=context,
+                                                initializer=_ignore_interrupts)
+        except (OSError, ImportError) as exc:
+            raise EngineError(f"worker processes cannot start on this system ({exc}): use "
+                              "--engine local") from exc
         #: How the workers start: ``fork``, ``forkserver`` or ``spawn`` (see above).
         self.start_method = context.get_start_method()
         if self.start_method == "fork":
@@ -262,6 +266,16 @@ class DaskEngine:
             client.close()
         if self._cluster is not None:
             self._cluster.close()
+
+
+def processes_available() -> bool:
+    """Whether this system can run worker processes (:class:`ProcessEngine`): some
+    containers have no shared memory for the locks that processes talk through."""
+    try:
+        multiprocessing.Lock()
+    except (OSError, ImportError):
+        return False
+    return True
 
 
 def make_engine(name: str = "local", *, scheduler: str | None = None,
