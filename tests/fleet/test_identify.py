@@ -271,6 +271,14 @@ def test_the_command_identifying_pumps_runs_on_worker_processes(identified, tmp_
     assert engine("--resume", "--out", out) == "processes"
     assert engine(stray, "--out", str(tmp_path / "b"), "--well-file", wells,
                   "--pump-only") == "processes"
+    # a resume of a pump-only run compiles what the run does: the pump's march alone
+    from pumpid.engine import compiled
+
+    asked: list[tuple[str, ...]] = []
+    monkeypatch.setattr(compiled, "uncached", lambda names=(): asked.append(names) or [])
+    assert engine("--resume", "--out", str(tmp_path / "b")) == "processes"
+    assert engine("--resume", "--out", out) == "processes"
+    assert asked == [compiled.PUMP_JOB, compiled.MAIN_JOB + compiled.PUMP_JOB]
     assert engine(stray, "--out", str(tmp_path / "c")) == "local"
     assert engine(stray, "--out", str(tmp_path / "d"), "--well-file", wells,
                   "--no-identify") == "local"

@@ -35,7 +35,7 @@ from .common import (
     rate_option,
 )
 
-__all__ = ["cmd_batch", "register"]
+__all__ = ["cmd_batch", "pump_run", "register"]
 
 
 
@@ -139,7 +139,25 @@ def _check_csv(path: Path | None) -> None:
         raise OutputError(f"--csv {where}: cannot create folders in {printable(str(parent))}")
 
 
-def _engine(args: argparse.Namespace, downhole: Any) -> str:
+def pump_run(args: argparse.Namespace) -> tuple[bool, bool]:
+    """Whether the run asked for identifies pumps, and whether without the lumped fit
+    (``--pump-only``): from the options, or for a resume without ``--well-file`` from the
+    run's own manifest."""
+    if args.well_file is None and args.resume:
+        from ..fleet.store import ResultsStore
+
+        try:
+            earlier = ResultsStore.options_of(args.out) or {}
+        except (OSError, ValueError):
+            return False, False  # not a run's folder: the run says so
+        downhole = earlier.get("downhole") or {}
+        identify = bool(downhole.get("identify", False))
+        return identify, identify and not bool(downhole.get("lumped", True))
+    identify = args.well_file is not None and not args.no_identify
+    return identify, identify and bool(args.pump_only)
+
+
+def _engine(args: argparse.Namespace) -> str:
     """The engine asked for, else the default: worker processes when the run identifies
     pumps, this process's threads otherwise.
 
@@ -155,13 +173,7 @@ def _engine(args: argparse.Namespace, downhole: Any) -> str:
 
     if args.engine is not None:
         return str(args.engine)
-    if downhole is None and args.resume:
-        from ..fleet.store import ResultsStore
-
-        earlier = ResultsStore.options_of(args.out) or {}
-        identify = bool((earlier.get("downhole") or {}).get("identify", False))
-    else:
-        identify = downhole is not None and downhole.identify
+    identify, _ = pump_run(args)
     return "processes" if identify and processes_available() else "local"
 
 
@@ -195,7 +207,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     progress = make_progress(mode, interval=args.progress_interval)
     try:
         summary = run_batch(args.input, args.out, fit=fit, read=read,
-                            engine=_engine(args, downhole),
+                            engine=_engine(args),
                             scheduler=args.scheduler, workers=args.workers, resume=args.resume,
                             partition_size=args.partition_size, progress=progress,
                             csv=csv, downhole=downhole)

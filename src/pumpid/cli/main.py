@@ -58,9 +58,10 @@ def _compiled_for(args: argparse.Namespace) -> tuple[str, ...]:
         return compiled.PUMP_JOB if identify else ()
     if args.command not in _FITTING:
         return ()
-    if args.command == "batch" and getattr(args, "well_file", None) is not None \
-            and not args.no_identify:
-        return compiled.PUMP_JOB if args.pump_only else compiled.MAIN_JOB + compiled.PUMP_JOB
+    if args.command == "batch":
+        identify, pump_only = batch.pump_run(args)
+        if identify:
+            return compiled.PUMP_JOB if pump_only else compiled.MAIN_JOB + compiled.PUMP_JOB
     return compiled.MAIN_JOB
 
 
