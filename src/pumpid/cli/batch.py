@@ -144,15 +144,17 @@ def pump_run(args: argparse.Namespace) -> tuple[bool, bool]:
     (``--pump-only``): from the options, or for a resume without ``--well-file`` from the
     run's own manifest."""
     if args.well_file is None and args.resume:
+        from ..fleet.downhole import DownholeSpec
         from ..fleet.store import ResultsStore
 
         try:
-            earlier = ResultsStore.options_of(args.out) or {}
+            earlier = (ResultsStore.options_of(args.out) or {}).get("downhole")
         except (OSError, ValueError):
             return False, False  # not a run's folder: the run says so
-        downhole = earlier.get("downhole") or {}
-        identify = bool(downhole.get("identify", False))
-        return identify, identify and not bool(downhole.get("lumped", True))
+        if not earlier:
+            return False, False
+        identify, lumped = DownholeSpec.modes(earlier)
+        return identify, identify and not lumped
     identify = args.well_file is not None and not args.no_identify
     return identify, identify and bool(args.pump_only)
 

@@ -50,7 +50,7 @@ from .common import (
     rate_option,
 )
 
-__all__ = ["cmd_downhole", "register"]
+__all__ = ["cmd_downhole", "identifies", "register"]
 
 #: Cards computed in one call of the batched API.
 CHUNK_CARDS = 256
@@ -63,7 +63,7 @@ UNDAMPED = ("--damping 0: the undamped diagnostic pump card only; the pump is no
             "to identify it)")
 
 
-def _identify(args: argparse.Namespace) -> tuple[bool, str]:
+def identifies(args: argparse.Namespace) -> tuple[bool, str]:
     """Whether the pump is identified, and why not."""
     if args.no_identify:
         return False, "--no-identify: the diagnostic pump card only"
@@ -340,7 +340,7 @@ def cmd_downhole(args: argparse.Namespace) -> int:
     inputs = list(_inputs(args))
     total = sum(len(c) for _p, c in inputs if isinstance(c, list))
     printer: _Text | _Json = _Json() if args.json else _Text(verbose=args.verbose)
-    identify, skipped = _identify(args)
+    identify, skipped = identifies(args)
     if args.damping is not None:
         damping: float | str = args.damping
         rule = ("given, held in the identification" if identify else "given")

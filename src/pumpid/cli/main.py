@@ -54,8 +54,7 @@ _FITTING = ("fit", "batch", "demo", "reproduce")
 def _compiled_for(args: argparse.Namespace) -> tuple[str, ...]:
     """The compiled functions a command will call (what its compile notice checks)."""
     if args.command == "downhole":
-        identify = not args.no_identify and args.damping != 0
-        return compiled.PUMP_JOB if identify else ()
+        return compiled.PUMP_JOB if downhole.identifies(args)[0] else ()
     if args.command not in _FITTING:
         return ()
     if args.command == "batch":

@@ -273,7 +273,7 @@ def run_batch(
     read : ReadOptions, optional
         Reader options (units, SPM, format, columns, ...; default: none, or when resuming
         the run's own).
-    engine : {"local", "dask"}
+    engine : {"local", "processes", "dask"}
         See :mod:`pumpid.fleet.engines`; ``scheduler`` and ``workers`` go to it.
     resume : bool
         Continue the run in ``out`` (refused if its inputs or options differ).

@@ -177,13 +177,17 @@ class DownholeSpec:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> DownholeSpec:
-        """The spec of :meth:`to_dict`'s form, the well file read again (a manifest that
-        does not say ``identify`` is from before identification: diagnostic only; one that
-        does not say ``lumped`` fitted the lumped model too)."""
+        """The spec of :meth:`to_dict`'s form, the well file read again."""
+        identify, lumped = cls.modes(data)
         return cls.load(str(data["well_file"]), damping=data.get("damping"),
-                        harmonics=data.get("harmonics"),
-                        identify=bool(data.get("identify", False)),
-                        lumped=bool(data.get("lumped", True)))
+                        harmonics=data.get("harmonics"), identify=identify, lumped=lumped)
+
+    @staticmethod
+    def modes(data: Mapping[str, Any]) -> tuple[bool, bool]:
+        """``identify`` and ``lumped`` of :meth:`to_dict`'s form, without reading the well
+        file: a manifest that does not say ``identify`` is from before identification
+        (diagnostic only); one that does not say ``lumped`` fitted the lumped model too."""
+        return bool(data.get("identify", False)), bool(data.get("lumped", True))
 
 
 def pump_schema(base: pa.Schema, identify: bool = False) -> pa.Schema:

@@ -124,6 +124,7 @@ class LocalEngine(_PoolEngine):
         self.capacity = 2
         self.description = f"local ({self.threads} thread{'s' if self.threads > 1 else ''})"
 
+
 def _ignore_interrupts() -> None:
     """A worker process leaves Ctrl-C to the run: it finishes the partition it holds (the
     run then writes it, or drops it at a second Ctrl-C)."""
@@ -279,7 +280,7 @@ def processes_available() -> bool:
 
 
 def make_engine(name: str = "local", *, scheduler: str | None = None,
-                workers: int | None = None) -> LocalEngine | DaskEngine:
+                workers: int | None = None) -> LocalEngine | ProcessEngine | DaskEngine:
     """The engine called ``name`` (one of :data:`ENGINES`).
 
     Parameters
