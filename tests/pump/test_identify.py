@@ -379,3 +379,33 @@ def test_the_solvers_check_is_made_when_asked_and_once(made, monkeypatch) -> Non
     first = got.consistency
     assert 0 < first < 0.01 and got.consistency == first and len(calls) == 1
     assert got.to_dict()["consistency"] == first and len(calls) == 1
+
+
+def test_the_pump_card_shown_is_the_finer_marchs_and_agrees_with_the_diagnostic() -> None:
+    # A fast, lightly damped 50 % pound: the sharp pickup the fit's 30-element march rounds
+    # most. Drawn by twice the elements, the card is within 1 % of the load range of the
+    # diagnostic card of the same surface load; the fit's own march is not.
+    well = three_tapers()
+    spm, n = 9.75, 173
+    s = surface_motion(n=n, period=60 / spm)
+    fluid = 0.75 * 1000 * 9.80665 * well.pump.depth * well.pump.area
+    pump = PumpModel(fluid_load=fluid, fillage=0.5, intake_ratio=0.01, transfer=0.068)
+    pred = predict_surface(well, s, 60 / spm, pump, nu=0.08, tol=1e-9, elements=120,
+                           max_cycles=300)
+    load = pred.surface_load[0] + well.buoyant_weight()
+    load = load + 0.01 * np.ptp(load) * np.random.default_rng(3).standard_normal(n)
+    got = identify_card(card(s, load, spm, "sharp"), well)
+    assert got.ok and got.status == "converged", got.reason
+    values = np.array(list(got.fit.params.values()))
+    fine = got.fine
+    assert fine is not None and fine.elements == 2 * got.model.elements
+    pos, pump_load = fine.pump_card(values)
+    shown = got.pump_card()
+    assert shown is not None
+    np.testing.assert_allclose(shown[0], pos / fine.surface.position_factor, atol=1e-9)
+    np.testing.assert_allclose(shown[1], pump_load / fine.surface.load_factor, rtol=1e-6)
+    coarse = solver_difference(got.model, values)
+    print(f"solvers apart: {100 * coarse:.2f} % at {got.model.elements} elements, "
+          f"{100 * got.consistency:.2f} % at {fine.elements}")
+    assert got.consistency < 0.01 < coarse
+    assert got.consistency < 0.7 * coarse

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
@@ -53,7 +53,7 @@ from .system import (
     SurfaceCard,
 )
 
-__all__ = ["SHOWN", "PumpFit", "discretization_errors", "identify_card", "identify_cards",
+__all__ = ["SHOWN", "PumpFit", "discretization_errors", "finer", "identify_card", "identify_cards",
            "solver_difference"]
 
 Array = NDArray[np.float64]
@@ -119,19 +119,6 @@ class PumpFit:
         The diagnostic pump card at the damping used.
     damping_rule : str
         Where the diagnostic's damping came from.
-    agreement : float
-        RMS difference between the fitted and the diagnostic pump loads, after a constant,
-        over the diagnostic pump card's load range (NaN when not computed). It holds the
-        surface residual carried down the string as well as any disagreement of the two
-        solvers: see ``consistency``.
-    consistency : float
-        The same difference between the fitted pump card and the diagnostic pump card of
-        the *fitted* surface load (at the fitted damping, both cards in the band of the
-        harmonics that drive the march): the predictive and the diagnostic solvers on one
-        surface card, so what remains is the solvers' own disagreement (mostly the march's
-        elements), not the fit's residual (NaN when it cannot be computed; see
-        :func:`solver_difference`). Worked out when first asked for (a diagnostic card
-        more, about 4 % of an identification, that a batch does not use).
     full_pump : bool
         The card was fitted as a full pump (liquid fraction held at 1).
     discretization : dict of str to float
@@ -141,9 +128,19 @@ class PumpFit:
     evaluations : int
         Model evaluations of the whole identification: the searches' and the final fit's
         (``fit.nfev`` counts the final fit's alone).
-    check : callable or None
-        Works out ``consistency`` (None: not computable, no fitted pump card).
+    fine : PumpSystem or None
+        The fitted model on twice the elements (the march of
+        :func:`discretization_errors`): it draws the pump card shown and checks the
+        solvers (``agreement``, ``consistency``).
     notes : tuple of str
+
+    Notes
+    -----
+    The pump card shown (:meth:`pump_card`), ``agreement`` and ``consistency`` are worked
+    out when first asked for, a batch uses none of them. The card is drawn by the finer
+    march at the fitted values: closer to the continuous string than the fit's own march
+    (a fluid pound's sharp pickup is what the elements round most), by about the march's
+    error that the quantities' errors already hold.
     """
 
     card: Card
@@ -154,22 +151,63 @@ class PumpFit:
     model: PumpSystem | None = None
     downhole: DownholeResult | None = None
     damping_rule: str = ""
-    agreement: float = math.nan
-    check: Callable[[], float] | None = field(default=None, repr=False)
+    fine: PumpSystem | None = field(default=None, repr=False)
     full_pump: bool = False
     discretization: dict[str, float] = field(default_factory=dict)
     evaluations: int = 0
     notes: tuple[str, ...] = field(default=())
 
     @functools.cached_property
-    def consistency(self) -> float:
-        """The two solvers' difference on the fitted surface card (see the class's text)."""
-        if self.check is None:
+    def agreement(self) -> float:
+        """RMS difference between the fitted pump card (:meth:`pump_card`) and the
+        diagnostic one, after a constant, over the diagnostic card's load range (NaN when
+        either is missing or the diagnostic's loads are not effective ones). It holds the
+        surface residual carried down the string as well as any disagreement of the two
+        solvers: see :attr:`consistency`."""
+        drawn, down = self._drawn, self.downhole
+        if (drawn is None or down is None or not down.ok or down.pump_load is None
+                or down.convention != "effective"):
             return math.nan
+        return _apart(drawn[2], down, drawn[0].surface)
+
+    @functools.cached_property
+    def consistency(self) -> float:
+        """The same difference as :attr:`agreement`, between the fitted pump card and the
+        diagnostic pump card of the *fitted* surface load (the march's that drew the card,
+        at the fitted damping, both cards in the band of the harmonics that drive the
+        march): the predictive and the diagnostic solvers on one surface card, so what
+        remains is their own disagreement (mostly the march's elements), not the fit's
+        residual (NaN when it cannot be computed; see :func:`solver_difference`). A
+        diagnostic card more, about 4 % of an identification."""
+        drawn, down = self._drawn, self.downhole
+        if drawn is None:
+            return math.nan
+        method = down.method if down is not None else "fourier"
         try:
-            return float(self.check())
+            return float(solver_difference(drawn[0], self._values(), method=method))
         except (ArithmeticError, ValueError):
             return math.nan  # the march reaches no stroke there: nothing to compare
+
+    def _values(self) -> Array:
+        assert self.fit is not None
+        return np.array(list(self.fit.params.values()))
+
+    @functools.cached_property
+    def _drawn(self) -> tuple[PumpSystem, Array, Array] | None:
+        # The model that drew the card, and the card in the card's units. The finer march
+        # first; the fit's own if that reaches no periodic stroke.
+        if not self.ok:
+            return None
+        for model in (self.fine, self.model):
+            if model is None:
+                continue
+            try:
+                pos, load = model.pump_card(self._values())
+            except (ArithmeticError, ValueError):
+                continue
+            s = model.surface
+            return model, pos / s.position_factor, load / s.load_factor
+        return None
 
     @property
     def ok(self) -> bool:
@@ -211,7 +249,8 @@ class PumpFit:
 
     def energy(self) -> dict[str, Any]:
         """The energy balance of the stroke, in the card's load x position unit: the
-        measured surface card's work, the fitted surface card's, the fitted pump card's,
+        measured surface card's work, the fitted surface card's, the fitted pump card's
+        (these two of the fit's own march, so that their difference is the model's loss),
         and the share of the surface work the string lost (by the fit); then the
         diagnostic pump card's work (the measured card taken down at the damping used) and
         the share of the measured work lost on the way (``measured_loss``). The two losses
@@ -244,12 +283,11 @@ class PumpFit:
 
     def pump_card(self) -> tuple[Array, Array] | None:
         """The fitted pump card in the card's units: plunger position (from its lowest
-        point) and effective pump load, at the card's samples in time order."""
-        if not self.ok:
-            return None
-        assert self.fit is not None and self.model is not None
-        pos, load = self.model.pump_card(np.array(list(self.fit.params.values())))
-        return pos / self.model.surface.position_factor, load / self.model.surface.load_factor
+        point) and effective pump load, at the card's samples in time order, drawn by the
+        finer march (see the class's notes); None when the card was not fitted or no march
+        reaches a periodic stroke at the fitted values."""
+        drawn = self._drawn
+        return None if drawn is None else (drawn[1], drawn[2])
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form: status, the pump quantities with errors, the damping, the
@@ -439,8 +477,9 @@ def identify_card(card: Card, well: Well | WellFile, **options: Any) -> PumpFit:
 def _finish(card: Card, well: Well, surface: SurfaceCard, model: PumpSystem, res: FitResult,
             full: bool, damping: float | None, diag: dict[str, Any], spent: int) -> PumpFit:
     notes = list(surface.notes)
+    fine = finer(model)
     try:
-        grid_error = discretization_errors(surface, model, res)
+        grid_error = discretization_errors(surface, model, res, fine=fine)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
         grid_error = {}
         notes.append(f"the march's own error could not be estimated ({exc}); the errors "
@@ -465,24 +504,9 @@ def _finish(card: Card, well: Well, surface: SurfaceCard, model: PumpSystem, res
                      "cannot move the card and is held too")
     down = diagnose_cards([card], well, damping=nu, **diag)[0]
     down = DownholeResult(**{**down.__dict__, "damping_rule": rule})
-    agreement = math.nan
-    check: Callable[[], float] | None = None
-    try:
-        fitted_card = model.pump_card(np.array(list(res.params.values())))
-    except (ArithmeticError, ValueError) as exc:
-        fitted_card = None
-        notes.append(f"the fitted pump card could not be drawn: {exc}")
-    if fitted_card is not None:
-        got = fitted_card[1] / surface.load_factor
-        if down.ok and down.pump_load is not None and diag.get("convention") == "effective":
-            agreement = _apart(got, down, surface)
-        values = np.array(list(res.params.values()))
-        check = functools.partial(solver_difference, model, values,
-                                  method=diag.get("method", "fourier"))
     return PumpFit(card=card, status=str(res.status), discretization=grid_error,
                    reason=res.reason, well=well, fit=res, model=model, downhole=down,
-                   damping_rule=rule, agreement=agreement, check=check,
-                   full_pump=full, evaluations=spent,
+                   damping_rule=rule, fine=fine, full_pump=full, evaluations=spent,
                    notes=tuple(dict.fromkeys(notes)))
 
 
@@ -545,8 +569,16 @@ def _apart(got: Array, down: DownholeResult, surface: SurfaceCard) -> float:
     return float(np.sqrt(np.mean((diff - diff.mean()) ** 2)) / np.ptp(ref))
 
 
-def discretization_errors(surface: SurfaceCard, model: PumpSystem,
-                          res: FitResult) -> dict[str, float]:
+def finer(model: PumpSystem) -> PumpSystem:
+    """The same model on twice the elements, its next march warm from ``model``'s last
+    (the march that estimates the march's own error and draws the pump card shown)."""
+    fine = PumpSystem(model.surface, elements=2 * model.elements, tol=DISCRETIZATION_TOL)
+    fine.start_from(model)
+    return fine
+
+
+def discretization_errors(surface: SurfaceCard, model: PumpSystem, res: FitResult,
+                          fine: PumpSystem | None = None) -> dict[str, float]:
     """The march's own error in each free parameter and pump quantity of a fit.
 
     The fitted values are marched again with twice the elements; the fit's sensitivities
@@ -565,8 +597,8 @@ def discretization_errors(surface: SurfaceCard, model: PumpSystem,
         return {}
     names = model.param_names()
     values = np.array([res.params[n] for n in names])
-    fine = PumpSystem(surface, elements=2 * model.elements, tol=DISCRETIZATION_TOL)
-    fine.start_from(model)
+    if fine is None:
+        fine = finer(model)
     coarse_load, _ = model.simulate(values, surface, False)
     fine_load, _ = fine.simulate(values, surface, False)
     jac = np.asarray(res.jacobian, dtype=float)

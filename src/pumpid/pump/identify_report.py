@@ -332,13 +332,13 @@ def draw_identified(card: DownholeCard, path: str | os.PathLike[str] | BinaryIO)
             d.axhline(q[name]["value"], color="gray", lw=0.7, ls="--")
     d.set_title(f"diagnostic pump card (damping nu {down.damping:.3g}, {down.method})")
     pump = fit.pump_card()
-    assert pump is not None
-    pos, load = pump
     if down.convention == "effective":
         e.plot(np.r_[diag_pos, diag_pos[0]], np.r_[diag_load, diag_load[0]], color="tab:blue",
                lw=0.8, alpha=0.4, label="diagnostic")
-    e.plot(np.r_[pos, pos[0]], np.r_[load, load[0]], color="tab:green", lw=1.4,
-           label="identified")
+    if pump is not None:  # None: no march reaches a periodic stroke at the fitted values
+        pos, load = pump
+        e.plot(np.r_[pos, pos[0]], np.r_[load, load[0]], color="tab:green", lw=1.4,
+               label="identified")
     shown = card.pump()
     fill, gross = shown["fillage"], shown["gross_stroke"]
     if card.identified and fill["value"] is not None and gross["value"] is not None:
