@@ -409,3 +409,22 @@ def test_the_pump_card_shown_is_the_finer_marchs_and_agrees_with_the_diagnostic(
           f"{100 * got.consistency:.2f} % at {fine.elements}")
     assert got.consistency < 0.01 < coarse
     assert got.consistency < 0.7 * coarse
+
+
+def test_a_pump_card_no_march_can_draw_is_none_and_its_checks_nan(made, monkeypatch) -> None:
+    import dataclasses
+    import math
+
+    _well, _pred, _fluid, fits = made
+    fresh = dataclasses.replace(fits[1])  # nothing worked out yet
+
+    def no_stroke(self, values, tol=None, warm=None):
+        raise ArithmeticError("no periodic stroke")
+
+    monkeypatch.setattr(PumpSystem, "pump_card", no_stroke)
+    assert fresh.ok and fresh.pump_card() is None
+    assert math.isnan(fresh.agreement) and math.isnan(fresh.consistency)
+    out = fresh.to_dict()
+    assert out["agreement"] is None and out["consistency"] is None
+    assert out["energy"]["pump_work"] is None and out["energy"]["surface_work"] > 0
+    assert out["pump"]["fillage"]["value"] is not None  # the quantities stand

@@ -7,20 +7,15 @@ import numpy as np
 import pytest
 
 from pumpid.pump import PumpSystem, SurfaceCard
-from pumpid.rods import PumpModel, predict_surface
 
-from ..rods.strings import INCH, LBF, card, surface_motion, three_tapers
+from ..rods.strings import INCH, LBF, card, pound_70
 
 SPM = 8.0
 
 
 @pytest.fixture(scope="module")
 def pound():
-    well = three_tapers()
-    s = surface_motion(n=200, period=60 / SPM)
-    fluid = 0.9 * 1000 * 9.80665 * well.pump.depth * well.pump.area
-    pump = PumpModel(fluid_load=fluid, fillage=0.7, intake_ratio=0.01, transfer=0.05)
-    pred = predict_surface(well, s, 60 / SPM, pump, nu=0.1, tol=1e-9, elements=60)
+    well, s, pred, fluid = pound_70(200, SPM)
     surface = SurfaceCard.of(card(s, pred.surface_load[0] + well.buoyant_weight(), SPM), well)
     # fluid load (lbf), damping, liquid fraction, intake ratio, transfer (in), offset (lbf)
     values = np.array([fluid / LBF, 0.1, 0.7, 0.01, 0.05 / INCH, 0.0])

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from pumpid.cards import Card
-from pumpid.rods import MATERIALS, Fluid, Pump, Taper, Well
+from pumpid.rods import MATERIALS, Fluid, Pump, PumpModel, Taper, Well, predict_surface
 
 FT, INCH, LBF = 0.3048, 0.0254, 4.4482216152605
 STEEL = MATERIALS["steel"]
@@ -63,3 +63,14 @@ def cmcm_well_document(entry: dict[str, Any], common: dict[str, Any],
                          "plunger_diameter": entry["plunger_diameter_mm"]},
                 "tubing": {"anchored": True},
                 "fluid": {"density": density}}}}
+
+
+def pound_70(n: int = 200, spm: float = 8.0) -> tuple[Well, np.ndarray, Any, float]:
+    """The three-taper string's 70 % fluid pound at ``spm`` (nu 0.1, 60 elements): the
+    well, the surface position (m), the prediction and the fluid load (N)."""
+    well = three_tapers()
+    s = surface_motion(n=n, period=60 / spm)
+    fluid = 0.9 * 1000 * 9.80665 * well.pump.depth * well.pump.area
+    pump = PumpModel(fluid_load=fluid, fillage=0.7, intake_ratio=0.01, transfer=0.05)
+    pred = predict_surface(well, s, 60 / spm, pump, nu=0.1, tol=1e-9, elements=60)
+    return well, s, pred, fluid

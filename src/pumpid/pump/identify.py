@@ -263,10 +263,14 @@ class PumpFit:
         kl, kp = s.load_factor, s.position_factor
         unit = f"{self.card.load_unit}*{self.card.position_unit}"
         values = np.array(list(self.fit.params.values()))
-        pos, load = self.model.pump_card(values)
         measured = loop_work(s.position, s.load) / (kl * kp)
         fitted = loop_work(s.position, np.asarray(self.fit.fitted) * kl) / (kl * kp)
-        pump = loop_work(pos, load) / (kl * kp)
+        try:
+            pos, load = self.model.pump_card(values)
+        except (ArithmeticError, ValueError):
+            pump = math.nan  # no periodic stroke at the fitted values: no pump card's work
+        else:
+            pump = loop_work(pos, load) / (kl * kp)
         down = math.nan
         d = self.downhole
         if d is not None and d.ok and d.pump_position is not None and d.pump_load is not None:
@@ -284,8 +288,9 @@ class PumpFit:
     def pump_card(self) -> tuple[Array, Array] | None:
         """The fitted pump card in the card's units: plunger position (from its lowest
         point) and effective pump load, at the card's samples in time order, drawn by the
-        finer march (see the class's notes); None when the card was not fitted or no march
-        reaches a periodic stroke at the fitted values."""
+        finer march (see the class's notes; by the fit's own where the finer one reaches no
+        periodic stroke); None when the card was not fitted or neither march reaches one at
+        the fitted values."""
         drawn = self._drawn
         return None if drawn is None else (drawn[1], drawn[2])
 

@@ -343,7 +343,9 @@ def draw_identified(card: DownholeCard, path: str | os.PathLike[str] | BinaryIO)
     fill, gross = shown["fillage"], shown["gross_stroke"]
     if card.identified and fill["value"] is not None and gross["value"] is not None:
         e.axvline(fill["value"] * gross["value"], color="tab:red", lw=0.7)
-    e.set_title(f"identified pump card ({fit.status})")
+    e.set_title(f"identified pump card ({fit.status})" if pump is not None else
+                f"identified pump card ({fit.status}): not drawn, no periodic stroke of "
+                "the march at the fitted values")
     e.legend(loc="best", fontsize=8)
     for ax in (d, e):
         ax.set_xlabel(f"plunger position from its lowest point ({pu})")
