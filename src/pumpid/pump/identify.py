@@ -184,13 +184,9 @@ class PumpFit:
             return math.nan
         method = down.method if down is not None else "fourier"
         try:
-            return float(solver_difference(drawn[0], self._values(), method=method))
+            return float(solver_difference(drawn[0], _values(self.fit), method=method))
         except (ArithmeticError, ValueError):
             return math.nan  # the march reaches no stroke there: nothing to compare
-
-    def _values(self) -> Array:
-        assert self.fit is not None
-        return np.array(list(self.fit.params.values()))
 
     @functools.cached_property
     def _drawn(self) -> tuple[PumpSystem, Array, Array] | None:
@@ -202,7 +198,7 @@ class PumpFit:
             if model is None:
                 continue
             try:
-                pos, load = model.pump_card(self._values())
+                pos, load = model.pump_card(_values(self.fit))
             except (ArithmeticError, ValueError):
                 continue
             s = model.surface
@@ -262,11 +258,10 @@ class PumpFit:
         s = self.model.surface
         kl, kp = s.load_factor, s.position_factor
         unit = f"{self.card.load_unit}*{self.card.position_unit}"
-        values = np.array(list(self.fit.params.values()))
         measured = loop_work(s.position, s.load) / (kl * kp)
         fitted = loop_work(s.position, np.asarray(self.fit.fitted) * kl) / (kl * kp)
         try:
-            pos, load = self.model.pump_card(values)
+            pos, load = self.model.pump_card(_values(self.fit))
         except (ArithmeticError, ValueError):
             pump = math.nan  # no periodic stroke at the fitted values: no pump card's work
         else:
