@@ -278,11 +278,16 @@ class Problem:
         """Whether the harmonic cost (:mod:`pumpid.engine.spectrum`) applies to card ``k``:
         one uniformly sampled period closed by one more step, a model of at most three
         states without an input map, the linear residual."""
+        return (self.one_period(k) and self.model.input_map is None
+                and self.residual != "log" and self.model.n_states() <= spectrum.MAX_STATES)
+
+    def one_period(self, k: int) -> bool:
+        """Whether card ``k`` is one uniformly sampled period closed by one more step
+        (period ``N h``): its samples are then one period of a discrete Fourier series."""
         if not (self.valid[k] and self.mode[k] == kernel.PERIODIC and self.uniform[k]):
             return False
         t = self.card(k)[0]
-        if (t.size < 3 or self.model.input_map is not None or self.residual == "log"
-                or self.model.n_states() > spectrum.MAX_STATES):
+        if t.size < 3:
             return False
         period = float(self.period[k])
         return abs(period - t.size * float(t[1] - t[0])) <= 1e-9 * period

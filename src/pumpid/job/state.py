@@ -20,15 +20,27 @@ from numpy.typing import NDArray
 from ..engine import drive, kernel
 from ..engine.problem import Problem
 from ..engine.solvers import SolverOutcome, Stop
+from ..inference.structure import low_band_excess
 from ..inference.uncertainty import Numbers
 from ..result import Limiting, ReducedFit, StartInfo, Status
 from .options import START_SAMPLES
 
-__all__ = ["CardState", "apply_outcome", "doubtful", "gap_gradient", "mark_edges",
-           "numbers_for_true_offset", "scale_offset", "start_problem", "summarize",
+__all__ = ["BAND_P", "BAND_RATIO", "CardState", "apply_outcome", "doubtful", "gap_gradient",
+           "mark_edges", "numbers_for_true_offset", "scale_offset", "start_problem", "summarize",
            "theta_of", "true_offset"]
 
 Array = NDArray[np.float64]
+
+#: The band test of :func:`doubtful`: a p-value below ``BAND_P`` and a band carrying at
+#: least ``BAND_RATIO`` times the power per harmonic above it. On 60 synthetic periodic
+#: cards with white noise, the fits in their optimum's basin had p-values of 0.03 and more
+#: and ratios up to 1.5; the one fit in a wrong basin (83 % above its best cost) 1e-31 and
+#: 7.6. Noise on the load as well colours the residual in the band (the model filters it):
+#: on 100 controller-like cards with 0.3 % noise on both, 11 had p-values below 1e-4 at
+#: ratios up to 6.3 (90th percentile 2.8), 2 at 4 or more. Public field cards that were
+#: not doubtful before and reached a lower optimum through the wider search: 4.1-17.
+BAND_P = 1e-4
+BAND_RATIO = 4.0
 
 
 @dataclass
@@ -59,6 +71,7 @@ class CardState:
     rmse: float = math.nan
     r2: float = math.nan
     noise: float = math.nan
+    band: tuple[float, float] = (math.nan, math.nan)
     norms: Array | None = None
 
 
@@ -170,23 +183,33 @@ def summarize(problem: Problem, cards: NDArray[np.int64], fits: list[CardState])
     if not idx:
         return
     data, model, settings = problem.arrays
-    stats, norms = drive.summary_items(np.ascontiguousarray(cards[idx], dtype=np.int64),
-                                       np.ascontiguousarray([fits[i].z for i in idx]),
-                                       data, model, settings)
+    at = np.ascontiguousarray(cards[idx], dtype=np.int64)
+    buffer, starts, ok = drive.rows_items(at, np.ascontiguousarray([fits[i].z for i in idx]),
+                                          data, model, settings)
+    stats, norms = drive.summary_rows(at, problem.q, buffer, starts, ok, data, settings)
     for j, i in enumerate(idx):
         card = fits[i]
         card.rmse, card.r2, card.noise = (float(v) for v in stats[j, 1:])
         card.norms = norms[j]
+        card.band = (math.nan, math.nan)
+        k = int(at[j])
+        if ok[j] and problem.one_period(k):
+            # The last row of the card's rows is its residual.
+            residual = buffer[starts[j]:starts[j + 1]].reshape(problem.q + 1, -1)[-1]
+            card.band = low_band_excess(residual)
 
 
 def doubtful(problem: Problem, k: int, card: CardState) -> bool:
-    """A fit that deserves a wider search: no finite answer, R^2 < 0.99, or an RMSE above
-    twice the data's noise level (a wrong local minimum, or a model that misses part of the
-    response, where other minima compete).
+    """A fit that deserves a wider search: no finite answer, R^2 < 0.99, an RMSE above
+    twice the data's noise level, or (one period of a card) a residual whose first
+    harmonics carry clearly more than the harmonics above them (a wrong local minimum, or
+    a model that misses part of the response, where other minima compete).
 
     The noise level is a robust estimate from second differences (white noise:
     var(diff2) = 6 sigma^2); smooth signal content only raises it, so a good fit is never
-    called doubtful."""
+    called doubtful by it, but its spread lets a wrong basin within a few tenths of the
+    noise level pass. The band test (:func:`~pumpid.inference.structure.low_band_excess`,
+    at :data:`BAND_P` and :data:`BAND_RATIO`) sees the clear ones."""
     # A fit that ran out of evaluations in a flat valley may still explain the data: its
     # quality decides, not the stop.
     if not math.isfinite(card.cost) or card.stop is Stop.NOT_FINITE:
@@ -194,7 +217,13 @@ def doubtful(problem: Problem, k: int, card: CardState) -> bool:
     if not math.isfinite(card.r2) or card.r2 < 0.99:
         return True
     d = problem.card(k)[2]
-    return card.rmse > 2.0 * card.noise + 1e-9 * float(np.ptp(d))
+    floor = 1e-9 * float(np.ptp(d))
+    if card.rmse > 2.0 * card.noise + floor:
+        return True
+    # A residual at rounding level has no structure worth a search, whatever its shape.
+    ratio, p_value = card.band
+    return card.rmse > floor and p_value < BAND_P and ratio >= BAND_RATIO
+
 
 def start_problem(problem: Problem, cards: NDArray[np.int64]) -> Problem | None:
     """The problem the automatic start works on: the given cards with every card longer
