@@ -203,3 +203,49 @@ def test_the_pseudo_inverse_is_numpys(a) -> None:
     if np.linalg.cond(a) < 1e8:
         np.testing.assert_allclose(pinv, reference, rtol=1e-9,
                                    atol=1e-12 * max(float(np.abs(reference).max()), 1e-300))
+
+
+@pytest.mark.parametrize("amp, rate, noise", [(2.0, 1.5, 0.0), (1.0, 0.3, 0.05), (5.0, 4.0, 0.2)])
+def test_the_residual_alone_decides_a_step_as_the_machine_does(amp, rate, noise) -> None:
+    # A driver that costs a trial point first computes its Jacobian only where the machine
+    # takes the step: the same path, with the Jacobian evaluated at accepted points only.
+    _data, evaluate, calls = _problem(amp, rate, noise)
+
+    def cost(z: np.ndarray) -> float:
+        return evaluate(z)[0]
+
+    z0 = np.log([amp * 8.0, rate / 6.0])
+    full = _solve(evaluate, z0)
+    n_full = len(calls)
+    calls.clear()
+    lazy = run_python(lambda z: evaluate(z), z0, np.full(2, -np.inf), np.full(2, np.inf),
+                      tol=1e-12, max_evaluations=200, n_capped=2, cost=cost)
+    # ``cost`` goes through evaluate too: the lazy run's evaluate calls are its trial
+    # costs plus the Jacobians at the start and at each accepted point.
+    assert np.array_equal(lazy.z, full.z)
+    assert lazy.cost[0] == full.cost[0]
+    assert lazy.accepted[0] == full.accepted[0]
+    assert lazy.evaluations[0] == full.evaluations[0]
+    jacobians = len(calls) - (int(lazy.evaluations[0]) - 1)
+    assert jacobians == 1 + int(lazy.accepted[0]) <= n_full
+
+
+def test_accepts_is_the_machines_verdict_on_a_cost() -> None:
+    _data, evaluate, _calls = _problem(2.0, 1.5)
+    z0 = np.log([8.0, 0.5])
+    first, r, c = evaluate(z0)
+    state = lm.start(z0, first, r, c, np.full(2, -np.inf), np.full(2, np.inf), 1e-12, 2,
+                     100, False, 0.0, np.zeros(0))
+    assert lm.propose(state)
+    pred = float(state[7][lm_index("_PRED")])
+    assert pred > 0.0
+    for gain in (-1.0, 0.0, 0.5e-4, 2e-4, 0.3, 1.0):
+        trial = first - gain * pred
+        assert lm.accepts(state, trial) == (gain >= 1e-4)
+    assert not lm.accepts(state, math.nan)
+    assert not lm.accepts(state, math.inf)
+
+
+def lm_index(name: str) -> int:
+    """The position of a named entry in the machine's float state."""
+    return int(getattr(lm, name))

@@ -235,6 +235,8 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, harmonics, k, data, 
     c = np.zeros(q)
     probe = np.empty(n_samples)
     c_probe = np.empty(q)
+    trial = np.empty(n_samples)
+    lazy = fk.size == 0
     cost = math.nan
     if _rows_of(z0, k, data, model, settings, fk, dk, rows):
         cost = lm.householder_keep(rows, q, r, c, v0, beta)
@@ -255,10 +257,25 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, harmonics, k, data, 
             if ok:
                 lm.project(rows, q, v0, beta, probe, c_probe)
             lm.accelerate(state, c_probe, ok)
+        accepted_before = ints[1]
         cost_try = math.nan
+        if lazy:
+            # In time, about half the trial points are refused, and the sensitivities are
+            # most of an evaluation: the residual alone decides (the same cost, summed as
+            # householder_keep sums it), the rows follow for a point the step takes.
+            if _vector_of(z_try, k, data, model, settings, fk, dk, trial):
+                cost_try = 0.0
+                for s in range(n_samples):
+                    cost_try += trial[s] * trial[s]
+                cost_try *= 0.5
+            if not lm.accepts(state, cost_try):
+                going = lm.update(state, cost_try, state[3], state[4])
+                if not going:
+                    break
+                continue
+            cost_try = math.nan
         if _rows_of(z_try, k, data, model, settings, fk, dk, spare):
             cost_try = lm.householder_keep(spare, q, r, c, v0_s, beta_s)
-        accepted_before = ints[1]
         going = lm.update(state, cost_try, r, c)
         if ints[1] > accepted_before:
             rows, spare = spare, rows

@@ -62,7 +62,7 @@ import numpy as np
 
 from .compiled import copy_into, jit
 
-__all__ = ["CONVERGED", "EXHAUSTED", "FAILED", "TESTS", "accelerate", "householder",
+__all__ = ["CONVERGED", "EXHAUSTED", "FAILED", "TESTS", "accelerate", "accepts", "householder",
            "householder_keep", "probing", "project", "propose", "pseudo_inverse", "small_svd",
            "start", "update"]
 
@@ -596,6 +596,24 @@ def _cap_log_step(dz, n_cap):
 
 
 @jit
+def _ratio(actual, pred):
+    """The gain ratio: the actual decrease of the cost over the predicted one."""
+    if pred > 0.0:
+        return actual / pred
+    return 1.0 if actual > 0.0 else -1.0
+
+
+@jit
+def accepts(state, cost_try):
+    """Whether :func:`update` takes a trial point of cost ``cost_try`` (its factor being
+    finite): a driver that has the trial's residual alone needs its Jacobian only then."""
+    fs = state[7]
+    if not math.isfinite(cost_try):
+        return False
+    return _ratio(fs[_COST] - cost_try, fs[_PRED]) >= 1e-4
+
+
+@jit
 def update(state, cost_try, r_try, c_try):
     """Take the evaluation of ``z_try``; False when the iteration stopped."""
     z, _lo, _hi, r, c, diag, z_try, fs, ints, _vel, _held = state
@@ -613,10 +631,7 @@ def update(state, cost_try, r_try, c_try):
     if not finite:
         cost_try = math.inf
     actual = cost - cost_try
-    if pred > 0.0:
-        rho = actual / pred
-    else:
-        rho = 1.0 if actual > 0.0 else -1.0
+    rho = _ratio(actual, pred)
     accept = finite and rho >= 1e-4
     ints[_EVALS] += 1
     if accept:

@@ -274,8 +274,8 @@ def run_python(
         z_try = state[6].copy()
         before = int(state[8][1])
         trial = math.nan if cost is None else float(cost(z_try))
-        if cost is not None and not trial < float(state[7][0]):
-            # No decrease: the machine rejects it whatever the sensitivities would be.
+        if cost is not None and not lm.accepts(state, trial):
+            # The machine refuses it whatever the sensitivities would be.
             going = lm.update(state, trial if math.isfinite(trial) else math.inf,
                               unused_r, unused_c)
         else:
