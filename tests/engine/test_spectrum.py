@@ -9,7 +9,12 @@ import pytest
 
 from pumpid import FirstOrder, Kelvin, LevenbergMarquardt, MassSpringDamper, Maxwell, simulate
 from pumpid.engine.problem import CardData, build_problem
-from pumpid.engine.spectrum import card_spectrum, harmonic_rows, harmonic_width
+from pumpid.engine.spectrum import (
+    card_spectrum,
+    harmonic_residual,
+    harmonic_rows,
+    harmonic_width,
+)
 
 from ..conftest import well_load
 
@@ -153,3 +158,25 @@ def test_which_cards_the_harmonic_cost_applies_to() -> None:
     logs = build_problem(Kelvin, [CardData(t, load, y + 10.0, "periodic", PERIOD)],
                          residual="log")
     assert not logs.harmonic(0)
+
+
+@pytest.mark.parametrize("model", [TRUTH, Maxwell(k0=80.0, m=3.0, c1=40.0, k1=50.0),
+                                   MassSpringDamper(m=2.0, c=5.0, k=70.0)])
+def test_the_residual_alone_is_the_rows_last_row_to_the_bit(model) -> None:
+    # A trial point is costed by the residual alone and the step decided on that cost, so
+    # it must be the one the rows give, or the solver's path would change.
+    _t, f, y = _card(150)
+    n_samples = f.size
+    kmax = (harmonic_width(24, n_samples) - 1) // 2
+    fk = np.empty(kmax + 1, np.complex128)
+    dk = np.empty(kmax + 1, np.complex128)
+    card_spectrum(f, y, kmax, fk, dk)
+    theta = np.array(list(model.as_dict().values())) * 1.3
+    free = np.arange(theta.size, dtype=np.int64)
+    rows = np.empty((theta.size + 3, 1 + 2 * kmax))
+    args = (np.log(theta), free, model.code(), model.n_states(), model.output_index("u"),
+            PERIOD, n_samples)
+    assert harmonic_rows(*args, 0.8, True, 2.5, True, fk, dk, rows)
+    out = np.empty(1 + 2 * kmax)
+    assert harmonic_residual(*args, 0.8, 2.5, fk, dk, out)
+    assert np.array_equal(out, rows[-1])

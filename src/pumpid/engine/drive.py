@@ -27,7 +27,13 @@ from numpy.typing import ArrayLike
 from . import lm
 from .compiled import copy_into, jit, wait_aside
 from .kernel import NO_MAP, PERIODIC, simulate_card
-from .spectrum import MAX_STATES, card_spectrum, harmonic_rows, harmonic_width
+from .spectrum import (
+    MAX_STATES,
+    card_spectrum,
+    harmonic_residual,
+    harmonic_rows,
+    harmonic_width,
+)
 
 __all__ = ["AS_GIVEN", "BEST_LINEAR", "RESCALE", "cost_items", "evaluate", "items",
            "linear_items", "outputs", "rows_items", "solve_items", "solve_one", "summary_rows"]
@@ -193,11 +199,13 @@ def _vector_of(z, k, data, model, settings, fk, dk, out):
     """:func:`residual_vector`, or the harmonic residual when the card has a spectrum."""
     if fk.size == 0:
         return residual_vector(z, k, data, model, settings, out)
-    rows = np.empty((settings[0].size + settings[3] + settings[5] + 1, out.size))
-    if not _rows_of(z, k, data, model, settings, fk, dk, rows):
-        return False
-    copy_into(out, rows[rows.shape[0] - 1])
-    return True
+    code, n, _imap, obs, _integrator = model
+    period = _card(data, k)[5]
+    lz = np.empty(settings[1].size)
+    scale, offset = _unpack(z, settings, lz)
+    bounds = data[3]
+    return harmonic_residual(lz, settings[0], code, n, obs, period, bounds[k + 1] - bounds[k],
+                             scale, offset, fk, dk, out)
 
 
 @jit
@@ -236,7 +244,6 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, harmonics, k, data, 
     probe = np.empty(n_samples)
     c_probe = np.empty(q)
     trial = np.empty(n_samples)
-    lazy = fk.size == 0
     cost = math.nan
     if _rows_of(z0, k, data, model, settings, fk, dk, rows):
         cost = lm.householder_keep(rows, q, r, c, v0, beta)
@@ -259,21 +266,20 @@ def _solve(z0, lo, hi, tol, max_evals, n_capped, noise_tol, harmonics, k, data, 
             lm.accelerate(state, c_probe, ok)
         accepted_before = ints[1]
         cost_try = math.nan
-        if lazy:
-            # In time, about half the trial points are refused, and the sensitivities are
-            # most of an evaluation: the residual alone decides (the same cost, summed as
-            # householder_keep sums it), the rows follow for a point the step takes.
-            if _vector_of(z_try, k, data, model, settings, fk, dk, trial):
-                cost_try = 0.0
-                for s in range(n_samples):
-                    cost_try += trial[s] * trial[s]
-                cost_try *= 0.5
-            if not lm.accepts(state, cost_try):
-                going = lm.update(state, cost_try, state[3], state[4])
-                if not going:
-                    break
-                continue
-            cost_try = math.nan
+        # About half the trial points are refused, and the sensitivities are most of an
+        # evaluation: the residual alone decides (the same cost, summed as householder_keep
+        # sums it), the rows follow for a point the step takes.
+        if _vector_of(z_try, k, data, model, settings, fk, dk, trial):
+            cost_try = 0.0
+            for s in range(n_samples):
+                cost_try += trial[s] * trial[s]
+            cost_try *= 0.5
+        if not lm.accepts(state, cost_try):
+            going = lm.update(state, cost_try, state[3], state[4])
+            if not going:
+                break
+            continue
+        cost_try = math.nan
         if _rows_of(z_try, k, data, model, settings, fk, dk, spare):
             cost_try = lm.householder_keep(spare, q, r, c, v0_s, beta_s)
         going = lm.update(state, cost_try, r, c)

@@ -35,7 +35,7 @@ from .compiled import jit
 from .kernel import system
 
 __all__ = ["MAX_STATES", "SEARCH_HARMONICS", "at_frequency", "card_spectrum",
-           "harmonic_rows", "harmonic_width", "transfer_coefficients"]
+           "harmonic_residual", "harmonic_rows", "harmonic_width", "transfer_coefficients"]
 
 #: Harmonics the searches look at: those that carry a field card (above them its model's
 #: response is small, and the hold's aliases grow).
@@ -167,6 +167,62 @@ def at_frequency(coefficients, om):
 
 
 @jit
+def _at_harmonic(top, bottom, om, k, n_samples, fk, dk, scale, offset):
+    """Harmonic k's part of the residual: (ok, 1 / D, the observed state's response per
+    unit load, the held load's coefficient, the model's coefficient, the residual's, its
+    row weight); ok False where D is 0. One function for the rows and the residual alone,
+    so that both give the same residual to the last bit."""
+    den = at_frequency(bottom, om)
+    if den == 0.0:
+        zero = 0.0 + 0.0j
+        return False, zero, zero, zero, zero, zero, 0.0
+    inv = 1.0 / den
+    x_obs = at_frequency(top, om) * inv
+    hold = 1.0
+    if k > 0:
+        arg = math.pi * k / n_samples
+        hold = (math.sin(arg) / arg) ** 2
+    base = hold * fk[k]
+    u = x_obs * base
+    res = scale * u - dk[k]
+    root = math.sqrt(n_samples)
+    if k == 0:
+        res += offset * n_samples
+        weight = 1.0 / root
+    else:
+        weight = math.sqrt(2.0) / root
+    return True, inv, x_obs, base, u, res, weight
+
+
+@jit
+def harmonic_residual(lz, free, code, n, obs, period, n_samples, scale, offset, fk, dk, out):
+    """The residual row of :func:`harmonic_rows` alone (1 + 2 K,), without the
+    sensitivities: a trial point's cost. False when not finite."""
+    a = np.empty((1, n, n))
+    b = np.empty((1, n))
+    system(lz, free[:0], code, a, b)
+    top = np.empty(3)
+    bottom = np.empty(4)
+    transfer_coefficients(a[0], b[0], n, obs, top, bottom)
+    w0 = 2.0 * math.pi / period
+    for k in range(fk.size):
+        ok, _inv, _x, _base, _u, res, weight = _at_harmonic(top, bottom, w0 * k, k, n_samples,
+                                                            fk, dk, scale, offset)
+        if not ok:
+            return False
+        v = weight * res
+        if k == 0:
+            out[0] = v.real
+        else:
+            out[2 * k - 1] = v.real
+            out[2 * k] = v.imag
+    for c in range(out.size):
+        if not math.isfinite(out[c]):
+            return False
+    return True
+
+
+@jit
 def harmonic_rows(lz, free, code, n, obs, period, n_samples, scale, scale_free, offset,
                   offset_free, fk, dk, rows):
     """Jacobian columns and residual on the first harmonics, as rows (q + 1, 1 + 2 K).
@@ -207,31 +263,16 @@ def harmonic_rows(lz, free, code, n, obs, period, n_samples, scale, scale_free, 
             d_bottom[i, j] = c_bottom[j].imag / COMPLEX_STEP
     dx = np.empty(nf, np.complex128)
     w0 = 2.0 * math.pi / period
-    root = math.sqrt(n_samples)
     for k in range(fk.size):
         om = w0 * k
-        den = at_frequency(bottom, om)
-        if den == 0.0:
+        ok, inv, x_obs, base, u, res, weight = _at_harmonic(top, bottom, om, k, n_samples,
+                                                            fk, dk, scale, offset)
+        if not ok:
             return False
-        inv = 1.0 / den
-        x_obs = at_frequency(top, om) * inv
         for i in range(nf):
             # d(N / D) = (dN - (N / D) dD) / D
             dx[i] = (at_frequency(d_top[i], om) - x_obs * at_frequency(d_bottom[i], om)) * inv
-        hold = 1.0
-        if k > 0:
-            arg = math.pi * k / n_samples
-            hold = (math.sin(arg) / arg) ** 2
-        base = hold * fk[k]
-        u = x_obs * base
-        res = scale * u - dk[k]
-        if k == 0:
-            res += offset * n_samples
-            weight = 1.0 / root
-            parts = 1
-        else:
-            weight = math.sqrt(2.0) / root
-            parts = 2
+        parts = 1 if k == 0 else 2
         col = 0 if k == 0 else 2 * k - 1
         for part in range(parts):
             c = col + part
