@@ -180,18 +180,26 @@ def _spectrum(k, harmonics, data, model, settings):
     return fk, dk
 
 
+@jit(inline=True)
+def _harmonic_args(z, k, data, model, settings):
+    """What the harmonic residual needs of card k at z: (log-parameters, the model's terms,
+    states, observed state, period, samples, C, offset)."""
+    code, n, _imap, obs, _integrator = model
+    lz = np.empty(settings[1].size)
+    scale, offset = _unpack(z, settings, lz)
+    bounds = data[3]
+    return (lz, code, n, obs, _card(data, k)[5], bounds[k + 1] - bounds[k], scale, offset)
+
+
 @jit
 def _rows_of(z, k, data, model, settings, fk, dk, rows):
     """:func:`residual_rows`, or its harmonic form when the card has a spectrum."""
     if fk.size == 0:
         return residual_rows(z, k, data, model, settings, rows)
-    code, n, _imap, obs, _integrator = model
-    period = _card(data, k)[5]
-    lz = np.empty(settings[1].size)
-    scale, offset = _unpack(z, settings, lz)
-    bounds = data[3]
-    return harmonic_rows(lz, settings[0], code, n, obs, period, bounds[k + 1] - bounds[k],
-                         scale, settings[3], offset, settings[5], fk, dk, rows)
+    lz, code, n, obs, period, n_samples, scale, offset = _harmonic_args(z, k, data, model,
+                                                                        settings)
+    return harmonic_rows(lz, settings[0], code, n, obs, period, n_samples, scale,
+                         settings[3], offset, settings[5], fk, dk, rows)
 
 
 @jit
@@ -199,13 +207,10 @@ def _vector_of(z, k, data, model, settings, fk, dk, out):
     """:func:`residual_vector`, or the harmonic residual when the card has a spectrum."""
     if fk.size == 0:
         return residual_vector(z, k, data, model, settings, out)
-    code, n, _imap, obs, _integrator = model
-    period = _card(data, k)[5]
-    lz = np.empty(settings[1].size)
-    scale, offset = _unpack(z, settings, lz)
-    bounds = data[3]
-    return harmonic_residual(lz, settings[0], code, n, obs, period, bounds[k + 1] - bounds[k],
-                             scale, offset, fk, dk, out)
+    lz, code, n, obs, period, n_samples, scale, offset = _harmonic_args(z, k, data, model,
+                                                                        settings)
+    return harmonic_residual(lz, settings[0], code, n, obs, period, n_samples, scale, offset,
+                             fk, dk, out)
 
 
 @jit
