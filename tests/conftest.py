@@ -45,6 +45,35 @@ def stroke_problem(seed: int, n: int = 120, period: float = 6.0):
                          offset=True)
 
 
+def spread_card(index: int):
+    """Card ``index`` of the best-optimum benchmark's synthetic family: periodic Kelvin
+    cards spread log-uniformly over x100 around field-like values (seed 5; 1 % white noise
+    on the position, an offset). The earlier cards' draws are replayed, not simulated.
+    Returns the card and its true parameters."""
+    import pumpid
+    from pumpid.cards import Card
+
+    rng = np.random.default_rng(5)
+    centre = np.array([5200.0, 20.0, 900.0, 5200.0])
+    for i in range(index + 1):
+        theta = centre * np.exp(rng.uniform(-np.log(10), np.log(10), 4))
+        period = 60.0 / rng.uniform(5.0, 10.0)
+        n = int(rng.integers(100, 400))
+        load_seed = int(rng.integers(2**31))
+        if i < index:
+            rng.standard_normal(n)
+            rng.uniform(0, 50)
+    t = np.arange(n) * period / n
+    load = well_load(t, period, seed=load_seed)
+    pos = pumpid.simulate(pumpid.Kelvin.from_values(theta), t, load,
+                          initial_state="periodic", period=period)
+    pos = pos + 0.01 * np.ptp(pos) * rng.standard_normal(n) + rng.uniform(0, 50)
+    card = Card(position=pos, load=load, t=t, card_id=f"spread-{index}", source="test",
+                position_unit="in", load_unit="lbf", time_source="file", periodic=True,
+                period=period)
+    return card, theta
+
+
 @pytest.fixture
 def shared_raw() -> Path:
     """The third-party card folder; the test is skipped when it is absent."""

@@ -1,4 +1,5 @@
-"""Automatic start (pumpid.engine.start): candidates, multistart with a guess, valley walk."""
+"""Automatic start (pumpid.engine.start): candidates, multistart with a guess, valley walk,
+the wider search and the scan along the inertia."""
 
 from __future__ import annotations
 
@@ -26,11 +27,13 @@ from pumpid.engine.start import (
     complete,
     find_starts,
     harmonic_scan,
+    inertia_index,
+    scan_inertia,
     search_wider,
     walk_valley,
 )
 
-from ..conftest import stroke_problem, well_load
+from ..conftest import spread_card, stroke_problem, well_load
 
 T = np.linspace(0.0, 20.0, 1001)
 LOAD = well_load(T)
@@ -386,3 +389,53 @@ def test_the_least_squares_solve_says_when_there_is_nothing_to_solve() -> None:
     bad[2, 1] = np.nan
     assert np.all(np.isnan(equation_error.unit_column_lstsq(bad, np.ones(6))))
     assert np.all(np.isnan(equation_error.unit_column_lstsq(mat, np.full(6, np.inf))))
+
+
+def _spread_problem(index: int):
+    card, truth = spread_card(index)
+    problem = build_problem(Kelvin, [CardData(card.t, card.load, card.position, "periodic",
+                                              card.period)], offset=True)
+    return problem, truth
+
+
+def _solved(problem, theta) -> tuple[np.ndarray, np.ndarray]:
+    z, _cost = complete(problem, ONE, np.asarray(theta, dtype=float)[None])
+    out = LevenbergMarquardt().solve(problem, ONE, z)
+    return out.z, out.cost
+
+
+def test_the_scan_along_the_inertia_leaves_a_ripple_of_the_cost() -> None:
+    # The resonance at 35 times the stroke frequency: the card sees m only through weak
+    # harmonics. From m = 8.2 (true 3.82) the solver converges in a ripple of the cost
+    # along m; the scan finds the dip the solver reaches from the truth.
+    problem, truth = _spread_problem(31)
+    z_ripple, c_ripple = _solved(problem, [5021.1, 8.215, 2189.2, 3227.8])
+    _z, c_truth = _solved(problem, truth)
+    assert c_ripple[0] > c_truth[0] * 1.02
+    z, cost, runs = scan_inertia(problem, ONE, z_ripple, c_ripple)
+    assert runs[0] >= 1
+    assert cost[0] <= c_truth[0] * (1 + 1e-9)
+    assert math.exp(z[0, 1]) == pytest.approx(3.82, rel=0.1)
+
+
+def test_the_scan_along_the_inertia_never_returns_a_higher_cost() -> None:
+    # From the best dip there is nothing lower: the point comes back as it went in.
+    problem, truth = _spread_problem(31)
+    z_best, c_best = _solved(problem, truth)
+    z, cost, _runs = scan_inertia(problem, ONE, z_best, c_best)
+    assert cost[0] == c_best[0]
+    assert np.array_equal(z, z_best)
+
+
+def test_the_scan_needs_a_free_inertia() -> None:
+    problem, _truth = _spread_problem(31)
+    assert inertia_index(problem) == 1
+    held = build_problem(Kelvin, [CardData(*problem.card(0), "periodic", problem.period[0])],
+                         offset=True, fixed={"m": 3.82})
+    assert inertia_index(held) is None
+    first = build_problem(FirstOrder, [CardData(T, LOAD, simulate(FirstOrder(tau=2.0), T,
+                                                                      LOAD), "rest", None)])
+    assert inertia_index(first) is None
+    z = np.zeros((1, held.q))
+    z_same, cost, runs = scan_inertia(held, ONE, z, np.array([1.0]))
+    assert np.array_equal(z_same, z) and cost[0] == 1.0 and runs[0] == 0

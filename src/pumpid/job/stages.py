@@ -9,7 +9,8 @@ Python deciding between the stages on arrays:
 3. guard: a fit from a user's guess that failed, explains less than 99 % of the data's
    variance or stays above the data's noise floor is redone with the multistart, and the
    better of the two is kept;
-4. widen: a wider search where the answer does not explain the data;
+4. widen: a wider search where the answer does not explain the data, a scan along the
+   model's inertia where it does;
 5. boundaries (:mod:`pumpid.job.boundary`), whose reduced-model fits are this same job on the
    reduced problem, handed in as a function; a reduced model that fits clearly better sends
    the full fit back to a start next to it;
@@ -24,7 +25,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +38,8 @@ from ..engine.start import (
     compile_ranking,
     complete,
     find_starts,
+    inertia_index,
+    scan_inertia,
     search_wider,
     to_z,
     walk_valley,
@@ -280,40 +283,73 @@ def _guard(problem: Problem, cards: NDArray[np.int64], fits: list[CardState], gu
             fits[i] = g
 
 
+def _searched(problem: Problem, cards: NDArray[np.int64], z_now: Array, c_now: Array,
+              search: Callable[[Problem, NDArray[np.int64], Array, Array],
+                               tuple[Array, Array, NDArray[np.int64]]]
+              ) -> tuple[Array, Array, NDArray[np.int64]]:
+    """A search beyond the answer's basin, on the cards or (long cards) on their shorter
+    copy, like the start; the whole record's cost then judges the point found. Returns the
+    points, their costs on the problem and the search's counts."""
+    at = start_problem(problem, cards)
+    if at is None:
+        return search(problem, cards, z_now, c_now)
+    local = np.arange(cards.size, dtype=np.int64)
+    z_new, _c, counts = search(at, local, z_now, drive.cost_items(local, z_now, *at.arrays))
+    return z_new, drive.cost_items(cards, z_new, *problem.arrays), counts
+
+
 def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
            options: JobOptions) -> None:
     """Stage 4: a wider search where the answer does not explain the data (a wrong basin,
-    or a model that misses part of the response: then other basins compete)."""
-    m = cards.size
-    solver = options.solver
-    hard = [i for i in range(m) if not fits[i].done and np.all(np.isfinite(fits[i].z))
-            and doubtful(problem, int(cards[i]), fits[i])]
-    if not hard or options.wide is None:
+    or a model that misses part of the response: then other basins compete); where it does,
+    a scan along the model's inertia (:mod:`pumpid.engine.start.resonance`), whose ripples
+    hold answers at the noise level."""
+    plan = options.wide
+    if plan is None:
         return
-    z_now = np.array([fits[i].z for i in hard])
-    c_now = np.array([fits[i].cost for i in hard])
-    at = start_problem(problem, cards[hard])
-    if at is None:
-        z_wide, c_wide, counts = search_wider(problem, cards[hard], z_now, c_now,
-                                              plan=options.wide, solver=solver,
-                                              workers=options.workers)
-    else:
-        # Long cards search on their shorter copy, like the start; the whole record's cost
-        # then judges the point found.
-        local = np.arange(len(hard), dtype=np.int64)
-        z_wide, _c, counts = search_wider(at, local, z_now,
-                                          drive.cost_items(local, z_now, *at.arrays),
-                                          plan=options.wide, solver=solver,
-                                          workers=options.workers)
-        c_wide = drive.cost_items(cards[hard], z_wide, *problem.arrays)
-    better = [j for j, i in enumerate(hard) if c_wide[j] < fits[i].cost * (1 - 1e-12)]
-    if not better:
+    solver = options.solver
+    ready = [i for i in range(cards.size)
+             if not fits[i].done and np.all(np.isfinite(fits[i].z))]
+    hard = [i for i in ready if doubtful(problem, int(cards[i]), fits[i])]
+    calm = [i for i in ready if i not in set(hard)]
+    found: dict[int, tuple[Array, str]] = {}
+
+    def search_wide(on: Problem, on_cards: NDArray[np.int64], z: Array,
+                    c: Array) -> tuple[Array, Array, NDArray[np.int64]]:
+        return search_wider(on, on_cards, z, c, plan=plan, solver=solver,
+                            workers=options.workers)
+
+    def scan(on: Problem, on_cards: NDArray[np.int64], z: Array,
+             c: Array) -> tuple[Array, Array, NDArray[np.int64]]:
+        return scan_inertia(on, on_cards, z, c, points=plan.scan_points,
+                            spread=plan.scan_spread, within=plan.scan_within,
+                            dips=plan.scan_dips, solver=solver, workers=options.workers)
+
+    name = problem.model.resonance
+    for group, search, words in (
+            (hard, search_wide, "the first answer did not explain the data; a wider search "
+                                "({} more starts)"),
+            (calm, scan, f"the first answer sat in a ripple of the cost along {name} (a "
+                         "resonance the card sees only through its weak harmonics); a scan "
+                         f"along {name} ({{}} more starts)")):
+        if not group or (search is scan and (not plan.scan_points
+                                             or inertia_index(problem) is None)):
+            continue
+        z_now = np.array([fits[i].z for i in group])
+        c_now = np.array([fits[i].cost for i in group])
+        z_new, c_new, counts = _searched(problem, cards[group], z_now, c_now, search)
+        for j, i in enumerate(group):
+            if c_new[j] < fits[i].cost * (1 - 1e-12):
+                found[i] = (z_new[j], words.format(int(counts[j])))
+    if not found:
         return
     # The improved points are converged already: one more solver run from each gives them
     # their stop test and history.
-    idx = [hard[j] for j in better]
-    again = solver.solve(problem, cards[idx], z_wide[better],
-                         history=options.history and m == 1, workers=options.workers)
+    idx = sorted(found)
+    z_found = np.array([found[i][0] for i in idx])
+    again = solver.solve(problem, cards[idx], z_found,
+                         history=options.history and cards.size == 1,
+                         workers=options.workers)
     for j, i in enumerate(idx):
         before = fits[i].cost
         evals = fits[i].evaluations
@@ -325,10 +361,8 @@ def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
         fits[i].reason = fits[i].message
         if fits[i].cost < before * (1 - SAME_OPTIMUM):
             fits[i].warnings.append(
-                f"the first answer did not explain the data; a wider search "
-                f"({int(counts[better[j]])} more starts) found a better optimum "
-                f"({cost_change(before, fits[i].cost)})")
-    mark_edges(problem, cards[idx], z_wide[better], fits, idx)
+                f"{found[i][1]} found a better optimum ({cost_change(before, fits[i].cost)})")
+    mark_edges(problem, cards[idx], z_found, fits, idx)
     summarize(problem, cards, fits)
 
 

@@ -266,6 +266,10 @@ class Model:
     equation_error: ClassVar[Mapping[str, EquationError]] = {}
     #: Known limits of the parameters.
     limits: ClassVar[tuple[Limit, ...]] = ()
+    #: The parameter that sets the model's resonance (its inertia), or None. Where the
+    #: resonance lies far above the stroke's frequency, the cost along it is flat and
+    #: rippled, and the main job scans along it for a lower dip.
+    resonance: ClassVar[str | None] = None
 
     def __post_init__(self) -> None:
         for info in self.param_info():

@@ -107,6 +107,7 @@ class Kelvin(Model):
     default_output: ClassVar[str] = "u"
     scale_symmetric: ClassVar[bool] = True
     key: ClassVar[str] = "kelvin"
+    resonance: ClassVar[str | None] = "m"
     title: ClassVar[str] = "mass + spring k0 in series with Kelvin element k1 || c1 (eqs. 8-9)"
     a_terms: ClassVar[Mapping[tuple[int, int], tuple[Term, ...]]] = {
         (0, 1): (term(1),),

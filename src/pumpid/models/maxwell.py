@@ -53,6 +53,7 @@ class Maxwell(Model):
     default_output: ClassVar[str] = "u"
     scale_symmetric: ClassVar[bool] = True
     key: ClassVar[str] = "maxwell"
+    resonance: ClassVar[str | None] = "m"
     title: ClassVar[str] = "mass + spring k0 in parallel with Maxwell arm k1 -- c1 (eqs. 11-12)"
     a_terms: ClassVar[Mapping[tuple[int, int], tuple[Term, ...]]] = {
         (0, 1): (term(1),),

@@ -36,6 +36,7 @@ class MassSpringDamper(Model):
     default_output: ClassVar[str] = "u"
     scale_symmetric: ClassVar[bool] = True
     key: ClassVar[str] = "msd"
+    resonance: ClassVar[str | None] = "m"
     title: ClassVar[str] = "mass-spring-dashpot m u'' + c u' + k u = f (paper eq. 28)"
     a_terms: ClassVar[Mapping[tuple[int, int], tuple[Term, ...]]] = {
         (0, 1): (term(1),),

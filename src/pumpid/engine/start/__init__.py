@@ -16,7 +16,9 @@ and polishes the best few, for every card of a problem at once. One module per s
   (:func:`walk_valley`);
 * :mod:`.harmonics` -- a fast ranking of many shapes on a periodic card (compiled);
 * :mod:`.wider` -- a larger multistart, in rounds until two starts agree, for cards whose
-  answer does not explain their data (:func:`search_wider`).
+  answer does not explain their data (:func:`search_wider`);
+* :mod:`.resonance` -- a scan along the model's inertia for the others, whose answer can sit
+  in a ripple of the cost at the noise level (:func:`scan_inertia`).
 
 The compiled code is kept to its own modules (listed in :mod:`pumpid.engine.compiled`), so
 that editing the Python strategies does not invalidate the compiled cache.
@@ -29,6 +31,7 @@ from .equation_error import equation_error_items
 from .harmonics import harmonic_scan
 from .multistart import StartPlan, Starts, find_starts
 from .pool import candidates
+from .resonance import inertia_index, scan_inertia
 from .valley import walk_valley
 from .wider import WidePlan, compile_ranking, search_wider
 
@@ -42,6 +45,8 @@ __all__ = [
     "equation_error_items",
     "find_starts",
     "harmonic_scan",
+    "inertia_index",
+    "scan_inertia",
     "search_wider",
     "to_z",
     "walk_valley",

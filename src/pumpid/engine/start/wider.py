@@ -55,6 +55,11 @@ class WidePlan:
     most 2.1e-4, 47 of them on fits reported as undetermined and one on a poor fit; 7
     gained.
 
+    A card whose answer explains its data gets instead the scan along the model's inertia
+    (``scan_points`` values from the answer's divided by ``scan_spread`` to multiplied by
+    it; the solver runs from the ``scan_dips`` lowest dips within ``scan_within`` of the
+    answer's cost).
+
     The ranking looks at the card's first ``harmonics`` harmonics: those carry a card (its
     shapes' responses beyond them are small, and the continuous transfer function the scan
     uses drifts from the exact discrete one there). On 389 public field cards 24 harmonics
@@ -83,6 +88,12 @@ class WidePlan:
     final_evaluations: int = 200
     agree: float = 1e-6
     harmonics: int = SEARCH_HARMONICS
+    #: The scan along the inertia for the cards whose answer explains the data
+    #: (:func:`~pumpid.engine.start.resonance.scan_inertia`; 0 points: off).
+    scan_points: int = 40
+    scan_spread: float = 30.0
+    scan_within: float = 0.05
+    scan_dips: int = 3
 
 
 def _card_rng(problem: Problem, k: int) -> np.random.Generator:
