@@ -22,7 +22,13 @@ from pumpid import (
 from pumpid.cards import read_cards
 from pumpid.inference.hac import long_run_covariance
 from pumpid.inference.identifiability import describe_direction, findings_of
-from pumpid.inference.uncertainty import Numbers, analyse_rows, residual_whiteness, uncertainty_of
+from pumpid.inference.uncertainty import (
+    Numbers,
+    analyse_rows,
+    residual_whiteness,
+    uncertainty_of,
+    widened,
+)
 from pumpid.result import diagnostics_text
 
 from ..conftest import well_load
@@ -405,3 +411,24 @@ def test_sandia_cards_state_what_is_identifiable(shared_raw) -> None:
         # intervals are flagged as too narrow.
         assert not res.extra["uncertainty"]["whiteness"]["white"]
         assert any("not white noise" in w for w in res.warnings)
+
+
+def test_an_error_widened_keeps_its_correlations_and_only_rises() -> None:
+    names = ["k0", "m", "c1", "k1", "C"]
+    rows, _y = _scaled_rows(KELVIN, names[:4])
+    num = _numbers(rows, names, [*KELVIN.values, 1.0], np.ones(5))
+    se = np.sqrt(np.diag(num.cov_scaled)[:5])
+    wide = widened(num, 1, 4.0 * se[1])
+    for cov, before in ((wide.cov_scaled, num.cov_scaled), (wide.hac_scaled, num.hac_scaled)):
+        assert math.sqrt(cov[1, 1]) == pytest.approx(4.0 * se[1]) or not math.isfinite(
+            before[1, 1])
+        others = [0, 2, 3, 4]
+        assert np.array_equal(cov[np.ix_(others, others)], before[np.ix_(others, others)])
+        d_new, d_old = np.sqrt(np.diag(cov)[:5]), np.sqrt(np.diag(before)[:5])
+        np.testing.assert_allclose(cov[:5, :5] / np.outer(d_new, d_new),
+                                   before[:5, :5] / np.outer(d_old, d_old), atol=1e-12)
+    # A smaller error than the local one, or a coordinate not analysed: unchanged.
+    assert widened(num, 1, 0.5 * se[1]) is num or np.array_equal(
+        widened(num, 1, 0.5 * se[1]).cov_scaled, num.cov_scaled)
+    assert widened(num, 7, 1.0) is num
+    assert widened(num, 1, math.nan) is num

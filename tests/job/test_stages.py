@@ -190,3 +190,25 @@ def test_an_answer_in_a_ripple_along_the_mass_goes_to_the_scan(index: int,
     if truth_basin:
         assert fit.params["m"] == pytest.approx(from_truth.params["m"], rel=1e-3)
     assert any("a scan along m" in w and "better optimum" in w for w in fit.warnings)
+
+
+def test_a_mass_the_card_hardly_sees_is_not_called_determined() -> None:
+    # The resonance at 42 times the stroke frequency: the best dip of the cost along m
+    # (m 0.26) and the truth's (m 2.34, solved from the truth) are within the noise of each
+    # other. The curvature at the best dip alone said m = 0.257 +- 0.003.
+    card, truth = spread_card(44)
+    fit = pumpid.fit(pumpid.Kelvin, card)
+    low, high = fit.ci95["m"]
+    assert low < truth[1] < high
+    assert "m" in fit.determined["not_determined"]
+    assert any(f.startswith("m fits the card from") and "flat and rippled" in f
+               for f in fit.identifiability)
+
+
+def test_a_mass_the_card_sees_keeps_its_local_error() -> None:
+    card, truth = spread_card(2)
+    fit = pumpid.fit(pumpid.Kelvin, card)
+    assert "m" in fit.determined["parameters"]
+    assert fit.stderr["m"] < 0.02 * fit.params["m"]
+    assert fit.ci95["m"][0] < truth[1] < fit.ci95["m"][1]
+    assert not any("fits the card from" in f for f in fit.identifiability)

@@ -19,6 +19,7 @@ Positive quantities get their interval on the log scale, ``value * exp(+-t se/va
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Sequence
@@ -49,6 +50,7 @@ __all__ = [
     "residual_whiteness",
     "t_quantile",
     "uncertainty_of",
+    "widened",
 ]
 
 Array = NDArray[np.float64]
@@ -470,3 +472,31 @@ def numbers(problem: Problem, cards: NDArray[np.int64], z: Array, inner: NDArray
             capped=bool(stats[i, 5] == 1.0), n=n, cost=0.5 * rms * rms * n,
             usable=bool(stats[i, 0] == 1.0), spread=spread))
     return out
+
+
+def widened(nums: Numbers, index: int, se: float) -> Numbers:
+    """The analysis with coordinate ``index``'s standard error raised to at least ``se``
+    (in the analysis' scaled coordinates: relative for a positive parameter), in the white
+    and the robust covariances alike, its correlations kept; unchanged where it is larger
+    already, not finite, or the coordinate is not analysed.
+
+    A local error is the cost's curvature at the answer; where the cost is known to stay
+    within the noise much farther away (a flat, rippled direction), the error that holds
+    is at least that distance's.
+    """
+    inner = list(nums.inner)
+    if index not in inner or not (math.isfinite(se) and se > 0):
+        return nums
+    a = inner.index(index)
+    out = []
+    for cov in (nums.cov_scaled, nums.hac_scaled):
+        var = float(cov[a, a])
+        if not (math.isfinite(var) and 0 < var < se * se):
+            out.append(cov)
+            continue
+        factor = se / math.sqrt(var)
+        cov = cov.copy()
+        cov[a, :] *= factor
+        cov[:, a] *= factor
+        out.append(cov)
+    return dataclasses.replace(nums, cov_scaled=out[0], hac_scaled=out[1])

@@ -319,11 +319,21 @@ def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
         return search_wider(on, on_cards, z, c, plan=plan, solver=solver,
                             workers=options.workers)
 
+    # The local minima the scan converged to, with the first answer's (on the card itself,
+    # not a long card's shorter copy, whose costs are another sum): the diagnostics widen
+    # the inertia's error to those within the noise of the best.
+    minima: list[list[tuple[float, float]]] = [[] for _ in calm]
+
     def scan(on: Problem, on_cards: NDArray[np.int64], z: Array,
              c: Array) -> tuple[Array, Array, NDArray[np.int64]]:
-        return scan_inertia(on, on_cards, z, c, points=plan.scan_points,
-                            spread=plan.scan_spread, within=plan.scan_within,
-                            dips=plan.scan_dips, solver=solver, workers=options.workers)
+        seen = None
+        j = inertia_index(on)
+        if on is problem and j is not None:
+            seen = minima
+            for i in range(len(calm)):
+                seen[i].append((float(z[i, j]), float(c[i])))
+        return scan_inertia(on, on_cards, z, c, plan=plan, solver=solver,
+                            workers=options.workers, minima=seen)
 
     name = problem.model.resonance
     for group, search, words in (
@@ -341,6 +351,8 @@ def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
         for j, i in enumerate(group):
             if c_new[j] < fits[i].cost * (1 - 1e-12):
                 found[i] = (z_new[j], words.format(int(counts[j])))
+    for j, i in enumerate(calm):
+        fits[i].inertia_minima = tuple(minima[j])
     if not found:
         return
     # The improved points are converged already: one more solver run from each gives them

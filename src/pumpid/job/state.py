@@ -73,6 +73,8 @@ class CardState:
     noise: float = math.nan
     band: tuple[float, float] = (math.nan, math.nan)
     norms: Array | None = None
+    #: Local minima along the model's inertia the scan met: (ln inertia, cost) pairs.
+    inertia_minima: tuple[tuple[float, float], ...] = ()
 
 
 def theta_of(problem: Problem, z: Array) -> Array:

@@ -25,8 +25,9 @@ from numpy.typing import NDArray
 from .. import drive
 from ..problem import Problem
 from ..solvers import LevenbergMarquardt
+from .wider import WidePlan
 
-__all__ = ["inertia_index", "scan_inertia"]
+__all__ = ["flat_span", "inertia_index", "scan_inertia"]
 
 Array = NDArray[np.float64]
 
@@ -48,26 +49,28 @@ def scan_inertia(
     z_now: Array,
     cost_now: Array,
     *,
-    points: int = 40,
-    spread: float = 30.0,
-    within: float = 0.05,
-    dips: int = 3,
-    passes: int = 3,
+    plan: WidePlan | None = None,
     solver: LevenbergMarquardt | None = None,
     workers: int | None = 1,
+    minima: list[list[tuple[float, float]]] | None = None,
 ) -> tuple[Array, Array, NDArray[np.int64]]:
     """The best point of each card after a scan along the model's inertia.
 
-    ``points`` values of the inertia from the answer's divided by ``spread`` to multiplied
-    by it (the other coordinates held) are costed; the solver runs to convergence from the
-    lowest ``dips`` local minima of that profile whose cost is within ``within`` (relative)
-    of the answer's, the answer's own neighbours excepted; a card whose point moved is
-    scanned again from there, ``passes`` times at most.
+    The plan's ``scan_points`` values of the inertia from the answer's divided by
+    ``scan_spread`` to multiplied by it (the other coordinates held) are costed; the solver
+    runs from the lowest ``scan_dips`` local minima of that profile whose cost is within
+    ``scan_within`` (relative) of the answer's, the answer's own neighbours excepted, for at
+    most ``scan_evaluations`` each; a card whose point moved is scanned again from there,
+    ``scan_passes`` times at most. ``minima``, one list per card,
+    receives the (ln inertia, cost) of every point the solver converged to (local minima
+    of the cost, the answers' of other dips: where one lies within the noise of the best,
+    the inertia is not determined).
 
     Returns the best points (m, q), their costs (m,) and the number of points the solver
     ran from per card (the given point and cost where nothing was lower).
     """
     solver = solver or LevenbergMarquardt()
+    plan = plan or WidePlan()
     cards = np.asarray(cards, dtype=np.int64)
     best_z = np.array(z_now, dtype=float).copy()
     best_cost = np.array(cost_now, dtype=float).copy()
@@ -75,14 +78,15 @@ def scan_inertia(
     j = inertia_index(problem)
     if j is None or not cards.size:
         return best_z, best_cost, runs
-    steps = np.linspace(-math.log(spread), math.log(spread), points)
+    steps = np.linspace(-math.log(plan.scan_spread), math.log(plan.scan_spread),
+                        plan.scan_points)
     todo = np.arange(cards.size)
     # A dip the solver left for a lower one is scanned from again: the profile seen from
     # the new point's other coordinates has its own dips (on the card of the module's note
     # whose mass was off by 4, the first scan stopped half way).
-    for _pass in range(passes):
-        lower = _scan_once(problem, cards, best_z, best_cost, runs, todo, j, steps, within,
-                           dips, solver, workers)
+    for _pass in range(plan.scan_passes):
+        lower = _scan_once(problem, cards, best_z, best_cost, runs, todo, j, steps, plan,
+                           solver, workers, minima)
         todo = todo[lower]
         if not todo.size:
             break
@@ -91,8 +95,8 @@ def scan_inertia(
 
 def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_cost: Array,
                runs: NDArray[np.int64], todo: NDArray[np.int64], j: int, steps: Array,
-               within: float, dips: int, solver: LevenbergMarquardt,
-               workers: int | None) -> NDArray[np.bool_]:
+               plan: WidePlan, solver: LevenbergMarquardt, workers: int | None,
+               minima: list[list[tuple[float, float]]] | None) -> NDArray[np.bool_]:
     """One scan of the cards ``todo`` (in place); whether each found a lower point."""
     step = float(steps[1] - steps[0])
     points = steps.size
@@ -113,9 +117,9 @@ def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_c
         lower_right = np.concatenate([costs[:-1] <= costs[1:], [True]])
         # The answer's own neighbours lie in its basin: the solver would return there.
         away = np.abs(line[:, j] - best_z[i, j]) > 1.01 * step
-        near = costs < best_cost[i] * (1.0 + within)
+        near = costs < best_cost[i] * (1.0 + plan.scan_within)
         found = np.flatnonzero(lower_left & lower_right & away & near & np.isfinite(costs))
-        for d in found[np.argsort(costs[found])][:dips]:
+        for d in found[np.argsort(costs[found])][: plan.scan_dips]:
             from_cards.append(int(k))
             from_z.append(line[d])
             owner.append(int(i))
@@ -123,12 +127,40 @@ def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_c
     if not from_cards:
         return lower
     out = solver.solve(problem, np.array(from_cards, dtype=np.int64), np.array(from_z),
-                       workers=workers)
+                       budget=plan.scan_evaluations, workers=workers)
     where = {int(i): t for t, i in enumerate(todo)}
     for jj, i in enumerate(owner):
         runs[i] += 1
+        if minima is not None and out.stops[jj].converged and math.isfinite(out.cost[jj]):
+            minima[i].append((float(out.z[jj, j]), float(out.cost[jj])))
         if math.isfinite(out.cost[jj]) and out.cost[jj] < best_cost[i] * (1 - 1e-12):
             best_cost[i] = float(out.cost[jj])
             best_z[i] = out.z[jj]
             lower[where[i]] = True
     return lower
+
+
+def flat_span(problem: Problem, k: int, z: Array, limit: float, coordinate: int | None = None,
+              *, points: int = 40, spread: float = 30.0) -> tuple[float, float] | None:
+    """How far one parameter can move, every other coordinate held, with card k's cost
+    staying at or below ``limit``: the lowest and highest such values among ``points``
+    from the answer's divided by ``spread`` to multiplied by it (the answer's own value
+    included). ``coordinate``: a free parameter's solver coordinate (default: the model's
+    inertia). None without that coordinate or a finite answer.
+
+    Every coordinate but one held, the cost is at or above the profile's (the others
+    refitted), so a value found here lies within the likelihood-ratio interval whose
+    threshold is ``limit``: the span is a lower bound of that interval's extent.
+    """
+    j = inertia_index(problem) if coordinate is None else coordinate
+    if j is None or not (math.isfinite(limit) and np.all(np.isfinite(z))):
+        return None
+    steps = np.concatenate([[0.0], np.linspace(-math.log(spread), math.log(spread), points)])
+    lo, hi = problem.window(np.array([k], dtype=np.int64), np.asarray(z, dtype=float)[None])
+    line = np.repeat(np.asarray(z, dtype=float)[None], steps.size, axis=0)
+    line[:, j] = np.clip(z[j] + steps, lo[0, j], hi[0, j])
+    costs = drive.cost_items(np.full(steps.size, k, dtype=np.int64), line, *problem.arrays)
+    inside = line[costs <= limit, j]
+    if not inside.size:
+        return None
+    return float(np.exp(inside.min())), float(np.exp(inside.max()))

@@ -58,7 +58,8 @@ class WidePlan:
     A card whose answer explains its data gets instead the scan along the model's inertia
     (``scan_points`` values from the answer's divided by ``scan_spread`` to multiplied by
     it; the solver runs from the ``scan_dips`` lowest dips within ``scan_within`` of the
-    answer's cost).
+    answer's cost, for at most ``scan_evaluations`` each; again from a point that moved,
+    ``scan_passes`` times at most).
 
     The ranking looks at the card's first ``harmonics`` harmonics: those carry a card (its
     shapes' responses beyond them are small, and the continuous transfer function the scan
@@ -94,6 +95,8 @@ class WidePlan:
     scan_spread: float = 30.0
     scan_within: float = 0.05
     scan_dips: int = 3
+    scan_evaluations: int = 200
+    scan_passes: int = 3
 
 
 def _card_rng(problem: Problem, k: int) -> np.random.Generator:
