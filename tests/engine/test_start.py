@@ -27,7 +27,7 @@ from pumpid.engine.start import (
     candidates,
     complete,
     find_starts,
-    flat_span,
+    flat_spans,
     harmonic_scan,
     inertia_index,
     scan_inertia,
@@ -451,13 +451,18 @@ def test_the_flat_span_along_the_inertia_holds_the_answer_and_the_threshold() ->
     problem, truth = _spread_problem(31)
     z, cost = _solved(problem, truth)
     m = math.exp(z[0, 1])
-    lo, hi = flat_span(problem, 0, z[0], cost[0] * 1.05)
+    same_card = np.zeros(4, dtype=np.int64)
+    factors = np.array([1.05, 1.02, 1 + 1e-9, 0.5])
+    wide, tight, exact, below = flat_spans(problem, same_card, np.repeat(z, 4, axis=0),
+                                           cost[0] * factors)
+    lo, hi = wide
     assert lo < 0.1 * m and hi > 2.0 * m
-    tight = flat_span(problem, 0, z[0], cost[0] * 1.02)
     assert tight is not None and lo < tight[0] < m < tight[1] < hi
-    assert flat_span(problem, 0, z[0], cost[0] * (1 + 1e-9)) == (m, m)
-    assert flat_span(problem, 0, z[0], 0.5 * cost[0]) is None
+    assert exact == (m, m)
+    assert below is None
     for value in (lo, hi, *tight):
         point = z.copy()
         point[0, 1] = math.log(value)
         assert drive.cost_items(ONE, point, *problem.arrays)[0] <= cost[0] * 1.05
+    # A card with no finite limit: no span.
+    assert flat_spans(problem, ONE, z, np.array([math.nan])) == [None]

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from ..engine import drive
 from ..engine.problem import Problem
-from ..engine.start import flat_span, inertia_index
+from ..engine.start import flat_spans, inertia_index
 from ..inference.derived import derived_of
 from ..inference.echo import echo_of
 from ..inference.identifiability import findings_of, whiteness_warning
@@ -138,6 +138,7 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                 inner[j, names.index(b.name)] = False
     nums = numbers(problem, cards[idx], np.array([fits[i].z for i in idx]), inner)
     data, model_code, settings = problem.arrays
+    flats = _flat_inertia(problem, cards[idx], [fits[i] for i in idx], nums)
     for j, i in enumerate(idx):
         card = fits[i]
         k = int(cards[i])
@@ -146,14 +147,12 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
             rows = np.empty((problem.q + 1, problem.n_samples(k)))
             return rows if drive.rows_at(z, k, data, model_code, settings, rows) else None
 
-        flats = _flat_spans(problem, k, card, nums[j])
+        flat = flats[j]
 
         def transform(n: Numbers, z: Array = card.z, k: int = k,
-                      flats: list[tuple[int, float, float, float]] = flats) -> Numbers:
+                      flat: tuple[int, float, float, float] | None = flat) -> Numbers:
             n = numbers_for_true_offset(problem, k, z, n)
-            for coordinate, se, _lo, _hi in flats:
-                n = widened(n, coordinate, se)
-            return n
+            return n if flat is None else widened(n, flat[0], flat[1])
 
         said = assess(nums[j], rows_of, problem.q - 1 if problem.offset_fixed is None else -1,
                       model_names=model_names, gauge_fixed=problem.gauge_fixed,
@@ -165,10 +164,9 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
         num, serial, unc = said.numbers, said.serial, said.uncertainty
         card.findings, card.determined = said.findings, said.determined
         card.uncertainty = unc
-        for coordinate, se, low, high in flats:
-            if se > _local_error(nums[j], coordinate):
-                card.findings = (*card.findings, _flat_words(problem, names[coordinate],
-                                                             low, high, units[k]))
+        if flat is not None and flat[1] > _local_error(nums[j], flat[0]):
+            card.findings = (*card.findings, _flat_words(problem, names[flat[0]], flat[2],
+                                                         flat[3], units[k]))
         if problem.model.input_map is None:
             z = card.z
             scale = scale_offset(problem, z)[0]
@@ -188,37 +186,40 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
             card.warnings.append(said.warning)
 
 
-def _flat_spans(problem: Problem, k: int, card: CardState,
-                num: Numbers) -> list[tuple[int, float, float, float]]:
-    """How far card k's answer leaves the model's inertia free, as a list of none or one
-    (coordinate, the standard error (relative) its span reaches at the 95 % level, the
-    span's lowest and highest values). Empty without a free inertia, at a limit, where the
-    fit is exact, or for a card longer than the start looks at (a scan along a million
-    samples would cost as much as the fit)."""
-    if (not num.usable or num.exact or num.dof <= 0
-            or problem.n_samples(k) > START_SAMPLES):
-        return []
-    tq = t_quantile(0.975, num.dof)
-    # The likelihood-ratio threshold of the profile (pumpid.profile_of's), in cost units.
-    limit = card.cost * (1.0 + tq * tq / num.dof)
-    at_limit = {b.name for b in card.limits}
-    inertia = inertia_index(problem)
-    # The inertia only: on the 60 synthetic cards spread over x100 of the module's tests,
-    # the same scan along k0, c1 and k1 too (four times the price) left one more value
-    # undetermined; their errors fail along combinations, not along one of them.
-    out = []
-    for j in [] if inertia is None else [inertia]:
-        if problem.free_names[j] in at_limit:
-            continue
-        span = flat_span(problem, k, card.z, limit, j)
+def _flat_inertia(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
+                  nums: Sequence[Numbers]) -> list[tuple[int, float, float, float] | None]:
+    """How far each card's answer leaves the model's inertia free: (its coordinate, the
+    standard error (relative) its span reaches at the 95 % level, the span's lowest and
+    highest values), or None without a free inertia, at a limit, where the fit is exact,
+    or for a card longer than the start looks at (a scan along a million samples would cost
+    as much as the fit). One compiled call for every card.
+
+    The inertia only: on the 60 synthetic cards spread over x100 of the best-optimum
+    benchmark, the same scan along k0, c1 and k1 too (four times the price) left one more
+    value undetermined; their errors fail along combinations, not along one of them."""
+    j = inertia_index(problem)
+    limits = np.full(len(fits), math.nan)
+    if j is None:
+        return [None] * len(fits)
+    for i, (card, num) in enumerate(zip(fits, nums, strict=True)):
+        if (num.usable and not num.exact and num.dof > 0
+                and problem.n_samples(int(cards[i])) <= START_SAMPLES
+                and problem.free_names[j] not in {b.name for b in card.limits}):
+            tq = t_quantile(0.975, num.dof)
+            # The likelihood-ratio threshold of the profile (pumpid.profile_of's).
+            limits[i] = card.cost * (1.0 + tq * tq / num.dof)
+    spans = flat_spans(problem, cards, np.array([card.z for card in fits]), limits, j)
+    out: list[tuple[int, float, float, float] | None] = []
+    for i, (card, span) in enumerate(zip(fits, spans, strict=True)):
         if span is None:
+            out.append(None)
             continue
         # Another local minimum within the threshold lies within the profile's interval too.
-        others = [math.exp(v) for v, c in card.inertia_minima if c <= limit]
-        span = (min([span[0], *others]), max([span[1], *others]))
+        others = [math.exp(v) for v, c in card.inertia_minima if c <= limits[i]]
+        low, high = min([span[0], *others]), max([span[1], *others])
         value = math.exp(float(card.z[j]))
-        reach = max(math.log(value / span[0]), math.log(span[1] / value))
-        out.append((j, reach / tq, span[0], span[1]))
+        reach = max(math.log(value / low), math.log(high / value))
+        out.append((j, reach / t_quantile(0.975, nums[i].dof), low, high))
     return out
 
 

@@ -31,7 +31,7 @@ from .equation_error import equation_error_items
 from .harmonics import harmonic_scan
 from .multistart import StartPlan, Starts, find_starts
 from .pool import candidates
-from .resonance import flat_span, inertia_index, scan_inertia
+from .resonance import flat_spans, inertia_index, scan_inertia
 from .valley import walk_valley
 from .wider import WidePlan, compile_ranking, search_wider
 
@@ -44,7 +44,7 @@ __all__ = [
     "complete",
     "equation_error_items",
     "find_starts",
-    "flat_span",
+    "flat_spans",
     "harmonic_scan",
     "inertia_index",
     "scan_inertia",

@@ -27,7 +27,7 @@ from ..problem import Problem
 from ..solvers import LevenbergMarquardt
 from .wider import WidePlan
 
-__all__ = ["flat_span", "inertia_index", "scan_inertia"]
+__all__ = ["flat_spans", "inertia_index", "scan_inertia"]
 
 Array = NDArray[np.float64]
 
@@ -93,26 +93,33 @@ def scan_inertia(
     return best_z, best_cost, runs
 
 
+def _lines(problem: Problem, cards: NDArray[np.int64], z: Array, j: int,
+           steps: Array) -> tuple[Array, Array]:
+    """Each card's point moved along coordinate j by ``steps`` (within the search window),
+    (m, s, q), and their costs (m, s): one compiled call for every card."""
+    m, q = z.shape
+    lo, hi = problem.window(cards, z)
+    lines = np.repeat(z[:, None, :], steps.size, axis=1)
+    lines[:, :, j] = np.clip(z[:, j, None] + steps[None, :], lo[:, j, None], hi[:, j, None])
+    costs = drive.cost_items(np.repeat(cards, steps.size), lines.reshape(-1, q),
+                             *problem.arrays)
+    return lines, costs.reshape(m, steps.size)
+
+
 def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_cost: Array,
                runs: NDArray[np.int64], todo: NDArray[np.int64], j: int, steps: Array,
                plan: WidePlan, solver: LevenbergMarquardt, workers: int | None,
                minima: list[list[tuple[float, float]]] | None) -> NDArray[np.bool_]:
     """One scan of the cards ``todo`` (in place); whether each found a lower point."""
     step = float(steps[1] - steps[0])
-    points = steps.size
-    lo, hi = problem.window(cards[todo], best_z[todo])
-    data, model, settings = problem.arrays
+    go = todo[np.isfinite(best_cost[todo]) & np.all(np.isfinite(best_z[todo]), axis=1)]
     from_cards: list[int] = []
     from_z: list[Array] = []
     owner: list[int] = []
-    for t, i in enumerate(todo):
-        k = cards[i]
-        if not (math.isfinite(best_cost[i]) and np.all(np.isfinite(best_z[i]))):
-            continue
-        line = np.repeat(best_z[i][None], points, axis=0)
-        line[:, j] = np.clip(best_z[i, j] + steps, lo[t, j], hi[t, j])
-        costs = drive.cost_items(np.full(points, k, dtype=np.int64), line, data, model,
-                                 settings)
+    if go.size:
+        lines, all_costs = _lines(problem, cards[go], best_z[go], j, steps)
+    for t, i in enumerate(go):
+        line, costs = lines[t], all_costs[t]
         lower_left = np.concatenate([[True], costs[1:] <= costs[:-1]])
         lower_right = np.concatenate([costs[:-1] <= costs[1:], [True]])
         # The answer's own neighbours lie in its basin: the solver would return there.
@@ -120,7 +127,7 @@ def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_c
         near = costs < best_cost[i] * (1.0 + plan.scan_within)
         found = np.flatnonzero(lower_left & lower_right & away & near & np.isfinite(costs))
         for d in found[np.argsort(costs[found])][: plan.scan_dips]:
-            from_cards.append(int(k))
+            from_cards.append(int(cards[i]))
             from_z.append(line[d])
             owner.append(int(i))
     lower = np.zeros(todo.size, dtype=bool)
@@ -140,27 +147,34 @@ def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_c
     return lower
 
 
-def flat_span(problem: Problem, k: int, z: Array, limit: float, coordinate: int | None = None,
-              *, points: int = 40, spread: float = 30.0) -> tuple[float, float] | None:
-    """How far one parameter can move, every other coordinate held, with card k's cost
-    staying at or below ``limit``: the lowest and highest such values among ``points``
-    from the answer's divided by ``spread`` to multiplied by it (the answer's own value
-    included). ``coordinate``: a free parameter's solver coordinate (default: the model's
-    inertia). None without that coordinate or a finite answer.
+def flat_spans(problem: Problem, cards: NDArray[np.int64], z: Array, limits: Array,
+               coordinate: int | None = None, *, points: int = 40,
+               spread: float = 30.0) -> list[tuple[float, float] | None]:
+    """How far one parameter can move on each card, every other coordinate held, with the
+    card's cost staying at or below its limit: the lowest and highest such values among
+    ``points`` from the answer's divided by ``spread`` to multiplied by it (the answer's
+    own value included). ``coordinate``: a free parameter's solver coordinate (default: the
+    model's inertia). None for a card without a finite answer or limit, and for every card
+    without that coordinate.
 
     Every coordinate but one held, the cost is at or above the profile's (the others
     refitted), so a value found here lies within the likelihood-ratio interval whose
-    threshold is ``limit``: the span is a lower bound of that interval's extent.
+    threshold is the limit: the span is a lower bound of that interval's extent.
     """
+    cards = np.asarray(cards, dtype=np.int64)
+    z = np.asarray(z, dtype=float).reshape(cards.size, -1)
+    limits = np.asarray(limits, dtype=float)
+    out: list[tuple[float, float] | None] = [None] * cards.size
     j = inertia_index(problem) if coordinate is None else coordinate
-    if j is None or not (math.isfinite(limit) and np.all(np.isfinite(z))):
-        return None
+    if j is None:
+        return out
+    go = np.flatnonzero(np.isfinite(limits) & np.all(np.isfinite(z), axis=1))
+    if not go.size:
+        return out
     steps = np.concatenate([[0.0], np.linspace(-math.log(spread), math.log(spread), points)])
-    lo, hi = problem.window(np.array([k], dtype=np.int64), np.asarray(z, dtype=float)[None])
-    line = np.repeat(np.asarray(z, dtype=float)[None], steps.size, axis=0)
-    line[:, j] = np.clip(z[j] + steps, lo[0, j], hi[0, j])
-    costs = drive.cost_items(np.full(steps.size, k, dtype=np.int64), line, *problem.arrays)
-    inside = line[costs <= limit, j]
-    if not inside.size:
-        return None
-    return float(np.exp(inside.min())), float(np.exp(inside.max()))
+    lines, costs = _lines(problem, cards[go], z[go], j, steps)
+    for t, i in enumerate(go):
+        inside = lines[t, costs[t] <= limits[i], j]
+        if inside.size:
+            out[i] = (float(np.exp(inside.min())), float(np.exp(inside.max())))
+    return out
