@@ -105,7 +105,7 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
 
 
 def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
-              units: Sequence[Units]) -> None:
+              units: Sequence[Units], workers: int | None = 1) -> None:
     """Identifiability, uncertainty and whiteness of every fitted card.
 
     Parameters
@@ -118,6 +118,8 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
         warnings.
     units : sequence of Units
         One per card of the problem (the units the errors and combinations are said in).
+    workers : int or None
+        Threads for the compiled scan along the inertia.
     """
     idx = [i for i in range(len(fits)) if np.all(np.isfinite(fits[i].z))
            and math.isfinite(fits[i].cost)]
@@ -138,7 +140,7 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                 inner[j, names.index(b.name)] = False
     nums = numbers(problem, cards[idx], np.array([fits[i].z for i in idx]), inner)
     data, model_code, settings = problem.arrays
-    flats = _flat_inertia(problem, cards[idx], [fits[i] for i in idx], nums)
+    flats = _flat_inertia(problem, cards[idx], [fits[i] for i in idx], nums, workers)
     for j, i in enumerate(idx):
         card = fits[i]
         k = int(cards[i])
@@ -187,12 +189,13 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
 
 
 def _flat_inertia(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
-                  nums: Sequence[Numbers]) -> list[tuple[int, float, float, float] | None]:
+                  nums: Sequence[Numbers],
+                  workers: int | None) -> list[tuple[int, float, float, float] | None]:
     """How far each card's answer leaves the model's inertia free: (its coordinate, the
     standard error (relative) its span reaches at the 95 % level, the span's lowest and
     highest values), or None without a free inertia, at a limit, where the fit is exact,
     or for a card longer than the start looks at (a scan along a million samples would cost
-    as much as the fit). One compiled call for every card.
+    as much as the fit). The costs are spread over ``workers`` threads.
 
     The inertia only: on the 60 synthetic cards spread over x100 of the best-optimum
     benchmark, the same scan along k0, c1 and k1 too (four times the price) left one more
@@ -208,7 +211,8 @@ def _flat_inertia(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Car
             tq = t_quantile(0.975, num.dof)
             # The likelihood-ratio threshold of the profile (pumpid.profile_of's).
             limits[i] = card.cost * (1.0 + tq * tq / num.dof)
-    spans = flat_spans(problem, cards, np.array([card.z for card in fits]), limits, j)
+    spans = flat_spans(problem, cards, np.array([card.z for card in fits]), limits, j,
+                       workers=workers)
     out: list[tuple[int, float, float, float] | None] = []
     for i, (card, span) in enumerate(zip(fits, spans, strict=True)):
         if span is None:

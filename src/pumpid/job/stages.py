@@ -528,7 +528,7 @@ def run_batch(problem: Problem, *, guess: Array | None, c_start: Array | None = 
                 else [units or Units()] * problem.n_cards)
     if depth == 0:
         # A reduced model's fit is summarised (parameters, quality, status): no diagnostics.
-        diagnose(problem, valid, fits, per_card)
+        diagnose(problem, valid, fits, per_card, workers=options.workers)
     results: list[FitResult | None] = [None] * problem.n_cards
     for j, k in enumerate(valid):
         res = build_result(problem, int(k), fits[j], options, per_card[int(k)], warnings)

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from .. import drive
 from ..problem import Problem
 from ..solvers import LevenbergMarquardt
+from ..threads import run_chunks
 from .wider import WidePlan
 
 __all__ = ["flat_spans", "inertia_index", "scan_inertia"]
@@ -93,16 +94,22 @@ def scan_inertia(
     return best_z, best_cost, runs
 
 
-def _lines(problem: Problem, cards: NDArray[np.int64], z: Array, j: int,
-           steps: Array) -> tuple[Array, Array]:
+def _lines(problem: Problem, cards: NDArray[np.int64], z: Array, j: int, steps: Array,
+           workers: int | None) -> tuple[Array, Array]:
     """Each card's point moved along coordinate j by ``steps`` (within the search window),
-    (m, s, q), and their costs (m, s): one compiled call for every card."""
+    (m, s, q), and their costs (m, s), spread over ``workers`` threads."""
     m, q = z.shape
     lo, hi = problem.window(cards, z)
     lines = np.repeat(z[:, None, :], steps.size, axis=1)
     lines[:, :, j] = np.clip(z[:, j, None] + steps[None, :], lo[:, j, None], hi[:, j, None])
-    costs = drive.cost_items(np.repeat(cards, steps.size), lines.reshape(-1, q),
-                             *problem.arrays)
+    items = np.repeat(cards, steps.size)
+    points = lines.reshape(-1, q)
+    costs = np.empty(items.size)
+
+    def work(a: int, b: int) -> None:
+        costs[a:b] = drive.cost_items(items[a:b], points[a:b], *problem.arrays)
+
+    run_chunks(work, items.size, workers=workers, chunk=8 * steps.size)
     return lines, costs.reshape(m, steps.size)
 
 
@@ -117,7 +124,7 @@ def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_c
     from_z: list[Array] = []
     owner: list[int] = []
     if go.size:
-        lines, all_costs = _lines(problem, cards[go], best_z[go], j, steps)
+        lines, all_costs = _lines(problem, cards[go], best_z[go], j, steps, workers)
     for t, i in enumerate(go):
         line, costs = lines[t], all_costs[t]
         lower_left = np.concatenate([[True], costs[1:] <= costs[:-1]])
@@ -148,14 +155,14 @@ def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_c
 
 
 def flat_spans(problem: Problem, cards: NDArray[np.int64], z: Array, limits: Array,
-               coordinate: int | None = None, *, points: int = 40,
-               spread: float = 30.0) -> list[tuple[float, float] | None]:
+               coordinate: int | None = None, *, points: int = 40, spread: float = 30.0,
+               workers: int | None = 1) -> list[tuple[float, float] | None]:
     """How far one parameter can move on each card, every other coordinate held, with the
     card's cost staying at or below its limit: the lowest and highest such values among
     ``points`` from the answer's divided by ``spread`` to multiplied by it (the answer's
     own value included). ``coordinate``: a free parameter's solver coordinate (default: the
     model's inertia). None for a card without a finite answer or limit, and for every card
-    without that coordinate.
+    without that coordinate. ``workers`` threads share the costs.
 
     Every coordinate but one held, the cost is at or above the profile's (the others
     refitted), so a value found here lies within the likelihood-ratio interval whose
@@ -172,7 +179,7 @@ def flat_spans(problem: Problem, cards: NDArray[np.int64], z: Array, limits: Arr
     if not go.size:
         return out
     steps = np.concatenate([[0.0], np.linspace(-math.log(spread), math.log(spread), points)])
-    lines, costs = _lines(problem, cards[go], z[go], j, steps)
+    lines, costs = _lines(problem, cards[go], z[go], j, steps, workers)
     for t, i in enumerate(go):
         inside = lines[t, costs[t] <= limits[i], j]
         if inside.size:
