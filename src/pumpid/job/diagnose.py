@@ -231,12 +231,12 @@ def _flat_words(problem: Problem, name: str, low: float, high: float, units: Uni
     """The sentence of a parameter whose error the scan along it widened."""
     info = problem.model.param_info()[problem.model.param_names().index(name)]
     unit = info.unit_for(units.load, units.position)
-    why = (" (the card sees the resonance only through weak harmonics: the cost along it "
-           "is flat and rippled)" if name == problem.model.resonance else "")
+    why = ("; the card sees the resonance only through weak harmonics, where the cost "
+           "along it is flat and rippled" if name == problem.model.resonance else "")
     return (f"{name} fits the card from {low:.3g} to {high:.3g} {unit}: the cost stays "
-            "within its 95 % noise threshold there, every other value held (or refitted, "
-            f"from another dip){why}. The error shown for it is at least that span's, not "
-            "only the cost's curvature at the answer.")
+            "within its 95 % noise threshold there, every other value held or refitted from "
+            f"another dip{why}. The error shown for it is at least that span's, not only "
+            "the cost's curvature at the answer.")
 
 
 def _local_error(num: Numbers, index: int) -> float:
