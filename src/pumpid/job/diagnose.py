@@ -202,15 +202,16 @@ def _flat_inertia(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Car
     value undetermined; their errors fail along combinations, not along one of them."""
     j = inertia_index(problem)
     limits = np.full(len(fits), math.nan)
+    tq = np.full(len(fits), math.nan)
     if j is None:
         return [None] * len(fits)
     for i, (card, num) in enumerate(zip(fits, nums, strict=True)):
         if (num.usable and not num.exact and num.dof > 0
                 and problem.n_samples(int(cards[i])) <= START_SAMPLES
                 and problem.free_names[j] not in {b.name for b in card.limits}):
-            tq = t_quantile(0.975, num.dof)
+            tq[i] = t_quantile(0.975, num.dof)
             # The likelihood-ratio threshold of the profile (pumpid.profile_of's).
-            limits[i] = card.cost * (1.0 + tq * tq / num.dof)
+            limits[i] = card.cost * (1.0 + tq[i] * tq[i] / num.dof)
     spans = flat_spans(problem, cards, np.array([card.z for card in fits]), limits, j,
                        workers=workers)
     out: list[tuple[int, float, float, float] | None] = []
@@ -223,7 +224,7 @@ def _flat_inertia(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Car
         low, high = min([span[0], *others]), max([span[1], *others])
         value = math.exp(float(card.z[j]))
         reach = max(math.log(value / low), math.log(high / value))
-        out.append((j, reach / t_quantile(0.975, nums[i].dof), low, high))
+        out.append((j, reach / float(tq[i]), low, high))
     return out
 
 

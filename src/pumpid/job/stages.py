@@ -311,7 +311,7 @@ def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
     ready = [i for i in range(cards.size)
              if not fits[i].done and np.all(np.isfinite(fits[i].z))]
     hard = [i for i in ready if doubtful(problem, int(cards[i]), fits[i])]
-    calm = [i for i in ready if i not in set(hard)]
+    calm = sorted(set(ready) - set(hard))
     found: dict[int, tuple[Array, str]] = {}
 
     def search_wide(on: Problem, on_cards: NDArray[np.int64], z: Array,
@@ -324,14 +324,15 @@ def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
     # the inertia's error to those within the noise of the best.
     minima: list[list[tuple[float, float]]] = [[] for _ in calm]
 
+    inertia = inertia_index(problem)
+
     def scan(on: Problem, on_cards: NDArray[np.int64], z: Array,
              c: Array) -> tuple[Array, Array, NDArray[np.int64]]:
         seen = None
-        j = inertia_index(on)
-        if on is problem and j is not None:
+        if on is problem and inertia is not None:
             seen = minima
             for i in range(len(calm)):
-                seen[i].append((float(z[i, j]), float(c[i])))
+                seen[i].append((float(z[i, inertia]), float(c[i])))
         return scan_inertia(on, on_cards, z, c, plan=plan, solver=solver,
                             workers=options.workers, minima=seen)
 
@@ -342,8 +343,7 @@ def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
             (calm, scan, f"the first answer sat in a ripple of the cost along {name} (a "
                          "resonance the card sees only through its weak harmonics); a scan "
                          f"along {name} ({{}} more starts)")):
-        if not group or (search is scan and (not plan.scan_points
-                                             or inertia_index(problem) is None)):
+        if not group or (search is scan and (not plan.scan_points or inertia is None)):
             continue
         z_now = np.array([fits[i].z for i in group])
         c_now = np.array([fits[i].cost for i in group])

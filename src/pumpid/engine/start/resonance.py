@@ -82,8 +82,7 @@ def scan_inertia(
     j = inertia_index(problem)
     if j is None or not cards.size:
         return best_z, best_cost, runs
-    steps = np.linspace(-math.log(plan.scan_spread), math.log(plan.scan_spread),
-                        plan.scan_points)
+    steps = _steps(plan)
     todo = np.arange(cards.size)
     # A dip the solver left for a lower one is scanned from again: the profile seen from
     # the new point's other coordinates has its own dips (on the card of the module's note
@@ -95,6 +94,12 @@ def scan_inertia(
         if not todo.size:
             break
     return best_z, best_cost, runs
+
+
+def _steps(plan: WidePlan) -> Array:
+    """The scan's moves of the inertia's log, both ways to the plan's spread."""
+    return np.linspace(-math.log(plan.scan_spread), math.log(plan.scan_spread),
+                       plan.scan_points)
 
 
 def _lines(problem: Problem, cards: NDArray[np.int64], z: Array, j: int, steps: Array,
@@ -158,14 +163,15 @@ def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_c
 
 
 def flat_spans(problem: Problem, cards: NDArray[np.int64], z: Array, limits: Array,
-               coordinate: int | None = None, *, points: int = 40, spread: float = 30.0,
+               coordinate: int | None = None, *, plan: WidePlan | None = None,
                workers: int | None = 1) -> list[tuple[float, float] | None]:
     """How far one parameter can move on each card, every other coordinate held, with the
-    card's cost staying at or below its limit: the lowest and highest such values among
-    ``points`` from the answer's divided by ``spread`` to multiplied by it (the answer's
-    own value included). ``coordinate``: a free parameter's solver coordinate (default: the
-    model's inertia). None for a card without a finite answer or limit, and for every card
-    without that coordinate. ``workers`` threads share the costs.
+    card's cost staying at or below its limit: the lowest and highest such values on the
+    scan's line (the plan's ``scan_points`` from the answer's divided by ``scan_spread`` to
+    multiplied by it, and the answer's own value). ``coordinate``: a free parameter's
+    solver coordinate (default: the model's inertia). None for a card without a finite
+    answer or limit, and for every card without that coordinate. ``workers`` threads share
+    the costs.
 
     Every coordinate but one held, the cost is at or above the profile's (the others
     refitted), so a value found here lies within the likelihood-ratio interval whose
@@ -181,7 +187,7 @@ def flat_spans(problem: Problem, cards: NDArray[np.int64], z: Array, limits: Arr
     go = np.flatnonzero(np.isfinite(limits) & np.all(np.isfinite(z), axis=1))
     if not go.size:
         return out
-    steps = np.concatenate([[0.0], np.linspace(-math.log(spread), math.log(spread), points)])
+    steps = np.concatenate([[0.0], _steps(plan or WidePlan())])
     lines, costs = _lines(problem, cards[go], z[go], j, steps, workers)
     for t, i in enumerate(go):
         inside = lines[t, costs[t] <= limits[i], j]
