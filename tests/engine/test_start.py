@@ -23,6 +23,7 @@ from pumpid import (
 from pumpid.engine import drive
 from pumpid.engine.problem import CardData, build_problem
 from pumpid.engine.start import (
+    InertiaLine,
     WidePlan,
     candidates,
     complete,
@@ -466,3 +467,25 @@ def test_the_flat_span_along_the_inertia_holds_the_answer_and_the_threshold() ->
         assert drive.cost_items(ONE, point, *problem.arrays)[0] <= cost[0] * 1.05
     # A card with no finite limit: no span.
     assert flat_spans(problem, ONE, z, np.array([math.nan])) == [None]
+
+
+def test_the_flat_span_reuses_the_scans_line_from_the_same_point_only() -> None:
+    # The scan records its first line; the span from it is the span costed afresh. A line
+    # taken from another point is not used (its costs are another line's): changing the
+    # recorded costs changes nothing there, and changes the span where it is used.
+    problem, truth = _spread_problem(31)
+    z, cost = _solved(problem, truth)
+    lines: list[InertiaLine | None] = [None]
+    scan_inertia(problem, ONE, z, cost, lines=lines)
+    line = lines[0]
+    assert line is not None and np.array_equal(line.z, z[0])
+    limit = cost * 1.05
+    fresh = flat_spans(problem, ONE, z, limit)
+    assert flat_spans(problem, ONE, z, limit, known=lines) == fresh
+    flat = InertiaLine(line.z, line.values, np.full_like(line.costs, cost[0]))
+    lowest, highest = math.exp(line.values.min()), math.exp(line.values.max())
+    assert flat_spans(problem, ONE, z, limit, known=[flat]) == [(lowest, highest)]
+    moved = z.copy()
+    moved[0, 0] += 1e-3
+    elsewhere = InertiaLine(moved[0], line.values, flat.costs)
+    assert flat_spans(problem, ONE, z, limit, known=[elsewhere]) == fresh

@@ -213,7 +213,7 @@ def _flat_inertia(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Car
             # The likelihood-ratio threshold of the profile (pumpid.profile_of's).
             limits[i] = card.cost * (1.0 + tq[i] * tq[i] / num.dof)
     spans = flat_spans(problem, cards, np.array([card.z for card in fits]), limits, j,
-                       workers=workers)
+                       workers=workers, known=[card.inertia_line for card in fits])
     out: list[tuple[int, float, float, float] | None] = []
     for i, (card, span) in enumerate(zip(fits, spans, strict=True)):
         if span is None:

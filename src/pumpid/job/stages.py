@@ -35,6 +35,7 @@ from ..engine.problem import Problem
 from ..engine.solvers import Stop
 from ..engine.spectrum import SEARCH_HARMONICS
 from ..engine.start import (
+    InertiaLine,
     compile_ranking,
     complete,
     find_starts,
@@ -323,6 +324,7 @@ def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
     # not a long card's shorter copy, whose costs are another sum): the diagnostics widen
     # the inertia's error to those within the noise of the best.
     minima: list[list[tuple[float, float]]] = [[] for _ in calm]
+    lines: list[InertiaLine | None] = [None] * len(calm)
 
     inertia = inertia_index(problem)
 
@@ -334,7 +336,8 @@ def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
             for i in range(len(calm)):
                 seen[i].append((float(z[i, inertia]), float(c[i])))
         return scan_inertia(on, on_cards, z, c, plan=plan, solver=solver,
-                            workers=options.workers, minima=seen)
+                            workers=options.workers, minima=seen,
+                            lines=lines if seen is not None else None)
 
     name = problem.model.resonance
     for group, search, words in (
@@ -353,6 +356,7 @@ def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                 found[i] = (z_new[j], words.format(int(counts[j])))
     for j, i in enumerate(calm):
         fits[i].inertia_minima = tuple(minima[j])
+        fits[i].inertia_line = lines[j]
     if not found:
         return
     # The improved points are converged already: one more solver run from each gives them

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from ..engine import drive, kernel
 from ..engine.problem import Problem
 from ..engine.solvers import SolverOutcome, Stop
+from ..engine.start import InertiaLine
 from ..inference.structure import low_band_excess
 from ..inference.uncertainty import Numbers
 from ..result import Limiting, ReducedFit, StartInfo, Status
@@ -75,6 +76,9 @@ class CardState:
     norms: Array | None = None
     #: Local minima along the model's inertia the scan met: (ln inertia, cost) pairs.
     inertia_minima: tuple[tuple[float, float], ...] = ()
+    #: The scan's first line along the inertia (from the answer it was given): the
+    #: diagnostics reuse it when the answer did not move.
+    inertia_line: InertiaLine | None = None
 
 
 def theta_of(problem: Problem, z: Array) -> Array:

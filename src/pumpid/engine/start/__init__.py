@@ -31,11 +31,12 @@ from .equation_error import equation_error_items
 from .harmonics import harmonic_scan
 from .multistart import StartPlan, Starts, find_starts
 from .pool import candidates
-from .resonance import flat_spans, inertia_index, scan_inertia
+from .resonance import InertiaLine, flat_spans, inertia_index, scan_inertia
 from .valley import walk_valley
 from .wider import WidePlan, compile_ranking, search_wider
 
 __all__ = [
+    "InertiaLine",
     "StartPlan",
     "Starts",
     "WidePlan",

@@ -21,6 +21,8 @@ of the scan's price there).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,9 +33,21 @@ from ..solvers import LevenbergMarquardt
 from ..threads import run_chunks
 from .wider import WidePlan
 
-__all__ = ["flat_spans", "inertia_index", "scan_inertia"]
+__all__ = ["InertiaLine", "flat_spans", "inertia_index", "scan_inertia"]
 
 Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class InertiaLine:
+    """A card's costs along the inertia from one point (every other coordinate held): the
+    point ``z``, the inertia's solver coordinate ``values`` along the line and their
+    ``costs``. :func:`flat_spans` reuses it for the same point instead of costing the line
+    again."""
+
+    z: Array
+    values: Array
+    costs: Array
 
 
 def inertia_index(problem: Problem) -> int | None:
@@ -57,6 +71,7 @@ def scan_inertia(
     solver: LevenbergMarquardt | None = None,
     workers: int | None = 1,
     minima: list[list[tuple[float, float]]] | None = None,
+    lines: list[InertiaLine | None] | None = None,
 ) -> tuple[Array, Array, NDArray[np.int64]]:
     """The best point of each card after a scan along the model's inertia.
 
@@ -68,7 +83,8 @@ def scan_inertia(
     ``scan_passes`` times at most. ``minima``, one list per card,
     receives the (ln inertia, cost) of every point the solver converged to (local minima
     of the cost, the answers' of other dips: where one lies within the noise of the best,
-    the inertia is not determined).
+    the inertia is not determined). ``lines``, one entry per card, receives the first
+    scan's line from the given point (for :func:`flat_spans`).
 
     Returns the best points (m, q), their costs (m,) and the number of points the solver
     ran from per card (the given point and cost where nothing was lower).
@@ -87,9 +103,9 @@ def scan_inertia(
     # A dip the solver left for a lower one is scanned from again: the profile seen from
     # the new point's other coordinates has its own dips (on the card of the module's note
     # whose mass was off by 4, the first scan stopped half way).
-    for _pass in range(plan.scan_passes):
+    for pass_ in range(plan.scan_passes):
         lower = _scan_once(problem, cards, best_z, best_cost, runs, todo, j, steps, plan,
-                           solver, workers, minima)
+                           solver, workers, minima, lines if pass_ == 0 else None)
         todo = todo[lower]
         if not todo.size:
             break
@@ -124,8 +140,10 @@ def _lines(problem: Problem, cards: NDArray[np.int64], z: Array, j: int, steps: 
 def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_cost: Array,
                runs: NDArray[np.int64], todo: NDArray[np.int64], j: int, steps: Array,
                plan: WidePlan, solver: LevenbergMarquardt, workers: int | None,
-               minima: list[list[tuple[float, float]]] | None) -> NDArray[np.bool_]:
-    """One scan of the cards ``todo`` (in place); whether each found a lower point."""
+               minima: list[list[tuple[float, float]]] | None,
+               record: list[InertiaLine | None] | None) -> NDArray[np.bool_]:
+    """One scan of the cards ``todo`` (in place); whether each found a lower point. Each
+    card's line goes into ``record`` when given."""
     step = float(steps[1] - steps[0])
     go = todo[np.isfinite(best_cost[todo]) & np.all(np.isfinite(best_z[todo]), axis=1)]
     from_cards: list[int] = []
@@ -135,12 +153,17 @@ def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_c
         lines, all_costs = _lines(problem, cards[go], best_z[go], j, steps, workers)
     for t, i in enumerate(go):
         line, costs = lines[t], all_costs[t]
+        if record is not None:
+            record[i] = InertiaLine(best_z[i].copy(), line[:, j].copy(), costs.copy())
         lower_left = np.concatenate([[True], costs[1:] <= costs[:-1]])
         lower_right = np.concatenate([costs[:-1] <= costs[1:], [True]])
+        # Points clipped to the search window repeat each other: one start is enough.
+        first = np.concatenate([[True], line[1:, j] != line[:-1, j]])
         # The answer's own neighbours lie in its basin: the solver would return there.
         away = np.abs(line[:, j] - best_z[i, j]) > 1.01 * step
         near = costs < best_cost[i] * (1.0 + plan.scan_within)
-        found = np.flatnonzero(lower_left & lower_right & away & near & np.isfinite(costs))
+        found = np.flatnonzero(lower_left & lower_right & first & away & near
+                               & np.isfinite(costs))
         for d in found[np.argsort(costs[found])][: plan.scan_dips]:
             from_cards.append(int(cards[i]))
             from_z.append(line[d])
@@ -164,7 +187,9 @@ def _scan_once(problem: Problem, cards: NDArray[np.int64], best_z: Array, best_c
 
 def flat_spans(problem: Problem, cards: NDArray[np.int64], z: Array, limits: Array,
                coordinate: int | None = None, *, plan: WidePlan | None = None,
-               workers: int | None = 1) -> list[tuple[float, float] | None]:
+               workers: int | None = 1,
+               known: Sequence[InertiaLine | None] | None = None
+               ) -> list[tuple[float, float] | None]:
     """How far one parameter can move on each card, every other coordinate held, with the
     card's cost staying at or below its limit: the lowest and highest such values on the
     scan's line (the plan's ``scan_points`` from the answer's divided by ``scan_spread`` to
@@ -188,9 +213,25 @@ def flat_spans(problem: Problem, cards: NDArray[np.int64], z: Array, limits: Arr
     if not go.size:
         return out
     steps = np.concatenate([[0.0], _steps(plan or WidePlan())])
-    lines, costs = _lines(problem, cards[go], z[go], j, steps, workers)
-    for t, i in enumerate(go):
-        inside = lines[t, costs[t] <= limits[i], j]
+    along = j == inertia_index(problem)
+    reuse = [i for i in go if known is not None and along and known[i] is not None
+             and known[i].values.size == steps.size - 1 and np.array_equal(known[i].z, z[i])]
+    values: dict[int, Array] = {}
+    costs: dict[int, Array] = {}
+    if reuse:
+        # The scan's line from this very point: only the point's own cost is new.
+        own = drive.cost_items(cards[reuse], z[reuse], *problem.arrays)
+        for t, i in enumerate(reuse):
+            line = known[i]
+            values[i] = np.concatenate([[z[i, j]], line.values])
+            costs[i] = np.concatenate([[own[t]], line.costs])
+    fresh = [i for i in go if i not in values]
+    if fresh:
+        lines, new_costs = _lines(problem, cards[fresh], z[fresh], j, steps, workers)
+        for t, i in enumerate(fresh):
+            values[i], costs[i] = lines[t, :, j], new_costs[t]
+    for i in go:
+        inside = values[i][costs[i] <= limits[i]]
         if inside.size:
             out[i] = (float(np.exp(inside.min())), float(np.exp(inside.max())))
     return out
