@@ -45,6 +45,24 @@ def stroke_problem(seed: int, n: int = 120, period: float = 6.0):
                          offset=True)
 
 
+def pinned_periodic_fit():
+    """The verbs' pinned periodic card (Kelvin k0 = 4, m = 1, c1 = 0.2, k1 = 4; 120 samples
+    of a 6 s period, an offset of 12 m, 1 % noise) fitted with its options."""
+    import pumpid
+
+    truth = pumpid.Kelvin(k0=4.0, m=1.0, c1=0.2, k1=4.0)
+    period = 6.0
+    t = np.arange(120) * period / 120
+    w = 2 * np.pi / period
+    load = (1000 + 400 * np.sin(w * t) + 120 * np.sin(2 * w * t + 0.4)) / 300
+    d = pumpid.simulate(truth, t, load, observe="u", initial_state="periodic",
+                        period=period) + 12.0
+    d = d + 0.01 * np.ptp(d) * np.random.default_rng(4).standard_normal(t.size)
+    return pumpid.fit("kelvin", (t, load, d),
+                      options=pumpid.FitOptions(observe="u", offset=True,
+                                                initial_state="periodic", period=period))
+
+
 def spread_card(index: int):
     """Card ``index`` of the best-optimum benchmark's synthetic family: periodic Kelvin
     cards spread log-uniformly over x100 around field-like values (seed 5; 1 % white noise

@@ -39,6 +39,8 @@ import pytest
 import pumpid
 from pumpid.cards import read_cards
 
+from .conftest import pinned_periodic_fit
+
 DATA = Path(__file__).parent / "data"
 PINNED = json.loads((DATA / "pinned" / "verbs.json").read_text())
 TRUTH = pumpid.Kelvin(k0=4.0, m=1.0, c1=0.2, k1=4.0)
@@ -83,17 +85,7 @@ def test_arrays_give_the_old_answers() -> None:
 
 
 def test_periodic_arrays_give_the_old_answers() -> None:
-    period = 6.0
-    tp = np.arange(120) * period / 120
-    w = 2 * np.pi / period
-    fp = (1000 + 400 * np.sin(w * tp) + 120 * np.sin(2 * w * tp + 0.4)) / 300
-    dp = pumpid.simulate(TRUTH, tp, fp, observe="u", initial_state="periodic",
-                         period=period) + 12.0
-    dp = dp + 0.01 * np.ptp(dp) * np.random.default_rng(4).standard_normal(tp.size)
-    res = pumpid.fit("kelvin", (tp, fp, dp),
-                     options=pumpid.FitOptions(observe="u", offset=True,
-                                               initial_state="periodic", period=period))
-    _same(_row(res), PINNED["arrays_periodic"])
+    _same(_row(pinned_periodic_fit()), PINNED["arrays_periodic"])
 
 
 def test_many_arrays_give_the_old_batch() -> None:

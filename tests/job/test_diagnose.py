@@ -6,7 +6,7 @@ import math
 
 import pumpid
 
-from ..conftest import spread_card
+from ..conftest import pinned_periodic_fit, spread_card
 
 
 def _open(fit: pumpid.FitResult, name: str) -> list[str]:
@@ -42,19 +42,7 @@ def test_the_pinned_card_no_longer_claims_k0() -> None:
     # The verbs' pinned periodic card (true k0 = 4, c1 = 0.2, k1 = 4): its answer, k0 = 2.03,
     # had an error of 0.197, ten of them from the truth; k0 -> infinity with k1 = 2 (the two
     # springs in series) fits within the noise.
-    import numpy as np
-
-    truth = pumpid.Kelvin(k0=4.0, m=1.0, c1=0.2, k1=4.0)
-    period = 6.0
-    t = np.arange(120) * period / 120
-    w = 2 * np.pi / period
-    load = (1000 + 400 * np.sin(w * t) + 120 * np.sin(2 * w * t + 0.4)) / 300
-    d = pumpid.simulate(truth, t, load, observe="u", initial_state="periodic",
-                        period=period) + 12.0
-    d = d + 0.01 * np.ptp(d) * np.random.default_rng(4).standard_normal(t.size)
-    fit = pumpid.fit("kelvin", (t, load, d),
-                     options=pumpid.FitOptions(observe="u", offset=True,
-                                               initial_state="periodic", period=period))
+    fit = pinned_periodic_fit()
     assert math.isclose(fit.params["k0"], 2.027, rel_tol=1e-3)
     assert "k0" in fit.determined["not_determined"]
     assert len(_open(fit, "k0")) == 1
