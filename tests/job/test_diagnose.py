@@ -23,6 +23,7 @@ def test_a_limit_within_the_noise_leaves_its_parameter_unbounded() -> None:
     fit = pumpid.fit(pumpid.Kelvin, card)
     assert fit.status is pumpid.Status.CONVERGED
     assert "k0" in fit.determined["not_determined"]
+    assert fit.stderr["k0"] > fit.params["k0"]
     (words,) = _open(fit, "k0")
     assert "k0 -> inf" in words and "95 % noise threshold" in words
     there = {}

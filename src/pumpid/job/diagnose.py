@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..engine import drive
-from ..engine.problem import Problem
+from ..engine.problem import WINDOW, Problem
 from ..engine.solvers import LevenbergMarquardt
 from ..engine.spectrum import SEARCH_HARMONICS
 from ..engine.start import flat_spans, inertia_index
@@ -307,12 +307,15 @@ def _open_limits(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Card
         problem, on, z0, bounds=(lo, hi), budget=LIMIT_EVALUATIONS, workers=workers)
     ends = np.where(np.all(np.isfinite(solved.z), axis=1)[:, None], solved.z, z0)
     costs = drive.cost_items(on, ends, *problem.arrays)
-    for r, (i, lim, _f) in enumerate(rows):
+    for r, (i, lim, f) in enumerate(rows):
         if not costs[r] <= limits[i]:
             continue
-        reach = {b: abs(float(ends[r, b] - fits[i].z[b])) / float(tq[i])
-                 for b in nums[i].inner if b < p}
-        out[i].append(OpenLimit(lim, ends[r].copy(), reach))
+        reach = {b: abs(float(ends[r, b] - fits[i].z[b])) for b in nums[i].inner if b < p}
+        # The window's edge stands for the limit itself, however near the answer lies to it:
+        # the parameter's error is at least the window's half-width (a factor 1e6).
+        reach[f] = max(reach.get(f, 0.0), WINDOW)
+        out[i].append(OpenLimit(lim, ends[r].copy(),
+                                {b: v / float(tq[i]) for b, v in reach.items()}))
     return out
 
 
