@@ -37,6 +37,15 @@ def test_a_limit_within_the_noise_leaves_its_parameter_unbounded() -> None:
     for j, name in enumerate(("k0", "m", "c1", "k1")):
         low, high = fit.ci95[name]
         assert low < truth[j] < high, name
+    # What the limit leaves where it was stays determined (the oscillating pair, the static
+    # stiffness: k0 in series with the Kelvin element becomes k1 alone at about the same
+    # value); the third pole's time constant follows k0 and is not.
+    derived = fit.derived
+    assert derived["natural_frequency"].determined and derived["static_stiffness"].determined
+    assert derived["static_stiffness"].stderr >= abs(there["k1"] - fit.params["k0"] * fit.params[
+        "k1"] / (fit.params["k0"] + fit.params["k1"])) / 2.0
+    assert not derived["time_constant"].determined
+    assert not any(f.startswith("The offset") for f in fit.identifiability)
 
 
 def test_the_pinned_card_no_longer_claims_k0() -> None:

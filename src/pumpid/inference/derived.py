@@ -146,6 +146,7 @@ def derived_of(
     units: tuple[str, str],
     serial: bool = False,
     limits: Sequence[tuple[str, str]] = (),
+    floor: NDArray[np.float64] | None = None,
 ) -> Mapping[str, Derived]:
     """The derived quantities of one fit.
 
@@ -157,6 +158,8 @@ def derived_of(
     units : (load unit, position unit) of the data.
     serial : the residuals failed the whiteness check (the robust error then counts too).
     limits : (parameter, "zero" or "infinity") of each parameter at a boundary.
+    floor : each quantity's smallest error (both kinds), or None: what a point elsewhere
+        within the noise implies (its value there).
     """
     infos = cls.derived_info()
     values = cls.derived_values(theta, observe, scale)
@@ -169,6 +172,9 @@ def derived_of(
     moved = moved_by_limits(cls, theta, observe, scale, values, limits)
     se[moved] = math.inf
     se_hac[moved] = math.inf
+    if floor is not None:
+        se = np.fmax(se, floor)
+        se_hac = np.fmax(se_hac, floor)
     out: dict[str, Derived] = {}
     load, position = units
     for k, info in enumerate(infos):

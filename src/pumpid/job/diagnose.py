@@ -10,7 +10,7 @@ gauge.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -59,12 +59,16 @@ class Assessment:
     uncertainty: Errors | None
     #: The residuals' whiteness warning in words ("" when they pass).
     warning: str
+    #: The numbers before ``floors`` raised any error (the local analysis): what a
+    #: quantity computed from the parameters takes its own local error from.
+    local: Numbers | None = None
 
 
 def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *,
            model_names: Sequence[str], gauge_fixed: bool, initial_state: Any, residual: str,
            limits: Sequence[Limiting], unit: str,
-           transform: Callable[[Numbers], Numbers] | None = None) -> Assessment:
+           transform: Callable[[Numbers], Numbers] | None = None,
+           floors: Mapping[int, float] | None = None) -> Assessment:
     """The errors that hold and the identifiability in words for one fit's numbers.
 
     Where the residuals are serially correlated the robust errors are calibrated (and
@@ -88,6 +92,9 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
         The unit of the residual variance.
     transform : callable, optional
         Applied to the numbers before the findings (a change of reported coordinates).
+    floors : mapping of int to float, optional
+        Coordinates whose error is raised to at least this (scaled coordinates) after the
+        transform: the errors a point elsewhere within the noise implies.
     """
     num, calibration = calibrate_robust(num)
     serial = not num.exact and serially_correlated(num.rho, num.n)
@@ -97,6 +104,9 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
             num, calibration["ar1"] = with_ar1_floor(num, rows, offset_col)
     if transform is not None:
         num = transform(num)
+    local = num
+    for index, se in (floors or {}).items():
+        num = widened(num, index, se)
     names = list(num.names)
     f = findings_of(num, model_names=model_names, gauge_fixed=gauge_fixed,
                     initial_state=initial_state, residual=residual,
@@ -108,7 +118,7 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
     if unc is not None and unc.whiteness is not None and not unc.whiteness["white"]:
         warning = whiteness_warning(dict(unc.whiteness), num.n, len(names),
                                     unc.shown == "robust")
-    return Assessment(num, serial, f.sentences, f.determined, unc, warning)
+    return Assessment(num, serial, f.sentences, f.determined, unc, warning, local)
 
 
 def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
@@ -161,11 +171,8 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
         reach = _largest_reach(opens[j])
 
         def transform(n: Numbers, z: Array = card.z, k: int = k,
-                      flat: tuple[int, float, float, float] | None = flat,
-                      reach: dict[int, float] = reach) -> Numbers:
+                      flat: tuple[int, float, float, float] | None = flat) -> Numbers:
             n = numbers_for_true_offset(problem, k, z, n)
-            for b, se in reach.items():
-                n = widened(n, b, se)
             return n if flat is None else widened(n, flat[0], flat[1])
 
         said = assess(nums[j], rows_of, problem.q - 1 if problem.offset_fixed is None else -1,
@@ -174,8 +181,8 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                       limits=card.limits,
                       unit=("(ln of position)^2, dimensionless" if problem.residual == "log"
                             else f"{units[k].position}^2"),
-                      transform=transform)
-        num, serial, unc = said.numbers, said.serial, said.uncertainty
+                      transform=transform, floors=reach)
+        serial, unc = said.serial, said.uncertainty
         card.findings, card.determined = said.findings, said.determined
         card.uncertainty = unc
         if flat is not None and flat[1] > _local_error(nums[j], flat[0]):
@@ -185,10 +192,14 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
         if problem.model.input_map is None:
             z = card.z
             scale = scale_offset(problem, z)[0]
+            # A quantity's error is its own local one, at least its reach to each open
+            # limit's point (not the parameters' widened errors carried through its
+            # gradient: a natural frequency the limit leaves where it was stays determined).
             card.derived = derived_of(
                 problem.model, theta_of(problem, z), observe=problem.observe, scale=scale,
-                nums=num, units=(units[int(cards[i])].load, units[int(cards[i])].position),
-                serial=serial, limits=[(b.name, b.direction) for b in card.limits])
+                nums=said.local, units=(units[int(cards[i])].load, units[int(cards[i])].position),
+                serial=serial, limits=[(b.name, b.direction) for b in card.limits],
+                floor=_derived_reach(problem, z, scale, opens[j], nums[j]))
             _offset_gauge(problem, int(cards[i]), card, units[int(cards[i])])
             period = (float(problem.period[int(cards[i])])
                       if problem.initial_states[int(cards[i])] == "periodic" else None)
@@ -349,6 +360,25 @@ def _flat_words(problem: Problem, name: str, low: float, high: float, units: Uni
             "within its 95 % noise threshold there, every other value held or refitted from "
             f"another dip{why}. The error shown for it is at least that span's, not only "
             "the cost's curvature at the answer.")
+
+
+def _derived_reach(problem: Problem, z: Array, scale: float, opens: Sequence[OpenLimit],
+                   num: Numbers) -> Array | None:
+    """Each derived quantity's smallest error implied by the card's open limits: its change
+    between the answer and each limit's point, over the t quantile (None without any)."""
+    if not opens or not num.dof > 0:
+        return None
+    cls = problem.model
+    here = cls.derived_values(theta_of(problem, z), problem.observe, scale)
+    tq = t_quantile(0.975, num.dof)
+    floor = np.zeros(here.size)
+    for o in opens:
+        there = cls.derived_values(theta_of(problem, o.z), problem.observe,
+                                   scale_offset(problem, o.z)[0])
+        with np.errstate(all="ignore"):
+            step = np.abs(there - here) / tq
+        floor = np.fmax(floor, np.where(np.isfinite(step), step, math.inf))
+    return floor
 
 
 def _largest_reach(opens: Sequence[OpenLimit]) -> dict[int, float]:
