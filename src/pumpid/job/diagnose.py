@@ -157,8 +157,10 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                 inner[j, names.index(b.name)] = False
     nums = numbers(problem, cards[idx], np.array([fits[i].z for i in idx]), inner)
     data, model_code, settings = problem.arrays
-    flats = _flat_inertia(problem, cards[idx], [fits[i] for i in idx], nums, workers)
-    opens = _open_limits(problem, cards[idx], [fits[i] for i in idx], nums, workers)
+    done = [fits[i] for i in idx]
+    tq, limits = _thresholds(problem, cards[idx], done, nums)
+    flats = _flat_inertia(problem, cards[idx], done, tq, limits, workers)
+    opens = _open_limits(problem, cards[idx], done, nums, tq, limits, workers)
     for j, i in enumerate(idx):
         card = fits[i]
         k = int(cards[i])
@@ -199,7 +201,7 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                 problem.model, theta_of(problem, z), observe=problem.observe, scale=scale,
                 nums=said.local, units=(units[int(cards[i])].load, units[int(cards[i])].position),
                 serial=serial, limits=[(b.name, b.direction) for b in card.limits],
-                floor=_derived_reach(problem, z, scale, opens[j], nums[j]))
+                floor=_derived_reach(problem, z, scale, opens[j]))
             _offset_gauge(problem, int(cards[i]), card, units[int(cards[i])])
             period = (float(problem.period[int(cards[i])])
                       if problem.initial_states[int(cards[i])] == "periodic" else None)
@@ -229,12 +231,13 @@ def _thresholds(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardS
 
 
 def _flat_inertia(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
-                  nums: Sequence[Numbers],
+                  tq: Array, limits: Array,
                   workers: int | None) -> list[tuple[int, float, float, float] | None]:
     """How far each card's answer leaves the model's inertia free: (its coordinate, the
     standard error (relative) its span reaches at the 95 % level, the span's lowest and
     highest values), or None without a free inertia, at a limit, or without a threshold
-    (:func:`_thresholds`). The costs are spread over ``workers`` threads.
+    (``tq`` and ``limits`` from :func:`_thresholds`). The costs are spread over ``workers``
+    threads.
 
     The inertia only: on the 60 synthetic cards spread over x100 of the best-optimum
     benchmark, the same scan along k0, c1 and k1 too (four times the price) left one more
@@ -242,7 +245,6 @@ def _flat_inertia(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Car
     j = inertia_index(problem)
     if j is None:
         return [None] * len(fits)
-    tq, limits = _thresholds(problem, cards, fits, nums)
     limits = np.where([problem.free_names[j] in {b.name for b in card.limits}
                        for card in fits], math.nan, limits)
     spans = flat_spans(problem, cards, np.array([card.z for card in fits]), limits, j,
@@ -264,16 +266,19 @@ def _flat_inertia(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Car
 @dataclass(frozen=True)
 class OpenLimit:
     """A limit of the model that a card's cost reaches within its noise threshold: the
-    limit, the point there (the parameter at the search window's edge, the others refitted)
-    and the error (relative, per analysed coordinate) each value's reach to it implies."""
+    limit, the point there (the parameter at the search window's edge, the others refitted),
+    the card's t quantile and the error (relative, per analysed coordinate) each value's
+    reach to the point implies (the reach over the quantile)."""
 
     limit: Limit
     z: Array
+    tq: float
     errors: dict[int, float]
 
 
 def _open_limits(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
-                 nums: Sequence[Numbers], workers: int | None) -> list[list[OpenLimit]]:
+                 nums: Sequence[Numbers], tq: Array, limits: Array,
+                 workers: int | None) -> list[list[OpenLimit]]:
     """The model's limits each card's answer reaches within the profile's 95 % threshold.
 
     A parameter the fit depends on at its answer can still run to a limit within the
@@ -292,7 +297,6 @@ def _open_limits(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Card
     those 60 cards and changed no interval's hold on the truth, at six times the price.
     """
     out: list[list[OpenLimit]] = [[] for _ in fits]
-    tq, limits = _thresholds(problem, cards, fits, nums)
     names = problem.model.param_names()
     free = list(problem.free_idx)
     p = problem.n_free
@@ -325,7 +329,7 @@ def _open_limits(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Card
         # The window's edge stands for the limit itself, however near the answer lies to it:
         # the parameter's error is at least the window's half-width (a factor 1e6).
         reach[f] = max(reach.get(f, 0.0), WINDOW)
-        out[i].append(OpenLimit(lim, ends[r].copy(),
+        out[i].append(OpenLimit(lim, ends[r].copy(), float(tq[i]),
                                 {b: v / float(tq[i]) for b, v in reach.items()}))
     return out
 
@@ -362,21 +366,20 @@ def _flat_words(problem: Problem, name: str, low: float, high: float, units: Uni
             "the cost's curvature at the answer.")
 
 
-def _derived_reach(problem: Problem, z: Array, scale: float, opens: Sequence[OpenLimit],
-                   num: Numbers) -> Array | None:
+def _derived_reach(problem: Problem, z: Array, scale: float,
+                   opens: Sequence[OpenLimit]) -> Array | None:
     """Each derived quantity's smallest error implied by the card's open limits: its change
     between the answer and each limit's point, over the t quantile (None without any)."""
-    if not opens or not num.dof > 0:
+    if not opens:
         return None
     cls = problem.model
     here = cls.derived_values(theta_of(problem, z), problem.observe, scale)
-    tq = t_quantile(0.975, num.dof)
     floor = np.zeros(here.size)
     for o in opens:
         there = cls.derived_values(theta_of(problem, o.z), problem.observe,
                                    scale_offset(problem, o.z)[0])
         with np.errstate(all="ignore"):
-            step = np.abs(there - here) / tq
+            step = np.abs(there - here) / o.tq
         floor = np.fmax(floor, np.where(np.isfinite(step), step, math.inf))
     return floor
 
