@@ -12,7 +12,7 @@ from pumpid import FitOptions, Kelvin, fit, simulate
 from pumpid.cards import read_cards
 from pumpid.inference.derived import Derived
 from pumpid.inference.echo import echo_of
-from pumpid.inference.serial import robust_factor
+from pumpid.inference.serial import ROBUST_Z, robust_factor, serial_test
 from pumpid.result import Status, model_choice_text
 
 from ..conftest import well_load
@@ -66,26 +66,65 @@ def test_white_residuals_show_the_independent_noise_error() -> None:
 
 def test_mild_correlation_shows_the_robust_error_before_the_warning() -> None:
     # Residuals whose lag-1 autocorrelation passes the whiteness warning's 99.5 % test but
-    # not a one-sided 5 % one: the robust errors are shown (independent-noise ones shown
-    # there covered about 80 % on short cards), without the warning.
-    from pumpid.inference.serial import ROBUST_Z
-    from pumpid.inference.uncertainty import WHITENESS_Z
-
+    # not the one-sided 5 % serial test: the robust errors are shown, without the warning;
+    # the errors shown follow the test recorded with them, fit by fit.
     clean = simulate(KELVIN, T, LOAD)
     seen = 0
     for seed in range(40):
         rng = np.random.default_rng(seed)
         res = fit(KELVIN, (T, LOAD, clean + 0.01 * np.ptp(clean) * _ar1(rng, 0.1, T.size)))
-        rho = res.whiteness["lag1_autocorrelation"]
-        n = T.size
-        if ROBUST_Z / math.sqrt(n) < rho <= WHITENESS_Z / math.sqrt(n):
+        test = res.extra["uncertainty"]["hac"]["serial_test"]
+        assert res.errors_shown == ("robust" if test["z"] > ROBUST_Z else "white")
+        assert test["serial"] == (res.errors_shown == "robust")
+        if test["serial"] and res.whiteness["white"]:
             seen += 1
-            assert res.whiteness["white"]
             assert not any("not white noise" in w for w in res.warnings)
-            assert res.errors_shown == "robust" and res.stderr == res.stderr_hac
-        elif rho <= ROBUST_Z / math.sqrt(n):
-            assert res.errors_shown == "white"
+            assert res.stderr == res.stderr_hac
     assert seen >= 3
+
+
+def test_the_serial_test_knows_what_a_fit_leaves_of_white_noise() -> None:
+    # A least-squares fit's residuals r = M e: the lag-1 ratio's exact mean and standard
+    # deviation under independent noise, against 20,000 draws (one standard error of the
+    # sampled mean is 0.7 % of the sd; of the sampled sd, 0.5 %).
+    rng = np.random.default_rng(11)
+    n = 30
+    t = np.linspace(0.0, 1.0, n)
+    x = np.column_stack([np.sin(2 * np.pi * t), np.cos(2 * np.pi * t), t, t**2, t**3])
+    q, _ = np.linalg.qr(np.column_stack([x, np.ones(n)]))
+    e = rng.standard_normal((20_000, n))
+    r = e - (e @ q) @ q.T
+    ratios = np.sum(r[:, 1:] * r[:, :-1], axis=1) / np.sum(r * r, axis=1)
+    test = serial_test(np.vstack([x.T, r[0]]))
+    assert test is not None
+    assert test.white_mean == pytest.approx(ratios.mean(), abs=0.03 * ratios.std())
+    assert test.white_sd == pytest.approx(ratios.std(), rel=0.02)
+    # Well below zero and narrower than the large-sample N(0, 1/N) the raw test assumed.
+    assert test.white_mean < -0.1 and test.white_sd < 1.0 / math.sqrt(n)
+    z = (ratios - test.white_mean) / test.white_sd
+    assert np.mean(z > ROBUST_Z) == pytest.approx(0.05, abs=0.01)
+    assert np.mean(ratios > ROBUST_Z / math.sqrt(n)) < 0.01
+
+
+def test_a_short_card_s_correlated_residuals_get_the_robust_error() -> None:
+    # A 30-sample periodic card with AR(1) noise: its fits' residuals show little of the
+    # correlation (the fit absorbs the slow part), so the large-sample test let many pass
+    # as white; the test for a fit's residuals catches them.
+    period = 7.5
+    truth = Kelvin(k0=400.0, m=5.0, c1=40.0, k1=80.0)
+    t = np.arange(30) * period / 30
+    load = well_load(t, period=period, seed=3)
+    options = FitOptions(initial_state="periodic", period=period, offset=True)
+    clean = simulate(truth, t, load, initial_state="periodic", period=period)
+    passed = caught = 0
+    for seed in range(60):
+        rng = np.random.default_rng(seed)
+        res = fit(truth, (t, load, clean + 0.01 * np.ptp(clean) * _ar1(rng, 0.8, t.size)),
+                  options=options)
+        if res.whiteness["lag1_autocorrelation"] <= ROBUST_Z / math.sqrt(t.size):
+            passed += 1
+            caught += res.errors_shown == "robust"
+    assert passed >= 6 and caught >= 0.4 * passed
 
 
 def test_the_robust_error_widens_for_its_own_spread() -> None:

@@ -29,6 +29,7 @@ from ..inference.serial import (
     Errors,
     calibrate_robust,
     robust_covariance,
+    serial_test,
     serially_correlated,
     shown_errors,
     with_ar1_floor,
@@ -71,10 +72,11 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
            floors: Mapping[int, float] | None = None) -> Assessment:
     """The errors that hold and the identifiability in words for one fit's numbers.
 
-    Where the residuals are serially correlated the robust errors are calibrated (and
-    floored by an AR(1) fit to the residuals, which needs the Jacobian's rows: ``rows_of``
-    computes them only then) and shown by default; the independent-noise ones are kept
-    under their own names.
+    Where the residuals are serially correlated (tested against the distribution of a
+    fit's residuals, which needs the Jacobian's rows: ``rows_of`` computes them for any fit
+    that is not exact) the robust errors are calibrated, floored by an AR(1) fit to the
+    residuals and shown by default; the independent-noise ones are kept under their own
+    names.
 
     Parameters
     ----------
@@ -97,11 +99,15 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
         transform: the errors a point elsewhere within the noise implies.
     """
     num, calibration = calibrate_robust(num)
-    serial = not num.exact and serially_correlated(num.rho, num.n)
-    if serial:
-        rows = rows_of()
-        if rows is not None:
-            num, calibration["ar1"] = with_ar1_floor(num, rows, offset_col)
+    rows = None if num.exact else rows_of()
+    test = None if rows is None else serial_test(rows)
+    if test is not None:
+        calibration["serial_test"] = test.to_dict()
+        serial = test.serial
+    else:
+        serial = not num.exact and serially_correlated(num.rho, num.n)
+    if serial and rows is not None:
+        num, calibration["ar1"] = with_ar1_floor(num, rows, offset_col)
     if transform is not None:
         num = transform(num)
     local = num

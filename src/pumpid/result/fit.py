@@ -134,8 +134,9 @@ class FitResult:
     def stderr(self) -> dict[str, float]:
         """Standard error of every fitted value (empty when not computed): the error that
         holds for these residuals, robust to their serial correlation where their lag-1
-        autocorrelation exceeds 1.645 / sqrt(N) (:attr:`errors_shown`; :attr:`stderr_white`
-        assumes white noise)."""
+        autocorrelation exceeds what independent noise leaves in a fit's residuals by a
+        one-sided 5 % test (:attr:`errors_shown`; :attr:`stderr_white` assumes white
+        noise)."""
         return dict(self.uncertainty.stderr) if self.uncertainty else {}
 
     @property
