@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +20,21 @@ def _write_record(path: Path, **cols: np.ndarray) -> Path:
     path.write_text(",".join(names) + "\n" + "\n".join(",".join(repr(float(v)) for v in r)
                                                        for r in rows) + "\n")
     return path
+
+
+def test_a_command_fits_a_card_without_the_heavy_scipy_modules() -> None:
+    # scipy.signal's import was half a second of every command's start (0.55 of import
+    # pumpid's 1.13 s), scipy.stats' about a third of one: a card's fit whose robust errors
+    # are shown (the AR(1) floor filtered with scipy.signal) needs neither.
+    code = ("import sys, pumpid, pumpid.cli.main; from pumpid.cards import read_cards; "
+            "from importlib import resources; "
+            "card = str(resources.files('pumpid') / 'data' / 'example_cards.csv'); "
+            "r = pumpid.fit(pumpid.Kelvin, read_cards(card)[0]); "
+            "assert r.errors_shown == 'robust', r.errors_shown; "
+            "sys.exit(sorted({'scipy.signal', 'scipy.stats'} & set(sys.modules)) or 0)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=False)
+    assert done.returncode == 0, done.stderr
 
 
 def test_reproduce_json(capsys) -> None:
