@@ -106,6 +106,20 @@ def test_the_serial_test_knows_what_a_fit_leaves_of_white_noise() -> None:
     assert np.mean(ratios > ROBUST_Z / math.sqrt(n)) < 0.01
 
 
+def test_a_long_record_is_tested_against_the_large_sample_null() -> None:
+    # On 20,000 samples four fitted values move the null by 0.03 of its sd: the fit's own
+    # null is not worth the Jacobian's rows and their SVD there (0.5-0.8 s on a million).
+    t = np.linspace(0.0, 500.0, 20_000)
+    load = well_load(t)
+    clean = simulate(KELVIN, t, load)
+    rng = np.random.default_rng(8)
+    res = fit(KELVIN, (t, load, clean + 0.01 * np.ptp(clean) * rng.standard_normal(t.size)))
+    assert "serial_test" not in res.extra["uncertainty"]["hac"]
+    short = fit(KELVIN, (T, LOAD, simulate(KELVIN, T, LOAD)
+                         + 0.01 * np.ptp(clean) * rng.standard_normal(T.size)))
+    assert "serial_test" in short.extra["uncertainty"]["hac"]
+
+
 def test_a_short_card_s_correlated_residuals_get_the_robust_error() -> None:
     # A 30-sample periodic card with AR(1) noise: its fits' residuals show little of the
     # correlation (the fit absorbs the slow part), so the large-sample test let many pass

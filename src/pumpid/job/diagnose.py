@@ -28,6 +28,7 @@ from ..inference.identifiability import findings_of, whiteness_warning
 from ..inference.serial import (
     Errors,
     calibrate_robust,
+    fit_null_matters,
     robust_covariance,
     serial_test,
     serially_correlated,
@@ -73,10 +74,10 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
     """The errors that hold and the identifiability in words for one fit's numbers.
 
     Where the residuals are serially correlated (tested against the distribution of a
-    fit's residuals, which needs the Jacobian's rows: ``rows_of`` computes them for any fit
-    that is not exact) the robust errors are calibrated, floored by an AR(1) fit to the
-    residuals and shown by default; the independent-noise ones are kept under their own
-    names.
+    fit's residuals where the fit moves it, which needs the Jacobian's rows: ``rows_of``
+    computes them then, and for the floor) the robust errors are calibrated, floored by an
+    AR(1) fit to the residuals and shown by default; the independent-noise ones are kept
+    under their own names.
 
     Parameters
     ----------
@@ -99,13 +100,16 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
         transform: the errors a point elsewhere within the noise implies.
     """
     num, calibration = calibrate_robust(num)
-    rows = None if num.exact else rows_of()
+    own_null = not num.exact and fit_null_matters(num.n, len(num.names))
+    rows = rows_of() if own_null else None
     test = None if rows is None else serial_test(rows)
     if test is not None:
         calibration["serial_test"] = test.to_dict()
         serial = test.serial
     else:
         serial = not num.exact and serially_correlated(num.rho, num.n)
+    if serial and rows is None:
+        rows = rows_of()
     if serial and rows is not None:
         num, calibration["ar1"] = with_ar1_floor(num, rows, offset_col)
     if transform is not None:
