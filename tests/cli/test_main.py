@@ -120,3 +120,29 @@ def test_split_strokes_fits_each_stroke(tmp_path, capsys) -> None:
     assert len(out["cards"]) >= 2
     for res in out["cards"]:
         assert res["initial_state"] == "periodic" and res["r2"] > 0.999
+
+
+def _noisy_record(path: Path, rho: float) -> Path:
+    t = np.linspace(0, 20, 401)
+    load = 10 + 3 * np.sin(0.9 * t) + np.sin(2.3 * t)
+    disp = pumpid.simulate(pumpid.MassSpringDamper(m=1, c=0.8, k=3), t, load)
+    rng = np.random.default_rng(3)
+    noise = np.empty(t.size)
+    noise[0] = rng.standard_normal()
+    for i in range(1, t.size):
+        noise[i] = rho * noise[i - 1] + np.sqrt(1 - rho**2) * rng.standard_normal()
+    return _write_record(path, t=t, load_lbf=load, displacement_in=disp + 0.01 * noise)
+
+
+def test_the_text_says_which_errors_the_plus_minus_are(tmp_path, capsys) -> None:
+    # The ± shown on a card with serially correlated residuals are the robust errors: the
+    # card says so (the first sentence of the whiteness warning alone did not), and the
+    # run's header no longer says that every ± assumes independent residuals.
+    assert main(["fit", str(_noisy_record(tmp_path / "ar.csv", 0.9)), "--model", "msd"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "± robust: the residuals are serially correlated (lag-1 autocorrelation" in text
+    assert "times smaller" in text
+    assert "± is one standard error assuming independent residuals" not in text
+    assert main(["fit", str(_noisy_record(tmp_path / "white.csv", 0.0)), "--model", "msd"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "± robust" not in text and "± is one standard error" in text

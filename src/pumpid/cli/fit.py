@@ -160,8 +160,10 @@ def _run_info(setup: FitSetup, out: str | None) -> RunInfo:
                       "records start from rest" if setup.initial_state is None else "",
               "yes": "; a position offset is fitted for every card",
               "no": "; no position offset is fitted"}[setup.offset]
-    assumptions = [f"assumptions: {state}{offset}; ± is one standard error assuming "
-                   "independent residuals (--verbose: robust errors, all diagnostics)"]
+    assumptions = [f"assumptions: {state}{offset}; ± is one standard error: robust to "
+                   "serial correlation on a card whose residuals are serially correlated (the "
+                   "card says so), else assuming independent residuals (--verbose: both, all "
+                   "diagnostics)"]
     return RunInfo(model=cls.__name__, title=cls.title, observe=observe,
                    observe_meaning=cls.outputs.get(observe) if observe else None,
                    method=setup.options.get("method", "lm"), assumptions=tuple(assumptions),

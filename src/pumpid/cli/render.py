@@ -139,6 +139,21 @@ def _params(res: FitResult, *, errors: bool = True) -> list[str]:
     return out
 
 
+def _robust_note(res: FitResult) -> str | None:
+    """Which errors the ± are, where they are not the independent-noise ones (the run's
+    header says that the card says so)."""
+    if res.errors_shown != "robust" or res.uncertainty is None:
+        return None
+    lag1 = (res.uncertainty.whiteness or {}).get("lag1_autocorrelation")
+    said = f" (lag-1 autocorrelation {fmt(lag1, 2)})" if lag1 is not None else ""
+    ratios = [res.stderr[n] / w for n, w in res.stderr_white.items()
+              if n in res.stderr and w > 0 and math.isfinite(w) and math.isfinite(res.stderr[n])]
+    wider = (f"; the independent-noise errors would be {fmt(min(ratios), 2)} to "
+             f"{fmt(max(ratios), 2)} times smaller" if ratios else "")
+    return (f"± robust: the residuals are serially correlated{said}, and the errors shown allow "
+            f"for it{wider}")
+
+
 def _derived(res: FitResult) -> list[str]:
     out = []
     for d in res.derived.values():
@@ -213,6 +228,9 @@ class TextPrinter:
             lines += _wrap(f"why: {_reason(row)}")
         if res.model is not None:
             lines += _wrap_items(_params(res))
+            robust = _robust_note(res)
+            if robust:
+                lines += _wrap(robust)
             derived = _derived(res)
             if derived:
                 lines += _wrap_items(derived, "derived: ")
