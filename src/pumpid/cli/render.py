@@ -145,13 +145,12 @@ def _robust_note(res: FitResult) -> str | None:
     if res.errors_shown != "robust" or res.uncertainty is None:
         return None
     lag1 = (res.uncertainty.whiteness or {}).get("lag1_autocorrelation")
-    said = f" (lag-1 autocorrelation {fmt(lag1, 2)})" if lag1 is not None else ""
+    said = f" (lag-1 {fmt(lag1, 2)})" if lag1 is not None else ""
     ratios = [res.stderr[n] / w for n, w in res.stderr_white.items()
               if n in res.stderr and w > 0 and math.isfinite(w) and math.isfinite(res.stderr[n])]
-    wider = (f"; the independent-noise errors would be {fmt(min(ratios), 2)} to "
-             f"{fmt(max(ratios), 2)} times smaller" if ratios else "")
-    return (f"± robust: the residuals are serially correlated{said}, and the errors shown allow "
-            f"for it{wider}")
+    wider = (f"; assuming independence, {fmt(min(ratios), 2)}-{fmt(max(ratios), 2)}x smaller"
+             if ratios else "")
+    return f"± robust: residuals serially correlated{said}{wider}"
 
 
 def _derived(res: FitResult) -> list[str]:
