@@ -83,3 +83,34 @@ def test_a_parameter_the_strokes_do_not_hold_is_not_called_converged(shared_raw)
         if name in determined:
             assert se <= abs(joint.params[name])
         assert not joint.uncertainty.stderr_white[name] > se
+
+
+@pytest.mark.realdata
+def test_a_stiffness_deep_in_its_rigid_limit_runs_to_infinity(shared_raw) -> None:
+    # Sandia's four surface cards jointly: k0 ends at 3e14 (rigid). Pushed up a further
+    # factor 1000 the simulation no longer resolves it and the cost jumped, pushed down it
+    # stayed flat, and the joint fit said "k0 runs to zero ... only an upper bound exists".
+    cards = read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")
+    joint = pumpid.fit(pumpid.Kelvin, cards, options=JOINT)
+    k0 = [b for b in joint.boundary.limits if b.name == "k0"]
+    assert k0 and k0[0].direction == "infinity", joint.boundary
+    assert not any("k0 -> 0" in s for s in joint.identifiability)
+
+
+@pytest.mark.realdata
+def test_a_levels_error_is_said_relative_to_the_datas_range(shared_raw) -> None:
+    # A card's level is a signed position: its error in the identifiability sentences was
+    # its error in position units read as a fraction. On Sandia's surface cards each level's
+    # error is a quarter to a half of its value (a fifth of the data's range or less), and
+    # "level_4 is practically not identifiable: ... a standard error of 1934 %" (19.34 in).
+    cards = read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")
+    joint = pumpid.fit(pumpid.Kelvin, cards, options=JOINT)
+    spread = float(np.ptp(joint.data))
+    levels = [n for n in joint.params if n.startswith("level_")]
+    assert levels and all(joint.stderr[n] < 0.3 * spread for n in levels)
+    for sentence in joint.identifiability:
+        if any(n in sentence for n in levels) and "standard error of" in sentence:
+            assert "in units of the data range" in sentence
+            percent = float(sentence.split("standard error of ")[1].split(" %")[0])
+            assert percent < 100.0 * max(joint.stderr[n] for n in levels) / spread * 3
+        assert not any(sentence.startswith(f"{n} is practically") for n in levels)

@@ -11,6 +11,7 @@ the limiting model).
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -191,8 +192,10 @@ def findings_of(
         if se <= PRACTICAL_REL_SE:
             continue
         what, plural, _det = describe_direction(vt[k], inner_names, nums.additive)
-        unit = ("relative to the values, the offset in units of the data range"
-                if "offset" in what else "relative to the values")
+        signed = [n for n in inner_names if n == "offset" or n in nums.additive]
+        signed = [n for n in signed if re.search(rf"\b{re.escape(n)}\b", what)]
+        unit = (f"relative to the values, {join_names(signed)} in units of the data range"
+                if signed else "relative to the values")
         if robust:
             unit += ", the larger of the ordinary and the serial-correlation-robust error"
         sentences.append(
@@ -213,7 +216,7 @@ def findings_of(
             # relative to its value.
             var = float(shown[a, a])
             size = (1.0 if is_positive_quantity(names[i], nums.additive)
-                    else abs(float(nums.values[i])))
+                    else abs(float(nums.values[i]) / float(nums.scales[i])))
             if not (math.isfinite(var) and math.sqrt(max(var, 0.0)) <= PRACTICAL_REL_SE * size):
                 loose.add(i)
     for i, name in enumerate(names):

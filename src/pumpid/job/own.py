@@ -10,8 +10,9 @@ Coordinates: a positive parameter is searched on the log scale within a factor
 :data:`WINDOW_FACTOR` of its start (and its declared bounds), a signed one on its own scale
 within its declared bounds. A positive parameter is at a boundary when pushing it a further
 factor 1000 either way leaves the cost within the likelihood-ratio test's 95 % point (the
-data cannot tell it from its limit), or when it ends on the edge of its window; a signed one
-when it ends on a declared bound.
+data cannot tell it from its limit; a factor 10 either way too, for a value pushed past what
+the simulation resolves), or when it ends on the edge of its window; a signed one when it
+ends on a declared bound.
 """
 
 from __future__ import annotations
@@ -309,21 +310,36 @@ def _limits(prob: _Item, z: Array, z0: Array, cost: float, lo: Array, hi: Array,
                 found.append(Limiting(par.name, side, value,
                                       f"{par.name} = {getattr(par, side):g} {par.unit}", "bound"))
             continue
-        flat = []
-        for direction, step in (("zero", -math.log(PUSH)), ("infinity", math.log(PUSH))):
+        # Pushed a factor 10 and PUSH each way: a value already deep in a limit can be
+        # pushed past what the simulation resolves (a stiffness of 3e14 pushed to 3e17
+        # rose by 3e5 in cost, pushed to 3e15 fell by 900), so one push is not enough.
+        change: dict[str, float] = {}
+        far: dict[str, bool] = {}
+        for direction, sign in (("zero", -1.0), ("infinity", 1.0)):
             at_edge = edge_lo if direction == "zero" else edge_hi
-            zz = z.copy()
-            zz[a] += step
-            pushed = prob.cost(zz)
-            if at_edge or (math.isfinite(pushed) and pushed - cost <= tol):
-                flat.append(direction)
-        if flat:
-            # Flat both ways: the limit is the way the fit went from its start.
-            direction = flat[0] if len(flat) == 1 else (
-                "infinity" if z[a] >= z0[a] else "zero")
+            deltas = {"edge": -math.inf} if at_edge else {}
+            for factor in (10.0, PUSH):
+                zz = z.copy()
+                zz[a] += sign * math.log(factor)
+                pushed = prob.cost(zz)
+                if math.isfinite(pushed):
+                    deltas[str(factor)] = pushed - cost
+            if deltas and min(deltas.values()) <= tol:
+                change[direction] = min(deltas.values())
+                far[direction] = "edge" in deltas or deltas.get(str(PUSH), math.inf) <= tol
+        if change:
+            # Flat both ways (a value deep in a limit stays there pushed back a factor 1000:
+            # k0 = 3e14 pushed down to 3e11 is still rigid): the limit is the way the cost
+            # falls, else the way the fit went from its start.
+            if len(change) == 1:
+                direction = next(iter(change))
+            elif change["zero"] != change["infinity"]:
+                direction = min(change, key=lambda d: change[d])
+            else:
+                direction = "infinity" if z[a] >= z0[a] else "zero"
             found.append(Limiting(par.name, direction, value,
                                   f"{par.name} -> {'0' if direction == 'zero' else 'inf'}",
-                                  "push"))
+                                  "push" if far[direction] else "push10"))
     return tuple(found)
 
 
@@ -376,18 +392,25 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
     names = prob.model.param_names()
     if rows is not None:
         inner = np.array([n not in {b.name for b in limits} for n in free_names])
-        s, vt, cov, hac, dse, stats = analyse_rows(rows.copy(), inner, -1, 1.0)
-        scales = prob.chain(theta)
+        # A signed parameter is analysed in units of the data's range, as the lumped models'
+        # offset is: its error then reads as a fraction, like the log coordinates' (on its
+        # own scale a level's 19 in error read as "1934 %").
+        spread = float(np.ptp(y)) or 1.0
+        signed = np.arange(prob.q) >= prob.n_log
+        scaled = rows.copy()
+        scaled[: prob.q][signed] *= spread
+        s, vt, cov, hac, dse, stats = analyse_rows(scaled.copy(), inner, -1, 1.0)
+        scales = prob.chain(theta) * np.where(signed, spread, 1.0)
         nums = Numbers(names=free_names, inner=tuple(int(i) for i in np.flatnonzero(inner)),
                        values=theta[prob.free], scales=scales, singular=s, vt=vt,
                        cov_scaled=cov, hac_scaled=hac, direction_se_hac=dse,
                        rms=float(stats[1]), rho=float(stats[2]), bandwidth=float(stats[3]),
                        persistence=float(stats[4]), capped=bool(stats[5] == 1.0), n=n,
                        cost=0.5 * float(stats[1]) ** 2 * n, usable=bool(stats[0] == 1.0),
-                       spread=float(np.ptp(y)) or 1.0,
+                       spread=spread,
                        additive=tuple(nm for i, nm in zip(prob.free, free_names, strict=True)
                                       if not model.parameters[i].positive))
-        said = assess(nums, lambda: rows, -1, model_names=names, gauge_fixed=False,
+        said = assess(nums, lambda: scaled, -1, model_names=names, gauge_fixed=False,
                       initial_state=model.name, residual="linear", limits=limits,
                       unit=f"{model.output_unit}^2")
         uncertainty, findings, determined = said.uncertainty, said.findings, said.determined

@@ -20,7 +20,8 @@ class Limiting:
     direction: str  # "infinity" or "zero"; "lower" or "upper" for a declared bound
     value: float
     limit: str
-    #: "push": moving it further leaves the cost unchanged; "nested": the limiting model fits
+    #: "push": moving it a further factor 1000 leaves the cost unchanged; "push10": a further
+    #: factor 10 leaves it within the noise or lowers it; "nested": the limiting model fits
     #: as well (likelihood-ratio test); "bound": the fit ended on a bound a model declares.
     evidence: str = "push"
 
@@ -29,6 +30,7 @@ class Limiting:
         where = {"infinity": "to infinity", "zero": "to zero", "lower": "to its lower bound",
                  "upper": "to its upper bound"}[self.direction]
         why = {"push": "pushing it a further factor 1000 leaves the fit unchanged",
+               "push10": "pushing it a further factor 10 leaves the fit as good or better",
                "nested": "the limiting model fits the data as well (likelihood-ratio test, "
                          "95 %)",
                "bound": "the fit stopped on the bound the model declares"}[self.evidence]
