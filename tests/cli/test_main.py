@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -146,3 +147,22 @@ def test_the_text_says_which_errors_the_plus_minus_are(tmp_path, capsys) -> None
     assert main(["fit", str(_noisy_record(tmp_path / "white.csv", 0.0)), "--model", "msd"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     assert "± robust" not in text and "± is one standard error" in text
+
+
+@pytest.mark.realdata
+def test_an_offset_the_card_does_not_fix_is_flagged_in_the_short_output(shared_raw,
+                                                                       capsys) -> None:
+    # A field card whose static stiffness runs to zero: the offset (-1e8 ± 2e13 m) trades
+    # off with it. The JSON listed it as not determined; the short and brief outputs
+    # printed it unmarked beside a flagged m.
+    card = str(shared_raw / "cmcm2012_rod_pump" / "fj1_surface_card.csv")
+    main(["fit", card, "--spm", "5", "--json"])
+    doc = json.loads(capsys.readouterr().out)["cards"][0]
+    assert "offset" in doc["determined"]["not_determined"]
+    main(["fit", card, "--spm", "5"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert re.search(r"offset = \S+ ± \S+ m \(not determined\)", text), text
+    main(["fit", card, "--spm", "5", "--brief"])
+    line = capsys.readouterr().out.splitlines()[-2]
+    assert any(f.startswith("offset=") and f.endswith("(not determined)")
+               for f in line.split("\t")), line

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -107,3 +108,26 @@ def test_kelvin_coefficients_invert_as_in_model_notes() -> None:
     k1_, c1_ = a0 / b0, a1 / b0
     k0_ = a2 * c1_ - k1_
     assert (k0_, k0_ / a1, c1_, k1_) == pytest.approx((k0, m, c1, k1))
+
+
+def test_derived_quantities_hold_where_one_spring_is_1e15_times_the_other() -> None:
+    # A field card's fit at its limits: k0 1.2e8, k1 3.6e-7. A holds (k0 + k1) / c1, where
+    # k1 is lost to rounding: the static stiffness came out 3.40e-7 (not 3.59e-7) and the
+    # creep time constant 1.6e7 s (not 1.0e8 s) from A's eigenvalues and solve.
+    k0, m, c1, k1 = 115197287.6, 2.655873956, 36.52264732, 3.587616569e-07
+    values = dict(zip(
+        [i.name for i in Kelvin.derived_info()],
+        Kelvin.derived_values(np.array([k0, m, c1, k1])), strict=True))
+    assert values["static_stiffness"] == pytest.approx(k0 * k1 / (k0 + k1), rel=1e-12)
+    # The creep pole is -k1 / c1 to within (k1 m / c1^2) of itself.
+    assert values["time_constant"] == pytest.approx(c1 / k1, rel=1e-9)
+    # The fast pair: m s^2 + c1 s + k0 (k0 far above the rest).
+    assert values["natural_frequency"] == pytest.approx(math.sqrt(k0 / m) / (2 * math.pi),
+                                                        rel=1e-6)
+    # An ordinary Kelvin model: the same poles and gain as A's.
+    model = Kelvin(k0=9000.0, m=45.0, c1=900.0, k1=5200.0)
+    a, b = model.matrices()
+    eig = np.sort_complex(np.linalg.eigvals(a))
+    np.testing.assert_allclose(np.sort_complex(model.poles()), eig, rtol=1e-12)
+    assert model.static_gain() == pytest.approx(-np.linalg.solve(a, b)[0], rel=1e-13)
+    assert model.static_gain("u2") == pytest.approx(-np.linalg.solve(a, b)[2], rel=1e-13)

@@ -377,3 +377,13 @@ def test_one_iteration_fit_has_no_convergence_figure(result: FitResult, tmp_path
     doc = parse(paths["report"].read_text(encoding="utf-8"))
     body = " ".join(" ".join(v) for v in doc.text.values())
     assert "The solver made 1 iteration: its start was already at the optimum" in body
+
+
+@pytest.mark.parametrize("status", [Status.UNDETERMINED, Status.POOR_FIT])
+def test_an_optimum_the_gates_qualified_is_not_called_not_converged(
+        result: FitResult, tiny_figures, status) -> None:
+    # An undetermined or poor fit is an optimum the solver converged to: its report said
+    # "NOT converged" beside a result (and JSON) saying undetermined.
+    doc = parse(render_html(result.with_parts(status=status), figures=tiny_figures))
+    body = " ".join(" ".join(v) for v in doc.text.values())
+    assert "NOT converged" not in body and status.key in body

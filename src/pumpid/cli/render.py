@@ -128,14 +128,19 @@ def _params(res: FitResult, *, errors: bool = True) -> list[str]:
         err_txt = f" ± {fmt(s, 2)}" if s is not None and math.isfinite(s) and s > 0 else ""
         flag = " (not determined)" if name in undetermined else ""
         out.append(f"{name} = {fmt(value, 5)}{err_txt} {unit}{flag}".replace("  ", " "))
+    # The scale and the offset are flagged like the parameters: an offset of -1e8 ± 4e13 m
+    # went unmarked where the JSON listed it as not determined.
     if "C" in res.free or "D" in res.free:
         s = se.get("C")
         err_txt = f" ± {fmt(s, 2)}" if s is not None and math.isfinite(s) and s > 0 else ""
-        out.append(f"C = {fmt(res.scale, 5)}{err_txt}")
+        flag = " (not determined)" if "C" in undetermined else ""
+        out.append(f"C = {fmt(res.scale, 5)}{err_txt}{flag}")
     if "offset" in res.free:
         s = se.get("offset")
         err_txt = f" ± {fmt(s, 2)}" if s is not None and math.isfinite(s) and s > 0 else ""
-        out.append(f"offset = {fmt(res.offset, 5)}{err_txt} {unit_text(res.units.position)}")
+        flag = " (not determined)" if "offset" in undetermined else ""
+        out.append(f"offset = {fmt(res.offset, 5)}{err_txt} {unit_text(res.units.position)}"
+                   f"{flag}")
     return out
 
 
@@ -148,7 +153,8 @@ def _robust_note(res: FitResult) -> str | None:
     said = f" (lag-1 {fmt(lag1, 2)})" if lag1 is not None else ""
     ratios = [res.stderr[n] / w for n, w in res.stderr_white.items()
               if n in res.stderr and w > 0 and math.isfinite(w) and math.isfinite(res.stderr[n])]
-    wider = (f"; assuming independence, {fmt(min(ratios), 2)}-{fmt(max(ratios), 2)}x smaller"
+    low, high = (fmt(min(ratios), 2), fmt(max(ratios), 2)) if ratios else ("", "")
+    wider = (f"; assuming independence, {low}{'' if low == high else '-' + high}x smaller"
              if ratios else "")
     return f"± robust: residuals serially correlated{said}{wider}"
 

@@ -211,6 +211,33 @@ def _pair_and_rest(lam: NDArray[np.complex128]) -> tuple[list[complex], list[com
             [complex(lam[k]) for k in range(lam.size) if k not in (a, b)])
 
 
+def polished_roots(coefficients: ArrayLike) -> NDArray[np.complex128]:
+    """Roots of a polynomial (coefficients highest power first), each refined by Newton's
+    method on the polynomial itself.
+
+    Why by hand: ``np.roots`` (the companion matrix's eigenvalues) has an absolute error of
+    about the rounding unit times the largest root, so a creep pole 1e-15 times the fastest
+    one comes out wrong in its first digits; a few Newton steps on the coefficients, where
+    the small root's terms are not lost, restore its relative accuracy.
+    """
+    c = np.asarray(coefficients, dtype=float)
+    roots = np.roots(c).astype(complex)
+    dc = np.polyder(c)
+    for i, r in enumerate(roots):
+        value = np.polyval(c, r)
+        for _ in range(4):
+            slope = np.polyval(dc, r)
+            if slope == 0 or not np.isfinite(slope):
+                break
+            trial = r - value / slope
+            trial_value = np.polyval(c, trial)
+            if not abs(trial_value) < abs(value):
+                break
+            r, value = trial, trial_value
+        roots[i] = r
+    return roots
+
+
 def _pole_quantities(lam: NDArray[np.complex128]) -> dict[str, float]:
     """Natural frequency (Hz), damping ratio and other time constant (s) from the poles."""
     values: dict[str, float] = {}
@@ -436,9 +463,28 @@ class Model:
 
     def poles(self) -> NDArray[np.complex128]:
         """Eigenvalues of A (1/s), sorted by decreasing real part."""
-        a, _ = self.matrices()
-        lam = np.linalg.eigvals(a)
+        lam = self.pole_sets(self.values[None])[0]
         return lam[np.argsort(-lam.real)]
+
+    @classmethod
+    def characteristic(cls, theta: Array) -> Array | None:
+        """Coefficients (m, n + 1), highest power first, of a polynomial whose roots are the
+        poles at parameter rows ``theta`` (m, p), written from the parameters directly; None:
+        the poles are A's eigenvalues. A model overrides it where forming A loses a
+        parameter to rounding (a sum such as k0 + k1 with k1 1e-15 of k0)."""
+        return None
+
+    @classmethod
+    def pole_sets(cls, theta: Array) -> NDArray[np.complex128]:
+        """The poles (m, n) at parameter rows ``theta`` (m, p)."""
+        coefficients = cls.characteristic(theta)
+        if coefficients is None:
+            return np.linalg.eigvals(cls._system(theta, False)[0])
+        out = np.full((theta.shape[0], cls.n_states()), math.nan, dtype=complex)
+        for i, c in enumerate(coefficients):
+            if np.all(np.isfinite(c)) and c[0] != 0:
+                out[i] = polished_roots(c)
+        return out
 
     @classmethod
     def derived_info(cls) -> tuple[DerivedInfo, ...]:
@@ -484,7 +530,7 @@ class Model:
         if rows.size:
             # One stacked eigenvalue and solve call for all vectors (the derivatives of the
             # quantities take 2p + 2 of them per fit).
-            lams = np.linalg.eigvals(a[rows])
+            lams = cls.pole_sets(th[rows])
             gains = cls.static_gains(th[rows], observe)
             for j, i in enumerate(rows):
                 values = _pole_quantities(lams[j])

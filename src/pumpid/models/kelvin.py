@@ -147,3 +147,22 @@ class Kelvin(Model):
     def shape_grid(cls, w0: float, dense: bool = False) -> np.ndarray:
         """See :func:`viscoelastic_shapes` (series springs)."""
         return viscoelastic_shapes(w0, series=True, dense=dense)
+
+    # A holds (k0 + k1) / c1: where one spring is 1e15 times the other (a fit at its
+    # limits) the smaller is lost to rounding, and the static gain and the creep pole taken
+    # from A came out 3-6 times off. Both are written from the parameters instead.
+    @classmethod
+    def characteristic(cls, theta: np.ndarray) -> np.ndarray:
+        """det(s I - A) times m c1: m c1 s^3 + m (k0 + k1) s^2 + k0 c1 s + k0 k1."""
+        k0, m, c1, k1 = (np.asarray(theta, dtype=float)[..., i] for i in range(4))
+        return np.stack([m * c1, m * (k0 + k1), k0 * c1, k0 * k1], axis=-1)
+
+    @classmethod
+    def static_gains(cls, theta: np.ndarray, observe: str | None = None) -> np.ndarray:
+        """Static displacement per unit load: the springs in series (u), k1 alone (u2)."""
+        th = np.asarray(theta, dtype=float)
+        k0, k1 = th[..., 0], th[..., 3]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if cls.output_index(observe) == cls.states.index("u2"):
+                return 1.0 / k1
+            return 1.0 / k0 + 1.0 / k1

@@ -107,13 +107,16 @@ def _note(ax: Axes, text: str) -> None:
 
 
 def status_text(result: FitResult) -> str:
-    """Short status: "converged", "boundary (limiting model)" or "NOT converged"."""
+    """Short status, the result's own word: "converged", "boundary (limiting model)",
+    "undetermined (the data do not determine the parameters)", "poor-fit (the model misses
+    the data)" or "failed (NOT converged)" (an undetermined or poor fit is an optimum the
+    solver converged to: calling it not converged contradicted the result's status)."""
     status = getattr(result, "status", None) or ("converged" if result.converged else "failed")
-    if status == "converged" and result.converged:
-        return "converged"
-    if status == "boundary":
-        return "boundary (limiting model)"
-    return "NOT converged"
+    words = {"converged": "converged", "boundary": "boundary (limiting model)",
+             "undetermined": "undetermined (the data do not determine the parameters)",
+             "poor-fit": "poor-fit (the model misses the data)",
+             "failed": "failed (NOT converged)", "invalid-input": "invalid-input (not fitted)"}
+    return words.get(str(status), str(status))
 
 
 def _model_label(result: FitResult) -> str:

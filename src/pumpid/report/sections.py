@@ -193,7 +193,8 @@ def status_html(result: FitResult) -> str:
         HTML.
     """
     word = status_text(result)
-    cls = {"converged": "ok", "boundary (limiting model)": "warn"}.get(word, "bad")
+    cls = {"converged": "ok", "boundary": "warn", "undetermined": "warn"}.get(
+        str(getattr(result, "status", "")), "bad")
     rows = [
         ("iterations", str(result.iterations)),
         ("model simulations", str(result.nfev)),
