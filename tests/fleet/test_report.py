@@ -107,7 +107,22 @@ def test_rows_without_a_well_are_not_a_well_and_counts_agree(tmp_path: Path) -> 
     page = files["report"].read_text(encoding="utf-8")
     assert "3 wells, 270 cards, 1 alert." in page
     assert "<td>wells</td><td>3 wells</td>" in page
-    assert "<td>cards without a well (unreadable input)</td><td>3 cards</td>" in page
+    assert re.search(r"<td>cards without a well id \(filed under \(unknown well\), with any "
+                     r"unreadable input\S+ rows\)</td><td>3 cards</td>", page)
+
+
+def test_cards_without_well_ids_are_not_called_unreadable_or_too_short(tmp_path: Path) -> None:
+    # A public set without well ids: the report said "0 wells", "cards without a well
+    # (unreadable input)", "cards used for trends (converged, boundary, poor-fit)" beside
+    # undetermined ones counted in, and "every well's history is too short" for 90 cards.
+    frame = results_table(1, 90, cv=0.03, seed=5).assign(well_id=None)
+    frame.loc[frame.index[::3], "status"] = "undetermined"
+    files = write_fleet_report(frame, tmp_path, quantities=["stiffness"])
+    page = files["report"].read_text(encoding="utf-8")
+    assert "unreadable input)</td><td>90 cards" not in page
+    assert "cards used for trends (converged, boundary, undetermined, poor-fit)" in page
+    assert "too short" not in page.split('id="alerts"')[1].split("</section>")[0]
+    assert "the cards carry no well id" in page
 
 
 def test_failed_and_invalid_cards_of_a_well_are_drawn(tmp_path: Path) -> None:
@@ -218,3 +233,15 @@ def test_the_wells_table_leaves_out_columns_empty_in_every_well(tmp_path: Path) 
     assert not any("time_" in h for h in headers)
     assert "Columns left out: no card of these wells has status" in wells
     assert "failed" in wells and "time_constant" in wells  # said in words
+
+
+def test_the_plots_leave_out_what_a_card_calls_an_echo_of_the_stroke() -> None:
+    # The change detection skips a value its card calls an echo of the stroke (not the
+    # well's); the plots drew it, a row of points on the stroke frequency.
+    from pumpid.fleet.figures import quantity_values
+
+    frame = results_table(1, 30, seed=2)
+    frame["d_stiffness_well_property"] = [i % 3 != 0 for i in range(len(frame))]
+    _value, _se, ok = quantity_values(frame, "stiffness")
+    assert not ok[frame["d_stiffness_well_property"] == False].any()  # noqa: E712
+    assert ok[frame["d_stiffness_well_property"]].all()

@@ -91,6 +91,12 @@ def quantity_values(frame: pd.DataFrame, quantity: str) -> tuple[pd.Series, pd.S
     det = f"{col}_determined"
     if det in frame.columns:
         ok &= frame[det].fillna(False).astype(bool)
+    # A value the card's fit calls an echo of the stroke is not the well's: the plots show
+    # what the change detection trends (a stroke frequency drawn as the well's resonance
+    # contradicted the card's own warning).
+    prop = f"{col}_well_property"
+    if prop in frame.columns:
+        ok &= frame[prop].fillna(True).astype(bool)
     return value, se, ok
 
 

@@ -227,9 +227,10 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
     rows = [
         ("wells", count_words(_n_wells(frame), "well")),
         ("cards", count_words(n, "card")),
-        *((("cards without a well (unreadable input)", count_words(no_well, "card")),)
+        *(((f"cards without a well id (filed under {UNKNOWN_WELL}, with any unreadable "
+             "input's rows)", count_words(no_well, "card")),)
           if no_well else ()),
-        ("cards used for trends (converged, boundary, poor-fit)",
+        (f"cards used for trends ({', '.join(USABLE_STATUSES)})",
          count_words(counts[list(USABLE_STATUSES)].sum(), "card")),
         *((f"status {st}", f"{count_words(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
           for st in counts.index if counts[st] or st in STATUSES),
@@ -248,8 +249,13 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
 
 def _alerts_section(alerts: pd.DataFrame, tests: pd.Series) -> str:
     if alerts.empty:
+        unnamed = UNKNOWN_WELL in tests.index
         tests = tests[tests.index != UNKNOWN_WELL]
         tested = int((tests != "too short").sum())
+        if not tests.size and unnamed:
+            return (f"<p>No named well was tested for changes: the cards carry no well id "
+                    f"(they are filed under {UNKNOWN_WELL}, whose cards may come from "
+                    "several wells; give the wells' ids to trend them).</p>")
         if not tested:
             return ("<p>No well was tested for changes: every well's history is too short "
                     "(see the run summary).</p>")
@@ -453,7 +459,7 @@ def write_fleet_report(
                                   [*repeat_rows, *_coverage_rows(coverage, min_cards,
                                                                  min_short)]))
     parts.append(_figure_html(save(status_figure(counts), "status"), "status of every card",
-                              "Cards by fit status. Only converged, boundary and poor-fit "
+                              f"Cards by fit status. Only {', '.join(USABLE_STATUSES)} "
                               "cards enter the trends; the others are counted here."))
     parts.append("</section>")
 
