@@ -178,6 +178,7 @@ def test_a_fit_that_determines_no_parameter_is_not_converged() -> None:
     assert res.status is Status.UNDETERMINED and not res.converged
     assert "no parameter of the model is determined" in res.reason
     assert "the solver's own verdict: converged" in res.reason
+    assert "converged: converged:" not in res.reason
     assert res.status.meaning.startswith("the solver found its optimum")
 
 

@@ -41,8 +41,7 @@ def determination_gate(res: FitResult) -> FitResult:
             "values are one of many that fit as well"
             + (f"; determined derived quantities: {', '.join(good)}" if good else ""))
     return dataclasses.replace(res, status=Status.UNDETERMINED,
-                               reason=f"{said} (the solver's own verdict: {res.status.key}: "
-                                      f"{res.reason})",
+                               reason=f"{said} ({_verdict(res)})",
                                warnings=(*res.warnings, said))
 
 
@@ -58,9 +57,19 @@ def quality_gate(res: FitResult, min_r2: float) -> FitResult:
             f"the model does not reproduce this record: check the column roles and units, "
             f"the model structure, or the record itself before using these numbers")
     return dataclasses.replace(res, status=Status.POOR_FIT,
-                               reason=f"{said} (the solver's own verdict: {res.status.key}: "
-                                      f"{res.reason})",
+                               reason=f"{said} ({_verdict(res)})",
                                warnings=(*res.warnings, said))
+
+
+def _verdict(res: FitResult) -> str:
+    """The status a gate replaces, in words: whose verdict it was, and its reason once (a
+    solver's reason already starts with its status: "converged: converged: ..." read as
+    garbled)."""
+    whose = ("the determination gate's verdict" if res.status is Status.UNDETERMINED
+             else "the solver's own verdict")
+    key = res.status.key
+    reason = res.reason if res.reason.startswith(f"{key}:") else f"{key}: {res.reason}"
+    return f"{whose}: {reason}"
 
 
 def build_result(problem: Problem, k: int, card: CardState, options: JobOptions, units: Units,
