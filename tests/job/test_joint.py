@@ -64,6 +64,9 @@ def test_the_cli_fits_the_files_cards_jointly(capsys) -> None:
     assert main(["fit", EXAMPLE, "--joint"]) == 0
     out = capsys.readouterr().out
     assert "Kelvin (joint, 2 cards)" in out and "EX-1A" in out
+    # Each card's own fit is said with its units, like every other number.
+    alone = [ln.split("alone: ")[1] for ln in out.splitlines() if "alone: " in ln]
+    assert len(alone) == 2 and all("lbf/in" in a and "lbf*s^2/in" in a for a in alone)
     assert main(["fit", EXAMPLE, "--joint", "--model", "auto"]) == 2
 
 

@@ -438,7 +438,7 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
                 f"{roles_found.load} as load, recognised from their shapes with "
                 f"{roles_found.words} confidence ({roles_found.confidence:.3f})"
                 + (f"; other columns: {others}" if others else "")
-                + "; pass columns= to change"
+                + "; pass columns= (command line --columns) to change"
             )
             column_roles = roles_found.to_metadata()
     else:

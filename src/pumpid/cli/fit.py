@@ -39,6 +39,7 @@ from ..models import MODELS, Model, model_class
 from ..pump.runner import FitSpec, fit_cards_each
 from ..report.output import FILE_MODE, OutputError, OutputFolder, UniqueNames
 from ..report.spreadsheet import LINE_END, neutralise_row
+from ..report.units import unit_text
 from ..result import FitResult
 from .common import (
     EXIT_INTERRUPTED,
@@ -481,8 +482,10 @@ def _joint_text(joint: FitResult) -> str:
     pos = joint.units.position
     lines = [joint.report(), "", "  per card: level (position at its mean load), offset (at "
              "zero load), R^2, RMSE, and the card's own fit:"]
+    units = joint.param_units()
     for c in joint.application["joint"]["cards"]:
-        own = ", ".join(f"{k} = {v:.4g}" for k, v in c["single"].items())
+        own = ", ".join(f"{k} = {v:.4g} {unit_text(units.get(k, ''))}".rstrip()
+                        for k, v in c["single"].items())
         lines.append(f"  {c['card']}: level = {c['level']:.6g} {pos}, offset = "
                      f"{c['offset']:.6g} {pos}, R^2 = {c['r2']:.6f}, RMSE = {c['rmse']:.4g} "
                      f"{pos}; alone: {own}")
