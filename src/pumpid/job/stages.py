@@ -341,7 +341,9 @@ def _widen(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
 
     name = problem.model.resonance
     for group, search, words in (
-            (hard, search_wide, "the first answer did not explain the data; a wider search "
+            (hard, search_wide, "the first answer left structure in its residual (R^2 "
+                                "below 0.99, an error above twice the noise or a residual "
+                                "carried by its first harmonics); a wider search "
                                 "({} more starts)"),
             (calm, scan, f"the first answer sat in a ripple of the cost along {name} (a "
                          "resonance the card sees only through its weak harmonics); a scan "
