@@ -279,6 +279,8 @@ class TestCsv:
         body = "\n".join(f"{float(x)!r},{float(f)!r}" for x, f in zip(pos, load, strict=True))
         card = read_card(write(tmp_path, "c.csv", "position,load\n" + body), spm=6.0)
         assert card.n == 25 and any("duplicated closing point dropped" in n for n in card.notes)
+        # The card's lines are those kept: the dropped closing point's line 27 is not one.
+        assert card.source == "c.csv, lines 2-26"
         np.testing.assert_allclose(card.t, np.arange(25) * 10.0 / 25)
         keep = read_card(
             write(tmp_path, "c.csv", "position,load\n" + body), drop_closing_point=False
@@ -626,6 +628,11 @@ class TestSplitStrokes:
             assert s.period == pytest.approx(6.0) and s.spm == pytest.approx(10.0)
             assert "cut from 'rec'" in s.notes[-1]
         assert strokes[2].metadata["t0"] == pytest.approx(12.0)
+        # Each stroke's source says which samples of the record it is (every stroke said
+        # the record's whole span of lines).
+        cut = split_strokes(record().replace(source="rec.csv, lines 2-302"))
+        assert cut[2].source == "rec.csv, lines 2-302, samples 120-179"
+        assert len({c.source for c in cut}) == len(cut)
 
     def test_noise_and_wiggles_do_not_add_strokes(self):
         card = record(noise=1.5, seed=3)

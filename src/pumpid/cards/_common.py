@@ -108,6 +108,17 @@ def line_span(lines: Sequence[int] | NDArray[np.int64]) -> str:
     return f"line {lo}" if lo == hi else f"lines {lo}-{hi}"
 
 
+def _kept_span(raw: Raw, lines: NDArray[np.int64] | None) -> str:
+    """The raw card's source with its line span narrowed to the lines kept (a dropped
+    closing point's line is not the card's)."""
+    if lines is None or raw.lines is None or not len(lines):
+        return raw.source
+    whole = line_span(raw.lines)
+    if not raw.source.endswith(whole):
+        return raw.source
+    return raw.source[: len(raw.source) - len(whole)] + line_span(lines)
+
+
 def meaningful(text: str) -> Iterator[tuple[int, str]]:
     """Non-blank lines that are not ``#`` comments, with their line numbers, lazily."""
     for i, line in iter_lines(text):
@@ -463,7 +474,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
             t=t,
             position_unit=units["position"],
             load_unit=units["load"],
-            source=raw.source,
+            source=_kept_span(raw, lines),
             card_id=raw.card_id,
             well_id=well_id,
             spm=spm,

@@ -197,6 +197,9 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
                 spm=spm,
                 card_id=f"{card.card_id}#{k}",
                 periodic=True,
+                # The record's source names its whole span of lines: the stroke's samples
+                # say which part of it this card is.
+                source=f"{card.source}, samples {a}-{b - 1}" if card.source else "",
                 metadata=meta,
                 note=note,
             )
