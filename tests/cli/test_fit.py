@@ -158,3 +158,13 @@ def test_a_poor_fit_is_said_and_has_its_own_exit_status(tmp_path: Path, capsys) 
     # status undetermined, exit 6 (it was converged, exit 0).
     assert main(["fit", str(path), *U, "--min-r2=-1"]) == 6
     assert "undetermined" in capsys.readouterr().out
+
+
+def test_history_prints_the_solvers_path(two_cards: Path, capsys) -> None:
+    # --history fits the cards one at a time, but through a list of one card, whose result
+    # kept no path: "(no iterations recorded)" under a report that counted 14 iterations.
+    assert main(["fit", str(two_cards), *U, "--history", "--card", "W-1"]) == 0
+    out = capsys.readouterr().out
+    assert "no iterations recorded" not in out
+    header = next(ln for ln in out.splitlines() if ln.startswith("iteration "))
+    assert "cost" in header and "k0" in header

@@ -153,7 +153,10 @@ def _robust_note(res: FitResult) -> str | None:
     said = f" (lag-1 {fmt(lag1, 2)})" if lag1 is not None else ""
     ratios = [res.stderr[n] / w for n, w in res.stderr_white.items()
               if n in res.stderr and w > 0 and math.isfinite(w) and math.isfinite(res.stderr[n])]
-    low, high = (fmt(min(ratios), 2), fmt(max(ratios), 2)) if ratios else ("", "")
+    def times(x: float) -> str:
+        return f"{x:.0f}" if x >= 10 else f"{x:.2g}"
+
+    low, high = (times(min(ratios)), times(max(ratios))) if ratios else ("", "")
     wider = (f"; assuming independence, {low}{'' if low == high else '-' + high}x smaller"
              if ratios else "")
     return f"± robust: residuals serially correlated{said}{wider}"

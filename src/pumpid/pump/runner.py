@@ -207,7 +207,10 @@ def fit_cards_each(cards: Sequence[Card], spec: FitSpec, *, workers: int | None 
         groups.setdefault(spec.offset_for(card), []).append(i)
     one_by_one = spec.auto or spec.extras() is not None
     for offset, idx in groups.items():
-        if one_by_one:
+        # A lone card is fitted as one (the same answer as in a list): its result then
+        # keeps the solver's path, which a list's results do not (``pumpid fit
+        # --history`` fits the cards one at a time through here).
+        if one_by_one or len(idx) == 1:
             for i in idx:
                 out[i] = _alone(cards[i], spec, offset)
             continue

@@ -406,7 +406,9 @@ def history_html(result: FitResult) -> str:
     """
     if not result.history:
         return ("<p>No iterations recorded (a fit of many cards in one batch keeps no "
-                "per-iteration history; fit the card alone to see it).</p>")
+                "per-iteration history; fit the card alone to see it: "
+                "<code>pumpid.fit(model, card)</code>, or <code>pumpid fit FILE --card ID "
+                "--out DIR</code>).</p>")
     intro = ""
     if not has_history_figure(result):
         steps = sum(1 for row in result.history if (row.get("iteration") or 0) > 0)
