@@ -212,29 +212,43 @@ def _pair_and_rest(lam: NDArray[np.complex128]) -> tuple[list[complex], list[com
 
 
 def polished_roots(coefficients: ArrayLike) -> NDArray[np.complex128]:
-    """Roots of a polynomial (coefficients highest power first), each refined by Newton's
-    method on the polynomial itself.
+    """Roots (m, n) of polynomials (m, n + 1), highest power first, each refined by
+    Newton's method on the polynomial itself.
 
-    Why by hand: ``np.roots`` (the companion matrix's eigenvalues) has an absolute error of
-    about the rounding unit times the largest root, so a creep pole 1e-15 times the fastest
-    one comes out wrong in its first digits; a few Newton steps on the coefficients, where
-    the small root's terms are not lost, restore its relative accuracy.
+    Why by hand: the companion matrix's eigenvalues (what ``np.roots`` returns) have an
+    absolute error of about the rounding unit times the largest root, so a creep pole 1e-15
+    times the fastest one comes out wrong in its first digits; a few Newton steps on the
+    coefficients, where the small root's terms are not lost, restore its relative accuracy.
+    Stacked, so that the derived quantities' many parameter rows cost one eigenvalue call.
     """
-    c = np.asarray(coefficients, dtype=float)
-    roots = np.roots(c).astype(complex)
-    dc = np.polyder(c)
-    for i, r in enumerate(roots):
-        value = np.polyval(c, r)
+    c = np.atleast_2d(np.asarray(coefficients, dtype=float))
+    m, n = c.shape[0], c.shape[1] - 1
+    companion = np.zeros((m, n, n))
+    with np.errstate(all="ignore"):
+        companion[:, 0, :] = -c[:, 1:] / c[:, :1]
+    companion[:, np.arange(1, n), np.arange(n - 1)] = 1.0
+    ok = np.all(np.isfinite(companion), axis=(1, 2))
+    roots = np.full((m, n), np.nan, dtype=complex)
+    if ok.any():
+        roots[ok] = np.linalg.eigvals(companion[ok])
+
+    def horner(r: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], ...]:
+        value = np.broadcast_to(c[:, :1], r.shape).astype(complex)
+        slope = np.zeros_like(value)
+        for j in range(1, n + 1):
+            slope = slope * r + value
+            value = value * r + c[:, j:j + 1]
+        return value, slope
+
+    with np.errstate(all="ignore"):
+        value, slope = horner(roots)
         for _ in range(4):
-            slope = np.polyval(dc, r)
-            if slope == 0 or not np.isfinite(slope):
-                break
-            trial = r - value / slope
-            trial_value = np.polyval(c, trial)
-            if not abs(trial_value) < abs(value):
-                break
-            r, value = trial, trial_value
-        roots[i] = r
+            trial = roots - value / slope
+            trial_value, trial_slope = horner(trial)
+            better = np.isfinite(trial) & (np.abs(trial_value) < np.abs(value))
+            roots = np.where(better, trial, roots)
+            value = np.where(better, trial_value, value)
+            slope = np.where(better, trial_slope, slope)
     return roots
 
 
@@ -480,11 +494,7 @@ class Model:
         coefficients = cls.characteristic(theta)
         if coefficients is None:
             return np.linalg.eigvals(cls._system(theta, False)[0])
-        out = np.full((theta.shape[0], cls.n_states()), math.nan, dtype=complex)
-        for i, c in enumerate(coefficients):
-            if np.all(np.isfinite(c)) and c[0] != 0:
-                out[i] = polished_roots(c)
-        return out
+        return polished_roots(coefficients)
 
     @classmethod
     def derived_info(cls) -> tuple[DerivedInfo, ...]:
