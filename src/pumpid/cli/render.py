@@ -113,6 +113,13 @@ def _bounds(res: FitResult) -> dict[str, str]:
     return {b.name: b.direction for b in res.boundary.limits}
 
 
+def _valued(name: str, value: float, se: float | None, unit: str, undetermined: bool) -> str:
+    """``name = value ± error unit`` with the "(not determined)" flag where it applies."""
+    err_txt = f" ± {fmt(se, 2)}" if se is not None and math.isfinite(se) and se > 0 else ""
+    flag = " (not determined)" if undetermined else ""
+    return f"{name} = {fmt(value, 5)}{err_txt} {unit}{flag}".replace("  ", " ")
+
+
 def _params(res: FitResult, *, errors: bool = True) -> list[str]:
     units = res.param_units()
     se = res.stderr if errors else {}
@@ -120,27 +127,18 @@ def _params(res: FitResult, *, errors: bool = True) -> list[str]:
     at_bound = _bounds(res)
     out = []
     for name, value in res.params.items():
-        unit = unit_text(units.get(name, ""))
         if name in at_bound:
             out.append(f"{name} -> {at_bound[name]} (ran to a bound)")
             continue
-        s = se.get(name)
-        err_txt = f" ± {fmt(s, 2)}" if s is not None and math.isfinite(s) and s > 0 else ""
-        flag = " (not determined)" if name in undetermined else ""
-        out.append(f"{name} = {fmt(value, 5)}{err_txt} {unit}{flag}".replace("  ", " "))
+        out.append(_valued(name, value, se.get(name), unit_text(units.get(name, "")),
+                           name in undetermined))
     # The scale and the offset are flagged like the parameters: an offset of -1e8 ± 4e13 m
     # went unmarked where the JSON listed it as not determined.
     if "C" in res.free or "D" in res.free:
-        s = se.get("C")
-        err_txt = f" ± {fmt(s, 2)}" if s is not None and math.isfinite(s) and s > 0 else ""
-        flag = " (not determined)" if "C" in undetermined else ""
-        out.append(f"C = {fmt(res.scale, 5)}{err_txt}{flag}")
+        out.append(_valued("C", res.scale, se.get("C"), "", "C" in undetermined).rstrip())
     if "offset" in res.free:
-        s = se.get("offset")
-        err_txt = f" ± {fmt(s, 2)}" if s is not None and math.isfinite(s) and s > 0 else ""
-        flag = " (not determined)" if "offset" in undetermined else ""
-        out.append(f"offset = {fmt(res.offset, 5)}{err_txt} {unit_text(res.units.position)}"
-                   f"{flag}")
+        out.append(_valued("offset", res.offset, se.get("offset"),
+                           unit_text(res.units.position), "offset" in undetermined))
     return out
 
 

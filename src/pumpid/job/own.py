@@ -10,9 +10,9 @@ Coordinates: a positive parameter is searched on the log scale within a factor
 :data:`WINDOW_FACTOR` of its start (and its declared bounds), a signed one on its own scale
 within its declared bounds. A positive parameter is at a boundary when pushing it a further
 factor 1000 either way leaves the cost within the likelihood-ratio test's 95 % point (the
-data cannot tell it from its limit; a factor 10 either way too, for a value pushed past what
-the simulation resolves), or when it ends on the edge of its window; a signed one when it
-ends on a declared bound.
+data cannot tell it from its limit; where only one way is, a factor 10 the other way too,
+for a value pushed past what the simulation resolves), or when it ends on the edge of its
+window; a signed one when it ends on a declared bound.
 """
 
 from __future__ import annotations
@@ -299,6 +299,13 @@ def _limits(prob: _Item, z: Array, z0: Array, cost: float, lo: Array, hi: Array,
     """The parameters at a boundary (see the module's text)."""
     found: list[Limiting] = []
     tol = LR_95 * sigma2 / 2.0 + 1e-12 * max(cost, 1e-300)
+
+    def pushed_by(a: int, step: float) -> float:
+        """The cost's change with coordinate a (a log-value) moved by ``step``."""
+        zz = z.copy()
+        zz[a] += step
+        return prob.cost(zz) - cost
+
     for a, i in enumerate(prob.free):
         par = prob.model.parameters[i]
         value = float(prob.theta(z)[i])
@@ -310,23 +317,21 @@ def _limits(prob: _Item, z: Array, z0: Array, cost: float, lo: Array, hi: Array,
                 found.append(Limiting(par.name, side, value,
                                       f"{par.name} = {getattr(par, side):g} {par.unit}", "bound"))
             continue
-        # Pushed a factor 10 and PUSH each way: a value already deep in a limit can be
-        # pushed past what the simulation resolves (a stiffness of 3e14 pushed to 3e17
-        # rose by 3e5 in cost, pushed to 3e15 fell by 900), so one push is not enough.
+        # Pushed a factor PUSH each way; where only one way is flat, a factor 10 the other
+        # way too: a value already deep in a limit can be pushed past what the simulation
+        # resolves (a stiffness of 3e14 pushed to 3e17 rose by 3e5 in cost, pushed to 3e15
+        # fell by 900). The common cases (flat neither way, or both) cost two simulations.
         change: dict[str, float] = {}
-        far: dict[str, bool] = {}
-        for direction, sign in (("zero", -1.0), ("infinity", 1.0)):
-            at_edge = edge_lo if direction == "zero" else edge_hi
-            deltas = {"edge": -math.inf} if at_edge else {}
-            for factor in (10.0, PUSH):
-                zz = z.copy()
-                zz[a] += sign * math.log(factor)
-                pushed = prob.cost(zz)
-                if math.isfinite(pushed):
-                    deltas[str(factor)] = pushed - cost
-            if deltas and min(deltas.values()) <= tol:
-                change[direction] = min(deltas.values())
-                far[direction] = "edge" in deltas or deltas.get(str(PUSH), math.inf) <= tol
+        for direction, sign, at_edge in (("zero", -1.0, edge_lo), ("infinity", 1.0, edge_hi)):
+            delta = -math.inf if at_edge else pushed_by(a, sign * math.log(PUSH))
+            if delta <= tol:
+                change[direction] = delta
+        far = set(change)
+        if len(change) == 1:
+            other, sign = (("infinity", 1.0) if "zero" in change else ("zero", -1.0))
+            delta = pushed_by(a, sign * math.log(10.0))
+            if delta <= tol:
+                change[other] = delta
         if change:
             # Flat both ways (a value deep in a limit stays there pushed back a factor 1000:
             # k0 = 3e14 pushed down to 3e11 is still rigid): the limit is the way the cost
@@ -339,7 +344,7 @@ def _limits(prob: _Item, z: Array, z0: Array, cost: float, lo: Array, hi: Array,
                 direction = "infinity" if z[a] >= z0[a] else "zero"
             found.append(Limiting(par.name, direction, value,
                                   f"{par.name} -> {'0' if direction == 'zero' else 'inf'}",
-                                  "push" if far[direction] else "push10"))
+                                  "push" if direction in far else "push10"))
     return tuple(found)
 
 

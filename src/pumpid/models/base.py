@@ -476,7 +476,8 @@ class Model:
                 return out.reshape(b.shape[:-1])
 
     def poles(self) -> NDArray[np.complex128]:
-        """Eigenvalues of A (1/s), sorted by decreasing real part."""
+        """The poles (1/s; A's eigenvalues, :meth:`pole_sets`), sorted by decreasing real
+        part."""
         lam = self.pole_sets(self.values[None])[0]
         return lam[np.argsort(-lam.real)]
 
