@@ -100,3 +100,8 @@ def test_a_quantity_that_follows_a_boundary_parameter_is_not_determined() -> Non
     assert tau.stderr == math.inf and not tau.determined
     stiff = res.derived["static_stiffness"]
     assert stiff.determined and stiff.value == pytest.approx(5200.0, rel=0.02)
+    # The report's table prints an unbounded error as n/a, as every other text and HTML
+    # output does (it printed "inf" where the parameter table beside it said "n/a").
+    row = next(line for line in res.report().splitlines()
+               if line.strip().startswith("time_constant"))
+    assert "inf" not in row.split() and row.split()[2:4] == ["n/a", "n/a"]

@@ -302,6 +302,22 @@ def test_boundary_section(result: FitResult, tiny_figures) -> None:
     assert rows["c"][1:] == ["60", "lbf*s/in"] and rows["RMSE"][2] == "in"
 
 
+def test_parameter_table_status_says_bound_and_undetermined(result: FitResult,
+                                                            tiny_figures) -> None:
+    # The table called k0 "fitted" where the text beside it said k0 ran to a bound, and an
+    # undetermined value "fitted" like a determined one.
+    info = BoundaryInfo((Limiting("k0", "infinity", 1e6, "k0 -> infinity"),), None)
+    res = result.with_parts(boundary=info, status=Status.BOUNDARY,
+                            determined={"parameters": ["c1", "k1", "offset"],
+                                        "not_determined": ["m"]})
+    table = param_table(parse(render_html(res, figures=tiny_figures)))
+    status = {r[0]: r[table[0].index("status")] for r in table[1:]}
+    assert status["k0"] == "runs to infinity: limiting model, not determined"
+    assert status["m"] == "fitted, not determined"
+    assert status["c1"] == status["k1"] == status["offset"] == "fitted"
+    assert status["C"] == "fixed"
+
+
 def test_write_outputs_with_prediction_arrays(result: FitResult, tmp_path) -> None:
     pred = {"card": "B", "t": result.t, "load": result.load, "measured": result.data,
             "predicted": result.fitted + 0.1}

@@ -66,6 +66,20 @@ def _param_infos(result: FitResult) -> dict[str, ParamInfo]:
     return {p.name: p for p in cls.param_info()} if cls is not None else {}
 
 
+def _param_status(result: FitResult, name: str) -> str:
+    """A value's status in the parameter table, in the words the text uses: a value that ran
+    to a bound is not an ordinary fitted one, nor one the data leave undetermined."""
+    if name not in result.free:
+        return "fixed"
+    limits = result.boundary.limits if result.boundary is not None else ()
+    for b in limits:
+        if b.name == name:
+            return f"runs {b.where}: limiting model, not determined"
+    if name in (result.determined.get("not_determined") or ()):
+        return "fitted, not determined"
+    return "fitted"
+
+
 def _param_unit(result: FitResult, infos: Mapping[str, ParamInfo], name: str) -> str:
     """Unit of any fitted value by name, in the data's units."""
     if name in infos:
@@ -263,7 +277,7 @@ def params_html(result: FitResult) -> str:
     for name, value in result.params.items():
         info = infos.get(name)
         rows.append(row(name, value, _param_unit(result, infos, name),
-                        "fitted" if name in free else "fixed", info.doc if info else ""))
+                        _param_status(result, name), info.doc if info else ""))
     if not isinstance(result.model, OwnModel):  # an own model has no lumped scale or offset
         scale_status = "fitted" if ({"C", "D"} & free) else "fixed"
         rows.append(row("C", result.scale, "-", scale_status, "output scale factor"))
@@ -271,7 +285,7 @@ def params_html(result: FitResult) -> str:
             d = math.log(result.scale) if result.scale > 0 else math.nan
             rows.append(row("D", d, "-", scale_status, "D = ln C (log residual)"))
         rows.append(row("offset", result.offset, result.units.position,
-                        "fitted" if "offset" in free else "fixed", "additive position offset"))
+                        _param_status(result, "offset"), "additive position offset"))
     value_cols = range(1, len(headers) - 2)
     return table(headers, rows, cls="params", num_cols=[i for i in value_cols if i != 2])
 

@@ -25,10 +25,15 @@ class Limiting:
     #: as well (likelihood-ratio test); "bound": the fit ended on a bound a model declares.
     evidence: str = "push"
 
+    @property
+    def where(self) -> str:
+        """Where it runs, in words ("to infinity", "to its lower bound", ...)."""
+        return {"infinity": "to infinity", "zero": "to zero", "lower": "to its lower bound",
+                "upper": "to its upper bound"}[self.direction]
+
     def describe(self) -> str:
         """Plain-language statement."""
-        where = {"infinity": "to infinity", "zero": "to zero", "lower": "to its lower bound",
-                 "upper": "to its upper bound"}[self.direction]
+        where = self.where
         why = {"push": "pushing it a further factor 1000 leaves the fit unchanged",
                "push10": "pushing it a further factor 10 leaves the fit as good or better",
                "nested": "the limiting model fits the data as well (likelihood-ratio test, "

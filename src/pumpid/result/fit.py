@@ -17,7 +17,7 @@ from ..models import Model
 from .boundaries import BoundaryInfo
 from .derived import Derived
 from .parts import CardInfo, StartInfo, Status, Units, jsonable
-from .text import error_table, fmt, model_choice_text
+from .text import error_table, fmt, fmt_error, model_choice_text
 from .uncertainty import Uncertainty
 
 if TYPE_CHECKING:
@@ -378,8 +378,8 @@ def derived_text(result: FitResult) -> list[str]:
         if not d.well_property:
             verdict += " (*)"
             notes.append(f"  (*) {d.name}: not a property of the well: {d.note}")
-        lines.append(f"  {d.name:<18}  {fmt(d.value, 6):<12}  {fmt(d.stderr, 4):<11}  "
-                     f"{fmt(d.stderr_white, 4):<11}  {verdict:<10}  {d.unit}")
+        lines.append(f"  {d.name:<18}  {fmt(d.value, 6):<12}  {fmt_error(d.stderr):<11}  "
+                     f"{fmt_error(d.stderr_white):<11}  {verdict:<10}  {d.unit}")
     return lines + notes
 
 
@@ -407,10 +407,10 @@ def format_report(result: FitResult, history: bool = False) -> str:
     for name, value in result.params.items():
         se = stderr.get(name)
         se_white = white.get(name)
-        white_txt = (f"; independent-noise +/- {fmt(se_white, 3)}"
+        white_txt = (f"; independent-noise +/- {fmt_error(se_white, 3)}"
                      if se_white is not None and math.isfinite(se_white) else "")
         what = "robust " if robust else ""
-        se_txt = f"  ({what}+/- {fmt(se, 3)}{white_txt})" if se is not None else ""
+        se_txt = f"  ({what}+/- {fmt_error(se, 3)}{white_txt})" if se is not None else ""
         flag = "  (not determined)" if name in loose else ""
         lines.append(f"  {name:<15}  {fmt(value, 10):<15}  {units.get(name, '')}{se_txt}"
                      f"{flag}")

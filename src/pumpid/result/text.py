@@ -6,12 +6,21 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-__all__ = ["error_table", "fmt", "model_choice_text"]
+__all__ = ["error_table", "fmt", "fmt_error", "model_choice_text"]
 
 
 def fmt(value: float | None, digits: int = 6) -> str:
     """``value`` to ``digits`` significant digits, ``n/a`` for a missing or NaN one."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "n/a"
+    return f"{value:.{digits}g}"
+
+
+def fmt_error(value: float | None, digits: int = 4) -> str:
+    """A standard error as text: ``n/a`` where there is none, also an infinite one (a value
+    the data do not bound), as in every other text and HTML output; the tables keep
+    ``inf`` (not bounded) apart from NaN (no error computed)."""
+    if value is None or not math.isfinite(value):
         return "n/a"
     return f"{value:.{digits}g}"
 
@@ -28,7 +37,7 @@ def error_table(names: Sequence[str], values: Mapping[str, float], units: Mappin
         ci = ci95.get(name)
         ci_txt = f"[{ci[0]:.6g}, {ci[1]:.6g}]" if ci else "none"
         rel_txt = f"{100 * rel:.3g} %" if math.isfinite(rel) else "n/a"
-        se_txt = f"{se:.4g}" if math.isfinite(se) else "n/a"
+        se_txt = fmt_error(se)
         lines.append(f"  {name:<15}  {se_txt:<12}  {rel_txt:<8}  {ci_txt:<30}  "
                      f"{units.get(name, '')}")
     return lines
