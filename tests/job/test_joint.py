@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -58,6 +60,13 @@ def test_bad_requests_are_refused() -> None:
         pumpid.fit(pumpid.Kelvin, [cards[0], cards[1].to_units(position="m")], options=JOINT)
     with pytest.raises(ValueError, match="fixed scale"):
         pumpid.fit(pumpid.Kelvin, cards, options=JOINT.replace(scale="free"))
+    # Cards that say they come from two wells are not one rod string.
+    two = [dataclasses.replace(c, well_id=w) for c, w in zip(cards, ("W-1", "W-2"),
+                                                               strict=True)]
+    with pytest.raises(ValueError, match=r"2 wells \('W-1', 'W-2'\)"):
+        pumpid.fit(pumpid.Kelvin, two, options=JOINT)
+    same = [dataclasses.replace(c, well_id="W-1") for c in cards]
+    assert pumpid.fit(pumpid.Kelvin, same, options=JOINT).status.key == "converged"
 
 
 def test_the_cli_fits_the_files_cards_jointly(capsys) -> None:
@@ -117,3 +126,20 @@ def test_a_levels_error_is_said_relative_to_the_datas_range(shared_raw) -> None:
             percent = float(sentence.split("standard error of ")[1].split(" %")[0])
             assert percent < 100.0 * max(joint.stderr[n] for n in levels) / spread * 3
         assert not any(sentence.startswith(f"{n} is practically") for n in levels)
+
+
+def test_cards_that_share_no_parameter_set_are_named() -> None:
+    # Four cards of two wells without well ids: the joint fit was a poor fit that said
+    # nothing of why. Each card it describes far worse than its own fit is now named.
+    other = pumpid.Kelvin(k0=900.0, m=3.0, c1=120.0, k1=40.0)
+    apart = [synthetic_card(other, spm=8.0, n_samples=130, observe="u", noise=0.003,
+                            seed=i, label=CardLabel(card_id=f"o{i}")) for i in range(2)]
+    mixed = pumpid.fit(pumpid.Kelvin, [*steady_well(2), *apart], options=JOINT)
+    said = [w for w in mixed.warnings if "fit jointly more than 1.5x worse" in w]
+    assert len(said) == 1
+    part = mixed.application["joint"]["cards"]
+    named = [c["card"] for c in part if c["rmse"] > 1.5 * c["rmse_alone"]]
+    assert named and all(card in said[0] for card in named)
+    steady = pumpid.fit(pumpid.Kelvin, steady_well(4), options=JOINT)
+    assert not any("fit jointly" in w for w in steady.warnings)
+    assert all(c["rmse"] <= 1.1 * c["rmse_alone"] for c in steady.application["joint"]["cards"])

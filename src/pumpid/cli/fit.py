@@ -488,7 +488,7 @@ def _joint_text(joint: FitResult) -> str:
                         for k, v in c["single"].items())
         lines.append(f"  {c['card']}: level = {c['level']:.6g} {pos}, offset = "
                      f"{c['offset']:.6g} {pos}, R^2 = {c['r2']:.6f}, RMSE = {c['rmse']:.4g} "
-                     f"{pos}; alone: {own}")
+                     f"{pos}; alone: RMSE = {c['rmse_alone']:.4g} {pos}, {own}")
     return "\n".join(lines)
 
 

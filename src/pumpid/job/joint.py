@@ -29,11 +29,16 @@ from ..inference.derived import derived_of
 from ..models import Model, OwnModel, Parameter
 from ..result import FitBatch, FitResult, Units
 
-__all__ = ["StackedCards", "joint_part"]
+__all__ = ["APART", "StackedCards", "joint_part", "misfit_warning"]
 
 Array = NDArray[np.float64]
 #: At most this many cards' own answers start the joint fit (with their median).
 STARTS = 6
+#: A card the joint fit leaves with an RMSE above this multiple of its own fit's does not
+#: share the others' parameters. Consecutive strokes of one well come out at 1.00-1.01
+#: (Sandia's two pairs, the bundled example), Sandia's four cards taken as one well (two
+#: tests) at 2.7-5.1.
+APART = 1.5
 
 
 class StackedCards(OwnModel):
@@ -159,5 +164,20 @@ def joint_part(model: StackedCards, result: FitResult, ids: Sequence[str]) -> di
             "offset": float(values[p + i]) - mean_response,
             "r2": 1.0 - float(res @ res) / sst if sst > 0 else math.nan,
             "rmse": math.sqrt(float(res @ res) / d.size),
+            "rmse_alone": math.nan if single is None else float(single.rmse),
             "single": {} if single is None else dict(single.params)})
     return {"model": model.cls.__name__, "observe": model.observe, "cards": cards}
+
+
+def misfit_warning(part: Mapping[str, Any], unit: str) -> str:
+    """A warning naming the cards the joint fit describes :data:`APART` times worse than
+    their own fits (``""`` when there are none): they do not share one parameter set."""
+    apart = [(c["card"], c["rmse"], c["rmse_alone"]) for c in part["cards"]
+             if c["rmse"] > APART * c["rmse_alone"]]
+    if not apart:
+        return ""
+    said = ", ".join(f"{card} (RMSE {joint:.4g} {unit} jointly, {alone:.4g} {unit} alone)"
+                     for card, joint, alone in apart)
+    return (f"{len(apart)} of {len(part['cards'])} cards fit jointly more than {APART:g}x "
+            f"worse than alone: {said}. The cards do not share one parameter set (another "
+            "well, or the well changed between them): fit them apart")

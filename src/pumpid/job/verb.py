@@ -27,7 +27,7 @@ from ..engine.solvers import LevenbergMarquardt, PaperNewton
 from ..engine.threads import default_workers
 from ..models import Model, OwnModel, model_class
 from ..result import CardInfo, FitBatch, FitResult, Units
-from .joint import StackedCards, joint_part
+from .joint import StackedCards, joint_part, misfit_warning
 from .options import FitOptions, job_options
 from .own import fit_own
 from .stages import run_batch
@@ -316,6 +316,14 @@ def _fit_joint(model: Model | type[Model], items: Sequence[Any], single: bool,
     own fit."""
     if single or len(items) < 2:
         raise ValueError("a joint fit needs a sequence of at least two cards or records")
+    wells = sorted({x.well_id for x in items if isinstance(x, Card) and x.well_id is not None})
+    if len(wells) > 1:
+        # One parameter set is one rod string: cards of two wells fitted jointly give a poor
+        # fit of neither well, with errors that describe no system.
+        raise ValueError(f"joint fit: the cards come from {len(wells)} wells "
+                         f"({', '.join(repr(w) for w in wells[:5])}"
+                         f"{', ...' if len(wells) > 5 else ''}); a joint fit describes one "
+                         "well's strokes: fit each well's cards on their own")
     if len({(u.load, u.position) for u in units}) > 1:
         raise ValueError(f"joint fit: the cards are in different units "
                          f"{sorted({(u.load, u.position) for u in units})}; convert them first "
@@ -345,7 +353,10 @@ def _fit_joint(model: Model | type[Model], items: Sequence[Any], single: bool,
                      min_r2=options.min_r2, boundaries=options.boundaries)
     res = fit_own(stacked, [records], single=True, options=own, solver=solver, x0=None)
     assert isinstance(res, FitResult)
-    return res.with_parts(application={"joint": joint_part(stacked, res, ids)})
+    part = joint_part(stacked, res, ids)
+    apart = misfit_warning(part, units[0].position)
+    return res.with_parts(application={"joint": part},
+                          warnings=(*res.warnings, apart) if apart else res.warnings)
 
 
 def _batch_guess(cls: type[Model], shared: Array | None, x0: Any, n_cards: int
