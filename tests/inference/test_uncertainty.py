@@ -432,3 +432,18 @@ def test_an_error_widened_keeps_its_correlations_and_only_rises() -> None:
         widened(num, 1, 0.5 * se[1]).cov_scaled, num.cov_scaled)
     assert widened(num, 7, 1.0) is num
     assert widened(num, 1, math.nan) is num
+
+
+def test_lag1_is_the_one_estimate_and_survives_extreme_scales() -> None:
+    from pumpid.inference.uncertainty import lag1
+
+    rng = np.random.default_rng(3)
+    x = np.empty(20000)
+    x[0] = 0.0
+    shocks = rng.standard_normal(x.size)
+    for i in range(1, x.size):
+        x[i] = 0.7 * x[i - 1] + shocks[i]
+    assert lag1(x) == pytest.approx(0.7, abs=0.02)
+    assert lag1(1e200 * x) == pytest.approx(lag1(x), rel=1e-12)  # no overflow
+    assert lag1(x + 1e6) == pytest.approx(lag1(x), rel=1e-6)      # centred
+    assert math.isnan(lag1(np.full(10, 3.0))) and math.isnan(lag1(np.array([])))

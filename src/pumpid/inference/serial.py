@@ -46,7 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..engine.compiled import jit
-from .uncertainty import Numbers, Uncertainty, correlation_of, t_quantile
+from .uncertainty import Numbers, Uncertainty, correlation_of, lag1, t_quantile
 
 __all__ = [
     "NULL_SHIFT", "ROBUST_Z", "Errors", "SerialTest", "calibrate_robust", "fit_null_matters",
@@ -166,12 +166,9 @@ def with_ar1_floor(nums: Numbers, rows: Array, offset_col: int) -> tuple[Numbers
     n = rows.shape[1]
     if qi == 0 or nums.dof <= 0 or n < 4:
         return nums, math.nan
-    r = rows[-1]
-    rc = r - r.mean()
-    ss = float(rc @ rc)
-    if not ss > 0:
+    rho = lag1(rows[-1])
+    if math.isnan(rho):
         return nums, math.nan
-    rho = float(rc[1:] @ rc[:-1]) / ss
     rho = min(max(rho + (1.0 + 3.0 * rho) / n, 0.0), 0.99)
     span = float(nums.scales[-1]) if offset_col >= 0 else 1.0
     js = np.array([rows[j] * (span if j == offset_col else 1.0) for j in inner]).T
@@ -328,7 +325,7 @@ def serial_test(rows: Array) -> SerialTest | None:
     var = 2.0 * (nu * tr_a2 - tr_a**2) / (nu**2 * (nu + 2.0))
     if not var > 0:
         return None
-    return SerialTest(float(r[1:] @ r[:-1]) / ss, tr_a / nu, math.sqrt(var))
+    return SerialTest(lag1(rows[-1]), tr_a / nu, math.sqrt(var))
 
 
 def shown_errors(unc: Uncertainty | None, serial: bool, robust_cov: Array | None = None,

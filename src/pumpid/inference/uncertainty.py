@@ -47,6 +47,7 @@ __all__ = [
     "analyse_rows",
     "correlation_of",
     "diagnose_items",
+    "lag1",
     "residual_whiteness",
     "t_quantile",
     "uncertainty_of",
@@ -258,13 +259,24 @@ def residual_whiteness(residual: Sequence[float] | Array) -> dict[str, Any]:
     """
     r = np.asarray(residual, dtype=float)
     r = r[np.isfinite(r)]
-    n = int(r.size)
-    r = r - r.mean() if n else r
-    peak = float(np.max(np.abs(r))) if n else 0.0
-    r = r / peak if peak > 0 else r
-    ss = float(r @ r)
-    rho = float(r[1:] @ r[:-1]) / ss if n > 2 and ss > 0 else 0.0
-    return _whiteness(rho, n)
+    rho = lag1(r) if r.size > 2 else 0.0
+    return _whiteness(0.0 if math.isnan(rho) else rho, int(r.size))
+
+
+def lag1(residual: Array) -> float:
+    """The lag-1 autocorrelation ``sum r_t r_(t+1) / sum r_t^2`` of the centred residuals
+    (NaN for a constant or empty series): the one estimate every whiteness and serial test
+    of pumpid reads."""
+    r = np.asarray(residual, dtype=float)
+    if r.size == 0:
+        return math.nan
+    r = r - r.mean()
+    # Scaled by the peak: squares of very large residuals would overflow.
+    peak = float(np.max(np.abs(r)))
+    if not peak > 0 or not math.isfinite(peak):
+        return math.nan
+    r = r / peak
+    return float(r[1:] @ r[:-1]) / float(r @ r)
 
 
 def _whiteness(rho: float, n: int) -> dict[str, Any]:

@@ -32,6 +32,7 @@ import numpy as np
 import scipy.special
 
 from ..cards import Card
+from ..inference.uncertainty import lag1
 from ..job import FitOptions, fit
 from ..models import MODELS, model_class
 from ..result import FitResult, Status, model_choice_text
@@ -139,9 +140,8 @@ class ModelChoice:
 
 
 def _lag1(r: np.ndarray) -> float:
-    r = r - r.mean()
-    denom = float(r @ r)
-    return float(r[1:] @ r[:-1]) / denom if denom > 0 else 0.0
+    rho = lag1(r)
+    return 0.0 if math.isnan(rho) else rho
 
 
 def _n_fitted(res: FitResult) -> int:
