@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import pumpid
+import pumpid.cards
 import pumpid.result.table
 from pumpid import (
     FirstOrder,
@@ -270,6 +271,14 @@ def test_free_scale_uses_the_gauge_and_records() -> None:
     rows = res.to_frame()
     assert len(rows) == 3 and rows["status"][0] == "converged" and "p_k0" in rows
     assert list(rows.columns) == [n for n, _ in pumpid.result.table.columns(Kelvin)]
+    # Every number of the table has its unit: the parameters' beside them (they had none).
+    first = res.result(0)
+    assert [rows[f"p_{n}_unit"][0] for n in Kelvin.param_names()] == [
+        first.param_units()[n] for n in Kelvin.param_names()]
+    assert "offset" not in first.free and np.isnan(rows["offset_se"][0])
+    example = pumpid.__path__[0] + "/data/example_cards.csv"
+    card = pumpid.fit(Kelvin, pumpid.cards.read_cards(example)[0]).to_row()
+    assert card["offset_se"] > 0 and card["p_m_unit"] == "lbf*s^2/in"
     assert res.result(2).params["m"] == pytest.approx(theta[2, 1], rel=1e-9)
     assert "converged 3" in res.summary()
 

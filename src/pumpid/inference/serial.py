@@ -51,7 +51,7 @@ from .uncertainty import Numbers, Uncertainty, correlation_of, lag1, t_quantile
 __all__ = [
     "NULL_SHIFT", "ROBUST_Z", "Errors", "SerialTest", "calibrate_robust", "fit_null_matters",
     "robust_covariance", "robust_factor", "serial_test", "serially_correlated",
-    "shown_errors", "with_ar1_floor",
+    "shown_errors", "unbounded", "with_ar1_floor",
 ]
 
 Array = NDArray[np.float64]
@@ -367,6 +367,31 @@ def shown_errors(unc: Uncertainty | None, serial: bool, robust_cov: Array | None
                 assumptions=unc.assumptions + "; SHOWN: the robust errors (serially "
                                               "correlated residuals)")
     return Errors(**base, **white, shown="robust")
+
+
+def unbounded(unc: Uncertainty, name: str) -> Uncertainty:
+    """The uncertainty with ``name``'s errors infinite and its interval none, in every kind
+    (shown, robust, independent-noise): for a value found undetermined after its local
+    errors were made (they describe another coordinate's spread, not its own)."""
+    if name not in unc.names:
+        return unc
+    i = list(unc.names).index(name)
+    changes: dict[str, Any] = {}
+    for se_name, ci_name in (("stderr", "ci95"), ("stderr_hac", "ci95_hac"),
+                             ("stderr_white", "ci95_white")):
+        if hasattr(unc, se_name):
+            changes[se_name] = MappingProxyType({**getattr(unc, se_name), name: math.inf})
+            changes[ci_name] = MappingProxyType({**getattr(unc, ci_name), name: None})
+    for cov_name in ("covariance", "covariance_white"):
+        cov = getattr(unc, cov_name, None)
+        if cov is not None:
+            cov = np.array(cov, dtype=float)
+            cov[i, :] = cov[:, i] = math.nan
+            cov[i, i] = math.inf
+            changes[cov_name] = cov
+    if "covariance" in changes:
+        changes["correlation"] = correlation_of(changes["covariance"])
+    return dataclasses.replace(unc, **changes)
 
 
 def robust_covariance(nums: Numbers, undetermined: Sequence[int]) -> Array:

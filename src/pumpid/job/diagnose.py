@@ -33,6 +33,7 @@ from ..inference.serial import (
     serial_test,
     serially_correlated,
     shown_errors,
+    unbounded,
     with_ar1_floor,
 )
 from ..inference.uncertainty import Numbers, numbers, t_quantile, uncertainty_of, widened
@@ -435,6 +436,10 @@ def _offset_gauge(problem: Problem, k: int, card: CardState, units: Units) -> No
         return
     card.determined["parameters"].remove("offset")
     card.determined["not_determined"].append("offset")
+    # Its local error was the level's: the offset itself moves with the undetermined
+    # stiffness without bound (it read "45.9 ± 4.1 in (not determined)").
+    if card.uncertainty is not None:
+        card.uncertainty = unbounded(card.uncertainty, "offset")
     card.findings = (*card.findings,
                      "The offset (the position at zero load) is not determined: the card "
                      "fixes only the position at its mean load, offset + mean load / static "

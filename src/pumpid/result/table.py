@@ -8,8 +8,8 @@ Every table of fits -- ``pumpid batch``'s Parquet folder, ``FitBatch.to_frame()`
 * the fit (:data:`FIT`): model, observed output, status, reason, warnings, R^2, RMSE, cost,
   samples, evaluations, units;
 * per parameter ``p_NAME``, ``p_NAME_se`` (the error shown: the robust one where the
-  residuals are serially correlated), ``p_NAME_se_hac``, ``p_NAME_se_white``; then
-  ``scale`` and ``offset``;
+  residuals are serially correlated), ``p_NAME_se_hac``, ``p_NAME_se_white``,
+  ``p_NAME_unit``; then ``scale``, ``offset`` and ``offset_se`` (in ``position_unit``);
 * per derived quantity ``d_NAME``, ``d_NAME_se`` (shown), ``d_NAME_se_hac``,
   ``d_NAME_se_white``, ``d_NAME_determined``, ``d_NAME_well_property``, ``d_NAME_unit``.
 
@@ -45,7 +45,8 @@ FIT: tuple[tuple[str, str], ...] = (
     ("warnings", "string"), ("r2", "float"), ("rmse", "float"), ("cost", "float"),
     ("n_samples", "int"), ("nfev", "int"), ("position_unit", "string"),
     ("load_unit", "string"))
-_PARAM = (("", "float"), ("_se", "float"), ("_se_hac", "float"), ("_se_white", "float"))
+_PARAM = (("", "float"), ("_se", "float"), ("_se_hac", "float"), ("_se_white", "float"),
+          ("_unit", "string"))
 _DERIVED = (("", "float"), ("_se", "float"), ("_se_hac", "float"), ("_se_white", "float"),
             ("_determined", "bool"), ("_well_property", "bool"), ("_unit", "string"))
 
@@ -65,7 +66,7 @@ def columns(models: type[Model] | Sequence[type[Model]] | Iterable[Any] = ()
         i.name for cls in classes for i in getattr(cls, "derived_info", tuple)()))
     cols = [*IDENTITY, *FIT]
     cols += [(f"p_{n}{suffix}", kind) for n in params for suffix, kind in _PARAM]
-    cols += [("scale", "float"), ("offset", "float")]
+    cols += [("scale", "float"), ("offset", "float"), ("offset_se", "float")]
     cols += [(f"d_{n}{suffix}", kind) for n in derived for suffix, kind in _DERIVED]
     return cols
 
@@ -108,13 +109,16 @@ def fit_row(result: Any) -> dict[str, Any]:
         "n_samples": int(result.t.size), "nfev": result.nfev,
         "position_unit": result.units.position, "load_unit": result.units.load})
     se, se_hac, se_white = result.stderr, result.stderr_hac, result.stderr_white
+    units = result.param_units()
     for name, value in result.params.items():
         row[f"p_{name}"] = value
         row[f"p_{name}_se"] = float(se.get(name, math.nan))
         row[f"p_{name}_se_hac"] = float(se_hac.get(name, math.nan))
         row[f"p_{name}_se_white"] = float(se_white.get(name, math.nan))
+        row[f"p_{name}_unit"] = units.get(name)
     row["scale"] = result.scale
     row["offset"] = result.offset
+    row["offset_se"] = float(se.get("offset", math.nan))
     for name, d in result.derived.items():
         row.update({f"d_{name}": d.value, f"d_{name}_se": d.stderr,
                     f"d_{name}_se_hac": d.stderr_hac, f"d_{name}_se_white": d.stderr_white,
