@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -155,7 +156,19 @@ def test_structured_residuals_are_flagged_with_the_widening() -> None:
     check = res.extra["uncertainty"]["whiteness"]
     assert not check["white"] and check["interval_factor"] > 2.0
     warning = next(w for w in res.warnings if "not white noise" in w)
-    assert f"{check['interval_factor']:.1f} times wider" in warning
+    assert f"widens them about {check['interval_factor']:.1f}x" in warning
+    # The errors shown are the robust ones: the warning gives their widening, the same
+    # figure as the short output's line (it gave only the AR(1) factor, 6.5x, beside
+    # robust errors 72-80x wider on a Sandia card).
+    assert res.errors_shown == "robust"
+    ratios = [res.stderr[n] / res.stderr_white[n] for n in res.stderr_white
+              if np.isfinite(res.stderr[n]) and res.stderr_white[n] > 0]
+    low, high = min(ratios), max(ratios)
+    said = re.search(r"ci95_hac\), ([0-9.]+)(?:-([0-9.]+))?x the independent-noise ones",
+                     warning)
+    assert said, warning
+    assert float(said.group(1)) == pytest.approx(low, rel=0.06)
+    assert float(said.group(2) or said.group(1)) == pytest.approx(high, rel=0.06)
     assert "too narrow" in res.report()
     # An exact fit has rounding for residuals: no check, no warning.
     exact = fit(KELVIN, (T, LOAD, clean))

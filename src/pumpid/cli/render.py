@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from typing import Any, TextIO
 
 from ..cards import Card, printable
+from ..inference.serial import widening
 from ..report.units import model_param_units, unit_text
 from ..result import FitResult, Prediction, jsonable, model_choice_text
 from .common import fmt, plural
@@ -149,14 +150,8 @@ def _robust_note(res: FitResult) -> str | None:
         return None
     lag1 = (res.uncertainty.whiteness or {}).get("lag1_autocorrelation")
     said = f" (lag-1 {fmt(lag1, 2)})" if lag1 is not None else ""
-    ratios = [res.stderr[n] / w for n, w in res.stderr_white.items()
-              if n in res.stderr and w > 0 and math.isfinite(w) and math.isfinite(res.stderr[n])]
-    def times(x: float) -> str:
-        return f"{x:.0f}" if x >= 10 else f"{x:.2g}"
-
-    low, high = (times(min(ratios)), times(max(ratios))) if ratios else ("", "")
-    wider = (f"; assuming independence, {low}{'' if low == high else '-' + high}x smaller"
-             if ratios else "")
+    times = widening(res.uncertainty)
+    wider = f"; assuming independence, {times} smaller" if times else ""
     return f"± robust: residuals serially correlated{said}{wider}"
 
 

@@ -51,7 +51,7 @@ from .uncertainty import Numbers, Uncertainty, correlation_of, lag1, t_quantile
 __all__ = [
     "NULL_SHIFT", "ROBUST_Z", "Errors", "SerialTest", "calibrate_robust", "fit_null_matters",
     "robust_covariance", "robust_factor", "serial_test", "serially_correlated",
-    "shown_errors", "unbounded", "with_ar1_floor",
+    "shown_errors", "unbounded", "widening", "with_ar1_floor",
 ]
 
 Array = NDArray[np.float64]
@@ -367,6 +367,24 @@ def shown_errors(unc: Uncertainty | None, serial: bool, robust_cov: Array | None
                 assumptions=unc.assumptions + "; SHOWN: the robust errors (serially "
                                               "correlated residuals)")
     return Errors(**base, **white, shown="robust")
+
+
+def widening(unc: Uncertainty | None) -> str | None:
+    """How much wider the errors shown are than the independent-noise ones, in words
+    ("72-80x"), where the robust ones are shown (None elsewhere, or where no value has
+    both errors finite)."""
+    if not isinstance(unc, Errors) or unc.shown != "robust":
+        return None
+    ratios = [unc.stderr[n] / w for n, w in unc.stderr_white.items()
+              if n in unc.stderr and 0 < w < math.inf and math.isfinite(unc.stderr[n])]
+    if not ratios:
+        return None
+
+    def times(x: float) -> str:
+        return f"{x:.0f}" if x >= 10 else f"{x:.2g}"
+
+    low, high = times(min(ratios)), times(max(ratios))
+    return f"{low}x" if low == high else f"{low}-{high}x"
 
 
 def unbounded(unc: Uncertainty, name: str) -> Uncertainty:

@@ -34,9 +34,17 @@ from ..inference.serial import (
     serially_correlated,
     shown_errors,
     unbounded,
+    widening,
     with_ar1_floor,
 )
-from ..inference.uncertainty import Numbers, numbers, t_quantile, uncertainty_of, widened
+from ..inference.uncertainty import (
+    Numbers,
+    Uncertainty,
+    numbers,
+    t_quantile,
+    uncertainty_of,
+    widened,
+)
 from ..models.base import Limit
 from ..result import Limiting, Units
 from .options import START_SAMPLES
@@ -60,11 +68,23 @@ class Assessment:
     findings: tuple[str, ...]
     determined: dict[str, Any]
     uncertainty: Errors | None
-    #: The residuals' whiteness warning in words ("" when they pass).
-    warning: str
     #: The numbers before ``floors`` raised any error (the local analysis): what a
     #: quantity computed from the parameters takes its own local error from.
     local: Numbers | None = None
+
+    @property
+    def warning(self) -> str:
+        """The residuals' whiteness warning in words ("" when they pass)."""
+        return self.warning_for(self.uncertainty)
+
+    def warning_for(self, unc: Uncertainty | None) -> str:
+        """The whiteness warning with the errors of ``unc`` (the assessment's, or a later
+        change of them): it names how much wider the errors shown are, as the card's other
+        lines do, so it is made from the errors finally reported."""
+        if unc is None or unc.whiteness is None or unc.whiteness["white"]:
+            return ""
+        return whiteness_warning(dict(unc.whiteness), self.numbers.n, len(self.numbers.names),
+                                 getattr(unc, "shown", "white") == "robust", widening(unc))
 
 
 def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *,
@@ -125,11 +145,7 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
     unc = uncertainty_of(num, f.undetermined, [names.index(b.name) for b in limits
                                                if b.name in names], f.notes, unit)
     unc = shown_errors(unc, serial, robust_covariance(num, f.undetermined), calibration)
-    warning = ""
-    if unc is not None and unc.whiteness is not None and not unc.whiteness["white"]:
-        warning = whiteness_warning(dict(unc.whiteness), num.n, len(names),
-                                    unc.shown == "robust")
-    return Assessment(num, serial, f.sentences, f.determined, unc, warning, local)
+    return Assessment(num, serial, f.sentences, f.determined, unc, local)
 
 
 def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
@@ -221,8 +237,9 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                 card.warnings.append(echo)
                 card.determined["not_well_property"] = [
                     n for n, d in card.derived.items() if not d.well_property]
-        if said.warning:
-            card.warnings.append(said.warning)
+        warning = said.warning_for(card.uncertainty)
+        if warning:
+            card.warnings.append(warning)
 
 
 def _thresholds(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
