@@ -185,3 +185,21 @@ def test_report_names_the_well_that_changed(tmp_path: Path, capsys) -> None:
     assert "well W003: static_stiffness" in text and "lbf/in" in text
     page = (tmp_path / "fleet" / "report.html").read_text()
     assert "Well W003 (with an alert: " in page
+
+
+def test_a_file_of_one_well_is_named_by_well_id(tmp_path: Path, capsys) -> None:
+    # A file without a well column had no way to its well: its cards were filed under
+    # "(unknown well)", which is not trended, and a well file of several wells refused them.
+    example = Path(pumpid.__path__[0]) / "data" / "example_cards.csv"
+    out = tmp_path / "named"
+    code, _, _ = _run(capsys, ["batch", str(example), "--out", str(out), *FIT, "--quiet",
+                               "--well-id", "W-7"])
+    assert code == 0
+    table = pd.read_parquet(out)
+    assert list(table["well_id"]) == ["W-7", "W-7"]
+    # A resumed run keeps the run's own well id.
+    code, _, _ = _run(capsys, ["batch", str(example), "--out", str(out), "--resume", "--quiet"])
+    assert code == 0 and list(pd.read_parquet(out)["well_id"]) == ["W-7", "W-7"]
+    code, out_text, _ = _run(capsys, ["fit", str(example), "--well-id", "W-7", "--json"])
+    assert code == 0
+    assert {c["card"]["well"] for c in json.loads(out_text)["cards"]} == {"W-7"}

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pumpid.fleet.changes import detect_changes
+from pumpid.fleet.changes import card_counts, detect_changes
 from pumpid.fleet.report import write_fleet_report
 
 from .test_changes import results_table
@@ -120,9 +120,28 @@ def test_cards_without_well_ids_are_not_called_unreadable_or_too_short(tmp_path:
     files = write_fleet_report(frame, tmp_path, quantities=["stiffness"])
     page = files["report"].read_text(encoding="utf-8")
     assert "unreadable input)</td><td>90 cards" not in page
-    assert "cards used for trends (converged, boundary, undetermined, poor-fit)" in page
+    assert ("cards used for trends (converged, boundary, undetermined, poor-fit, with a well "
+            "id)</td><td>0 cards") in page
     assert "too short" not in page.split('id="alerts"')[1].split("</section>")[0]
     assert "the cards carry no well id" in page
+
+
+def test_cards_without_well_ids_are_counted_not_trended(tmp_path: Path) -> None:
+    # The pool of cards without a well id (they may come from several wells) was tested and
+    # drawn as a well, and could raise an alert beside "0 wells tested"; and a repeated
+    # card was set aside without wells.csv counting it.
+    frame = results_table(1, 90, cv=0.03, seed=5).assign(well_id=None)
+    frame.loc[frame.index[45:], "d_stiffness"] *= 3.0  # a step no pool may be alerted on
+    frame["duplicate_of"] = None
+    frame.loc[frame.index[10], "duplicate_of"] = frame["card_id"].iloc[9]
+    assert detect_changes(frame, ["stiffness"]).empty
+    files = write_fleet_report(frame, tmp_path, quantities=["stiffness"])
+    page = files["report"].read_text(encoding="utf-8")
+    assert "well_(unknown well)" not in files and "No well has a usable card to draw" in page
+    wells = pd.read_csv(files["wells"])
+    assert wells.loc[0, "duplicates"] == 1 and wells.loc[0, "cards"] == 89
+    assert wells.loc[0, "tested"] == "not tested (no well id)"
+    assert card_counts(frame) == {"cards": 89, "repeats": 1, "wells": 0, "unnamed": 89}
 
 
 def test_failed_and_invalid_cards_of_a_well_are_drawn(tmp_path: Path) -> None:

@@ -53,7 +53,8 @@ def _specs(args: argparse.Namespace) -> tuple[Any, Any]:
                              position=args.position_col)
     if columns:
         read["columns"] = columns
-    for key in ("format", "position_unit", "load_unit", "spm", "period", "encoding"):
+    for key in ("format", "position_unit", "load_unit", "spm", "period", "encoding",
+                "well_id"):
         if getattr(args, key) is not None:
             read[key] = getattr(args, key)
     if args.split_strokes:
@@ -282,6 +283,9 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     rd.add_argument("--load-unit", help="load unit of the files: lbf, klbf, N, kN, kgf")
     rd.add_argument("--position-unit", help="position unit of the files: in, ft, m")
     rd.add_argument("--encoding", help="text encoding of the files (default: detected)")
+    rd.add_argument("--well-id", metavar="ID",
+                    help="the well of every card of the inputs (over their own; for files "
+                         "of one well without a well column)")
     rd.add_argument("--columns", metavar="ROLE=COL[,...]",
                     help="column roles, e.g. position=1,load=0 (names or 0-based indices)")
     rd.add_argument("--t-col", help="time column (name, or index for tables without header)")

@@ -227,6 +227,9 @@ def add_card_options(p: Any) -> None:
     p.add_argument("--format", help="force a format: csv, scada, json, whitespace, ts")
     p.add_argument("--encoding", help="text encoding of the files (default: detected)")
     p.add_argument("--card", help="only this card id")
+    p.add_argument("--well-id", metavar="ID",
+                   help="the well of every card of the files (over the files' own; for "
+                        "files of one well without a well column)")
     p.add_argument("--split-strokes", action="store_true",
                    help="split multi-stroke time records at position minima; each stroke "
                         "is a card, one period (ids CARD#0, CARD#1, ...)")

@@ -91,7 +91,7 @@ def _read(path: str, args: argparse.Namespace) -> list[Card]:
                              position=args.position_col)
     cards = read_cards(path, format=args.format, position_unit=args.position_unit,
                        load_unit=args.load_unit, spm=args.spm, period=args.period,
-                       columns=columns, encoding=args.encoding)
+                       columns=columns, encoding=args.encoding, well_id=args.well_id)
     if args.card is not None:
         cards = [c for c in cards if c.card_id == args.card]
     if args.split_strokes:

@@ -136,7 +136,7 @@ def _setup(args: argparse.Namespace) -> FitSetup:
                              position=args.position_col)
     read = {"format": args.format, "position_unit": args.position_unit,
             "load_unit": args.load_unit, "spm": args.spm, "period": args.period,
-            "columns": columns, "encoding": args.encoding}
+            "columns": columns, "encoding": args.encoding, "well_id": args.well_id}
     return FitSetup(cls=cls, model=model, auto=auto,
                     initial_state=checked.get("initial_state"),
                     offset=args.offset, options=opts, x0_extras=extras, history=args.history,

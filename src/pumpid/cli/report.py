@@ -67,7 +67,7 @@ def _check_columns(path: str, columns: list[str], rows: int) -> None:
 def cmd_report(args: argparse.Namespace) -> int:
     """Write the fleet report; print where, and the alerts in one line each."""
 
-    from ..fleet.changes import available_quantities, detect_changes
+    from ..fleet.changes import available_quantities, card_counts, detect_changes
     from ..fleet.report import write_fleet_report
     from ..fleet.store import read_results
 
@@ -88,9 +88,12 @@ def cmd_report(args: argparse.Namespace) -> int:
     alerts = detect_changes(table, quantities, **options)
     paths = write_fleet_report(table, args.out, alerts=alerts, quantities=quantities,
                                max_wells_plotted=args.max_wells, **options)
-    wells = table["well_id"].nunique()
+    n = card_counts(table)
     alerted = alerts["well_id"].nunique() if len(alerts) else 0
-    print(f"pumpid report: {plural(len(table), 'card')} of {plural(wells, 'well')}, "
+    aside = [*([f"{plural(n['repeats'], 'repeat')} set aside"] if n["repeats"] else []),
+             *([f"{n['unnamed']} without a well id, not trended"] if n["unnamed"] else [])]
+    print(f"pumpid report: {plural(n['cards'], 'card')} of {plural(n['wells'], 'well')}"
+          f"{' (' + '; '.join(aside) + ')' if aside else ''}, "
           f"{plural(len(alerts), 'alert')} in {plural(alerted, 'well')}")
     for _, a in alerts.iterrows():
         print(f"  well {printable(str(a['well_id']))}: {a['quantity']} {a['before']:.4g} -> "

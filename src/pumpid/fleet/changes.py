@@ -107,6 +107,7 @@ __all__ = [
     "UNKNOWN_WELL",
     "USABLE_STATUSES",
     "available_quantities",
+    "card_counts",
     "cusum_threshold",
     "detect_changes",
     "history_coverage",
@@ -165,6 +166,18 @@ def load_results(results: pd.DataFrame | str | os.PathLike[str]) -> pd.DataFrame
         table = table.assign(well_id=table["well_id"].astype(object).where(
             table["well_id"].notna(), UNKNOWN_WELL))
     return table
+
+
+def card_counts(table: pd.DataFrame) -> dict[str, int]:
+    """What a run's table holds, counted once for every output that says it: ``cards``
+    (repeats set aside), ``repeats``, ``wells`` (named ones) and ``unnamed`` (cards filed
+    under :data:`UNKNOWN_WELL`, not trended)."""
+    table = load_results(table)
+    repeats = is_duplicate(table)
+    kept = table.loc[~repeats, "well_id"].astype(str)
+    return {"cards": len(kept), "repeats": int(repeats.sum()),
+            "wells": int(kept[kept != UNKNOWN_WELL].nunique()),
+            "unnamed": int((kept == UNKNOWN_WELL).sum())}
 
 
 def is_duplicate(table: pd.DataFrame) -> pd.Series:
@@ -249,8 +262,10 @@ def _prepare(frame: pd.DataFrame) -> _Usable:
     """Usable rows, sorted by well, then by time, or by table order for a well with any
     card whose time is unknown (a time order cannot place such a card)."""
     # A card's pump quantities count when its downhole card was computed, whatever its fit.
+    # Cards without a well id may come from several wells: one history of them would
+    # trend and test a mixture, so they are counted, not trended.
     rows = frame[(frame["status"].isin(USABLE_STATUSES) | pump_usable(frame))
-                 & ~is_duplicate(frame)]
+                 & ~is_duplicate(frame) & (frame["well_id"].astype(str) != UNKNOWN_WELL)]
     well = rows["well_id"].astype(str).to_numpy()
     if "time" in rows.columns:
         time = pd.to_datetime(rows["time"], utc=True).dt.tz_localize(None)

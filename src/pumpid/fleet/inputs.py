@@ -22,6 +22,7 @@ refused before the run.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import re
@@ -98,19 +99,22 @@ class ReadOptions:
     columns: Mapping[str, str | int | None] | None = None
     split_strokes: bool = False
     encoding: str | None = None
+    #: The well of every card read (over the files' own).
+    well_id: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The manifest's form."""
         return {"format": self.format, "position_unit": self.position_unit,
                 "load_unit": self.load_unit, "spm": self.spm, "period": self.period,
                 "columns": None if self.columns is None else dict(self.columns),
-                "split_strokes": self.split_strokes, "encoding": self.encoding}
+                "split_strokes": self.split_strokes, "encoding": self.encoding,
+                "well_id": self.well_id}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> ReadOptions:
         """The options of :meth:`to_dict`'s form (a manifest's)."""
         known = ("format", "position_unit", "load_unit", "spm", "period", "columns",
-                 "split_strokes", "encoding")
+                 "split_strokes", "encoding", "well_id")
         return cls(**{k: data[k] for k in known if k in data})
 
 
@@ -225,14 +229,16 @@ def _source(name: str, reader_source: str, base: str) -> str:
 
 def _cards_of(file: InputFile, options: ReadOptions) -> Iterator[Card | CardError]:
     if _is_parquet(file.path):
-        yield from iter_parquet_cards(file.path, position_unit=options.position_unit,
-                                      load_unit=options.load_unit)
+        for got in iter_parquet_cards(file.path, position_unit=options.position_unit,
+                                      load_unit=options.load_unit):
+            yield (dataclasses.replace(got, well_id=options.well_id)
+                   if options.well_id is not None and isinstance(got, Card) else got)
         return
     # Each card on its own: a broken card is an error in its place, its neighbours are read.
     yield from read_cards_and_errors(
         file.path, format=options.format, position_unit=options.position_unit,
         load_unit=options.load_unit, spm=options.spm, period=options.period,
-        columns=options.columns, encoding=options.encoding).items
+        columns=options.columns, encoding=options.encoding, well_id=options.well_id).items
 
 
 # Column and key names (lower case, units and punctuation dropped) under which the text
@@ -388,14 +394,19 @@ def _file_items(file: InputFile, options: ReadOptions,
                 identity.append((None, None))
         return identity[0]
 
+    def named(bad: BadItem) -> BadItem:
+        """An unreadable card of a run given its well is filed under that well too."""
+        return bad if options.well_id is None else dataclasses.replace(
+            bad, well_id=options.well_id)
+
     try:
         found = list(_cards_of(file, options))
     except Exception as exc:  # one bad file never stops the run
-        yield _renamed(_bad_file(file, exc), unique)
+        yield named(_renamed(_bad_file(file, exc), unique))
         return
     for item in found:
         if isinstance(item, CardError):
-            yield _bad_card(item, file, unique, stated)
+            yield named(_bad_card(item, file, unique, stated))
             continue
         cards = [item]
         if options.split_strokes:

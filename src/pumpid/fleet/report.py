@@ -230,8 +230,9 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
         *(((f"cards without a well id (filed under {UNKNOWN_WELL}, with any unreadable "
              "input's rows)", count_words(no_well, "card")),)
           if no_well else ()),
-        (f"cards used for trends ({', '.join(USABLE_STATUSES)})",
-         count_words(counts[list(USABLE_STATUSES)].sum(), "card")),
+        (f"cards used for trends ({', '.join(USABLE_STATUSES)}, with a well id)",
+         count_words(int((frame["status"].isin(USABLE_STATUSES)
+                          & (frame["well_id"].astype(str) != UNKNOWN_WELL)).sum()), "card")),
         *((f"status {st}", f"{count_words(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
           for st in counts.index if counts[st] or st in STATUSES),
         ("cards without a time",
@@ -247,15 +248,15 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
     return _table(("item", "value"), rows)
 
 
-def _alerts_section(alerts: pd.DataFrame, tests: pd.Series) -> str:
+def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> str:
     if alerts.empty:
-        unnamed = UNKNOWN_WELL in tests.index
-        tests = tests[tests.index != UNKNOWN_WELL]
         tested = int((tests != "too short").sum())
         if not tests.size and unnamed:
-            return (f"<p>No named well was tested for changes: the cards carry no well id "
+            return (f"<p>No well was tested for changes: the cards carry no well id "
                     f"(they are filed under {UNKNOWN_WELL}, whose cards may come from "
-                    "several wells; give the wells' ids to trend them).</p>")
+                    "several wells, and are not trended; give the wells' ids to trend "
+                    "them: a well column, or <code>--well-id ID</code> for the files of "
+                    "one well).</p>")
         if not tested:
             return ("<p>No well was tested for changes: every well's history is too short "
                     "(see the run summary).</p>")
@@ -428,9 +429,11 @@ def write_fleet_report(
     else:
         settings = "alerts given by the caller"
     coverage = history_coverage(frame, names, min_cards=min_cards, min_short_cards=min_short)
-    summary = summarise_wells(frame, alerts, names)
+    # The repeats are counted per well by the summary itself (it sets them aside too).
+    summary = summarise_wells(load_results(results), alerts, names)
     tests = _well_tests(coverage)
-    summary["tested"] = [_TESTED.get(tests.get(w, ""), "no usable card")
+    summary["tested"] = [_TESTED.get(tests.get(w, ""), "not tested (no well id)"
+                                     if w == UNKNOWN_WELL else "no usable card")
                          for w in summary["well_id"].astype(str)]
     units = {q: column_unit(frame, summary, q) for q in names}
     files: dict[str, Path] = {}
@@ -460,7 +463,8 @@ def write_fleet_report(
                                                                  min_short)]))
     parts.append(_figure_html(save(status_figure(counts), "status"), "status of every card",
                               f"Cards by fit status. Only {', '.join(USABLE_STATUSES)} "
-                              "cards enter the trends; the others are counted here."))
+                              "cards of named wells enter the trends; the others are counted "
+                              "here."))
     parts.append("</section>")
 
     parts.append("<section id=\"alerts\"><h2>Alerts</h2>")
@@ -468,7 +472,8 @@ def write_fleet_report(
                  "card of the new level (the estimated change point), the card at which the "
                  "detector raised the alarm, the medians before and after, and the size of "
                  "the change in units of its standard error. Largest first.</p>")
-    parts.append(_alerts_section(alerts, tests))
+    parts.append(_alerts_section(alerts, tests,
+                                 bool((frame["well_id"].astype(str) == UNKNOWN_WELL).any())))
     parts.append("</section>")
 
     parts.append("<section id=\"wells\"><h2>Wells</h2>")
@@ -479,11 +484,13 @@ def write_fleet_report(
     parts.append("</section>")
 
     alerted = set(alerts["well_id"].astype(str))
+    # Cards without a well id are counted above, but drawn as no well's: they are not one.
+    named = frame[frame["well_id"].astype(str) != UNKNOWN_WELL]
     parts.append("<section id=\"distributions\"><h2>Quantities across wells</h2>")
     parts.append("<div class=\"grid\">")
     taken: set[str] = set()
     for q in names:
-        fig = distribution_figure(frame, q, units[q], alerted)
+        fig = distribution_figure(named, q, units[q], alerted)
         if fig is None:
             parts.append(f"<p>{_e(q)}: no usable value in any well.</p>")
             continue
@@ -500,7 +507,7 @@ def write_fleet_report(
     ranked = summary[summary["alerts"] > 0]["well_id"].astype(str).tolist()
     drawn_alerted = ranked[:max_wells_plotted]
     # Steady wells worth drawing have at least one usable card.
-    usable_wells = frame.loc[frame["status"].isin(USABLE_STATUSES), "well_id"].astype(str)
+    usable_wells = named.loc[named["status"].isin(USABLE_STATUSES), "well_id"].astype(str)
     steady = sorted(set(usable_wells) - alerted)
     rng = np.random.default_rng(seed)
     k = min(steady_sample, len(steady))
