@@ -328,6 +328,25 @@ def test_reasons_are_grouped_by_kind() -> None:
     a = reason_kind("card 'W1_2024': NaN value in load_lbf (sample 33)")
     b = reason_kind("card 'W7_2023': NaN value in load_lbf (sample 4)")
     assert a == b == "card '…': NaN value in load_lbf (sample N)"
+    # The summary groups them, but says a card's own reason: blanked, "has 200 values but
+    # ... has 199" read "has N values but ... has N", the opposite of the trouble.
+    import pyarrow as pa
+
+    from pumpid.fleet.summary import BatchSummary
+
+    summary = BatchSummary(results=Path("out"))
+    summary.add(pa.table({
+        "card_id": ["c1", "c2", "c3"], "status": ["invalid-input"] * 3,
+        "reason": ["card 'c1': positions has 200 values but loads has 199",
+                   "card 'c2': positions has 90 values but loads has 91",
+                   "card 'c3': constant load (5 in every sample)"],
+        "nfev": [None, None, None], "n_samples": [None, None, None]}))
+    summary.close()
+    text = summary.text()
+    assert ("2 cards: invalid-input: card 'c1': positions has 200 values but loads has 199 "
+            "(card c1; 1 more alike but for names and numbers)") in text
+    assert "1 card: invalid-input: card 'c3': constant load (5 in every sample) (card c3)" in text
+    assert "has N" not in text
 
 
 def test_process_engine_reports_a_dead_worker_and_checks_its_options() -> None:

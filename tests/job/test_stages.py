@@ -143,7 +143,8 @@ def test_a_small_budget_is_the_whole_solve() -> None:
 def test_the_wider_search_claims_only_an_optimum_it_improves(tmp_path) -> None:
     # Cards of the rod string and its pump, which the lumped model misses: the wider search
     # runs on every one and, on some, lands in the first answer's basin again, lower by
-    # rounding (about 1e-12 of the cost). That is not a better optimum to report.
+    # rounding (about 1e-12 of the cost), or further along a flat valley (5e-9). That is
+    # not a better optimum to report.
     from pumpid.cards import read_cards
     from pumpid.fleet.demo import make_pump_field
 
@@ -154,7 +155,7 @@ def test_the_wider_search_claims_only_an_optimum_it_improves(tmp_path) -> None:
             res = pumpid.fit(pumpid.Kelvin, card)
             claims += [w for w in res.warnings if "found a better optimum" in w]
     gains = [float(w.rsplit("lower by ", 1)[1].split(" ")[0]) for w in claims]
-    assert all(g >= stages.SAME_OPTIMUM for g in gains), claims
+    assert all(g >= stages.BETTER_OPTIMUM for g in gains), claims
 
 
 def test_a_wrong_basin_within_the_noise_level_goes_to_the_wider_search() -> None:
@@ -169,7 +170,12 @@ def test_a_wrong_basin_within_the_noise_level_goes_to_the_wider_search() -> None
                             options=pumpid.FitOptions.for_cards(multistart=False))
     assert fit.cost <= from_truth.cost * (1 + 1e-6)
     assert fit.params["m"] == pytest.approx(from_truth.params["m"], rel=1e-3)
-    assert any("wider search" in w for w in fit.warnings)
+    said = next(w for w in fit.warnings if "wider search" in w)
+    # It names the test that sent the fit (it listed all three, "R^2 below 0.99" at R^2
+    # above it among them).
+    assert said.startswith("the first answer's residual was carried by the card's first "
+                           "harmonics (7.57 times"), said
+    assert "R^2" not in said
 
 
 @pytest.mark.parametrize("index, truth_basin", [(31, True), (11, False), (58, False)])

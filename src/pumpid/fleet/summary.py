@@ -53,7 +53,8 @@ class BatchSummary:
         The cards with the most model evaluations (card id, evaluations, samples): a fit's
         time is about proportional to both.
     failures : list of (str, int, str)
-        Failed and invalid cards grouped by kind of reason: reason, cards, an example card.
+        Failed and invalid cards grouped by kind of reason (alike but for names and numbers):
+        the first card's status and reason in its own words, the cards, that card.
     elapsed : float
         Seconds of this run, reading and writing included.
     duplicates : int
@@ -108,13 +109,15 @@ class BatchSummary:
                     heapq.heappushpop(self._heap, entry)
             if status in ("failed", "invalid-input"):
                 kind = f"{status}: {reason_kind(reason)}"
-                slot = self._reasons.setdefault(kind, [0, str(cid)])
+                # The first card's own words stand for the kind: with its names and numbers
+                # blanked, "has 200 values but ... has 199" read "has N values but ... has N".
+                slot = self._reasons.setdefault(kind, [0, str(cid), f"{status}: {reason}"])
                 slot[0] += 1
 
     def close(self) -> None:
         """Fix the lists from the counts."""
         self.costliest = [(cid, nfev, n) for nfev, n, cid in sorted(self._heap, reverse=True)]
-        self.failures = sorted(((k, v[0], v[1]) for k, v in self._reasons.items()),
+        self.failures = sorted(((v[2], v[0], v[1]) for v in self._reasons.values()),
                                key=lambda x: (-x[1], x[0]))
 
     def rate(self) -> float:
@@ -154,9 +157,10 @@ class BatchSummary:
                          "invalid-input in the results)")
         if self.failures:
             lines.append("  failed or invalid cards by reason:")
-            for kind, n, example in self.failures[:_SHOWN_REASONS]:
-                lines.append(f"    {plural(n, 'card')}: {printable(str(kind))} (e.g. "
-                             f"{printable(str(example))})")
+            for said, n, example in self.failures[:_SHOWN_REASONS]:
+                alike = (f"; {n - 1} more alike but for names and numbers" if n > 1 else "")
+                lines.append(f"    {plural(n, 'card')}: {printable(str(said))} (card "
+                             f"{printable(str(example))}{alike})")
             if len(self.failures) > _SHOWN_REASONS:
                 lines.append(f"    ... and {len(self.failures) - _SHOWN_REASONS} more kinds of "
                              "reason")

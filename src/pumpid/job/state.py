@@ -26,7 +26,8 @@ from ..inference.uncertainty import Numbers
 from ..result import Limiting, ReducedFit, StartInfo, Status
 from .options import START_SAMPLES
 
-__all__ = ["BAND_P", "BAND_RATIO", "CardState", "apply_outcome", "doubtful", "gap_gradient",
+__all__ = ["BAND_P", "BAND_RATIO", "CardState", "apply_outcome", "doubt", "doubtful",
+           "gap_gradient",
            "mark_edges", "numbers_for_true_offset", "scale_offset", "start_problem", "summarize",
            "theta_of", "true_offset"]
 
@@ -206,6 +207,11 @@ def summarize(problem: Problem, cards: NDArray[np.int64], fits: list[CardState])
 
 
 def doubtful(problem: Problem, k: int, card: CardState) -> bool:
+    """Whether a fit deserves a wider search (:func:`doubt` says why)."""
+    return bool(doubt(problem, k, card))
+
+
+def doubt(problem: Problem, k: int, card: CardState) -> str:
     """A fit that deserves a wider search: no finite answer, R^2 < 0.99, an RMSE above
     twice the data's noise level, or (one period of a card) a residual whose first
     harmonics carry clearly more than the harmonics above them (a wrong local minimum, or
@@ -215,20 +221,26 @@ def doubtful(problem: Problem, k: int, card: CardState) -> bool:
     var(diff2) = 6 sigma^2); smooth signal content only raises it, so a good fit is never
     called doubtful by it, but its spread lets a wrong basin within a few tenths of the
     noise level pass. The band test (:func:`~pumpid.inference.structure.low_band_excess`,
-    at :data:`BAND_P` and :data:`BAND_RATIO`) sees the clear ones."""
+    at :data:`BAND_P` and :data:`BAND_RATIO`) sees the clear ones.
+
+    Returns the test that sent the fit, in words ("" for a fit that is not doubtful)."""
     # A fit that ran out of evaluations in a flat valley may still explain the data: its
     # quality decides, not the stop.
     if not math.isfinite(card.cost) or card.stop is Stop.NOT_FINITE:
-        return True
+        return "the first answer was not finite"
     if not math.isfinite(card.r2) or card.r2 < 0.99:
-        return True
+        return f"the first answer explained too little (R^2 {card.r2:.4g}, below 0.99)"
     d = problem.card(k)[2]
     floor = 1e-9 * float(np.ptp(d))
     if card.rmse > 2.0 * card.noise + floor:
-        return True
+        times = f"{card.rmse / card.noise:.3g} times" if card.noise > 0 else "above"
+        return f"the first answer's error was {times} the data's noise (above twice)"
     # A residual at rounding level has no structure worth a search, whatever its shape.
     ratio, p_value = card.band
-    return card.rmse > floor and p_value < BAND_P and ratio >= BAND_RATIO
+    if card.rmse > floor and p_value < BAND_P and ratio >= BAND_RATIO:
+        return (f"the first answer's residual was carried by the card's first harmonics "
+                f"({ratio:.3g} times the power per harmonic above them)")
+    return ""
 
 
 def start_problem(problem: Problem, cards: NDArray[np.int64]) -> Problem | None:

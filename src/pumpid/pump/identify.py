@@ -278,7 +278,9 @@ class PumpFit:
                 "string_loss": _num((fitted - pump) / fitted if fitted else math.nan),
                 "diagnostic_pump_work": _num(down),
                 "measured_loss": _num((measured - down) / measured if measured else math.nan),
-                "unit": unit}
+                # The works' unit; the two losses are shares of a work (one "unit" beside
+                # them read as if they were kN*m too).
+                "unit": unit, "loss_unit": "fraction"}
 
     def pump_card(self) -> tuple[Array, Array] | None:
         """The fitted pump card in the card's units: plunger position (from its lowest
