@@ -203,3 +203,23 @@ def test_a_file_of_one_well_is_named_by_well_id(tmp_path: Path, capsys) -> None:
     code, out_text, _ = _run(capsys, ["fit", str(example), "--well-id", "W-7", "--json"])
     assert code == 0
     assert {c["card"]["well"] for c in json.loads(out_text)["cards"]} == {"W-7"}
+
+
+def test_pumps_asked_for_and_not_identified_are_not_a_complete_run(tmp_path: Path,
+                                                                   capsys) -> None:
+    # Cards without a well id against a well file of several wells: every pump was
+    # invalid-input, and the run exited 0 with no pump in its table.
+    from pumpid.fleet.demo import make_pump_field
+
+    wells = make_pump_field(tmp_path / "field", cards=1).parent / "wells.json"
+    example = Path(pumpid.__path__[0]) / "data" / "example_cards.csv"
+    code, text, _ = _run(capsys, ["batch", str(example), "--out", str(tmp_path / "r"), *FIT,
+                                  "--well-file", str(wells), "--quiet"])
+    assert code == SOME_NOT_FITTED, text
+    assert "pumps identified, cards per status: invalid-input 2" in text
+    assert "2 cards: pump invalid-input:" in text and "--well-id" in text
+    # Named, they are identified (the demo's wells are alike but for their pumps).
+    code, text, _ = _run(capsys, ["batch", str(example), "--out", str(tmp_path / "named"),
+                                  *FIT, "--well-file", str(wells), "--quiet",
+                                  "--well-id", "P001"])
+    assert "pump invalid-input" not in text and code != SOME_NOT_FITTED, text

@@ -28,10 +28,10 @@ from .common import (
     EXIT_USAGE,
     CliError,
     add_fit_options,
+    batch_exit,
     check_fit_options,
     columns_option,
     err_block,
-    exit_status,
     rate_option,
 )
 
@@ -232,7 +232,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
             # results would be discarded anyway, and everything written is complete.
             os._exit(EXIT_INTERRUPTED)
         return EXIT_INTERRUPTED
-    return exit_status(summary.statuses)
+    return batch_exit(summary.statuses, None if summary.pump_only else summary.pump_statuses)
 
 
 def register(subparsers: Any) -> argparse.ArgumentParser:

@@ -42,6 +42,7 @@ __all__ = [
     "WarningCounter",
     "add_card_options",
     "add_fit_options",
+    "batch_exit",
     "check_fit_options",
     "check_paths",
     "columns_option",
@@ -397,6 +398,21 @@ def exit_status(counts: collections.Counter[str] | dict[str, int]) -> int:
     if fitted == 0 and counts.get("failed", 0) == 0:
         return EXIT_USAGE
     return EXIT_NOT_FITTED
+
+
+def batch_exit(lumped: collections.Counter[str] | dict[str, int],
+               pumps: collections.Counter[str] | dict[str, int] | None = None) -> int:
+    """The exit status of a batch run: its lumped fits' (:func:`exit_status`), or worse
+    where the pumps asked for (``--well-file``) were not all identified, each status ranked
+    as a card's: some not identified (failed or invalid) is 3 even when every lumped fit
+    is fine (it was 0, "complete", with no pump computed)."""
+    code = exit_status(lumped)
+    if not pumps or code == EXIT_USAGE:
+        return code
+    pump = exit_status(pumps)
+    pump = EXIT_NOT_FITTED if pump == EXIT_USAGE else pump
+    rank = {EXIT_OK: 0, EXIT_UNDETERMINED: 1, EXIT_POOR_FIT: 2, EXIT_NOT_FITTED: 3}
+    return max(code, pump, key=lambda c: rank.get(c, 3))
 
 
 class WarningCounter:

@@ -405,7 +405,7 @@ def _already_written(store: ResultsStore, k: int, items: list[CardItem | BadItem
             f"but the inputs give partition {k} as {want[0]} cards from {want[1]!r} to "
             f"{want[2]!r}; the folder is not from these inputs")
     counted = ["card_id", "status", "reason", "nfev", "n_samples", "duplicate_of"]
-    summary.add(store.read_part(k, counted + [c for c in ("identify_status",)
+    summary.add(store.read_part(k, counted + [c for c in ("identify_status", "identify_reason")
                                               if c in schema.names]))
     summary.skipped += info.rows
     progress.advance(info.rows, skipped=True)

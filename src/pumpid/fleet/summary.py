@@ -97,8 +97,15 @@ class BatchSummary:
             self.duplicates += table.num_rows - table.column("duplicate_of").null_count
         self.statuses.update(cols["status"])
         if "identify_status" in table.column_names:
-            self.pump_statuses.update(s for s in table.column("identify_status").to_pylist()
-                                      if s is not None)
+            pumps = table.column("identify_status").to_pylist()
+            self.pump_statuses.update(s for s in pumps if s is not None)
+            if not self.pump_only and "identify_reason" in table.column_names:
+                # A pump asked for and not computed is a failure of the run like a fit's.
+                for cid, status, reason in zip(cols["card_id"], pumps,
+                                               table.column("identify_reason").to_pylist(),
+                                               strict=True):
+                    if status in ("failed", "invalid-input"):
+                        self._count_failure(f"pump {status}", reason, cid)
         for cid, status, reason, nfev, n in zip(cols["card_id"], cols["status"], cols["reason"],
                                                 cols["nfev"], cols["n_samples"], strict=True):
             if nfev is not None:
@@ -108,11 +115,14 @@ class BatchSummary:
                 else:
                     heapq.heappushpop(self._heap, entry)
             if status in ("failed", "invalid-input"):
-                kind = f"{status}: {reason_kind(reason)}"
-                # The first card's own words stand for the kind: with its names and numbers
-                # blanked, "has 200 values but ... has 199" read "has N values but ... has N".
-                slot = self._reasons.setdefault(kind, [0, str(cid), f"{status}: {reason}"])
-                slot[0] += 1
+                self._count_failure(status, reason, cid)
+
+    def _count_failure(self, status: str, reason: str | None, cid: Any) -> None:
+        kind = f"{status}: {reason_kind(reason or '')}"
+        # The first card's own words stand for the kind: with its names and numbers
+        # blanked, "has 200 values but ... has 199" read "has N values but ... has N".
+        slot = self._reasons.setdefault(kind, [0, str(cid), f"{status}: {reason}"])
+        slot[0] += 1
 
     def close(self) -> None:
         """Fix the lists from the counts."""
