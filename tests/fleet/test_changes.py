@@ -10,6 +10,7 @@ steady wells raise an alert with probability about 1 % over 300 cards.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -197,3 +198,17 @@ def test_a_resonance_that_echoes_the_stroke_is_not_trended_unless_asked() -> Non
     assert not ((quiet["well_id"] == "W0000") & (quiet["quantity"] == "natural_frequency")).any()
     asked = detect_changes(table, ["natural_frequency"])
     assert ((asked["well_id"] == "W0000") & (asked["quantity"] == "natural_frequency")).any()
+
+
+@pytest.mark.parametrize("after", [2, 3, 4])
+def test_a_change_near_the_history_end_is_sized_by_the_cards_errors(after: int) -> None:
+    # A step on the last few cards of a short history: a few cards after it have next to
+    # no scatter (one has none), so its size read -295 standard errors here (-692 and -934
+    # on the demo's pump field) where the cards' own errors (10 %) give a few.
+    frame = results_table(1, 14, cv=0.001, seed=3, steps={0: ("stiffness", 0.76, 14 - after)})
+    frame["d_stiffness_se"] = 0.1 * frame["d_stiffness"]
+    row = detect_changes(frame, ["stiffness"], false_alarm=0.5).iloc[0]
+    floor = math.hypot(1.2533 * 0.1 * row["before"] / math.sqrt(row["n_before"]),
+                       1.2533 * 0.1 * row["after"] / math.sqrt(row["n_after"]))
+    assert math.isfinite(row["change_se"]) and row["change_se"] < 0
+    assert abs(row["change_se"]) <= 1.02 * abs(row["change"]) / floor, (row["change_se"], floor)

@@ -465,11 +465,11 @@ def _series_alerts(
     bounds = [0] + [c.first for c in changes] + [values.size]
     out = []
     for j, ch in enumerate(changes):
-        seg_b = values[bounds[j]:bounds[j + 1]]
-        seg_a = values[bounds[j + 1]:bounds[j + 2]]
+        part_b, part_a = slice(bounds[j], bounds[j + 1]), slice(bounds[j + 1], bounds[j + 2])
+        seg_b, seg_a = values[part_b], values[part_a]
         before, after = float(np.median(seg_b)), float(np.median(seg_a))
         change = after - before
-        se_change = math.hypot(_median_se(seg_b), _median_se(seg_a))
+        se_change = math.hypot(_median_se(seg_b, se[part_b]), _median_se(seg_a, se[part_a]))
         out.append({
             "well_id": well, "quantity": q, "unit": unit,
             "first_card_id": ids[ch.first], "first_time": times[ch.first],
@@ -528,14 +528,22 @@ def history_coverage(
     return pd.DataFrame(rows, columns=["well_id", "quantity", "cards", "method"])
 
 
-def _median_se(values: NDArray[np.float64]) -> float:
-    """Standard error of a segment's median from its card-to-card scatter."""
+def _median_se(values: NDArray[np.float64], errors: NDArray[np.float64]) -> float:
+    """Standard error of a segment's median from its card-to-card scatter, at least the
+    one its cards' own errors give.
+
+    Two or three cards' scatter can be far below what each card is known to within: a
+    fillage drop of 24 % on a pump field read -2.65, -692 and -934 standard errors as the
+    history grew by one and two cards (one card after the change: no scatter at all)."""
+    own = errors[np.isfinite(errors) & (errors > 0)]
+    floor = (_MEDIAN_SE * float(np.median(own)) / math.sqrt(values.size) if own.size
+             else 0.0)
     if values.size < 2:
-        return math.nan
+        return floor if floor > 0 else math.nan
     sigma = robust_sigma(values) if values.size >= 3 else float(np.std(values, ddof=1))
     if not sigma > 0:  # identical values: fall back on the plain spread
         sigma = float(np.std(values, ddof=1))
-    return _MEDIAN_SE * sigma / math.sqrt(values.size)
+    return max(_MEDIAN_SE * sigma / math.sqrt(values.size), floor)
 
 
 def summarise_wells(
