@@ -158,6 +158,9 @@ def test_messy_tables_are_handled(tmp_path: Path) -> None:
     assert lone["latest_stiffness"] == pytest.approx(table["d_stiffness"].iloc[0])
     assert lone["latest_stiffness_unit"] == "lbf/in"
     assert "damping_ratio" in summary["largest_change"].iloc[0]
+    # Signed, as the change is (a fall read "[934 standard errors]").
+    said = summary["largest_change"].iloc[0]
+    assert f"{float(alerts['change_se'].iloc[0]):+.3g} standard errors" in said
     # a well whose times are partly missing is taken in card order
     table.loc[table.index[table["well_id"] == "W0001"][3], "time"] = pd.NaT
     assert set(detect_changes(table)["order"]) == {"card order"}

@@ -569,7 +569,8 @@ def summarise_wells(
         once), ``n_<status>`` for each of :data:`STATUSES` (and ``n_other`` for any other
         or missing status), ``usable``, ``duplicates`` (repeats set aside), ``first_time``,
         ``last_time``, ``alerts``, ``alerted_quantities`` (comma-separated),
-        ``max_abs_change_se``, ``largest_change`` (a phrase with quantity, size and unit),
+        ``max_abs_change_se``, ``largest_change`` (a phrase with quantity, size and unit,
+        relative and in standard errors, signed),
         and per quantity ``latest_<name>``, ``latest_<name>_unit`` (its last usable,
         determined value) and ``latest_<name>_time``. Wells with alerts come first, by
         decreasing ``max_abs_change_se``, then the others by ``well_id``.
@@ -606,7 +607,8 @@ def summarise_wells(
     top = mine.sort_values("_size", ascending=False, kind="stable").drop_duplicates("_w")
     phrases = {
         r["_w"]: (f"{r['quantity']} {r['before']:.4g} -> {r['after']:.4g} {r['unit']} "
-                  f"({r['change_rel']:+.1%}) from card {r['first_card_id']}")
+                  f"({r['change_rel']:+.1%}, {float(r['change_se']):+.3g} standard errors) "
+                  f"from card {r['first_card_id']}")
         for _, r in top.iterrows()
     }
     out["largest_change"] = [phrases.get(w, "") for w in out.index]

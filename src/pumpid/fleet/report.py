@@ -305,9 +305,8 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
         cells += [str(int(w["n_" + st.replace("-", "_")])) for st in statuses]
         cells.append(str(int(w["alerts"])))
         cells.append(str(w.get("tested", "")))
-        size = w["max_abs_change_se"]
-        cells.append(f"{w['largest_change']} [{_num(size, 3)} standard errors]"
-                     if w["alerts"] else "none")
+        # The phrase carries the change's signed size (the absolute one only ranks).
+        cells.append(str(w["largest_change"]) if w["alerts"] else "none")
         for q in latest:
             unit = w.get(f"latest_{q}_unit", "")
             same = unit_text(unit) == unit_text(units.get(q, ""))
