@@ -27,7 +27,10 @@ cards' walks ended elsewhere along their flat valleys (costs 2.1e-5 and 3.0e-5 l
 errors shown (not the answers) when the serial test learned what a fit leaves of white
 noise: two 28-sample controller cards (lag-1 autocorrelation 0.29, 2.3 standard deviations
 above a fit's white residuals) now show the robust errors: the offset's 0.00065 where the
-independent-noise one is 0.00035, the Maxwell card's c1 12.0 where it is 8.4.
+independent-noise one is 0.00035, the Maxwell card's c1 12.0 where it is 8.4. And the
+offset's error on the controller cards (not the answers) when an offset the card does not
+fix (its static stiffness not determined) lost the error it had borrowed from the position
+at the card's mean load: 0.00058-0.00065, now infinite.
 """
 
 from __future__ import annotations

@@ -96,6 +96,10 @@ def test_a_quantity_that_follows_a_boundary_parameter_is_not_determined() -> Non
     res = pumpid.fit(pumpid.Kelvin, card)
     assert res.boundary is not None
     assert ("k0", "infinity") in {(b.name, b.direction) for b in res.boundary.limits}
+    # The status's own words first, the solver's stop after (the reason began "converged:"
+    # beside the JSON's converged: false).
+    assert res.reason.startswith("k0 ran to a bound: the solution is a limiting model")
+    assert "(the solver's stop: converged:" in res.reason and not res.converged
     tau = res.derived["time_constant"]
     assert tau.stderr == math.inf and not tau.determined
     stiff = res.derived["static_stiffness"]

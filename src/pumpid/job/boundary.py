@@ -208,8 +208,10 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
         found[j] = _at_final_values(problem, card, found[j])
         card.status = Status.BOUNDARY
         names = ", ".join(b.name for b in found[j])
-        card.reason = (f"{card.reason}; {names} ran to a bound: the solution is a limiting "
-                       "model, not an interior optimum")
+        # The solver's stop after the status's own words: "converged: ..." first read as
+        # if the answer were an ordinary converged one (the JSON's converged: false beside it).
+        card.reason = (f"{names} ran to a bound: the solution is a limiting model, not an "
+                       f"interior optimum (the solver's stop: {card.reason})")
         card.warnings.extend(b.describe() for b in found[j])
         card.limits = tuple(found[j])
         if best_red is None and isinstance(problem.initial_states[k], str):

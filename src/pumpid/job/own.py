@@ -384,8 +384,9 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
     open_limits = [b for b in limits if b.name not in closed]
     if open_limits and status is Status.CONVERGED:
         status = Status.BOUNDARY
-        reason = (f"{reason}; {', '.join(b.name for b in open_limits)} ran to a bound: the "
-                  "solution is a limiting model, not an interior optimum")
+        reason = (f"{', '.join(b.name for b in open_limits)} ran to a bound: the solution "
+                  f"is a limiting model, not an interior optimum (the solver's stop: "
+                  f"{reason})")
         warnings.extend(b.describe() for b in open_limits)
     for b in limits:
         if b.name in closed:
