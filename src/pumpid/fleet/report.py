@@ -52,6 +52,7 @@ from .figures import (
     column_unit,
     count_words,
     distribution_figure,
+    quantity_values,
     status_figure,
     unit_text,
     well_figure,
@@ -238,14 +239,22 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
         ("cards without a time",
          count_words(times.isna().sum() if times is not None else n, "card")),
         ("period covered", span),
-        ("quantities trended", ", ".join(f"{q} [{unit_text(units[q])}]" for q in quantities)
-         or "none"),
+        ("quantities trended", ", ".join(
+            f"{q} [{unit_text(units[q])}]" + ("" if _usable_count(frame, q) else
+                                             " (no usable value: not trended)")
+            for q in quantities) or "none"),
         ("alerts", f"{count_words(len(alerts), 'alert')} in "
                    f"{count_words(alerts['well_id'].nunique(), 'well')}"),
         *coverage_rows,
         ("detection", settings),
     ]
     return _table(("item", "value"), rows)
+
+
+def _usable_count(frame: pd.DataFrame, quantity: str) -> int:
+    """Cards of named wells whose value of ``quantity`` enters the trends."""
+    named = frame[frame["well_id"].astype(str) != UNKNOWN_WELL]
+    return int(quantity_values(named, quantity)[2].sum()) if len(named) else 0
 
 
 def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> str:
