@@ -413,12 +413,12 @@ def write_fleet_report(
     ValueError
         If the table lacks ``well_id``, ``card_id`` or ``status``, or a quantity is unknown.
     """
-    frame = load_results(results)
+    whole = load_results(results)
     # A card exported twice counts once: its repeats are set aside before anything is
     # counted, trended or tested, and the summary says how many.
-    repeats = is_duplicate(frame)
+    repeats = is_duplicate(whole)
     n_repeats = int(repeats.sum())
-    frame = frame[~repeats]
+    frame = whole[~repeats]
     out = Path(os.fspath(out_dir))
     out.mkdir(parents=True, exist_ok=True)
     names = list(quantities) if quantities is not None else available_quantities(frame)
@@ -438,7 +438,7 @@ def write_fleet_report(
         settings = "alerts given by the caller"
     coverage = history_coverage(frame, names, min_cards=min_cards, min_short_cards=min_short)
     # The repeats are counted per well by the summary itself (it sets them aside too).
-    summary = summarise_wells(load_results(results), alerts, names)
+    summary = summarise_wells(whole, alerts, names)
     tests = _well_tests(coverage)
     summary["tested"] = [_TESTED.get(tests.get(w, ""), "not tested (no well id)"
                                      if w == UNKNOWN_WELL else "no usable card")

@@ -101,10 +101,12 @@ class BatchSummary:
             self.pump_statuses.update(s for s in pumps if s is not None)
             if not self.pump_only and "identify_reason" in table.column_names:
                 # A pump asked for and not computed is a failure of the run like a fit's.
-                for cid, status, reason in zip(cols["card_id"], pumps,
-                                               table.column("identify_reason").to_pylist(),
-                                               strict=True):
-                    if status in ("failed", "invalid-input"):
+                # A card whose own fit failed or was invalid is counted once, below.
+                for cid, fitted, status, reason in zip(
+                        cols["card_id"], cols["status"], pumps,
+                        table.column("identify_reason").to_pylist(), strict=True):
+                    if (status in ("failed", "invalid-input")
+                            and fitted not in ("failed", "invalid-input")):
                         self._count_failure(f"pump {status}", reason, cid)
         for cid, status, reason, nfev, n in zip(cols["card_id"], cols["status"], cols["reason"],
                                                 cols["nfev"], cols["n_samples"], strict=True):
@@ -118,7 +120,8 @@ class BatchSummary:
                 self._count_failure(status, reason, cid)
 
     def _count_failure(self, status: str, reason: str | None, cid: Any) -> None:
-        kind = f"{status}: {reason_kind(reason or '')}"
+        reason = reason or "(no reason given)"
+        kind = f"{status}: {reason_kind(reason)}"
         # The first card's own words stand for the kind: with its names and numbers
         # blanked, "has 200 values but ... has 199" read "has N values but ... has N".
         slot = self._reasons.setdefault(kind, [0, str(cid), f"{status}: {reason}"])

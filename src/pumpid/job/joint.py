@@ -165,6 +165,9 @@ def joint_part(model: StackedCards, result: FitResult, ids: Sequence[str]) -> di
             "r2": 1.0 - float(res @ res) / sst if sst > 0 else math.nan,
             "rmse": math.sqrt(float(res @ res) / d.size),
             "rmse_alone": math.nan if single is None else float(single.rmse),
+            # Both at rounding level (exact cards) are alike, whatever their ratio.
+            "apart": single is not None and math.sqrt(float(res @ res) / d.size) > max(
+                APART * float(single.rmse), 1e-9 * float(np.ptp(d))),
             "single": {} if single is None else dict(single.params)})
     return {"model": model.cls.__name__, "observe": model.observe, "cards": cards}
 
@@ -172,8 +175,7 @@ def joint_part(model: StackedCards, result: FitResult, ids: Sequence[str]) -> di
 def misfit_warning(part: Mapping[str, Any], unit: str) -> str:
     """A warning naming the cards the joint fit describes :data:`APART` times worse than
     their own fits (``""`` when there are none): they do not share one parameter set."""
-    apart = [(c["card"], c["rmse"], c["rmse_alone"]) for c in part["cards"]
-             if c["rmse"] > APART * c["rmse_alone"]]
+    apart = [(c["card"], c["rmse"], c["rmse_alone"]) for c in part["cards"] if c["apart"]]
     if not apart:
         return ""
     said = ", ".join(f"{card} (RMSE {joint:.4g} {unit} jointly, {alone:.4g} {unit} alone)"

@@ -27,9 +27,8 @@ from ..result import Limiting, ReducedFit, StartInfo, Status
 from .options import START_SAMPLES
 
 __all__ = ["BAND_P", "BAND_RATIO", "CardState", "apply_outcome", "doubt", "doubtful",
-           "gap_gradient",
-           "mark_edges", "numbers_for_true_offset", "scale_offset", "start_problem", "summarize",
-           "theta_of", "true_offset"]
+           "gap_gradient", "mark_edges", "numbers_for_true_offset", "scale_offset",
+           "start_problem", "summarize", "theta_of", "true_offset"]
 
 Array = NDArray[np.float64]
 
@@ -229,7 +228,8 @@ def doubt(problem: Problem, k: int, card: CardState) -> str:
     if not math.isfinite(card.cost) or card.stop is Stop.NOT_FINITE:
         return "the first answer was not finite"
     if not math.isfinite(card.r2) or card.r2 < 0.99:
-        return f"the first answer explained too little (R^2 {card.r2:.4g}, below 0.99)"
+        said = f"{card.r2:.4g}" if math.isfinite(card.r2) else "not defined"
+        return f"the first answer explained too little (R^2 {said}, below 0.99)"
     d = problem.card(k)[2]
     floor = 1e-9 * float(np.ptp(d))
     if card.rmse > 2.0 * card.noise + floor:

@@ -84,9 +84,9 @@ class WellFile:
         known = ", ".join(repr(k) for k in list(self.wells)[:10])
         if well_id is None:
             raise WellError(f"card {card_id!r} has no well id, and the file describes "
-                            f"{len(self.wells)} wells ({known}); give the card's well id (a "
-                            "well column, or --well-id ID for a file of one well's cards) "
-                            "or a well file with one well", path=self.path)
+                            f"{len(self.wells)} wells ({known}); give the card's well id "
+                            "(Card.well_id: a well column of its file, or --well-id ID on "
+                            "the command line) or a well file with one well", path=self.path)
         if well_id not in self.wells:
             raise WellError(f"no well {well_id!r} (card {card_id!r}); the file describes "
                             f"{known}", path=self.path)
