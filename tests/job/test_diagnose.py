@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+import pytest
+
 import pumpid
 
 from ..conftest import pinned_periodic_fit, spread_card
@@ -69,3 +71,19 @@ def test_a_card_whose_limits_lie_beyond_the_noise_keeps_its_local_errors() -> No
         assert fit.stderr[name] < 0.05 * fit.params[name]
         low, high = fit.ci95[name]
         assert low < truth[j] < high, name
+
+
+@pytest.mark.realdata
+def test_an_undetermined_fit_says_which_determined_quantity_is_an_echo(shared_raw) -> None:
+    # "determined derived quantities: natural_frequency" beside a warning that the natural
+    # frequency echoes the stroke: the reason now says it is not the well's.
+    from pumpid.cards import read_cards
+
+    card = read_cards(shared_raw / "dzhang123_dynacard_realdata" / "anchored_tbg__surface.csv",
+                      columns={"position": 1, "load": 2}, spm=6, position_unit="in",
+                      load_unit="klbf")[0]
+    fit = pumpid.fit(pumpid.Kelvin, card)
+    echoes = [d.name for d in fit.derived.values() if d.determined and not d.well_property]
+    assert fit.status is pumpid.Status.UNDETERMINED and echoes
+    for name in echoes:
+        assert f"{name} (an echo of the stroke, not the well's)" in fit.reason

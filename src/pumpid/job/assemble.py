@@ -35,7 +35,10 @@ def determination_gate(res: FitResult) -> FitResult:
         return res
     if any(n in res.params for n in res.determined.get("parameters", ())):
         return res
-    good = [d.name for d in res.derived.values() if d.determined]
+    # A determined quantity that echoes the stroke is said to be one: "determined derived
+    # quantities: natural_frequency" read as the well's, beside the warning saying it is not.
+    good = [d.name + ("" if d.well_property else " (an echo of the stroke, not the well's)")
+            for d in res.derived.values() if d.determined]
     said = ("no parameter of the model is determined by these data (each ran to a limit, "
             "is structurally free or has an error over 100 % of its value): the fitted "
             "values are one of many that fit as well"
