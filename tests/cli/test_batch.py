@@ -200,6 +200,15 @@ def test_a_file_of_one_well_is_named_by_well_id(tmp_path: Path, capsys) -> None:
     # A resumed run keeps the run's own well id.
     code, _, _ = _run(capsys, ["batch", str(example), "--out", str(out), "--resume", "--quiet"])
     assert code == 0 and list(pd.read_parquet(out)["well_id"]) == ["W-7", "W-7"]
+    # A run written before --well-id existed has no well_id in its manifest: resuming it is
+    # refused in words, not as two option lists that read alike.
+    manifest = out / "_manifest.json"
+    doc = json.loads(manifest.read_text())
+    del doc["options"]["read"]["well_id"]
+    manifest.write_text(json.dumps(doc))
+    code, _, err = _run(capsys, ["batch", str(example), "--out", str(out), "--resume",
+                                 "--quiet"])
+    assert code == 2 and "written by an earlier pumpid (its manifest has no well_id)" in err
     code, out_text, _ = _run(capsys, ["fit", str(example), "--well-id", "W-7", "--json"])
     assert code == 0
     assert {c["card"]["well"] for c in json.loads(out_text)["cards"]} == {"W-7"}

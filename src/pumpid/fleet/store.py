@@ -121,7 +121,17 @@ def _differences(old: Mapping[str, Any], new: Mapping[str, Any]) -> list[str]:
         out.append("the input files come in another order")
     for key in sorted(set(old.get("options", {})) | set(new.get("options", {}))):
         a, b = old.get("options", {}).get(key), new.get("options", {}).get(key)
-        if a != b:
+        if a == b:
+            continue
+        unknown = (sorted(set(b) - set(a)) if isinstance(a, dict) and isinstance(b, dict)
+                   else [])
+        if unknown and all(a[k] == b[k] for k in a if k in b):
+            # Not a choice the user made: a manifest from before these options existed (its
+            # parts lack the columns this version writes, so the two are not mixed).
+            out.append(f"option {key}: the run was written by an earlier pumpid (its "
+                       f"manifest has no {', '.join(unknown)}); write this run to a new "
+                       "folder")
+        else:
             out.append(f"option {key}: {json.dumps(a)} there, {json.dumps(b)} now")
     return out
 
