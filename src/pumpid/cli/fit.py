@@ -348,9 +348,14 @@ class RunOutputs:
         except MemoryError:
             raise
         except OutputError as exc:
+            interrupts.check()
             self.failed += 1
             row.warnings.append(f"outputs not written: {exc} (the result is printed here)")
         except Exception as exc:
+            # A Ctrl-C that a library turned into another error while the files were being
+            # written is the interrupt, not a failure of this card's outputs: the card is
+            # then not counted as finished (it was, indexed without its folder).
+            interrupts.check()
             self.failed += 1
             row.warnings.append(f"outputs not written: making the figures or report failed "
                                 f"({type(exc).__name__}: {exc}); the result is printed here")
@@ -558,6 +563,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
             for card in _one_at_a_time(cards):
                 interrupts.check()
                 row = _row(card, fit_one(card, setup))
+                # A Ctrl-C swallowed during the fit (a library's cleanup) ends the run here:
+                # the card is not counted as finished.
+                interrupts.check()
                 del card
                 predictor.predict(row)
                 if outputs is not None:
