@@ -112,6 +112,7 @@ __all__ = [
     "detect_changes",
     "history_coverage",
     "is_duplicate",
+    "is_named",
     "load_results",
     "summarise_wells",
 ]
@@ -168,16 +169,23 @@ def load_results(results: pd.DataFrame | str | os.PathLike[str]) -> pd.DataFrame
     return table
 
 
+def is_named(table: pd.DataFrame) -> pd.Series:
+    """Rows of a named well: cards without a well id (and unreadable files' rows) are filed
+    under :data:`UNKNOWN_WELL`, which may hold several wells: counted, never trended."""
+    return table["well_id"].astype(str) != UNKNOWN_WELL
+
+
 def card_counts(table: pd.DataFrame) -> dict[str, int]:
     """What a run's table holds, counted once for every output that says it: ``cards``
     (repeats set aside), ``repeats``, ``wells`` (named ones) and ``unnamed`` (cards filed
     under :data:`UNKNOWN_WELL`, not trended)."""
     table = load_results(table)
     repeats = is_duplicate(table)
-    kept = table.loc[~repeats, "well_id"].astype(str)
+    kept = table[~repeats]
+    named = is_named(kept)
     return {"cards": len(kept), "repeats": int(repeats.sum()),
-            "wells": int(kept[kept != UNKNOWN_WELL].nunique()),
-            "unnamed": int((kept == UNKNOWN_WELL).sum())}
+            "wells": int(kept.loc[named, "well_id"].nunique()),
+            "unnamed": int((~named).sum())}
 
 
 def is_duplicate(table: pd.DataFrame) -> pd.Series:
@@ -265,7 +273,7 @@ def _prepare(frame: pd.DataFrame) -> _Usable:
     # Cards without a well id may come from several wells: one history of them would
     # trend and test a mixture, so they are counted, not trended.
     rows = frame[(frame["status"].isin(USABLE_STATUSES) | pump_usable(frame))
-                 & ~is_duplicate(frame) & (frame["well_id"].astype(str) != UNKNOWN_WELL)]
+                 & ~is_duplicate(frame) & is_named(frame)]
     well = rows["well_id"].astype(str).to_numpy()
     if "time" in rows.columns:
         time = pd.to_datetime(rows["time"], utc=True).dt.tz_localize(None)

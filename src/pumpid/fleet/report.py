@@ -44,6 +44,7 @@ from .changes import (
     detect_changes,
     history_coverage,
     is_duplicate,
+    is_named,
     load_results,
     summarise_wells,
 )
@@ -111,13 +112,6 @@ def _with_unit(value: Any, unit: Any, digits: int = 4) -> str:
         return text
     u = unit_text(unit)
     return f"{text} ({u})" if u == "dimensionless" else f"{text} {u}"
-
-
-def _n_wells(frame: pd.DataFrame) -> int:
-    """Wells named in the table: rows of unreadable files belong to no well, so the
-    placeholder they are filed under must not count as one."""
-    wells = frame["well_id"].dropna().astype(str)
-    return int(wells[wells != UNKNOWN_WELL].nunique())
 
 
 def _when(value: Any) -> str:
@@ -197,7 +191,6 @@ def _coverage_rows(coverage: pd.DataFrame, min_cards: int,
                    min_short: int) -> list[tuple[str, str]]:
     """Summary rows: how many wells each method tested, and which were too short."""
     tests = _well_tests(coverage)
-    tests = tests[tests.index != UNKNOWN_WELL]
     short = sorted(tests[tests == "too short"].index.astype(str))
     rows = [("wells tested",
              f"{count_words((tests == 'cusum').sum(), 'well')} by the CUSUM (more than "
@@ -212,8 +205,8 @@ def _coverage_rows(coverage: pd.DataFrame, min_cards: int,
     return rows
 
 
-def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequence[str],
-                     units: dict[str, str], settings: str,
+def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFrame,
+                     quantities: Sequence[str], units: dict[str, str], settings: str,
                      coverage_rows: Sequence[tuple[str, str]] = ()) -> str:
     status = frame["status"].where(frame["status"].isin(STATUSES), "other")
     counts = status.value_counts().reindex([*STATUSES, "other"], fill_value=0)
@@ -222,25 +215,22 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
     span = "no card times in the table"
     if times is not None and times.notna().any():
         span = f"{_when(times.min())} to {_when(times.max())}"
-    no_well = int(
-        (frame["well_id"].isna() | (frame["well_id"].astype(str) == UNKNOWN_WELL)).sum()
-    )
+    no_well = len(frame) - len(named)
     rows = [
-        ("wells", count_words(_n_wells(frame), "well")),
+        ("wells", count_words(named["well_id"].nunique(), "well")),
         ("cards", count_words(n, "card")),
         *(((f"cards without a well id (filed under {UNKNOWN_WELL}, with any unreadable "
              "input's rows)", count_words(no_well, "card")),)
           if no_well else ()),
         (f"cards used for trends ({', '.join(USABLE_STATUSES)}, with a well id)",
-         count_words(int((frame["status"].isin(USABLE_STATUSES)
-                          & (frame["well_id"].astype(str) != UNKNOWN_WELL)).sum()), "card")),
+         count_words(int(named["status"].isin(USABLE_STATUSES).sum()), "card")),
         *((f"status {st}", f"{count_words(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
           for st in counts.index if counts[st] or st in STATUSES),
         ("cards without a time",
          count_words(times.isna().sum() if times is not None else n, "card")),
         ("period covered", span),
         ("quantities trended", ", ".join(
-            f"{q} [{unit_text(units[q])}]" + ("" if _usable_count(frame, q) else
+            f"{q} [{unit_text(units[q])}]" + ("" if quantity_values(named, q)[2].any() else
                                              " (no usable value: not trended)")
             for q in quantities) or "none"),
         ("alerts", f"{count_words(len(alerts), 'alert')} in "
@@ -249,12 +239,6 @@ def _summary_section(frame: pd.DataFrame, alerts: pd.DataFrame, quantities: Sequ
         ("detection", settings),
     ]
     return _table(("item", "value"), rows)
-
-
-def _usable_count(frame: pd.DataFrame, quantity: str) -> int:
-    """Cards of named wells whose value of ``quantity`` enters the trends."""
-    named = frame[frame["well_id"].astype(str) != UNKNOWN_WELL]
-    return int(quantity_values(named, quantity)[2].sum()) if len(named) else 0
 
 
 def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> str:
@@ -419,6 +403,7 @@ def write_fleet_report(
     repeats = is_duplicate(whole)
     n_repeats = int(repeats.sum())
     frame = whole[~repeats]
+    named = frame[is_named(frame)]
     out = Path(os.fspath(out_dir))
     out.mkdir(parents=True, exist_ok=True)
     names = list(quantities) if quantities is not None else available_quantities(frame)
@@ -466,7 +451,7 @@ def write_fleet_report(
     parts.append("<section id=\"summary\"><h2>Run summary</h2>")
     repeat_rows = [("duplicate cards set aside (exact repeats of an earlier card of the "
                     "same well, counted once)", count_words(n_repeats, "card"))]
-    parts.append(_summary_section(frame, alerts, names, units, settings,
+    parts.append(_summary_section(frame, named, alerts, names, units, settings,
                                   [*repeat_rows, *_coverage_rows(coverage, min_cards,
                                                                  min_short)]))
     parts.append(_figure_html(save(status_figure(counts), "status"), "status of every card",
@@ -481,7 +466,7 @@ def write_fleet_report(
                  "detector raised the alarm, the medians before and after, and the size of "
                  "the change in units of its standard error. Largest first.</p>")
     parts.append(_alerts_section(alerts, tests,
-                                 bool((frame["well_id"].astype(str) == UNKNOWN_WELL).any())))
+                                 len(named) < len(frame)))
     parts.append("</section>")
 
     parts.append("<section id=\"wells\"><h2>Wells</h2>")
@@ -492,8 +477,6 @@ def write_fleet_report(
     parts.append("</section>")
 
     alerted = set(alerts["well_id"].astype(str))
-    # Cards without a well id are counted above, but drawn as no well's: they are not one.
-    named = frame[frame["well_id"].astype(str) != UNKNOWN_WELL]
     parts.append("<section id=\"distributions\"><h2>Quantities across wells</h2>")
     parts.append("<div class=\"grid\">")
     taken: set[str] = set()
@@ -503,7 +486,7 @@ def write_fleet_report(
             parts.append(f"<p>{_e(q)}: no usable value in any well.</p>")
             continue
         name = _safe_name(f"distribution_{q}", taken)
-        few = _n_wells(frame) < MIN_WELLS_HISTOGRAM
+        few = named["well_id"].nunique() < MIN_WELLS_HISTOGRAM
         caption = (f"{q} [{unit_text(units[q])}] of each well's cards, well by well (too "
                    f"few wells for a histogram); red: wells with an alert." if few else
                    f"Distribution across wells of each well's median {q} "
@@ -541,7 +524,8 @@ def write_fleet_report(
     parts.append("</section>")
 
     body = "\n".join(parts)
-    headline = (f"{count_words(_n_wells(frame), 'well')}, {count_words(len(frame), 'card')}, "
+    n_wells = named["well_id"].nunique()
+    headline = (f"{count_words(n_wells, 'well')}, {count_words(len(frame), 'card')}, "
                 f"{count_words(len(alerts), 'alert')}")
     page = f"""<!DOCTYPE html>
 <html lang="en">
