@@ -231,7 +231,9 @@ def findings_of(
     if bound_idx:
         notes.append(
             f"{join_names([names[i] for i in bound_idx])}: at a boundary, so no symmetric "
-            "interval (None); the other values' uncertainties hold with it at its limit")
+            "interval (None); the other values' errors are taken with it at its limit, and "
+            "reach further where the model fits within the noise away from that limit (a "
+            "finding then says how far)")
     if undetermined:
         notes.append(
             f"{join_names([names[i] for i in undetermined])}: not identifiable, standard "
