@@ -214,6 +214,24 @@ def test_a_file_of_one_well_is_named_by_well_id(tmp_path: Path, capsys) -> None:
     assert {c["card"]["well"] for c in json.loads(out_text)["cards"]} == {"W-7"}
 
 
+def test_a_run_whose_table_has_other_columns_is_not_resumed(tmp_path: Path, capsys) -> None:
+    # A run written by a pumpid whose results table had other columns (before r2_fundamental
+    # and r2_beyond): resuming it mixed the two versions' parts, and the new columns were
+    # dropped on reading.
+    example = Path(pumpid.__path__[0]) / "data" / "example_cards.csv"
+    out = tmp_path / "run"
+    code, _, _ = _run(capsys, ["batch", str(example), "--out", str(out), *FIT, "--quiet"])
+    assert code == 0
+    assert {"r2_fundamental", "r2_beyond"} <= set(pd.read_parquet(out).columns)
+    manifest = out / "_manifest.json"
+    doc = json.loads(manifest.read_text())
+    del doc["table"]
+    manifest.write_text(json.dumps(doc))
+    code, _, err = _run(capsys, ["batch", str(example), "--out", str(out), "--resume",
+                                 "--quiet"])
+    assert code == 2 and "its results table has other columns" in err
+
+
 def test_pumps_asked_for_and_not_identified_are_not_a_complete_run(tmp_path: Path,
                                                                    capsys) -> None:
     # Cards without a well id against a well file of several wells: every pump was

@@ -104,7 +104,10 @@ def _id(row: Row) -> str:
 
 
 def _quality(res: FitResult) -> str:
-    return (f"R^2 = {fmt(res.r2, 6)}, RMSE = {fmt(res.rmse, 4)} "
+    beyond = res.r2_beyond
+    tail = (f" (fundamental alone {fmt(res.r2_fundamental, 6)}: explains "
+            f"{100 * max(beyond, 0.0):.1f} % of the rest)" if math.isfinite(beyond) else "")
+    return (f"R^2 = {fmt(res.r2, 6)}{tail}, RMSE = {fmt(res.rmse, 4)} "
             f"{unit_text(res.units.position)}")
 
 
@@ -337,7 +340,9 @@ class LinePrinter:
         res = row.result
         if res is not None:
             fields += [f"R^2={fmt(res.r2, 6)}",
-                       f"RMSE={fmt(res.rmse, 4)} {unit_text(res.units.position)}"]
+                       f"RMSE={fmt(res.rmse, 4)} {unit_text(res.units.position)}",
+                       *([f"beyond_fundamental={fmt(res.r2_beyond, 4)}"]
+                         if math.isfinite(res.r2_beyond) else [])]
             if res.application.get("model_choice"):
                 fields.append(f"model={res.model_name}/{res.observe}")
             if res.model is not None:

@@ -43,7 +43,7 @@ from pumpid.pump import PumpSystem
 from pumpid.pump.runner import FitSpec, fit_cards_each
 from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
 from pumpid.result import CardInfo
-from pumpid.result.table import fit_row, identity_of, unfitted_row
+from pumpid.result.table import FIT, fit_row, identity_of, unfitted_row
 from pumpid.version import __version__
 
 from .defaults import IDENTIFY_PARTITION_SIZE, PARTITION_SIZE
@@ -323,7 +323,8 @@ def run_batch(
             or partition_size < 1:
         raise ValueError(f"partition_size must be a whole number >= 1, got {partition_size!r}")
     files = _files_for(inputs, folder, resume, [csv] if csv else [])
-    manifest = {"pumpid": __version__, "inputs": [os.fspath(i) for i in inputs],
+    manifest = {"pumpid": __version__, "table": [name for name, _kind in FIT],
+                "inputs": [os.fspath(i) for i in inputs],
                 "files": [f.to_dict() for f in files],
                 "options": {"read": read.to_dict(), "fit": fit.to_dict(),
                             "partition_size": partition_size}}

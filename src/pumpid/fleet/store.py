@@ -100,6 +100,11 @@ def _differences(old: Mapping[str, Any], new: Mapping[str, Any]) -> list[str]:
     out: list[str] = []
     if old.get("pumpid") != new.get("pumpid"):
         out.append(f"pumpid version {old.get('pumpid')} there, {new.get('pumpid')} now")
+    if old.get("table") != new.get("table"):
+        # Parts with other columns cannot be read as one table with this run's: the new
+        # columns were dropped on reading, and the statuses of the two parts could differ.
+        out.append("the run was written by an earlier pumpid (its results table has other "
+                   "columns); write this run to a new folder")
     before = {f["path"]: f for f in old.get("files", [])}
     after = {f["path"]: f for f in new.get("files", [])}
     gone = [before[p]["name"] for p in before if p not in after]

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from ..engine import drive
 from ..engine.problem import Problem
+from ..inference.echo import FUNDAMENTAL_ONLY, fundamental_share
 from ..models import Model, model_class
 from ..result import BoundaryInfo, FitResult, Status, Units
 from .options import JobOptions
@@ -29,23 +30,45 @@ Array = NDArray[np.float64]
 
 def determination_gate(res: FitResult) -> FitResult:
     """``undetermined`` for an answer (converged or at a boundary) that determines none of
-    the model's parameters: a converged optimum of numbers the data do not fix is not an
-    answer (on real cards: m in the millions, damping ratios of 1e-5)."""
+    the model's parameters, or that reproduces the stroke's fundamental alone: a converged
+    optimum of numbers the data do not fix is not an answer (on real cards: m in the
+    millions, damping ratios of 1e-5), and neither is the fundamental, which any load gives
+    (a mass-spring-dashpot on a simulated fluid-pound card: m = 1.4e8 lbf*s^2/in and k =
+    9.8e7 lbf/in on the stroke frequency, c "determined" as the ratio of the load's and the
+    position's fundamentals, R^2 = 0.990099 as for a load of pure noise)."""
     if res.status not in (Status.CONVERGED, Status.BOUNDARY) or res.uncertainty is None:
         return res
-    if any(n in res.params for n in res.determined.get("parameters", ())):
+    only = bool(res.determined.get("signal_beyond_fundamental")) \
+        and res.r2_beyond < FUNDAMENTAL_ONLY
+    none = not any(n in res.params for n in res.determined.get("parameters", ()))
+    if not (only or none):
         return res
+    determined = dict(res.determined)
+    said = []
+    if only:
+        said.append(
+            f"the fit reproduces only the stroke's fundamental: R^2 = {res.r2:.6g} is about "
+            f"the share of the position in its mean and first harmonic "
+            f"({res.r2_fundamental:.6g}), which any load gives, and the model explains "
+            f"{100 * max(res.r2_beyond, 0.0):.2g} % of the rest; none of its values "
+            "describes the well")
+        # Whatever the local errors say, no value is a property of the well: the short
+        # output printed "c = 42.6 ± 23" unflagged beside this reason.
+        shown = list(determined.get("parameters", ()))
+        determined["parameters"] = []
+        determined["not_determined"] = [*determined.get("not_determined", ()), *shown]
     # A determined quantity that echoes the stroke is said to be one: "determined derived
     # quantities: natural_frequency" read as the well's, beside the warning saying it is not.
     good = [d.name + ("" if d.well_property else " (an echo of the stroke, not the well's)")
             for d in res.derived.values() if d.determined]
-    said = ("no parameter of the model is determined by these data (each ran to a limit, "
-            "is structurally free or has an error over 100 % of its value): the fitted "
-            "values are one of many that fit as well"
-            + (f"; determined derived quantities: {', '.join(good)}" if good else ""))
+    if none:
+        said.append("no parameter of the model is determined by these data (each ran to a "
+                    "limit, is structurally free or has an error over 100 % of its value): "
+                    "the fitted values are one of many that fit as well"
+                    + (f"; determined derived quantities: {', '.join(good)}" if good else ""))
     return dataclasses.replace(res, status=Status.UNDETERMINED,
-                               reason=f"{said} ({_verdict(res)})",
-                               warnings=(*res.warnings, said))
+                               reason=f"{'; '.join(said)} ({_verdict(res)})",
+                               determined=determined, warnings=(*res.warnings, *said))
 
 
 def quality_gate(res: FitResult, min_r2: float) -> FitResult:
@@ -125,6 +148,16 @@ def build_result(problem: Problem, k: int, card: CardState, options: JobOptions,
             p.name: p.unit_for(units.load, units.position) for p in info})
     boundary = (BoundaryInfo(card.limits, reduced) if card.limits else None)
     state = problem.initial_states[k]
+    one_period = (state == "periodic" and problem.uniform[k] and problem.residual == "linear"
+                  and t.size > 1 and abs(problem.period[k] - t.size * (t[1] - t[0]))
+                  <= 1e-6 * problem.period[k])
+    r2_fundamental = fundamental_share(d) if one_period else math.nan
+    if math.isfinite(r2_fundamental):
+        # What the fundamental leaves is worth explaining only above the data's noise: a
+        # position that is one sinusoid plus noise leaves any model nothing to explain.
+        left = math.sqrt((1.0 - r2_fundamental) * float(np.var(d)))
+        card.determined["signal_beyond_fundamental"] = bool(
+            left > 2.0 * card.noise + 1e-9 * float(np.ptp(d)))
     return FitResult(
         model=model, model_name=cls.__name__, status=status, reason=reason, params=params,
         scale=scale, offset=offset, iterations=card.accepted, nfev=card.evaluations,
@@ -134,7 +167,7 @@ def build_result(problem: Problem, k: int, card: CardState, options: JobOptions,
         units=units, free=problem.free_names, t=t, load=f, data=d, fitted=fitted,
         jacobian=jac, uncertainty=card.uncertainty, identifiability=card.findings,
         determined=card.determined, derived=card.derived, boundary=boundary,
-        start=card.start,
+        start=card.start, r2_fundamental=r2_fundamental,
         gauge="C = 1" if problem.gauge_fixed else None, problem=problem,
         options={"method": options.method, "card": k, "solver": options.solver,
                  "newton": options.newton, "units": units},

@@ -23,9 +23,19 @@ from .uncertainty import Uncertainty
 if TYPE_CHECKING:
     from ..engine.problem import Problem
 
-__all__ = ["FitResult", "derived_text", "diagnostics_text", "format_report"]
+__all__ = ["FitResult", "beyond_text", "derived_text", "diagnostics_text", "format_report"]
 
 Array = NDArray[np.float64]
+
+
+def beyond_text(result: FitResult) -> str:
+    """What R^2 means beside the stroke's fundamental, for a fit quality line ("" off a
+    periodic card)."""
+    beyond = result.r2_beyond
+    if not math.isfinite(beyond):
+        return ""
+    return (f" (the stroke's fundamental alone: {fmt(result.r2_fundamental, 6)}; the model "
+            f"explains {100 * max(beyond, 0.0):.1f} % of what it leaves)")
 
 
 def _frozen(a: Any) -> Any:
@@ -107,6 +117,9 @@ class FitResult:
     start: StartInfo | None = None
     card: CardInfo | None = None
     gauge: str | None = None
+    #: R^2 of the stroke's fundamental alone (the position's mean and first harmonic) on a
+    #: periodic card; NaN where the record is not one uniformly sampled period.
+    r2_fundamental: float = math.nan
     #: Application-specific facts (e.g. the flow record's), read-only.
     application: Mapping[str, Any] = field(default_factory=dict, repr=False)
     #: The problem and options behind the fit, for refits (profiles, predictions).
@@ -124,6 +137,16 @@ class FitResult:
     def converged(self) -> bool:
         """True for an ordinary converged answer (status ``converged``)."""
         return self.status is Status.CONVERGED
+
+    @property
+    def r2_beyond(self) -> float:
+        """The share of what the stroke's fundamental leaves of the position that the model
+        explains: ``1 - SSR / SSR_fundamental`` (NaN off a periodic card). Near 0, the fit
+        reproduces the imposed motion's fundamental alone, which any load gives."""
+        left = 1.0 - self.r2_fundamental
+        if not (math.isfinite(left) and left > 0.0 and math.isfinite(self.r2)):
+            return math.nan
+        return 1.0 - (1.0 - self.r2) / left
 
     @property
     def residuals(self) -> Array:
@@ -287,7 +310,8 @@ class FitResult:
             "scale": self.scale, "offset": self.offset, "free": list(self.free),
             "converged": self.converged, "status": self.status.key, "reason": self.reason,
             "iterations": self.iterations, "nfev": self.nfev, "cost": self.cost,
-            "rmse": self.rmse, "r2": self.r2, "n_samples": int(self.t.size),
+            "rmse": self.rmse, "r2": self.r2, "r2_fundamental": self.r2_fundamental,
+            "r2_beyond_fundamental": self.r2_beyond, "n_samples": int(self.t.size),
             "warnings": list(self.warnings),
         }
         if self.residual == "log":
@@ -425,7 +449,7 @@ def format_report(result: FitResult, history: bool = False) -> str:
         lines.append(f"  {'offset':<15}  {fmt(result.offset, 10):<15}  "
                      f"{result.units.position} ({off_state})")
     lines += ["", f"  fit quality: RMSE = {fmt(result.rmse, 6)} {result.units.position}, "
-              f"R^2 = {fmt(result.r2, 8)}"]
+              f"R^2 = {fmt(result.r2, 8)}{beyond_text(result)}"]
     lines += derived_text(result)
     diag = diagnostics_text(result)
     if diag:

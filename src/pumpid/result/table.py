@@ -42,7 +42,8 @@ IDENTITY: tuple[tuple[str, str], ...] = (
 #: The fit's own columns, after the identity.
 FIT: tuple[tuple[str, str], ...] = (
     ("model", "string"), ("observe", "string"), ("status", "string"), ("reason", "string"),
-    ("warnings", "string"), ("r2", "float"), ("rmse", "float"), ("cost", "float"),
+    ("warnings", "string"), ("r2", "float"), ("r2_fundamental", "float"),
+    ("r2_beyond", "float"), ("rmse", "float"), ("cost", "float"),
     ("n_samples", "int"), ("nfev", "int"), ("position_unit", "string"),
     ("load_unit", "string"))
 _PARAM = (("", "float"), ("_se", "float"), ("_se_hac", "float"), ("_se_white", "float"),
@@ -105,7 +106,8 @@ def fit_row(result: Any) -> dict[str, Any]:
     row.update({
         "model": result.model_name, "observe": result.observe, "status": result.status.key,
         "reason": result.reason, "warnings": " | ".join(result.warnings),
-        "r2": result.r2, "rmse": result.rmse, "cost": result.cost,
+        "r2": result.r2, "r2_fundamental": result.r2_fundamental,
+        "r2_beyond": result.r2_beyond, "rmse": result.rmse, "cost": result.cost,
         "n_samples": int(result.t.size), "nfev": result.nfev,
         "position_unit": result.units.position, "load_unit": result.units.load})
     se, se_hac, se_white = result.stderr, result.stderr_hac, result.stderr_white

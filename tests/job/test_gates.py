@@ -1,0 +1,79 @@
+"""The gates: a fit that reproduces only the stroke's fundamental is no answer about the well."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+import pumpid
+from pumpid.cards import read_cards
+
+from ..conftest import spread_card
+
+PERIOD = 7.5
+
+
+def _crank_card(load: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One period of a crank-like motion (in): its second harmonic is a tenth of its first,
+    so the fundamental alone leaves 1 % of the variance."""
+    t = np.arange(load.size) * PERIOD / load.size
+    w = 2 * np.pi / PERIOD
+    position = 60.0 * (1.0 - np.cos(w * t) + 0.1 * np.sin(2 * w * t))
+    return t, load, position
+
+
+def _periodic() -> pumpid.FitOptions:
+    return pumpid.FitOptions(initial_state="periodic", period=PERIOD, offset=True)
+
+
+def test_a_fit_of_the_fundamental_alone_is_undetermined_whatever_its_local_errors() -> None:
+    # A load of pure noise: a mass-spring-dashpot reproduces the position's fundamental by a
+    # resonance on the stroke frequency (m and k running to 1e8 together), R^2 = 100/101,
+    # and its c, the ratio of the two fundamentals, had a finite error: "converged".
+    load = 10_000.0 + 3_000.0 * np.random.default_rng(2).standard_normal(200)
+    fit = pumpid.fit(pumpid.MassSpringDamper, _crank_card(load), options=_periodic())
+    assert math.isclose(fit.r2_fundamental, 100 / 101, rel_tol=1e-9)
+    assert fit.r2 < fit.r2_fundamental + 1e-6
+    assert fit.r2_beyond < 1e-3
+    assert fit.status is pumpid.Status.UNDETERMINED
+    assert "reproduces only the stroke's fundamental" in fit.reason
+    assert fit.determined["parameters"] == []
+    assert set(fit.determined["not_determined"]) >= {"m", "c", "k"}
+    out = json.loads(fit.to_json())
+    assert math.isclose(out["r2_fundamental"], 100 / 101, rel_tol=1e-9)
+    assert out["r2_beyond_fundamental"] < 1e-3
+    row = fit.to_row()
+    assert math.isclose(row["r2_beyond"], fit.r2_beyond) and "r2_fundamental" in row
+    assert "the stroke's fundamental alone: 0.990099" in fit.report()
+
+
+def test_a_model_that_explains_the_rest_keeps_its_status_and_says_how_much() -> None:
+    card, _truth = spread_card(6)
+    fit = pumpid.fit(pumpid.Kelvin, card)
+    assert fit.status is pumpid.Status.CONVERGED
+    assert fit.r2_fundamental < fit.r2
+    assert fit.r2_beyond > 0.9
+    assert "% of what it leaves" in fit.report()
+
+
+def test_a_sinusoidal_position_leaves_nothing_beyond_its_fundamental_to_judge_by() -> None:
+    # The controller export's positions are one sinusoid to its noise: no model can explain
+    # more than the fundamental there, so the comparison says nothing of the fit.
+    cards = read_cards(Path(__file__).parents[1] / "data" / "cards" / "controller_export.txt")
+    fit = pumpid.fit(pumpid.Kelvin, cards[2])
+    assert fit.r2_fundamental > 1 - 1e-6
+    assert fit.determined["signal_beyond_fundamental"] is False
+    assert "reproduces only the stroke's fundamental" not in fit.reason
+
+
+def test_records_that_are_not_one_period_have_no_fundamental_share() -> None:
+    t = np.linspace(0.0, 20.0, 401)
+    truth = pumpid.Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0)
+    load = 1000.0 + 300.0 * np.sin(2 * np.pi * t / 7.5)
+    d = pumpid.simulate(truth, t, load)
+    fit = pumpid.fit(pumpid.Kelvin, (t, load, d))
+    assert math.isnan(fit.r2_fundamental) and math.isnan(fit.r2_beyond)
+    assert "fundamental" not in fit.report()
