@@ -277,6 +277,23 @@ def test_no_identify_gives_the_diagnostic_only(tmp_path: Path, surface, capsys) 
     assert doc["summary"]["identified"] is None and doc["summary"]["damping"] == 0.05
 
 
+def test_a_negative_intake_pressure_is_said_without_verbose(tmp_path: Path, surface,
+                                                            capsys) -> None:
+    # A light fluid in the well file: the fluid load exceeds its column's, and the intake
+    # pressure comes out below zero. The note that says so was printed only with --verbose,
+    # while the number stood on its own in the default output.
+    light = json.loads(json.dumps(WELL))
+    light["wells"]["W-1"]["fluid"]["specific_gravity"] = 0.2
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    code = main(["downhole", str(cards), "--well", str(write_well(tmp_path / "w.json", light)),
+                 "--spm", str(SPM), "--no-identify", "--card", "card1"])
+    text = capsys.readouterr().out
+    assert code == 0
+    pressure = float(re.search(r"intake pressure (-?[0-9.]+) psi", text).group(1))
+    assert pressure < 0
+    assert "note: the pump intake pressure is negative" in text
+
+
 def test_damping_given_is_held_in_the_identification(tmp_path: Path, surface,
                                                      capsys) -> None:
     cards = write_cards(tmp_path / "cards.csv", surface)

@@ -131,8 +131,8 @@ class _Text:
         notes = list(res.downhole.notes)
         if res.fitted and res.fit is not None:
             notes += list(res.fit.notes)
-        if not self.verbose:  # the one note that changes how the card reads
-            notes = [n for n in notes if "reverse" in n]
+        if not self.verbose:  # the notes that change how the card reads
+            notes = [n for n in notes if any(w in n for w in _ALWAYS_SAID)]
         notes = list(dict.fromkeys(notes))
         for note in notes:
             print(f"  note: {printable(note)}", file=self.stream)
@@ -147,6 +147,12 @@ class _Text:
         if ident:
             said = ", ".join(f"{n} {k}" for k, n in sorted(ident.items()))
             print(f"pump identification: {said}", file=self.stream)
+
+
+#: Words of the notes printed without --verbose: a card read in reverse, and a quantity
+#: beside the card that cannot be physical as it stands (an intake pressure of -830 psi was
+#: printed with its note only under --verbose).
+_ALWAYS_SAID = ("reverse", "intake pressure is negative")
 
 
 class _Json:
