@@ -200,7 +200,26 @@ class TestCsv:
         assert card.time_source == "file" and card.dt == pytest.approx(8.0 / 30, rel=1e-4)
         assert card.position.max() == pytest.approx(120.0, abs=1e-3)
         assert card.source.startswith("stroke_with_time.csv, lines 3-32")
-        assert not card.periodic
+        # One stroke in its own time is one period, as the same stroke with a rate is: it
+        # was fitted from rest, without an offset, to another status.
+        assert card.periodic and card.period == pytest.approx(8.0, rel=1e-4)
+        assert any("one stroke in the file's time" in n for n in card.notes)
+
+    def test_a_stroke_fits_alike_with_its_time_or_its_rate(self, tmp_path):
+        import pumpid
+
+        pos, load = synthetic_stroke(60)
+        dt = 7.5 / 60
+        timed = write(tmp_path, "timed.csv", "\n".join(
+            ["t,position_in,load_lbf"] + [f"{i * dt:.6f},{p},{f}" for i, (p, f)
+                                          in enumerate(zip(pos, load, strict=True))]))
+        rated = write(tmp_path, "rated.csv", "\n".join(
+            ["position_in,load_lbf"] + [f"{p},{f}" for p, f in zip(pos, load, strict=True)]))
+        a = pumpid.fit(pumpid.Kelvin, read_card(timed))
+        b = pumpid.fit(pumpid.Kelvin, read_card(rated, spm=8.0))
+        assert a.initial_state == b.initial_state == "periodic"
+        assert a.status is b.status and "offset" in a.free
+        assert a.cost == pytest.approx(b.cost, rel=1e-6)
 
     def test_card_column_closure_flags_and_spm(self):
         cards = read_cards(DATA / "two_cards_closure.csv")
@@ -241,7 +260,12 @@ class TestCsv:
     def test_time_column_wins_over_spm(self, tmp_path):
         p = write(tmp_path, "c.csv", csv_text())
         card = read_card(p, spm=6.0)
-        assert card.time_source == "file" and card.spm == 6.0 and card.dt == pytest.approx(0.25)
+        assert card.time_source == "file" and card.dt == pytest.approx(0.25)
+        # The rate given is not used, and the card says so (its spm was 6.0 beside a time
+        # axis of another rate); a single stroke's rate is its own, N*dt.
+        assert any("stroke rate 6 SPM (given by the caller) is not used" in n
+                   for n in card.notes)
+        assert card.spm is None or card.spm == pytest.approx(60.0 / (card.n * card.dt))
 
     def test_columns_override_and_disable(self, tmp_path):
         pos, load = synthetic_stroke(25)

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from ._errors import CardError
 from ._plausible import plausibility_warnings
+from ._strokes import split_strokes
 from ._text import iter_lines, normalize_name, number_problem, parse_number
 from ._types import Card
 from ._units import TIME_UNITS, normalize_load_unit, normalize_position_unit, normalize_time_unit
@@ -436,6 +437,12 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     if t is not None:
         time_source = "file"
         notes.append(f"time taken from the file ({raw.t_field})")
+        if spm is not None:
+            # The file's own time wins; a rate beside it is not used (the JSON said "spm":
+            # 5.0, "period": 12.0 beside a fit on the file's 7.07 s).
+            notes.append(f"the stroke rate {fmt(spm)} SPM ({rate_where}) is not used: the "
+                         "card's time comes from the file")
+            spm = period = None
     elif spm is not None and period is not None:
         used = "spm" if raw.spm is not None or o.spm is not None else "period"
         what = f"{fmt(spm)} SPM" if used == "spm" else f"stroke period {fmt(period)} s"
@@ -468,7 +475,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
         ),
     ]
     try:
-        return Card(
+        card = Card(
             position=pos,
             load=load,
             t=t,
@@ -487,3 +494,29 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
         )
     except CardError as exc:  # pragma: no cover - the checks above should catch everything
         raise o.error(f"{label}: {exc.reason}", line=raw.line, field=exc.field) from exc
+    return one_period(card) if time_source == "file" else card
+
+
+def one_period(card: Card) -> Card:
+    """A card whose own time spans a single stroke, uniformly sampled, as one period.
+
+    A dynamometer card is one stroke of a periodic motion, whether its export carries time
+    or only the stroke rate; without this, the same stroke with a time column was fitted as
+    a record from rest, without a position offset (another status and other values), and
+    ``pumpid downhole`` took the same file as one stroke. A record of several strokes (two
+    bottoms of stroke with the rod seen turning around) stays a record.
+    """
+    dt = card.dt
+    if dt is None or card.n < 8:
+        return card
+    try:
+        strokes = split_strokes(card)
+    except CardError:
+        return card
+    if len(strokes) != 1 or strokes[0].n != card.n:
+        return card
+    period = card.n * dt
+    return card.replace(
+        periodic=True, period=period, spm=60.0 / period,
+        note=(f"one stroke in the file's time ({card.n} samples, {fmt(dt)} s apart): "
+              f"treated as one period of a periodic motion, period N*dt = {fmt(period)} s"))
