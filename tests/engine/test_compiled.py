@@ -48,8 +48,8 @@ def test_notice_on_stderr_once_and_not_in_json(tmp_path, monkeypatch, capsys) ->
     out, err = capsys.readouterr()
     json.loads(out)  # stdout stays one JSON document
     assert err.count("compiling the numerical core") == 1
-    low, high = compiled.COLD_MINUTES
-    assert f"{low}-{high} minutes" in err
+    low, high = compiled.COLD_SECONDS
+    assert f"{low}-{high} s on 2 cores" in err
 
 
 @pytest.mark.parametrize("missing", [[], ["drive.items"]])

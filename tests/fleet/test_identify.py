@@ -224,6 +224,8 @@ def test_pump_only_is_kept_on_resume_and_checked(identified, tmp_path: Path) -> 
     (["--pump-only"], "need --well-file"),
     (["--well-file", "WELLS", "--pump-only", "--no-identify"], "--no-identify"),
     (["--well-file", "WELLS", "--pump-only", "--model", "msd"], "lumped fit's options"),
+    # The default model asked for by name was run as if left out.
+    (["--well-file", "WELLS", "--pump-only", "--model", "kelvin"], "lumped fit's options"),
     (["--well-file", "WELLS", "--pump-only", "--observe", "u"], "lumped fit's options"),
 ])
 def test_pump_only_options_refused_with_the_reason(identified, tmp_path: Path, capsys,

@@ -203,7 +203,9 @@ def cmd_batch(args: argparse.Namespace) -> int:
     if downhole is not None and not downhole.lumped:
         from ..fleet.batch import FitSpec
 
-        if fit.to_dict() != FitSpec().to_dict():
+        # --model is asked of itself: at its default value it leaves the spec unchanged,
+        # and "--pump-only --model kelvin" ran as if it had been left out.
+        if fit.to_dict() != FitSpec().to_dict() or args.model is not None:
             raise ValueError("--pump-only fits no lumped model: leave out the lumped fit's "
                              "options (--model, --observe, --x0, ...)")
     mode = "quiet" if args.quiet else args.progress

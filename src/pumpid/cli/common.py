@@ -116,8 +116,8 @@ def compile_notice(stream: TextIO | None = None,
     if not missing:
         return False
     if any(name in compiled.MAIN_JOB for name in missing):
-        low, high = compiled.COLD_MINUTES
-        wait = f"about {low}-{high} minutes"
+        low, high = compiled.COLD_SECONDS
+        wait = f"about {low}-{high} s"
     else:
         low, high = compiled.PUMP_COLD_SECONDS
         wait = f"about {low}-{high} s"

@@ -26,7 +26,7 @@ import numba
 import numpy as np
 from numba.core.compiler_lock import global_compiler_lock
 
-__all__ = ["COLD_MINUTES", "COMPILED_MODULES", "MAIN_JOB", "OPT_LEVELS", "PUMP_COLD_SECONDS",
+__all__ = ["COLD_SECONDS", "COMPILED_MODULES", "MAIN_JOB", "OPT_LEVELS", "PUMP_COLD_SECONDS",
            "PUMP_JOB", "cache_dir",
            "compiling_aside", "copy_into", "jit", "pending_aside", "registered", "uncached",
            "wait_aside"]
@@ -54,12 +54,12 @@ COMPILED_MODULES = (
 #: compiles. (Functions only some fits reach, such as the wider search's, would announce a
 #: compile on every run of the others.)
 MAIN_JOB = ("drive.items",)
-#: What compiling the main job costs on an empty cache (minutes, low and high): the bundled
-#: example's first card comes after 40-41 s on 2 cores (load average about 1.2) and after
-#: about 52 s with one of the two cores busy with another process, the entry point that
+#: What compiling the main job costs on an empty cache (seconds, low and high): the bundled
+#: example's first card comes after 40-45 s on 2 cores (load average about 1.2) and after
+#: about 52-54 s with one of the two cores busy with another process, the entry point that
 #: simulates compiled in a second process at LLVM level 2; the rest of the job compiles
-#: what its later cards reach.
-COLD_MINUTES = (1, 2)
+#: what its later cards reach. (It said "1-2 minutes", twice what a user waits.)
+COLD_SECONDS = (40, 60)
 #: Compiled functions every identification of a pump calls (``pumpid downhole``, ``pumpid
 #: batch --well-file``): the rod string's march. The lumped fit's entry point is not among
 #: them, so a command that identifies pumps alone compiles less, and would otherwise be told
