@@ -20,6 +20,7 @@ import pytest
 from pumpid.fleet.changes import (
     ALERT_COLUMNS,
     available_quantities,
+    card_counts,
     cusum_threshold,
     detect_changes,
     summarise_wells,
@@ -161,9 +162,31 @@ def test_messy_tables_are_handled(tmp_path: Path) -> None:
     # Signed, as the change is (a fall read "[934 standard errors]").
     said = summary["largest_change"].iloc[0]
     assert f"{float(alerts['change_se'].iloc[0]):+.3g} standard errors" in said
-    # a well whose times are partly missing is taken in card order
+    # a well whose times are partly missing keeps its time order: the cards without one
+    # are set aside (counted, not trended)
     table.loc[table.index[table["well_id"] == "W0001"][3], "time"] = pd.NaT
-    assert set(detect_changes(table)["order"]) == {"card order"}
+    assert set(detect_changes(table)["order"]) == {"time"}
+    assert card_counts(table)["undated"] == 1
+
+
+def test_undated_cards_of_a_dated_well_are_set_aside_not_latest() -> None:
+    # 30 dated cards with a step at card 15, then 4 cards of the same well with no time
+    # (another file of the well, exported without dates) at the old level. In the table's
+    # order they came last: one of them was the well's "latest" value and the alarm card,
+    # and the alert's size read a fraction of a standard error.
+    table = results_table(1, 30, cv=0.02, seed=3, steps={0: ("stiffness", 0.7, 15)})
+    old = table.iloc[:4].assign(time=pd.NaT, card_id=[f"X{i}" for i in range(4)])
+    mixed = pd.concat([table, old], ignore_index=True)
+    alerts = detect_changes(mixed)
+    (stiff,) = alerts[alerts["quantity"] == "stiffness"].itertuples()
+    assert stiff.alarm_card_id.startswith("W0000-") and abs(float(stiff.change_se)) > 3
+    summary = summarise_wells(mixed, alerts).set_index("well_id")
+    assert summary.loc["W0000", "latest_stiffness"] == pytest.approx(
+        table["d_stiffness"].iloc[-1])
+    assert card_counts(mixed) == {"cards": 34, "repeats": 0, "wells": 1, "unnamed": 0,
+                                  "undated": 4}
+    # A well whose cards all lack a time keeps the table's order.
+    assert card_counts(table.assign(time=pd.NaT))["undated"] == 0
 
 
 def test_parameters_and_options() -> None:

@@ -141,7 +141,8 @@ def test_cards_without_well_ids_are_counted_not_trended(tmp_path: Path) -> None:
     wells = pd.read_csv(files["wells"])
     assert wells.loc[0, "duplicates"] == 1 and wells.loc[0, "cards"] == 89
     assert wells.loc[0, "tested"] == "not tested (no well id)"
-    assert card_counts(frame) == {"cards": 89, "repeats": 1, "wells": 0, "unnamed": 89}
+    assert card_counts(frame) == {"cards": 89, "repeats": 1, "wells": 0, "unnamed": 89,
+                                  "undated": 0}
     # Nothing of it is trended, and the summary says so beside the quantity.
     assert "stiffness [lbf/in] (no usable value: not trended)" in page
 

@@ -91,7 +91,9 @@ def cmd_report(args: argparse.Namespace) -> int:
     n = card_counts(table)
     alerted = alerts["well_id"].nunique() if len(alerts) else 0
     aside = [*([f"{plural(n['repeats'], 'repeat')} set aside"] if n["repeats"] else []),
-             *([f"{n['unnamed']} without a well id, not trended"] if n["unnamed"] else [])]
+             *([f"{n['unnamed']} without a well id, not trended"] if n["unnamed"] else []),
+             *([f"{n['undated']} without a time in wells with dated cards, not trended"]
+               if n["undated"] else [])]
     print(f"pumpid report: {plural(n['cards'], 'card')} of {plural(n['wells'], 'well')}"
           f"{' (' + '; '.join(aside) + ')' if aside else ''}, "
           f"{plural(len(alerts), 'alert')} in {plural(alerted, 'well')}")

@@ -113,6 +113,7 @@ __all__ = [
     "history_coverage",
     "is_duplicate",
     "is_named",
+    "is_undated_among_dated",
     "load_results",
     "summarise_wells",
 ]
@@ -175,17 +176,32 @@ def is_named(table: pd.DataFrame) -> pd.Series:
     return table["well_id"].astype(str) != UNKNOWN_WELL
 
 
+def is_undated_among_dated(table: pd.DataFrame) -> pd.Series:
+    """Rows without a time in a well whose other cards have one: a time order cannot place
+    them, and the table's order put them last, so that one became the well's latest value
+    and its alarm card (fillage 0.99 shown as latest where the newest dated card said
+    0.66). They are counted, not trended; a well whose cards all lack a time keeps the
+    table's order."""
+    if "time" not in table.columns:
+        return pd.Series(False, index=table.index)
+    undated = pd.to_datetime(table["time"], utc=True).isna()
+    dated_well = (~undated).groupby(table["well_id"].astype(str)).transform("any")
+    return undated & dated_well & is_named(table)
+
+
 def card_counts(table: pd.DataFrame) -> dict[str, int]:
     """What a run's table holds, counted once for every output that says it: ``cards``
-    (repeats set aside), ``repeats``, ``wells`` (named ones) and ``unnamed`` (cards filed
-    under :data:`UNKNOWN_WELL`, not trended)."""
+    (repeats set aside), ``repeats``, ``wells`` (named ones), ``unnamed`` (cards filed
+    under :data:`UNKNOWN_WELL`, not trended) and ``undated`` (cards without a time in a
+    well whose other cards have one, not trended)."""
     table = load_results(table)
     repeats = is_duplicate(table)
     kept = table[~repeats]
     named = is_named(kept)
     return {"cards": len(kept), "repeats": int(repeats.sum()),
             "wells": int(kept.loc[named, "well_id"].nunique()),
-            "unnamed": int((~named).sum())}
+            "unnamed": int((~named).sum()),
+            "undated": int(is_undated_among_dated(kept).sum())}
 
 
 def is_duplicate(table: pd.DataFrame) -> pd.Series:
@@ -273,7 +289,7 @@ def _prepare(frame: pd.DataFrame) -> _Usable:
     # Cards without a well id may come from several wells: one history of them would
     # trend and test a mixture, so they are counted, not trended.
     rows = frame[(frame["status"].isin(USABLE_STATUSES) | pump_usable(frame))
-                 & ~is_duplicate(frame) & is_named(frame)]
+                 & ~is_duplicate(frame) & is_named(frame) & ~is_undated_among_dated(frame)]
     well = rows["well_id"].astype(str).to_numpy()
     if "time" in rows.columns:
         time = pd.to_datetime(rows["time"], utc=True).dt.tz_localize(None)

@@ -45,6 +45,7 @@ from .changes import (
     history_coverage,
     is_duplicate,
     is_named,
+    is_undated_among_dated,
     load_results,
     summarise_wells,
 )
@@ -216,14 +217,20 @@ def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFr
     if times is not None and times.notna().any():
         span = f"{_when(times.min())} to {_when(times.max())}"
     no_well = len(frame) - len(named)
+    undated = int(is_undated_among_dated(named).sum())
     rows = [
         ("wells", count_words(named["well_id"].nunique(), "well")),
         ("cards", count_words(n, "card")),
         *(((f"cards without a well id (filed under {UNKNOWN_WELL}, with any unreadable "
              "input's rows)", count_words(no_well, "card")),)
           if no_well else ()),
-        (f"cards used for trends ({', '.join(USABLE_STATUSES)}, with a well id)",
-         count_words(int(named["status"].isin(USABLE_STATUSES).sum()), "card")),
+        *((("cards without a time in wells whose other cards have one (not trended: a "
+             "time order cannot place them)", count_words(undated, "card")),)
+          if undated else ()),
+        (f"cards used for trends ({', '.join(USABLE_STATUSES)}, with a well id"
+         f"{' and a time where their well has one' if undated else ''})",
+         count_words(int((named["status"].isin(USABLE_STATUSES)
+                          & ~is_undated_among_dated(named)).sum()), "card")),
         *((f"status {st}", f"{count_words(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
           for st in counts.index if counts[st] or st in STATUSES),
         ("cards without a time",
