@@ -403,3 +403,21 @@ def test_an_optimum_the_gates_qualified_is_not_called_not_converged(
     doc = parse(render_html(result.with_parts(status=status), figures=tiny_figures))
     body = " ".join(" ".join(v) for v in doc.text.values())
     assert "NOT converged" not in body and status.key in body
+
+
+def test_fit_quality_sets_r2_beside_the_stroke_s_fundamental(tiny_figures) -> None:
+    from ..conftest import spread_card
+
+    card, _ = spread_card(6)
+    periodic = pumpid.fit(pumpid.Kelvin, card)
+    text = render_html(periodic, figures=tiny_figures)
+    assert_well_formed(parse(text))
+    assert "R² of the stroke&#x27;s fundamental alone" in text or \
+        "R² of the stroke's fundamental alone" in text
+    assert "share of what the fundamental leaves that the model explains" in text
+    # A record from rest is not one period of a card: no such rows.
+    t = np.linspace(0.0, 20.0, 401)
+    load = 1000.0 + 300.0 * np.sin(2 * np.pi * t / 7.5)
+    rest = pumpid.fit(pumpid.Kelvin, (t, load, pumpid.simulate(
+        pumpid.Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0), t, load)))
+    assert "fundamental" not in render_html(rest, figures=tiny_figures)

@@ -338,6 +338,11 @@ def quality_html(result: FitResult) -> str:
     rows = [
         ("RMSE", number(result.rmse), pos),
         ("R²", number(result.r2, 8), "-"),
+        *((("R² of the stroke's fundamental alone (what any load gives)",
+            number(result.r2_fundamental, 8), "-"),
+           ("share of what the fundamental leaves that the model explains",
+            number(result.r2_beyond, 4), "-"))
+          if math.isfinite(result.r2_beyond) else ()),
         ("max |residual|", number(max_abs), pos),
         ("cost ½Σr²", number(result.cost), _param_unit(result, {}, "cost")),
         ("samples", str(result.t.size), "-"),
