@@ -32,8 +32,9 @@ offset's error on the controller cards (not the answers) when an offset the card
 fix (its static stiffness not determined) lost the error it had borrowed from the position
 at the card's mean load: 0.00058-0.00065, now infinite. And the errors of the arrays'
 boundary fit (not the answers) when a boundary fit's errors came to reach the model's
-interior within the noise (k0 back from infinity to 2.54, the truth 4): c1 0.0012 -> 0.080
-and k1 0.0039 -> 1.59, their intervals now holding the truth (0.2 and 4).
+interior within the noise (k0 back from infinity to 2.54, the truth 4), each its reach
+there plus its own error: c1 0.0012 -> 0.081, k1 0.0039 -> 1.59 and m 0.0024 -> 0.0048,
+the intervals of c1 and k1 now holding the truth (0.2 and 4).
 """
 
 from __future__ import annotations

@@ -389,7 +389,10 @@ def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[C
     point one solve on the card's harmonics from the last point within the threshold, the
     point reached then costed exactly); the farthest point within the profile's 95 %
     threshold lies within every value's likelihood-ratio interval, so each other value's
-    error is at least its reach to that point, as for the limits of :func:`_open_limits`.
+    interval spans its intervals along the way: its error is at least its reach to that
+    point plus its own error at the limit. On that short card at rho 0-0.5 the boundary
+    fits' intervals of m then held the truth on 14 of 14 and 20 of 23 (its reach alone: 3
+    and 8).
     """
     out: list[list[OpenLimit]] = [[] for _ in fits]
     names = problem.model.param_names()
@@ -436,8 +439,11 @@ def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[C
             continue
         reach = {b: abs(float(best[r, b] - fits[i].z[b])) for b in nums[i].inner
                  if b < p and b != f}
+        # Each value's interval is the union of its intervals along the way: its reach to
+        # the farthest point plus its own error there (taken as the one at the limit).
         out[i].append(OpenLimit(lim, best[r].copy(), float(tq[i]),
-                                {b: v / float(tq[i]) for b, v in reach.items()},
+                                {b: v / float(tq[i]) + _local_error(nums[i], b)
+                                 for b, v in reach.items()},
                                 interior=True))
     return out
 
