@@ -15,6 +15,15 @@ def _open(fit: pumpid.FitResult, name: str) -> list[str]:
     return [f for f in fit.identifiability if f.startswith(f"{name} is not bounded")]
 
 
+def _refitted(words: str) -> dict[str, float]:
+    """The other values a finding names at its point ("refitted (m 4.55 N*s^2/m, ...)")."""
+    there = {}
+    for part in words.split("refitted (")[1].split(")")[0].split(", "):
+        name, value, _unit = part.split(" ")
+        there[name] = float(value)
+    return there
+
+
 def test_a_limit_within_the_noise_leaves_its_parameter_unbounded() -> None:
     # k0 -> infinity (the mass-spring-dashpot) fits this card within the noise, though the
     # cost's curvature at the answer said k0 = 5889 +- 3.6 % and its interval, 5489-6318,
@@ -28,10 +37,7 @@ def test_a_limit_within_the_noise_leaves_its_parameter_unbounded() -> None:
     assert fit.stderr["k0"] > fit.params["k0"]
     (words,) = _open(fit, "k0")
     assert "k0 -> inf" in words and "95 % noise threshold" in words
-    there = {}
-    for part in words.split("refitted (")[1].split(")")[0].split(", "):
-        name, value, _unit = part.split(" ")
-        there[name] = float(value)
+    there = _refitted(words)
     assert set(there) == {"m", "c1", "k1"}
     for name, value in there.items():
         low, high = fit.ci95[name]
@@ -94,10 +100,7 @@ def test_a_boundary_fit_s_errors_reach_the_interior_within_the_noise(index: int)
     (words,) = _interior(fit, "k0")
     held = float(words.split(" down to ")[1].split(" ")[0])
     assert held < 10 * truth[0]
-    there = {}
-    for part in words.split("refitted (")[1].split(")")[0].split(", "):
-        name, value, _unit = part.split(" ")
-        there[name] = float(value)
+    there = _refitted(words)
     assert set(there) == {"m", "c1", "k1"}
     for name, value in there.items():
         if name not in fit.determined["parameters"]:

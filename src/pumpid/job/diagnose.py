@@ -312,6 +312,18 @@ class OpenLimit:
     interior: bool = False
 
 
+def _items(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
+           rows: Sequence[tuple[int, Limit, int]]
+           ) -> tuple[NDArray[np.int64], NDArray[np.int64], Array, Array, Array]:
+    """The solves of (card position, limit, free index) rows: each row's card position and
+    card, its answer and the search window around it."""
+    owner = np.array([i for i, _lim, _f in rows], dtype=np.int64)
+    on = cards[owner]
+    z0 = np.array([fits[i].z for i in owner])
+    lo, hi = problem.window(on, z0)
+    return owner, on, z0, lo, hi
+
+
 def _open_limits(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
                  nums: Sequence[Numbers], tq: Array, limits: Array,
                  workers: int | None) -> list[list[OpenLimit]]:
@@ -346,10 +358,7 @@ def _open_limits(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Card
                     and lim.reduced is not None)
     if not rows:
         return out
-    owner = np.array([i for i, _lim, _f in rows], dtype=np.int64)
-    on = cards[owner]
-    z0 = np.array([fits[i].z for i in owner])
-    lo, hi = problem.window(on, z0)
+    _owner, on, z0, lo, hi = _items(problem, cards, fits, rows)
     for r, (_i, lim, f) in enumerate(rows):
         edge = hi[r, f] if lim.direction == "infinity" else lo[r, f]
         z0[r, f] = lo[r, f] = hi[r, f] = edge
@@ -408,10 +417,7 @@ def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[C
                 rows.append((i, lim, free.index(names.index(lim.param))))
     if not rows:
         return out
-    owner = np.array([i for i, _lim, _f in rows], dtype=np.int64)
-    on = cards[owner]
-    best = np.array([fits[i].z for i in owner])
-    lo, hi = problem.window(on, best)
+    owner, on, best, lo, hi = _items(problem, cards, fits, rows)
     start = np.array([best[r, f] for r, (_i, _lim, f) in enumerate(rows)])
     far = np.array([lo[r, f] if lim.direction == "infinity" else hi[r, f]
                     for r, (_i, lim, f) in enumerate(rows)])
