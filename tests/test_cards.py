@@ -22,6 +22,7 @@ from pumpid.cards import (
     convert_load,
     convert_position,
     detect_format,
+    loop_work,
     normalize_load_unit,
     normalize_position_unit,
     parse_cards,
@@ -220,6 +221,20 @@ class TestCsv:
         assert a.initial_state == b.initial_state == "periodic"
         assert a.status is b.status and "offset" in a.free
         assert a.cost == pytest.approx(b.cost, rel=1e-6)
+
+    def test_a_loop_turning_backwards_is_warned(self, tmp_path):
+        # A card stored in reverse time order (or its position measured downwards) fitted
+        # as a poor fit with an absurd offset and no word of why.
+        pos, load = synthetic_stroke(60)
+        rows = ["position_in,load_lbf"]
+        forward = write(tmp_path, "f.csv", "\n".join(
+            rows + [f"{p},{f}" for p, f in zip(pos, load, strict=True)]))
+        backward = write(tmp_path, "b.csv", "\n".join(
+            rows + [f"{p},{f}" for p, f in zip(pos[::-1], load[::-1], strict=True)]))
+        said = "loop turns the wrong way for a card in time order"
+        assert not any(said in w for w in read_card(forward, spm=8.0).warnings)
+        assert any(said in w for w in read_card(backward, spm=8.0).warnings)
+        assert loop_work(pos, load) > 0 > loop_work(pos[::-1], load[::-1])
 
     def test_card_column_closure_flags_and_spm(self):
         cards = read_cards(DATA / "two_cards_closure.csv")

@@ -77,3 +77,17 @@ def test_records_that_are_not_one_period_have_no_fundamental_share() -> None:
     fit = pumpid.fit(pumpid.Kelvin, (t, load, d))
     assert math.isnan(fit.r2_fundamental) and math.isnan(fit.r2_beyond)
     assert "fundamental" not in fit.report()
+
+
+def test_a_fit_worse_than_the_fundamental_is_not_said_to_reproduce_it() -> None:
+    # The crank card read backwards in time: the fit is far worse than the fundamental
+    # alone (R^2 0.18 against 0.99 on a real card) and the quality gate speaks for it; the
+    # sentence "R^2 is about the share of the fundamental" would be false there.
+    rng = np.random.default_rng(5)
+    t, _, position = _crank_card(np.zeros(200))
+    w = 2 * np.pi / PERIOD
+    load = 9_000.0 + 2_000.0 * np.tanh(4 * np.sin(w * t)) + 20.0 * rng.standard_normal(200)
+    fit = pumpid.fit(pumpid.Kelvin, (t, load[::-1], position), options=_periodic())
+    assert fit.r2_beyond < -1e-3
+    assert "reproduces only the stroke's fundamental" not in fit.reason
+    assert "better than this fit" in fit.report()

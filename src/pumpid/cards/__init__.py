@@ -97,6 +97,7 @@ a value is flagged only when it is implausible in every unit it could be in.
 """
 
 from ._errors import CardError
+from ._plausible import loop_work
 from ._printable import printable
 from ._readers import (
     FORMATS,
@@ -136,6 +137,7 @@ __all__ = [
     "convert_position",
     "detect_column_roles",
     "detect_format",
+    "loop_work",
     "normalize_load_unit",
     "normalize_position_unit",
     "parse_cards",

@@ -9,6 +9,7 @@ implausible in every unit it could be in.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +26,7 @@ __all__ = [
     "MIN_LOAD_SWING",
     "MIN_STROKE_M",
     "SWAP_CONFIDENCE",
+    "loop_work",
     "plausibility_warnings",
 ]
 
@@ -135,6 +137,27 @@ def _load_checks(label: str, load: NDArray[np.float64], unit: str | None) -> lis
     return out
 
 
+def loop_work(position: NDArray[np.float64], load: NDArray[np.float64]) -> Any:
+    """Signed area of the closed card loop (last axis), load times position step summed.
+
+    Positive when the loop turns as a pumping card does in time: higher loads while the
+    position rises. A float for one card, an array for a batch (units' product).
+    """
+    p = np.asarray(position, dtype=float)
+    f = np.asarray(load, dtype=float)
+    dp = np.roll(p, -1, axis=-1) - p
+    work = np.sum(0.5 * (f + np.roll(f, -1, axis=-1)) * dp, axis=-1)
+    return float(work) if np.ndim(work) == 0 else work
+
+
+def _turns_backwards(position: NDArray[np.float64], load: NDArray[np.float64]) -> bool:
+    """A loop that clearly turns the wrong way for time order: negative work of more than
+    a tenth of the rectangle the stroke and the load's swing span (a flat or tangled card
+    stays unsaid)."""
+    span = float(np.ptp(position)) * float(np.ptp(load))
+    return bool(span > 0 and loop_work(position, load) < -0.1 * span)
+
+
 def plausibility_warnings(
     card_id: str,
     position: NDArray[np.float64],
@@ -171,6 +194,13 @@ def plausibility_warnings(
     with np.errstate(all="ignore"):  # extreme magnitudes are what is being looked for
         out = _position_checks(label, position, position_unit)
         out += _load_checks(label, load, load_unit)
+    if position.size >= 8 and _turns_backwards(position, load):
+        # A card read backwards fits as a poor fit with an absurd offset and no word of why
+        # (pumpid downhole read the same file reversed and said so).
+        out.append(
+            f"{label}: its loop turns the wrong way for a card in time order (higher loads "
+            "while the position falls): stored in reverse time order, or the position "
+            "measured downwards? It is fitted as given")
     if check_swap and position.size >= 8:
         try:
             roles = detect_column_roles([position, load])

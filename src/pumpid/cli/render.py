@@ -105,8 +105,12 @@ def _id(row: Row) -> str:
 
 def _quality(res: FitResult) -> str:
     beyond = res.r2_beyond
-    tail = (f" (fundamental alone {fmt(res.r2_fundamental, 6)}: explains "
-            f"{100 * max(beyond, 0.0):.1f} % of the rest)" if math.isfinite(beyond) else "")
+    tail = ""
+    if math.isfinite(beyond):
+        tail = (f" (fundamental alone {fmt(res.r2_fundamental, 6)}: better than this fit)"
+                if beyond < -1e-3 else
+                f" (fundamental alone {fmt(res.r2_fundamental, 6)}: explains "
+                f"{100 * max(beyond, 0.0):.1f} % of the rest)")
     return (f"R^2 = {fmt(res.r2, 6)}{tail}, RMSE = {fmt(res.rmse, 4)} "
             f"{unit_text(res.units.position)}")
 

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from ..engine import drive
 from ..engine.problem import Problem
-from ..inference.echo import FUNDAMENTAL_ONLY, fundamental_share
+from ..inference.echo import FUNDAMENTAL_ONLY, FUNDAMENTAL_WORSE, fundamental_share
 from ..models import Model, model_class
 from ..result import BoundaryInfo, FitResult, Status, Units
 from .options import JobOptions
@@ -39,7 +39,7 @@ def determination_gate(res: FitResult) -> FitResult:
     if res.status not in (Status.CONVERGED, Status.BOUNDARY) or res.uncertainty is None:
         return res
     only = bool(res.determined.get("signal_beyond_fundamental")) \
-        and res.r2_beyond < FUNDAMENTAL_ONLY
+        and FUNDAMENTAL_WORSE < res.r2_beyond < FUNDAMENTAL_ONLY
     none = not any(n in res.params for n in res.determined.get("parameters", ()))
     if not (only or none):
         return res

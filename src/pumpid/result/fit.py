@@ -34,6 +34,9 @@ def beyond_text(result: FitResult) -> str:
     beyond = result.r2_beyond
     if not math.isfinite(beyond):
         return ""
+    if beyond < -1e-3:
+        return (f" (the stroke's fundamental alone: {fmt(result.r2_fundamental, 6)}, "
+                "better than this fit)")
     return (f" (the stroke's fundamental alone: {fmt(result.r2_fundamental, 6)}; the model "
             f"explains {100 * max(beyond, 0.0):.1f} % of what it leaves)")
 

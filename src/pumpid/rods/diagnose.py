@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..cards import LOAD_UNITS, POSITION_UNITS, Card
+from ..cards import LOAD_UNITS, POSITION_UNITS, Card, loop_work
 from .fd import fd_diagnostic
 from .fourier import StringArrays, fourier_diagnostic, harmonic_count
 from .quantities import PumpMeasure, measure_pump_cards
@@ -184,19 +184,6 @@ def quantity_units(well: Well, card: Card) -> dict[str, tuple[str, float]]:
             "fillage": ("fraction", 1.0), "upper_load_line": load, "lower_load_line": load,
             "displacement": _FLOW_UNITS[well.system],
             "intake_pressure": _PRESSURE_UNITS[well.system]}
-
-
-def loop_work(position: Array, load: Array) -> Any:
-    """Signed area of the closed card loop (last axis), load times position step summed.
-
-    Positive when the loop turns as a pumping card does in time: higher loads while the
-    position rises. A float for one card, an array for a batch (units' product).
-    """
-    p = np.asarray(position, dtype=float)
-    f = np.asarray(load, dtype=float)
-    dp = np.roll(p, -1, axis=-1) - p
-    work = np.sum(0.5 * (f + np.roll(f, -1, axis=-1)) * dp, axis=-1)
-    return float(work) if np.ndim(work) == 0 else work
 
 
 def _upward_passes(position: Array) -> int:
