@@ -250,3 +250,17 @@ def test_pumps_asked_for_and_not_identified_are_not_a_complete_run(tmp_path: Pat
                                   *FIT, "--well-file", str(wells), "--quiet",
                                   "--well-id", "P001"])
     assert "pump invalid-input" not in text and code != SOME_NOT_FITTED, text
+
+
+def test_an_out_that_is_a_file_exits_4_as_for_pumpid_fit(tmp_path: Path, capsys) -> None:
+    # pumpid fit --out FILE exits 4 (an output that cannot be written); pumpid batch exited 2.
+    example = Path(pumpid.__path__[0]) / "data" / "example_cards.csv"
+    target = tmp_path / "afile"
+    target.write_text("")
+    code, _, err = _run(capsys, ["batch", str(example), "--out", str(target), *FIT, "--quiet"])
+    assert code == 4 and "is not an empty folder" in err
+    folder = tmp_path / "other"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+    code, _, _ = _run(capsys, ["batch", str(example), "--out", str(folder), *FIT, "--quiet"])
+    assert code == 2

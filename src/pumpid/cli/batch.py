@@ -25,6 +25,7 @@ from ..report.output import OutputError
 from .common import (
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
+    EXIT_OUTPUT,
     EXIT_USAGE,
     CliError,
     add_fit_options,
@@ -185,7 +186,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     0 every card fitted; 2 bad options or a refused results folder, or no card could be
     fitted (every one invalid); 3 some cards failed or were invalid; 4 ``--csv`` cannot be
-    written; 5 every card fitted, some poorly; 130 interrupted; 1 the engine failed.
+    written, or ``--out`` is a file; 5 every card fitted, some poorly; 6 some undetermined;
+    130 interrupted; 1 the engine failed.
     """
     from ..fleet.batch import run_batch
     from ..fleet.engines import EngineError
@@ -219,7 +221,9 @@ def cmd_batch(args: argparse.Namespace) -> int:
     except ResultsFolderError as exc:
         # Its differences are a list, one per line: printed as lines, not as escapes.
         err_block(f"error: {exc}")
-        return EXIT_USAGE
+        # A file where the folder goes cannot be written, as for pumpid fit --out (4); a
+        # folder of another run or of other files is refused (2).
+        return EXIT_OUTPUT if Path(args.out).is_file() else EXIT_USAGE
     except EngineError as exc:
         print(f"pumpid: error: {exc}", file=sys.stderr)
         print("pumpid: the partitions written so far are kept; continue with --resume",
