@@ -367,3 +367,18 @@ def test_an_identification_that_breaks_does_not_stop_the_run(tmp_path: Path, sur
         assert got["identification"]["status"] == "failed"
         assert "simulated defect" in got["identification"]["reason"]
         assert "default rule" in got["damping"]["rule"] and got["damping"]["value"] == 0.05
+
+
+def test_true_loads_say_why_the_pump_cards_are_not_compared(tmp_path: Path, surface,
+                                                            capsys) -> None:
+    # Every other mode prints the fitted-against-diagnostic comparison; with true loads it
+    # was missing without a word.
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    well = str(write_well(tmp_path / "w.json"))
+    code = main(["downhole", str(cards), "--well", well, "--spm", str(SPM), "--card", "card1",
+                 "--convention", "true"])
+    text = capsys.readouterr().out
+    assert code == 0 and "pump cards not compared: the diagnostic card is in true loads" in text
+    code = main(["downhole", str(cards), "--well", well, "--spm", str(SPM), "--card", "card1"])
+    text = capsys.readouterr().out
+    assert code == 0 and "fitted and diagnostic pump cards differ by RMS" in text

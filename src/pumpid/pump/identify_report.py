@@ -259,6 +259,12 @@ class DownholeCard:
             lines.append(f"  fitted and diagnostic pump cards differ by RMS "
                          f"{100 * self.fit.agreement:.2f} % of the load range"
                          + _solvers(self.fit.consistency))
+        elif (self.identified and self.downhole is not None and self.downhole.ok
+              and self.downhole.convention != "effective"):
+            # Every other mode prints the comparison: its absence needs its reason.
+            lines.append("  fitted and diagnostic pump cards not compared: the diagnostic "
+                         f"card is in {self.downhole.convention} loads, the fitted one in "
+                         "effective loads")
         return lines
 
 
