@@ -392,7 +392,7 @@ def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[C
     parameter at its limit. But the limit is accepted because it fits as well, not because
     the model's interior fits worse: with k0 -> infinity accepted on a 30-sample Kelvin card
     whose true k0 is 400 (k1 = 80), c1 came out 26.1 +- 0.9 against a true 40, and the
-    interval held the truth on 2-9 of 27 boundary fits per setting of
+    interval held the truth on 2-6 of 27 boundary fits per setting of
     ``stat_coverage.py``'s short card. Here the parameter is held at points from the
     limit toward the search window's far end (bisection, ``INTERIOR_STEPS`` halvings; each
     point one solve on the card's harmonics from the last point within the threshold, the
