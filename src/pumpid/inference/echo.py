@@ -42,8 +42,8 @@ ECHO_HARMONICS = 1
 ECHO_BAND = 0.25
 #: A fit that explains less than this share of what the stroke's fundamental leaves of the
 #: position reproduces the fundamental alone, which any load gives (:func:`fundamental_share`).
-#: On the public real cards such fits explain exactly none of it (to 1e-4), while every
-#: fit that explains something explains at least 1.5 % of it.
+#: Of 149 public real cards' Kelvin fits, 63 explain at most 0.07 % of it (all of them
+#: already undetermined by their errors, or poor), the next 0.13 % and the median 4 %.
 FUNDAMENTAL_ONLY = 1e-3
 #: ... and no worse than it by more than this share: a fit far worse than the fundamental
 #: alone (a card read backwards: R^2 0.18 against the fundamental's 0.99) does not
