@@ -133,7 +133,8 @@ def test_sigint_finishes_in_flight_then_resume_equals_uninterrupted(field, refer
     proc = _batch_process([str(field[0]), "--out", str(out), *FIT, *PARTS])
     stdout, stderr = _stop_part_way(out, proc, signal.SIGINT)
     assert proc.returncode == 130, stderr
-    assert "pumpid batch: interrupted" in stdout and "--resume" in stdout
+    assert "pumpid batch: interrupted" in stdout
+    assert f"continue with: pumpid batch --resume --out {out}" in stdout
     assert "Traceback" not in stderr
     with pytest.warns(UserWarning, match="not complete"):
         partial = pumpid.read_results(out)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import heapq
 import math
 import re
+import shlex
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -150,8 +151,10 @@ class BatchSummary:
                  f"({self.fitted} fitted in this run in {self.elapsed:.1f} s, "
                  f"{self.rate():.1f} cards/s end to end; {self.skipped} from an earlier run)"]
         if self.interrupted:
+            # The folder itself, quoted for a shell: "--out RESULTS" was printed as is.
             lines.append(f"  partitions dropped at the interrupt: {self.discarded}; "
-                         "continue with: pumpid batch --resume --out RESULTS")
+                         "continue with: pumpid batch --resume --out "
+                         f"{printable(shlex.quote(str(self.results)))}")
         statuses = sorted(self.statuses.items(), key=lambda x: -x[1])
         lines.append(f"  cards per status{' (the pump identified)' if self.pump_only else ''}: "
                      + (", ".join(f"{printable(str(s))} {n}" for s, n in statuses) or "none"))
