@@ -8,10 +8,11 @@ Method
 For each well and each quantity (by default every derived quantity ``d_NAME`` of the
 table; model parameters ``p_NAME`` on request), the cards whose fit is usable (status
 ``converged``, ``boundary`` or ``poor-fit``), whose value is finite and, where the table
-says so, determined by the data, are put in time order (in the table's card order when a
-card of the well has no time). The analysis scale is the logarithm when every value is
-positive, so that a change is relative and a constant coefficient of variation is a
-constant noise level; otherwise the values themselves.
+says so, determined by the data, are put in time order (in the table's card order when no
+card of the well has a time; a card without a time in a well whose other cards have one is
+counted and set aside, :func:`is_undated_among_dated`). The analysis scale is the
+logarithm when every value is positive, so that a change is relative and a constant
+coefficient of variation is a constant noise level; otherwise the values themselves.
 
 1. **Reference.** The first ``min_cards`` cards of a segment set its level and noise: the
    level is their median ``m``; the card-to-card scatter is ``sigma = 1.4826 MAD(diff) /
@@ -283,8 +284,9 @@ class _Usable:
 
 
 def _prepare(frame: pd.DataFrame) -> _Usable:
-    """Usable rows, sorted by well, then by time, or by table order for a well with any
-    card whose time is unknown (a time order cannot place such a card)."""
+    """Usable rows, sorted by well, then by time, or by table order for a well none of
+    whose cards has a time (an undated card of a dated well is set aside:
+    :func:`is_undated_among_dated`)."""
     # A card's pump quantities count when its downhole card was computed, whatever its fit.
     # Cards without a well id may come from several wells: one history of them would
     # trend and test a mixture, so they are counted, not trended.
