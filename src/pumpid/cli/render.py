@@ -34,6 +34,7 @@ from ..cards import Card, printable
 from ..inference.serial import widening
 from ..report.units import model_param_units, unit_text
 from ..result import FitResult, Prediction, jsonable, model_choice_text
+from ..result.fit import fundamental_better
 from .common import fmt, plural
 
 __all__ = ["JsonPrinter", "LinePrinter", "Row", "RunInfo", "TextPrinter", "first_sentence"]
@@ -108,7 +109,7 @@ def _quality(res: FitResult) -> str:
     tail = ""
     if math.isfinite(beyond):
         tail = (f" (fundamental alone {fmt(res.r2_fundamental, 6)}: better than this fit)"
-                if beyond < -1e-3 else
+                if fundamental_better(res) else
                 f" (fundamental alone {fmt(res.r2_fundamental, 6)}: explains "
                 f"{100 * max(beyond, 0.0):.1f} % of the rest)")
     return (f"R^2 = {fmt(res.r2, 6)}{tail}, RMSE = {fmt(res.rmse, 4)} "

@@ -217,7 +217,8 @@ def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFr
     if times is not None and times.notna().any():
         span = f"{_when(times.min())} to {_when(times.max())}"
     no_well = len(frame) - len(named)
-    undated = int(is_undated_among_dated(named).sum())
+    undated_rows = is_undated_among_dated(named)
+    undated = int(undated_rows.sum())
     rows = [
         ("wells", count_words(named["well_id"].nunique(), "well")),
         ("cards", count_words(n, "card")),
@@ -229,8 +230,8 @@ def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFr
           if undated else ()),
         (f"cards used for trends ({', '.join(USABLE_STATUSES)}, with a well id"
          f"{' and a time where their well has one' if undated else ''})",
-         count_words(int((named["status"].isin(USABLE_STATUSES)
-                          & ~is_undated_among_dated(named)).sum()), "card")),
+         count_words(int((named["status"].isin(USABLE_STATUSES) & ~undated_rows).sum()),
+                     "card")),
         *((f"status {st}", f"{count_words(counts[st], 'card')} ({counts[st] / max(n, 1):.1%})")
           for st in counts.index if counts[st] or st in STATUSES),
         ("cards without a time",

@@ -23,9 +23,16 @@ from .uncertainty import Uncertainty
 if TYPE_CHECKING:
     from ..engine.problem import Problem
 
-__all__ = ["FitResult", "beyond_text", "derived_text", "diagnostics_text", "format_report"]
+__all__ = ["FitResult", "beyond_text", "derived_text", "diagnostics_text", "format_report",
+           "fundamental_better"]
 
 Array = NDArray[np.float64]
+
+
+def fundamental_better(result: FitResult) -> bool:
+    """Whether the stroke's fundamental alone fits the card better than the model (by more
+    than rounding of the share): every output then says so instead of a share of 0 %."""
+    return result.r2_beyond < -1e-3
 
 
 def beyond_text(result: FitResult) -> str:
@@ -34,7 +41,7 @@ def beyond_text(result: FitResult) -> str:
     beyond = result.r2_beyond
     if not math.isfinite(beyond):
         return ""
-    if beyond < -1e-3:
+    if fundamental_better(result):
         return (f" (the stroke's fundamental alone: {fmt(result.r2_fundamental, 6)}, "
                 "better than this fit)")
     return (f" (the stroke's fundamental alone: {fmt(result.r2_fundamental, 6)}; the model "
