@@ -3,12 +3,20 @@ simulated false-alarm rate; shorter ones are named as not tested."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+import pandas as pd
 import pytest
 import scipy.stats
 
 from pumpid.fleet.changes import detect_changes, history_coverage
-from pumpid.fleet.thresholds import two_segment_statistic, two_segment_threshold
+from pumpid.fleet.thresholds import (
+    drift_statistic,
+    drift_threshold,
+    two_segment_statistic,
+    two_segment_threshold,
+)
 
 from .test_changes import results_table
 
@@ -47,7 +55,7 @@ def test_steady_short_wells_alert_at_the_simulated_rate(n_cards: int, n_wells: i
     # threshold is simulated for; a steady well alerts with probability at most 1 %.
     table = results_table(n_wells, n_cards, cv=0.04, seed=n_cards, outliers=0.01)
     alerts = detect_changes(table, false_alarm=0.01)
-    assert set(alerts["method"]) <= {"two-segment"}
+    assert set(alerts["method"]) <= {"two-segment", "drift"}
     # at most the binomial's 99.9th percentile at 1 % (27 of 1500, 11 of 400)
     assert alerts["well_id"].nunique() <= scipy.stats.binom.ppf(0.999, n_wells, 0.01)
 
@@ -83,3 +91,62 @@ def test_the_report_says_which_wells_were_tested(tmp_path) -> None:
             "<td>2 wells: W0010, W0011") in page
     wells = files["wells"].read_text(encoding="utf-8")
     assert "too short" in wells and "two-segment" in wells
+
+
+def _declining_fillage(cv: float = 0.003) -> pd.DataFrame:
+    # 3 wells x 14 daily cards; W0001's fillage-like quantity falls steadily from 0.99 to
+    # 0.61 (card-to-card scatter 0.3 %, fits' errors 0.1 %): a pump starting to pound.
+    table = results_table(3, 14, cv=cv, seed=21)
+    mine = (table["well_id"] == "W0001").to_numpy()
+    rng = np.random.default_rng(8)
+    table.loc[mine, "d_stiffness"] = np.linspace(0.99, 0.61, 14) * np.exp(
+        cv * rng.standard_normal(14))
+    table.loc[mine, "d_stiffness_se"] = 0.001
+    return table
+
+
+def test_a_steady_decline_alerts_as_a_drift() -> None:
+    alerts = detect_changes(_declining_fillage(), ["stiffness"])
+    mine = alerts[alerts["well_id"] == "W0001"]
+    assert len(mine) == 1, alerts
+    row = mine.iloc[0]
+    assert row["method"] == "drift" and row["direction"] == "down"
+    assert row["alarm_index"] == 13 and 5 <= row["first_index"] <= 8
+    assert row["before"] > 0.8 and row["after"] < 0.75
+    assert set(alerts["well_id"]) == {"W0001"}
+
+
+def test_the_two_segment_statistic_cannot_see_a_straight_line() -> None:
+    # Why the drift test exists: on an exact line the two-segment statistic does not grow
+    # with the slope (the scatter within the segments grows with it); the drift test's does.
+    x = np.arange(14, dtype=float)
+    gentle, steep = 0.001 * x, 0.1 * x
+    step_stats = [two_segment_statistic(y, 1e-4)[0][0] for y in (gentle, steep)]
+    assert step_stats[0] == pytest.approx(step_stats[1], rel=1e-9)
+    # below the threshold of the pump field's nine quantities, however steep
+    assert step_stats[1] < two_segment_threshold(14, alpha=0.01 / 9)
+    drift = [drift_statistic(y, 1e-4) for y in (gentle, steep)]
+    assert drift[1][0][0] == pytest.approx(100 * drift[0][0][0], rel=1e-9)
+    assert drift[1][1][0] == pytest.approx(0.1) and drift[0][0][0] > drift_threshold(14)
+
+
+def test_one_wild_card_is_not_a_drift() -> None:
+    rng = np.random.default_rng(4)
+    y = 0.01 * rng.standard_normal(10)
+    y[-1] += 0.12  # the last card 12 noise scales off
+    y[0] -= 0.12
+    stat, slope, _ = drift_statistic(y)
+    assert abs(slope[0]) < 0.005 and stat[0] < drift_threshold(10, alpha=0.01)
+
+
+def test_the_report_says_a_drift(tmp_path: Path, capsys) -> None:
+    from pumpid.cli import main
+
+    _declining_fillage().to_parquet(tmp_path / "results.parquet")
+    assert main(["report", str(tmp_path / "results.parquet"), "--out",
+                 str(tmp_path / "fleet")]) == 0
+    out = capsys.readouterr().out
+    assert "1 alert in 1 well" in out
+    assert "W0001: stiffness" in out and "(a steady drift over the history)" in out
+    page = (tmp_path / "fleet" / "report.html").read_text(encoding="utf-8")
+    assert "down (steady drift)" in page

@@ -100,7 +100,8 @@ def cmd_report(args: argparse.Namespace) -> int:
     for _, a in alerts.iterrows():
         print(f"  well {printable(str(a['well_id']))}: {a['quantity']} {a['before']:.4g} -> "
               f"{a['after']:.4g} {a['unit']} ({a['change_rel']:+.1%}, {a['change_se']:.3g} "
-              f"standard errors) from card {printable(str(a['first_card_id']))}")
+              f"standard errors) from card {printable(str(a['first_card_id']))}"
+              f"{' (a steady drift over the history)' if a['method'] == 'drift' else ''}")
     print(f"report: {printable(str(paths['report']))}")
     print(f"alerts: {printable(str(paths['alerts']))}; wells: {printable(str(paths['wells']))}")
     return 0

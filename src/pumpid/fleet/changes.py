@@ -60,16 +60,27 @@ has no room for a reference window; it is tested as a whole by the **two-segment
 (:func:`pumpid.fleet.thresholds.two_segment_statistic`): for every split into two runs of
 at least 3 cards, the difference of their medians over its standard error, the scale being
 the cards' scatter about their own run's median (never below the median of the fits'
-standard errors); the largest over the splits is compared with its ``1 - alpha`` quantile
-simulated for that very length under the same steady noise as the CUSUM's
-(:func:`pumpid.fleet.thresholds.two_segment_threshold`, same Bonferroni ``alpha``). The
-maximising split is the change's first card; the alarm card is the history's last. At most
-one change per short history; a change in its first or last two cards cannot be told from
-an outlier and is not reported. ``benchmarks/bench_changes.py`` measures its false-alarm
-rate and power.
+standard errors); the largest over the splits is compared with its ``1 - alpha / 2``
+quantile simulated for that very length under the same steady noise as the CUSUM's
+(:func:`pumpid.fleet.thresholds.two_segment_threshold`). Beside it, the **drift test**
+(:func:`pumpid.fleet.thresholds.drift_statistic`): the history's Theil-Sen slope over its
+standard error, the scale being the cards' scatter about that line, compared with its own
+simulated ``1 - alpha / 2`` quantile (:func:`pumpid.fleet.thresholds.drift_threshold`).
+A level falling steadily over the history widens the two-segment test's scatter as much as
+it parts its medians: on a straight decline of 14 cards that test's statistic is 5.2
+however steep the fall, below its threshold of 5.6 when a pump field's nine quantities
+share the false-alarm probability (a pump's fillage falling from 0.99 to 0.61 over 14
+daily cards went unreported). Where both
+alert, the one further beyond its threshold names the change (``method`` ``"two-segment"``
+or ``"drift"``). The maximising split of the two-segment statistic is the change's first
+card (for a drift, the card that best parts its two halves) and ``before`` / ``after`` the
+medians either side; the alarm card is the history's last. At most one change per short
+history; a step in its first or last two cards cannot be told from an outlier and is not
+reported. ``benchmarks/bench_changes.py`` measures the false-alarm rate and power.
 
 Assumptions: levels are piecewise constant between changes with independent card-to-card
-noise; a slow drift shows as a late alert, or several alerts in the same direction. The
+noise; in a long history a slow drift shows as a late alert, or several alerts in the same
+direction (a short one has the drift test). The
 first ``min_cards`` cards of a segment (the reference) cannot themselves hold a change
 (two changes closer than ``min_cards`` cards are seen as one); a history shorter than
 ``min_short_cards`` usable cards is not tested (:func:`history_coverage` says which).
@@ -416,8 +427,9 @@ def detect_changes(
         on the log scale, in ``unit`` otherwise), ``first_index``/``alarm_index``
         (positions among the well's usable cards of that quantity), ``delay_cards``,
         ``n_before``/``n_after`` (cards in the segments), ``threshold`` (``h``, in noise
-        scales) and ``order`` (``"time"`` or ``"card order"``), ``method`` (``"cusum"`` or
-        ``"two-segment"``). Sorted by well, quantity and first card.
+        scales) and ``order`` (``"time"`` or ``"card order"``), ``method`` (``"cusum"``,
+        ``"two-segment"`` or ``"drift"``: a short history's steady rise or fall). Sorted by
+        well, quantity and first card.
 
     Raises
     ------
@@ -507,7 +519,7 @@ def _series_alerts(
             "noise": ch.noise, "first_index": ch.first, "alarm_index": ch.alarm,
             "delay_cards": ch.alarm - ch.first, "n_before": int(seg_b.size),
             "n_after": int(seg_a.size), "threshold": ch.threshold, "order": order,
-            "method": method,
+            "method": "drift" if ch.drift else method,
         })  # fmt: skip
     return out
 

@@ -1,10 +1,11 @@
 """The change detectors on one series: a well's values of one quantity, in time order.
 
 :func:`scan_cusum` (histories longer than the reference window) and
-:func:`scan_two_segments` (short histories) return the changes they find as :class:`Change`
-records (indices into the series); :mod:`pumpid.fleet.changes` applies them to every well
-and quantity of a results table and describes the method. Values are on the analysis scale
-(logarithms of positive quantities), with each card's standard error on that scale.
+:func:`scan_two_segments` (short histories: a step or a steady drift) return the changes
+they find as :class:`Change` records (indices into the series);
+:mod:`pumpid.fleet.changes` applies them to every well and quantity of a results table and
+describes the method. Values are on the analysis scale (logarithms of positive quantities),
+with each card's standard error on that scale.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from .thresholds import (
     MAD_TO_SD,
     cusum_paths,
     cusum_threshold,
+    drift_statistic,
+    drift_threshold,
     reference_phases,
     two_segment_statistic,
     two_segment_threshold,
@@ -38,13 +41,18 @@ def robust_sigma(y: NDArray[np.float64]) -> float:
 
 @dataclass(frozen=True)
 class Change:
-    """One detected change within a series (indices into the series)."""
+    """One detected change within a series (indices into the series).
+
+    ``drift``: found by a short history's drift test (a steady rise or fall over the
+    history); ``first`` is then the split that best parts its two halves.
+    """
 
     first: int
     alarm: int
     direction: str
     threshold: float
     noise: float
+    drift: bool = False
 
 
 def best_split(y: NDArray[np.float64], wgt: NDArray[np.float64], lo: int, hi: int,
@@ -149,21 +157,34 @@ def scan_cusum(
 
 def scan_two_segments(y: NDArray[np.float64], se: NDArray[np.float64], *, alpha: float,
                   tail_dof: float, outlier_fraction: float) -> list[Change]:
-    """The change of a short history (at most one), by the two-segment test.
+    """The change of a short history (at most one): a step by the two-segment test, or a
+    steady drift by the drift test, each at half of ``alpha``.
 
-    The whole history is tested at once, so the alarm is its last card. The scale is never
-    below the median of the fits' standard errors; with neither scatter nor errors the
-    history is not tested.
+    The whole history is tested at once, so the alarm is its last card. Where both tests
+    alert, the one further beyond its threshold names the change (a step parts two
+    segments' medians more than a line explains it, a drift the other way round). Scales
+    are never below the median of the fits' standard errors; with neither scatter nor
+    errors the history is not tested.
     """
     finite = np.isfinite(se)
     floor = float(np.median(se[finite])) if finite.any() else 0.0
     stat, split, scale = two_segment_statistic(y, floor)
     if not (math.isfinite(float(stat[0])) and scale[0] > 0):
         return []
-    h = two_segment_threshold(y.size, alpha=alpha, tail_dof=tail_dof,
+    # A straight decline widens the two-segment test's scatter as much as it parts the
+    # medians (its statistic is 5.2 at 14 cards however steep the fall), so a drift needs
+    # a test of its own; the two share alpha (Bonferroni).
+    h = two_segment_threshold(y.size, alpha=alpha / 2, tail_dof=tail_dof,
                               outlier_fraction=outlier_fraction)
-    if not stat[0] > h:
-        return []
+    t_drift, slope, d_scale = drift_statistic(y, floor)
+    h_drift = drift_threshold(y.size, alpha=alpha / 2, tail_dof=tail_dof,
+                              outlier_fraction=outlier_fraction)
+    step_beyond, drift_beyond = float(stat[0]) / h, float(t_drift[0]) / h_drift
     k = int(split[0])
+    if drift_beyond > 1.0 and drift_beyond > step_beyond and d_scale[0] > 0:
+        return [Change(k, y.size - 1, "up" if slope[0] > 0 else "down", h_drift,
+                       float(d_scale[0]), drift=True)]
+    if not step_beyond > 1.0:
+        return []
     rising = bool(np.median(y[k:]) > np.median(y[:k]))
     return [Change(k, y.size - 1, "up" if rising else "down", h, float(scale[0]))]

@@ -276,7 +276,8 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
             f"{a['alarm_card_id']} ({count_words(a['delay_cards'], 'card')} later)",
             f"{_with_unit(a['before'], unit)} → {_with_unit(a['after'], unit)}",
             f"{_with_unit(a['change'], unit)} ({float(a['change_rel']):+.1%})",
-            _num(a["change_se"], 3), str(a["direction"]),
+            _num(a["change_se"], 3),
+            f"{a['direction']} (steady drift)" if a["method"] == "drift" else str(a["direction"]),
             f"{int(a['n_before'])} / {int(a['n_after'])}",
         ])  # fmt: skip
         classes.append("alert")

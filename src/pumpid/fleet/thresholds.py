@@ -17,6 +17,11 @@ the false-alarm probability above ``alpha``. Seeds are fixed and results cached.
     The two-segment test of short histories (:func:`two_segment_statistic`): the largest
     difference of medians over the splits into two segments of at least 3 cards, in units
     of the within-segment scatter.
+``drift_threshold``
+    The drift test of short histories (:func:`drift_statistic`): the robust slope of the
+    whole history over its standard error. A level falling steadily widens the scatter
+    within the two-segment test's segments as much as it parts their medians, so that
+    test's statistic on a straight decline does not grow with its steepness.
 """
 
 from __future__ import annotations
@@ -34,6 +39,8 @@ __all__ = [
     "MIN_SEGMENT",
     "cusum_paths",
     "cusum_threshold",
+    "drift_statistic",
+    "drift_threshold",
     "reference_phases",
     "steady_noise",
     "two_segment_statistic",
@@ -310,3 +317,111 @@ def _two_segment(n: int, alpha: float, dof: float, out_frac: float, reps: int,
         e = steady_noise(rng, (min(chunk, reps - first), n), dof, out_frac)
         stats.append(two_segment_statistic(e)[0])
     return upper_quantile(np.concatenate(stats), alpha)
+
+
+def drift_statistic(
+    y: NDArray[np.float64], scale_floor: float | NDArray[np.float64] = 0.0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The drift test's statistic of short histories, for each row of ``y``.
+
+    The Theil-Sen slope ``b`` per card (the median of the slopes between every two cards:
+    up to 29 % of wild cards cannot carry it), the line through the median of
+    ``y - b i``, the scatter ``s`` of the cards about that line (``sqrt(pi/2)`` times the
+    mean absolute residual over ``n - 2`` residuals, never below ``scale_floor``), and the
+    statistic ``|b| / (s / sqrt(sum (i - mean i)^2))``, the slope over its standard error.
+
+    Parameters
+    ----------
+    y : array (n,) or (r, n)
+        Histories on the analysis scale, in card order, ``n >= 2 * MIN_SEGMENT``.
+    scale_floor : float or array (r,)
+        Smallest scale (the fits' own standard error).
+
+    Returns
+    -------
+    statistic : array (r,)
+        ``|b|`` over its standard error (0 where there is neither slope nor scatter).
+    slope : array (r,)
+        ``b``, per card.
+    scale : array (r,)
+        ``s``.
+    """
+    y2 = np.atleast_2d(np.asarray(y, dtype=float))
+    r, n = y2.shape
+    if n < 2 * MIN_SEGMENT:
+        raise ValueError(f"the drift test needs {2 * MIN_SEGMENT} cards, got {n}")
+    floor = np.broadcast_to(np.asarray(scale_floor, dtype=float), (r,))
+    i, j = np.triu_indices(n, 1)
+    slope = _row_median((y2[:, j] - y2[:, i]) * (1.0 / (j - i)))
+    x = np.arange(n, dtype=float)
+    level = np.median(y2 - slope[:, None] * x, axis=1)
+    resid = np.abs(y2 - level[:, None] - slope[:, None] * x).sum(axis=1)
+    scale = np.maximum(math.sqrt(math.pi / 2.0) * resid / (n - 2), floor)
+    spread = math.sqrt(float(np.sum((x - x.mean()) ** 2)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        stat = np.abs(slope) * spread / scale
+    return np.where(np.isnan(stat), 0.0, stat), slope, scale
+
+
+def drift_threshold(
+    n_cards: int,
+    *,
+    alpha: float = 0.01,
+    tail_dof: float = 5.0,
+    outlier_fraction: float = 0.01,
+    replicates: int | None = None,
+    seed: int = 20261129,
+) -> float:
+    """The drift test's threshold: false-alarm probability ``alpha`` on a steady history
+    of ``n_cards`` cards.
+
+    Simulated as :func:`two_segment_threshold` is (the same noise, the larger of the
+    heavy-tailed and the Gaussian thresholds, no standard-error floor), on
+    :func:`drift_statistic`.
+
+    Parameters
+    ----------
+    n_cards : int
+        Cards of the history, at least ``2 * MIN_SEGMENT``.
+    alpha : float, default 0.01
+        False-alarm probability per history.
+    tail_dof, outlier_fraction : float, default 5 and 0.01
+        The simulated steady noise.
+    replicates : int, optional
+        Simulated histories; default ``max(20000, 100 / alpha)``.
+    seed : int
+        Seed of the simulation.
+
+    Returns
+    -------
+    float
+        The threshold, in standard errors of the slope.
+    """
+    if not 0 < alpha < 1:
+        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
+    reps = int(replicates) if replicates is not None else int(max(20000, math.ceil(100 / alpha)))
+    return max(_drift(int(n_cards), float(alpha), float(tail_dof), float(outlier_fraction),
+                      reps, int(seed)),
+               _drift(int(n_cards), float(alpha), math.inf, 0.0, reps, int(seed)))
+
+
+@functools.lru_cache(maxsize=256)
+def _drift(n: int, alpha: float, dof: float, out_frac: float, reps: int, seed: int) -> float:
+    rng = np.random.default_rng(seed + n)
+    chunk = max(1, min(reps, 4_000_000 // (n * n)))  # bounded memory: n^2 / 2 slopes a row
+    stats = []
+    for first in range(0, reps, chunk):
+        e = steady_noise(rng, (min(chunk, reps - first), n), dof, out_frac)
+        stats.append(drift_statistic(e)[0])
+    return upper_quantile(np.concatenate(stats), alpha)
+
+
+def _row_median(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Each row's median, by partition: a quarter of ``np.median``'s time on the drift
+    test's simulated (replicates, pairs) arrays, the bulk of its threshold's cost."""
+    m = a.shape[1]
+    half = m // 2
+    if m % 2:
+        return np.partition(a, half, axis=1)[:, half]
+    part = np.partition(a, (half - 1, half), axis=1)
+    return 0.5 * (part[:, half - 1] + part[:, half])
