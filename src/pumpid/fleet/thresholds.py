@@ -295,27 +295,37 @@ def two_segment_threshold(
     float
         The threshold, in standard errors of the difference of medians.
     """
-    if not 0 < alpha < 1:
-        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
-    reps = int(replicates) if replicates is not None else int(max(20000, math.ceil(100 / alpha)))
     # The larger of the thresholds under the heavy-tailed noise and under Gaussian noise:
     # with few cards the scale's estimate, not only the medians, sets the statistic's tail,
     # and a wild card widens that estimate, so Gaussian noise can give the heavier tail
     # (measured: at 10 cards the t5-calibrated threshold let 1.65 % of Gaussian wells alert).
-    return max(_two_segment(int(n_cards), float(alpha), float(tail_dof),
-                            float(outlier_fraction), reps, int(seed)),
-               _two_segment(int(n_cards), float(alpha), math.inf, 0.0, reps, int(seed)))
+    return _short_threshold("two-segment", n_cards, alpha, tail_dof, outlier_fraction,
+                            replicates, seed)
 
 
-@functools.lru_cache(maxsize=256)
-def _two_segment(n: int, alpha: float, dof: float, out_frac: float, reps: int,
-                 seed: int) -> float:
+def _short_threshold(kind: str, n_cards: int, alpha: float, tail_dof: float,
+                     outlier_fraction: float, replicates: int | None, seed: int) -> float:
+    """A short-history test's threshold: the larger of the heavy-tailed and the Gaussian
+    simulations' (see :func:`two_segment_threshold`)."""
+    if not 0 < alpha < 1:
+        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
+    reps = int(replicates) if replicates is not None else int(max(20000, math.ceil(100 / alpha)))
+    return max(_simulated(kind, int(n_cards), float(alpha), float(tail_dof),
+                          float(outlier_fraction), reps, int(seed)),
+               _simulated(kind, int(n_cards), float(alpha), math.inf, 0.0, reps, int(seed)))
+
+
+@functools.lru_cache(maxsize=512)
+def _simulated(kind: str, n: int, alpha: float, dof: float, out_frac: float, reps: int,
+               seed: int) -> float:
     rng = np.random.default_rng(seed + n)
-    chunk = max(1, min(reps, 2_000_000 // n))  # bounded memory
+    # bounded memory: the drift test holds n^2 / 2 slopes a history
+    chunk = max(1, min(reps, 2_000_000 // n if kind == "two-segment" else 4_000_000 // (n * n)))
+    statistic = two_segment_statistic if kind == "two-segment" else drift_statistic
     stats = []
     for first in range(0, reps, chunk):
         e = steady_noise(rng, (min(chunk, reps - first), n), dof, out_frac)
-        stats.append(two_segment_statistic(e)[0])
+        stats.append(statistic(e)[0])
     return upper_quantile(np.concatenate(stats), alpha)
 
 
@@ -397,23 +407,8 @@ def drift_threshold(
     float
         The threshold, in standard errors of the slope.
     """
-    if not 0 < alpha < 1:
-        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
-    reps = int(replicates) if replicates is not None else int(max(20000, math.ceil(100 / alpha)))
-    return max(_drift(int(n_cards), float(alpha), float(tail_dof), float(outlier_fraction),
-                      reps, int(seed)),
-               _drift(int(n_cards), float(alpha), math.inf, 0.0, reps, int(seed)))
-
-
-@functools.lru_cache(maxsize=256)
-def _drift(n: int, alpha: float, dof: float, out_frac: float, reps: int, seed: int) -> float:
-    rng = np.random.default_rng(seed + n)
-    chunk = max(1, min(reps, 4_000_000 // (n * n)))  # bounded memory: n^2 / 2 slopes a row
-    stats = []
-    for first in range(0, reps, chunk):
-        e = steady_noise(rng, (min(chunk, reps - first), n), dof, out_frac)
-        stats.append(drift_statistic(e)[0])
-    return upper_quantile(np.concatenate(stats), alpha)
+    return _short_threshold("drift", n_cards, alpha, tail_dof, outlier_fraction, replicates,
+                            seed)
 
 
 def _row_median(a: NDArray[np.float64]) -> NDArray[np.float64]:
