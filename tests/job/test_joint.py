@@ -110,6 +110,40 @@ def test_a_stiffness_deep_in_its_rigid_limit_runs_to_infinity(shared_raw) -> Non
 
 
 @pytest.mark.realdata
+@pytest.mark.parametrize("pair", ["SX6I03", "SX6E03"])
+def test_a_pairs_rigid_stiffness_runs_to_infinity(shared_raw, pair: str) -> None:
+    # Each Sandia pair jointly: k0 ends at 4e12-6e12, 20x its start. Pushed up a factor
+    # 1000 the cost rose by 17 (rounding, within the noise), pushed down by 0.015: the
+    # limit was taken as k0 -> 0, "only an upper bound exists", while each card alone and
+    # the four together run to infinity.
+    cards = [c for c in read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")
+             if str(c.card_id).startswith(pair)]
+    joint = pumpid.fit(pumpid.Kelvin, cards, options=JOINT)
+    k0 = [b for b in joint.boundary.limits if b.name == "k0"]
+    assert k0 and k0[0].direction == "infinity", joint.boundary
+    assert not any("k0 -> 0" in s or "upper bound" in s for s in joint.identifiability)
+    assert not any("runs to zero" in w for w in joint.warnings)
+
+
+@pytest.mark.realdata
+def test_a_joint_resonance_on_the_stroke_frequency_is_named(shared_raw) -> None:
+    # SX6I03's two strokes: 0.136 Hz jointly, 0.96x the stroke frequency, as each card
+    # alone, where it is named an echo of the pumping speed; jointly it was "determined"
+    # and a property of the well, trended by the fleet report.
+    cards = [c for c in read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")
+             if str(c.card_id).startswith("SX6I03")]
+    joint = pumpid.fit(pumpid.Kelvin, cards, options=JOINT)
+    alone = pumpid.fit(pumpid.Kelvin, cards[0])
+    assert not alone.derived["natural_frequency"].well_property
+    fn = joint.derived["natural_frequency"]
+    assert 0.75 < fn.value * cards[0].period < 1.25
+    assert not fn.well_property and not joint.derived["damping_ratio"].well_property
+    assert joint.determined["not_well_property"] == ["natural_frequency", "damping_ratio"]
+    assert any("sits on the stroke frequency" in w for w in joint.warnings)
+    assert joint.to_dict()["derived"]["natural_frequency"]["well_property"] is False
+
+
+@pytest.mark.realdata
 def test_a_levels_error_is_said_relative_to_the_datas_range(shared_raw) -> None:
     # A card's level is a signed position: its error in the identifiability sentences was
     # its error in position units read as a fraction. On Sandia's surface cards each level's

@@ -26,10 +26,11 @@ from numpy.typing import NDArray
 from ..engine.problem import CardData
 from ..engine.simulate import simulate_sensitivities
 from ..inference.derived import derived_of
+from ..inference.echo import echo_of
 from ..models import Model, OwnModel, Parameter
 from ..result import FitBatch, FitResult, Units
 
-__all__ = ["APART", "StackedCards", "joint_part", "misfit_warning"]
+__all__ = ["APART", "StackedCards", "joint_echo", "joint_part", "misfit_warning"]
 
 Array = NDArray[np.float64]
 #: At most this many cards' own answers start the joint fit (with their median).
@@ -183,3 +184,22 @@ def misfit_warning(part: Mapping[str, Any], unit: str) -> str:
     return (f"{len(apart)} of {len(part['cards'])} cards fit jointly more than {APART:g}x "
             f"worse than alone: {said}. The cards do not share one parameter set (another "
             "well, or the well changed between them): fit them apart")
+
+
+def joint_echo(model: StackedCards, result: FitResult) -> FitResult:
+    """``result`` with its resonance checked against the cards' stroke frequency, as a
+    single card's is (:func:`pumpid.inference.echo.echo_of`): a joint fit of strokes of one
+    well echoes their pumping speed as each card's fit does (Sandia's SX6I03 pair at 0.96x
+    the stroke frequency jointly, as alone). Records that are not all one period of a
+    periodic motion are not checked; the cards' median period stands for them all."""
+    periods = [float(r.period) for r in model.records
+               if r.initial_state == "periodic" and r.period is not None]
+    if len(periods) != len(model.records) or not result.derived:
+        return result
+    derived, echo = echo_of(result.derived, float(np.median(periods)))
+    if echo is None:
+        return result
+    determined = {**result.determined,
+                  "not_well_property": [n for n, d in derived.items() if not d.well_property]}
+    return result.with_parts(derived=derived, warnings=(*result.warnings, echo),
+                             determined=determined)

@@ -334,10 +334,15 @@ def _limits(prob: _Item, z: Array, z0: Array, cost: float, lo: Array, hi: Array,
                 change[other] = delta
         if change:
             # Flat both ways (a value deep in a limit stays there pushed back a factor 1000:
-            # k0 = 3e14 pushed down to 3e11 is still rigid): the limit is the way the cost
-            # falls, else the way the fit went from its start.
+            # k0 = 3e14 pushed down to 3e11 is still rigid): the limit is the way the fit
+            # went from its start when it went far, else the way the cost falls. Deep in a
+            # limit the push outward can cost more than the push back, from rounding alone
+            # (a joint fit's k0 = 6e12, 20x its start, rose by 17 pushed to 6e15 and by 0.015
+            # pushed to 6e9, within the noise both: taken as k0 -> 0).
             if len(change) == 1:
                 direction = next(iter(change))
+            elif abs(z[a] - z0[a]) > math.log(10.0):
+                direction = "infinity" if z[a] > z0[a] else "zero"
             elif change["zero"] != change["infinity"]:
                 direction = min(change, key=lambda d: change[d])
             else:

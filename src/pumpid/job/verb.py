@@ -27,7 +27,7 @@ from ..engine.solvers import LevenbergMarquardt, PaperNewton
 from ..engine.threads import default_workers
 from ..models import Model, OwnModel, model_class
 from ..result import CardInfo, FitBatch, FitResult, Units
-from .joint import StackedCards, joint_part, misfit_warning
+from .joint import StackedCards, joint_echo, joint_part, misfit_warning
 from .options import FitOptions, job_options
 from .own import fit_own
 from .stages import run_batch
@@ -353,6 +353,7 @@ def _fit_joint(model: Model | type[Model], items: Sequence[Any], single: bool,
                      min_r2=options.min_r2, boundaries=options.boundaries)
     res = fit_own(stacked, [records], single=True, options=own, solver=solver, x0=None)
     assert isinstance(res, FitResult)
+    res = joint_echo(stacked, res)
     part = joint_part(stacked, res, ids)
     apart = misfit_warning(part, units[0].position)
     return res.with_parts(application={"joint": part},
