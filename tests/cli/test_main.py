@@ -150,6 +150,21 @@ def test_the_text_says_which_errors_the_plus_minus_are(tmp_path, capsys) -> None
 
 
 @pytest.mark.realdata
+def test_no_robust_line_where_no_value_has_an_error_shown(shared_raw, capsys) -> None:
+    # Sandia's first downhole stroke: every value undetermined (the fit reproduces only the
+    # fundamental), so no ± is printed; "± robust: ... (lag-1 1)" said what none of them
+    # were, with a lag-1 of 0.995 rounded to 1.
+    record = shared_raw / "sandia_dds" / "downhole_timeseries.csv"
+    main(["fit", str(record), "--split-strokes"])
+    blocks = capsys.readouterr().out.split("\n3X6E03#")
+    first = next(b for b in blocks if b.startswith("0 "))
+    assert "undetermined" in first and " ± " not in first.split("derived:")[0]
+    assert "± robust" not in first
+    robust = [ln for ln in "\n".join(blocks).splitlines() if "± robust" in ln]
+    assert robust and all(ln.split("(lag-1 ")[1][1] == "." for ln in robust)
+
+
+@pytest.mark.realdata
 def test_an_offset_the_card_does_not_fix_is_flagged_in_the_short_output(shared_raw,
                                                                        capsys) -> None:
     # A field card whose static stiffness runs to zero: the offset (-1e8 ± 2e13 m) trades

@@ -42,6 +42,8 @@ def test_a_fit_of_the_fundamental_alone_is_undetermined_whatever_its_local_error
     assert "reproduces only the stroke's fundamental" in fit.reason
     assert fit.determined["parameters"] == []
     assert set(fit.determined["not_determined"]) >= {"m", "c", "k"}
+    # nor any derived quantity: the natural frequency is the stroke frequency it echoes
+    assert fit.derived and not any(d.determined for d in fit.derived.values())
     out = json.loads(fit.to_json())
     assert math.isclose(out["r2_fundamental"], 100 / 101, rel_tol=1e-9)
     assert out["r2_beyond_fundamental"] < 1e-3

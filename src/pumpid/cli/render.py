@@ -157,7 +157,8 @@ def _robust_note(res: FitResult) -> str | None:
     if res.errors_shown != "robust" or res.uncertainty is None:
         return None
     lag1 = (res.uncertainty.whiteness or {}).get("lag1_autocorrelation")
-    said = f" (lag-1 {fmt(lag1, 2)})" if lag1 is not None else ""
+    # two decimals, as the warning beside it gives them ("lag-1 1" read as exactly 1)
+    said = f" (lag-1 {lag1:.2f})" if lag1 is not None else ""
     times = widening(res.uncertainty)
     wider = f"; assuming independence, {times} smaller" if times else ""
     return f"± robust: residuals serially correlated{said}{wider}"
@@ -236,9 +237,10 @@ class TextPrinter:
         if not row.fitted:
             lines += _wrap(f"why: {_reason(row)}")
         if res.model is not None:
-            lines += _wrap_items(_params(res))
+            params = _params(res)
+            lines += _wrap_items(params)
             robust = _robust_note(res)
-            if robust:
+            if robust and any(" ± " in p for p in params):  # says what the ± shown are
                 lines += _wrap(robust)
             derived = _derived(res)
             if derived:

@@ -57,6 +57,10 @@ def determination_gate(res: FitResult) -> FitResult:
         shown = list(determined.get("parameters", ()))
         determined["parameters"] = []
         determined["not_determined"] = [*determined.get("not_determined", ()), *shown]
+        # The derived quantities too: a natural frequency of 0.1196 Hz "determined" to
+        # 3e-11 Hz was the stroke frequency the fit echoes.
+        derived = {n: dataclasses.replace(d, determined=False) for n, d in res.derived.items()}
+        res = dataclasses.replace(res, derived=derived)
     # A determined quantity that echoes the stroke is said to be one: "determined derived
     # quantities: natural_frequency" read as the well's, beside the warning saying it is not.
     good = [d.name + ("" if d.well_property else " (an echo of the stroke, not the well's)")
