@@ -98,10 +98,11 @@ def cmd_report(args: argparse.Namespace) -> int:
           f"{' (' + '; '.join(aside) + ')' if aside else ''}, "
           f"{plural(len(alerts), 'alert')} in {plural(alerted, 'well')}")
     for _, a in alerts.iterrows():
+        drift = (" (a steady drift over the history: its fitted line, first card to last)"
+                 if a["method"] == "drift" else "")
         print(f"  well {printable(str(a['well_id']))}: {a['quantity']} {a['before']:.4g} -> "
               f"{a['after']:.4g} {a['unit']} ({a['change_rel']:+.1%}, {a['change_se']:.3g} "
-              f"standard errors) from card {printable(str(a['first_card_id']))}"
-              f"{' (a steady drift over the history)' if a['method'] == 'drift' else ''}")
+              f"standard errors) from card {printable(str(a['first_card_id']))}{drift}")
     print(f"report: {printable(str(paths['report']))}")
     print(f"alerts: {printable(str(paths['alerts']))}; wells: {printable(str(paths['wells']))}")
     return 0

@@ -72,9 +72,11 @@ however steep the fall, below its threshold of 5.6 when a pump field's nine quan
 share the false-alarm probability (a pump's fillage falling from 0.99 to 0.61 over 14
 daily cards went unreported). Where both
 alert, the one further beyond its threshold names the change (``method`` ``"two-segment"``
-or ``"drift"``). The maximising split of the two-segment statistic is the change's first
-card (for a drift, the card that best parts its two halves) and ``before`` / ``after`` the
-medians either side; the alarm card is the history's last. At most one change per short
+or ``"drift"``). A step's first card is the maximising split of the two-segment statistic
+and ``before`` / ``after`` the medians either side; a drift is under way from the
+history's first card, ``before`` / ``after`` the fitted line's values at its first and last
+cards and ``change_se`` the slope over its standard error. The alarm card is the history's
+last. At most one change per short
 history; a step in its first or last two cards cannot be told from an outlier and is not
 reported. ``benchmarks/bench_changes.py`` measures the false-alarm rate and power.
 
@@ -419,14 +421,16 @@ def detect_changes(
         One row per change, columns :data:`ALERT_COLUMNS`: ``well_id``, ``quantity``,
         ``unit``, ``first_card_id`` and ``first_time`` (the change's first card),
         ``alarm_card_id`` and ``alarm_time`` (the card at which the CUSUM crossed),
-        ``before`` and ``after`` (medians of the segments, in ``unit``), ``change``
+        ``before`` and ``after`` (medians of the segments, in ``unit``; for a drift the
+        fitted line's values at the history's first and last cards), ``change``
         (``after - before``, in ``unit``), ``change_rel`` (``change / before``),
         ``change_se`` (``change`` over its standard error; signed), ``direction``
         (``"up"``/``"down"``), ``kind`` (``"derived"``/``"parameter"``), ``scale``
         (``"log"``/``"linear"``), ``noise`` (card-to-card noise in the reference: relative
         on the log scale, in ``unit`` otherwise), ``first_index``/``alarm_index``
         (positions among the well's usable cards of that quantity), ``delay_cards``,
-        ``n_before``/``n_after`` (cards in the segments), ``threshold`` (``h``, in noise
+        ``n_before``/``n_after`` (cards in the segments; 0 and the history's cards for a
+        drift), ``threshold`` (``h``, in noise
         scales) and ``order`` (``"time"`` or ``"card order"``), ``method`` (``"cusum"``,
         ``"two-segment"`` or ``"drift"``: a short history's steady rise or fall). Sorted by
         well, quantity and first card.
@@ -505,16 +509,26 @@ def _series_alerts(
     for j, ch in enumerate(changes):
         part_b, part_a = slice(bounds[j], bounds[j + 1]), slice(bounds[j + 1], bounds[j + 2])
         seg_b, seg_a = values[part_b], values[part_a]
-        before, after = float(np.median(seg_b)), float(np.median(seg_a))
-        change = after - before
-        se_change = math.hypot(_median_se(seg_b, se[part_b]), _median_se(seg_a, se[part_a]))
+        if ch.line is not None:
+            # A drift: the fitted line's ends, over the whole history.
+            ends = ch.line[0] + ch.line[1] * np.array([0.0, values.size - 1.0])
+            before, after = (float(v) for v in (np.exp(ends) if log else ends))
+            change = after - before
+            change_se = ch.size
+        else:
+            before, after = float(np.median(seg_b)), float(np.median(seg_a))
+            change = after - before
+            se_change = math.hypot(_median_se(seg_b, se[part_b]),
+                                   _median_se(seg_a, se[part_a]))
+            change_se = (change / se_change if se_change > 0
+                         else math.copysign(math.inf, change))
         out.append({
             "well_id": well, "quantity": q, "unit": unit,
             "first_card_id": ids[ch.first], "first_time": times[ch.first],
             "alarm_card_id": ids[ch.alarm], "alarm_time": times[ch.alarm],
             "before": before, "after": after, "change": change,
             "change_rel": change / before if before != 0 else math.nan,
-            "change_se": change / se_change if se_change > 0 else math.copysign(math.inf, change),
+            "change_se": change_se,
             "direction": ch.direction, "kind": kind, "scale": "log" if log else "linear",
             "noise": ch.noise, "first_index": ch.first, "alarm_index": ch.alarm,
             "delay_cards": ch.alarm - ch.first, "n_before": int(seg_b.size),
@@ -646,7 +660,8 @@ def summarise_wells(
     phrases = {
         r["_w"]: (f"{r['quantity']} {r['before']:.4g} -> {r['after']:.4g} {r['unit']} "
                   f"({r['change_rel']:+.1%}, {float(r['change_se']):+.3g} standard errors) "
-                  f"from card {r['first_card_id']}")
+                  f"from card {r['first_card_id']}"
+                  f"{', a steady drift' if r['method'] == 'drift' else ''}")
         for _, r in top.iterrows()
     }
     out["largest_change"] = [phrases.get(w, "") for w in out.index]

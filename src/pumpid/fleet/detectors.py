@@ -44,7 +44,9 @@ class Change:
     """One detected change within a series (indices into the series).
 
     ``drift``: found by a short history's drift test (a steady rise or fall over the
-    history); ``first`` is then the split that best parts its two halves.
+    history, under way from its first card: ``first`` is 0); ``line`` is then the fitted
+    line on the analysis scale (its value at the first card, its slope per card) and
+    ``size`` the slope over its standard error, signed.
     """
 
     first: int
@@ -53,6 +55,8 @@ class Change:
     threshold: float
     noise: float
     drift: bool = False
+    line: tuple[float, float] | None = None
+    size: float = math.nan
 
 
 def best_split(y: NDArray[np.float64], wgt: NDArray[np.float64], lo: int, hi: int,
@@ -176,14 +180,19 @@ def scan_two_segments(y: NDArray[np.float64], se: NDArray[np.float64], *, alpha:
     # a test of its own; the two share alpha (Bonferroni).
     h = two_segment_threshold(y.size, alpha=alpha / 2, tail_dof=tail_dof,
                               outlier_fraction=outlier_fraction)
-    t_drift, slope, d_scale = drift_statistic(y, floor)
+    t_drift, slope, d_scale, level = drift_statistic(y, floor)
     h_drift = drift_threshold(y.size, alpha=alpha / 2, tail_dof=tail_dof,
                               outlier_fraction=outlier_fraction)
     step_beyond, drift_beyond = float(stat[0]) / h, float(t_drift[0]) / h_drift
     k = int(split[0])
     if drift_beyond > 1.0 and drift_beyond > step_beyond and d_scale[0] > 0:
-        return [Change(k, y.size - 1, "up" if slope[0] > 0 else "down", h_drift,
-                       float(d_scale[0]), drift=True)]
+        # A drift has no change point within the history: it is under way from the first
+        # card, and its size is the line's, first card to last (the medians of two halves
+        # gave half of it, "from" the middle card).
+        return [Change(0, y.size - 1, "up" if slope[0] > 0 else "down", h_drift,
+                       float(d_scale[0]), drift=True,
+                       line=(float(level[0]), float(slope[0])),
+                       size=math.copysign(float(t_drift[0]), float(slope[0])))]
     if not step_beyond > 1.0:
         return []
     rising = bool(np.median(y[k:]) > np.median(y[:k]))

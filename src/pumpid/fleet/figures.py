@@ -273,9 +273,14 @@ def well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str,
             ax.annotate(f"{a['change_rel']:+.0%}", (xc, 0.98), xycoords=("data", "axes fraction"),
                         xytext=(4, -10), textcoords="offset points", color="#b00020",
                         fontsize=8, fontweight="bold")
-            # the medians before and after, over the cards they were taken from
+            # the medians before and after, over the cards they were taken from; a drift's
+            # fitted line from its first card to its last
             xs, fi = x.to_numpy(), int(a["first_index"])
-            if 0 <= fi < xs.size:
+            if a.get("method") == "drift" and 0 <= fi < xs.size:
+                last = xs[min(int(a["alarm_index"]), xs.size - 1)]
+                ax.plot([xs[fi], last], [a["before"], a["after"]], color="#e6550d", lw=1.5,
+                        label="steady drift (fitted line)")
+            elif 0 <= fi < xs.size:
                 lo = xs[max(fi - int(a["n_before"]), 0)]
                 hi = xs[min(fi + int(a["n_after"]) - 1, xs.size - 1)]
                 ax.hlines(a["before"], lo, xc, color="#e6550d", lw=1.5,

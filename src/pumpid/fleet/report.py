@@ -274,7 +274,8 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
             str(a["well_id"]), str(a["quantity"]),
             f"{a['first_card_id']} ({_when(a['first_time'])})",
             f"{a['alarm_card_id']} ({count_words(a['delay_cards'], 'card')} later)",
-            f"{_with_unit(a['before'], unit)} → {_with_unit(a['after'], unit)}",
+            f"{_with_unit(a['before'], unit)} → {_with_unit(a['after'], unit)}"
+            + (" (fitted line, first card → last)" if a["method"] == "drift" else ""),
             f"{_with_unit(a['change'], unit)} ({float(a['change_rel']):+.1%})",
             _num(a["change_se"], 3),
             f"{a['direction']} (steady drift)" if a["method"] == "drift" else str(a["direction"]),

@@ -331,7 +331,8 @@ def _simulated(kind: str, n: int, alpha: float, dof: float, out_frac: float, rep
 
 def drift_statistic(
     y: NDArray[np.float64], scale_floor: float | NDArray[np.float64] = 0.0,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+           NDArray[np.float64]]:
     """The drift test's statistic of short histories, for each row of ``y``.
 
     The Theil-Sen slope ``b`` per card (the median of the slopes between every two cards:
@@ -355,6 +356,8 @@ def drift_statistic(
         ``b``, per card.
     scale : array (r,)
         ``s``.
+    level : array (r,)
+        The line's value at the first card.
     """
     y2 = np.atleast_2d(np.asarray(y, dtype=float))
     r, n = y2.shape
@@ -370,7 +373,7 @@ def drift_statistic(
     spread = math.sqrt(float(np.sum((x - x.mean()) ** 2)))
     with np.errstate(divide="ignore", invalid="ignore"):
         stat = np.abs(slope) * spread / scale
-    return np.where(np.isnan(stat), 0.0, stat), slope, scale
+    return np.where(np.isnan(stat), 0.0, stat), slope, scale, level
 
 
 def drift_threshold(
