@@ -125,7 +125,7 @@ def drift(args: argparse.Namespace) -> None:
         print(f"  P005 pump_fillage: not alerted within {n_cards} cards")
     else:
         print(f"  P005 pump_fillage: first alerted on card_index {found[0]} by the "
-              f"{found[1]} test (median {found[2]:.3f} -> {found[3]:.3f})")
+              f"{found[1]} test ({found[2]:.3f} -> {found[3]:.3f})")
     print(f"steady wells: {steady_alerts} of {steady_runs} report runs raised a pump alert")
 
 

@@ -25,6 +25,7 @@ from pumpid.cards import (
     loop_work,
     normalize_load_unit,
     normalize_position_unit,
+    open_stroke,
     parse_cards,
     read_card,
     read_cards,
@@ -235,6 +236,28 @@ class TestCsv:
         assert not any(said in w for w in read_card(forward, spm=8.0).warnings)
         assert any(said in w for w in read_card(backward, spm=8.0).warnings)
         assert loop_work(pos, load) > 0 > loop_work(pos[::-1], load[::-1])
+
+    def test_a_stroke_that_does_not_close_is_warned(self, tmp_path):
+        # A card that ends 85 % of its stroke from where it starts (3 of the 360 oilfield
+        # cards), fitted as one period, was a poor fit whose reason pointed at the model.
+        import pumpid
+
+        pos, load = synthetic_stroke(60)
+        assert open_stroke(pos) is None
+        part = slice(0, 40)  # a stroke cut two thirds of the way round
+        share, steps = open_stroke(pos[part])
+        assert share == pytest.approx(abs(pos[39] - pos[0]) / np.ptp(pos[:40]))
+        assert share > 0.5 and steps > 10
+        rows = ["position_in,load_lbf"]
+        cut = write(tmp_path, "cut.csv", "\n".join(
+            rows + [f"{p},{f}" for p, f in zip(pos[part], load[part], strict=True)]))
+        said = "the card does not close: it ends"
+        fit = pumpid.fit(pumpid.Kelvin, read_card(cut, spm=8.0))
+        assert any(w.startswith(said) and " in (" in w for w in fit.warnings), fit.warnings
+        whole = write(tmp_path, "whole.csv", "\n".join(
+            rows + [f"{p},{f}" for p, f in zip(pos, load, strict=True)]))
+        assert not any(said in w for w in pumpid.fit(pumpid.Kelvin,
+                                                      read_card(whole, spm=8.0)).warnings)
 
     def test_card_column_closure_flags_and_spm(self):
         cards = read_cards(DATA / "two_cards_closure.csv")

@@ -97,7 +97,7 @@ a value is flagged only when it is implausible in every unit it could be in.
 """
 
 from ._errors import CardError
-from ._plausible import loop_work
+from ._plausible import loop_work, open_stroke
 from ._printable import printable
 from ._readers import (
     FORMATS,
@@ -140,6 +140,7 @@ __all__ = [
     "loop_work",
     "normalize_load_unit",
     "normalize_position_unit",
+    "open_stroke",
     "parse_cards",
     "parse_cards_and_errors",
     "printable",
