@@ -21,7 +21,7 @@ import pytest
 #: ones only, in any form of import. A module's layer is named by the first part of its
 #: name after ``pumpid``; ``pumpid`` itself (the public facade, for users) is above all.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("pumpid",),
+    ("pumpid", "__main__"),
     ("cli",),
     ("fleet",),
     ("pump",),

@@ -199,3 +199,16 @@ def test_the_warning_and_the_robust_line_give_one_widening(shared_raw, capsys) -
     line = re.search(r"assuming independence, ([0-9.-]+)x smaller", short)
     said = re.search(r"ci95_hac\), ([0-9.-]+)x the independent-noise ones", verbose)
     assert line and said and line.group(1) == said.group(1), (short, verbose)
+
+
+def test_python_m_pumpid_is_the_command() -> None:
+    # "No module named pumpid.__main__": README named python -m pumpid.cli, and users tried
+    # the package's own name first.
+    import subprocess
+    import sys
+
+    from .conftest import cli_env
+
+    run = subprocess.run([sys.executable, "-m", "pumpid", "--version"], env=cli_env(),
+                         capture_output=True, text=True, timeout=120, check=False)
+    assert run.returncode == 0 and run.stdout.startswith("pumpid "), run.stderr
