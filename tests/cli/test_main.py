@@ -14,6 +14,8 @@ import pytest
 import pumpid
 from pumpid.cli import main
 
+from .conftest import cli_env
+
 
 def _write_record(path: Path, **cols: np.ndarray) -> Path:
     names = list(cols)
@@ -204,11 +206,6 @@ def test_the_warning_and_the_robust_line_give_one_widening(shared_raw, capsys) -
 def test_python_m_pumpid_is_the_command() -> None:
     # "No module named pumpid.__main__": README named python -m pumpid.cli, and users tried
     # the package's own name first.
-    import subprocess
-    import sys
-
-    from .conftest import cli_env
-
     run = subprocess.run([sys.executable, "-m", "pumpid", "--version"], env=cli_env(),
                          capture_output=True, text=True, timeout=120, check=False)
     assert run.returncode == 0 and run.stdout.startswith("pumpid "), run.stderr
