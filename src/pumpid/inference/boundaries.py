@@ -114,7 +114,7 @@ def nested_candidates(problem: Problem, k: int, z: Array, log_sens: Array,
     ref = problem.reference[k]
     out = []
     for lim in problem.model.limits:
-        if lim.reduced is None:
+        if not lim.reduces(problem.observe):
             continue
         i = names.index(lim.param)
         free = list(problem.free_idx)

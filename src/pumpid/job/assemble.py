@@ -148,9 +148,10 @@ def build_result(problem: Problem, k: int, card: CardState, options: JobOptions,
     if reduced is not None:
         # The reduced model was fitted inside the job, which knows no units: its parameters'
         # units come from this card's, as the full model's do.
-        info = model_class(reduced.model).param_info()
+        red_cls = model_class(reduced.model)
         reduced = dataclasses.replace(reduced, units={
-            p.name: p.unit_for(units.load, units.position) for p in info})
+            **{p.name: p.unit_for(units.load, units.position) for p in red_cls.param_info()},
+            "C": red_cls.scale_unit.format(load=units.load, position=units.position)})
     boundary = (BoundaryInfo(card.limits, reduced) if card.limits else None)
     state = problem.initial_states[k]
     one_period = (state == "periodic" and problem.uniform[k] and problem.residual == "linear"

@@ -216,7 +216,8 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
         card.limits = tuple(found[j])
         if best_red is None and isinstance(problem.initial_states[k], str):
             target = next((problem.model.limit(b.name, b.direction) for b in found[j]
-                           if problem.model.limit(b.name, b.direction).reduced), None)
+                           if problem.model.limit(b.name, b.direction).reduces(
+                               problem.observe)), None)
             if target is not None:
                 got = _fit_reduced(problem, [(k, target)], fits, position,
                                    refit).get((k, target.param, target.direction))

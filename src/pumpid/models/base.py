@@ -132,7 +132,10 @@ class Limit:
     ``gain`` the factor by which the reduced model's output must be scaled to match the full
     model's near the limit (a massless MSD is a first-order lag with gain 1/c).
     ``from_reduced`` maps a reduced solution back to a full-model point next to the limit
-    (to restart a full fit that the reduced model beats).
+    (to restart a full fit that the reduced model beats). ``observe`` is the reduced model's
+    observed output; ``full_observe`` the full model's output for which the reduced model
+    is the limit (None: every output): a massless Kelvin model is a first-order lag at u2,
+    but at u the series spring adds the load's own share ``F / k0``, which no lag has.
     """
 
     param: str
@@ -143,6 +146,11 @@ class Limit:
     to_reduced: Mapping[str, tuple[Term, ...]] = field(default_factory=dict)
     gain: tuple[Term, ...] = (Term(1.0),)
     from_reduced: Mapping[str, tuple[Term, ...]] = field(default_factory=dict)
+    full_observe: str | None = None
+
+    def reduces(self, observe: str) -> bool:
+        """Whether the limit has a reduced model for the full model observing ``observe``."""
+        return self.reduced is not None and self.full_observe in (None, observe)
 
     def reduced_start(self, params: Mapping[str, float]) -> tuple[dict[str, float], float]:
         """The reduced model's parameters and output gain at a full-model point."""
@@ -293,6 +301,9 @@ class Model:
     title: ClassVar[str] = ""
     #: Unit of the model's input: the first-order model of eq. (23) is driven by a rate.
     input_unit: ClassVar[str] = "{load}"
+    #: Unit of the output scale C: 1 where the parameters carry the units (a load-driven
+    #: model), else what turns the load into the observed position.
+    scale_unit: ClassVar[str] = "1"
     #: Entries of A: {(row, col): terms}; of B: {row: terms}.
     a_terms: ClassVar[Mapping[tuple[int, int], tuple[Term, ...]]] = {}
     b_terms: ClassVar[Mapping[int, tuple[Term, ...]]] = {}

@@ -37,6 +37,8 @@ class FirstOrder(Model):
     key: ClassVar[str] = "first-order"
     title: ClassVar[str] = "first-order relaxation u' = f - u/tau (paper eq. 23)"
     input_unit: ClassVar[str] = "{position}/s"
+    # Driven by a load, u is in load * s: C turns it into a position.
+    scale_unit: ClassVar[str] = "{position}/({load}*s)"
     a_terms: ClassVar[Mapping[tuple[int, int], tuple[Term, ...]]] = {
         (0, 0): (term(-1, tau=-1),),
     }

@@ -270,7 +270,7 @@ def _nested_tests(ranked: Sequence[Candidate], n: int, n_eff: float
     out = []
     for (key, observe), big in by_structure.items():
         for lim in model_class(key).limits:
-            if not lim.reduced:
+            if not lim.reduces(observe):
                 continue
             small = by_structure.get((lim.reduced, lim.observe or observe))
             if small is None or small.k >= big.k:

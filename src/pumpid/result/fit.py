@@ -470,7 +470,9 @@ def format_report(result: FitResult, history: bool = False) -> str:
         lines.append(f"  reduced model ({reduced.model}, the limit the data want):")
         for name, value in reduced.params.items():
             lines.append(f"  {name:<15}  {fmt(value, 10):<15}  {reduced.units.get(name, '')}")
-        lines.append(f"  {'C (scale)':<15}  {fmt(reduced.scale, 10):<15}  -")
+        scale_unit = reduced.units.get("C", "1")
+        lines.append(f"  {'C (scale)':<15}  {fmt(reduced.scale, 10):<15}  "
+                     f"{'-' if scale_unit == '1' else scale_unit}")
         lines.append(f"  fit quality: RMSE = {fmt(reduced.rmse, 6)} {result.units.position}, "
                      f"R^2 = {fmt(reduced.r2, 8)}")
     if result.warnings:
