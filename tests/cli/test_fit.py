@@ -168,3 +168,19 @@ def test_history_prints_the_solvers_path(two_cards: Path, capsys) -> None:
     assert "no iterations recorded" not in out
     header = next(ln for ln in out.splitlines() if ln.startswith("iteration "))
     assert "cost" in header and "k0" in header
+
+
+@pytest.mark.realdata
+def test_a_stroke_is_chosen_by_the_id_split_strokes_gives_it(shared_raw, capsys) -> None:
+    # "no card '3X6E03#2' in this file; its cards are: 3X6E03, 3X6I03": the ids the split
+    # prints could be neither fitted alone nor predicted.
+    record = str(shared_raw / "sandia_dds" / "downhole_timeseries.csv")
+    assert main(["fit", record, "--split-strokes", "--card", "3X6E03#2", "--brief"]) in (0, 6)
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if not ln.startswith("#")]
+    assert [ln.split("\t")[0] for ln in lines] == ["3X6E03#2"]
+    main(["fit", record, "--split-strokes", "--card", "3X6E03", "--predict", "3X6E03#3"])
+    out = capsys.readouterr().out
+    assert out.count("prediction of card 3X6E03#3: R^2 = ") == 6
+    assert main(["fit", record, "--split-strokes", "--card", "3X6E03#9"]) == 2
+    err = capsys.readouterr().err
+    assert "no card '3X6E03#9' in this file; its strokes are: 3X6E03#0, 3X6E03#1" in err

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import interrupts
-from ..cards import Card, CardError, printable
+from ..cards import Card, CardError, printable, split_strokes
 from ..job import FitOptions, LevenbergMarquardt, PaperNewton, fit
 from ..models import MODELS, Model, model_class
 from ..pump.runner import FitSpec, fit_cards_each
@@ -194,26 +194,31 @@ def _selected(cards: list[Card], path: str, args: argparse.Namespace,
     if args.card is not None:
         errors = [e for e in errors if e.card_id == args.card]
     rows: list[Row] = [_refused(e, path) for e in errors]
-    if args.card is not None:
-        chosen = [c for c in cards if c.card_id == args.card]
-        if not chosen and not errors:
-            ids = ", ".join(printable(c.card_id) for c in cards[:20])
-            more = f" and {len(cards) - 20} more" if len(cards) > 20 else ""
-            rows.append(Row(card_id=args.card, source=path, status="invalid-input",
-                            reason=f"no card {printable(args.card)!r} in this file; its "
-                                   f"cards are: {ids}{more}"))
-        cards = chosen
+    # A stroke's id (RECORD#k, as --split-strokes names them) is chosen after the split.
+    stroke_id = (args.split_strokes and args.card is not None
+                 and not any(c.card_id == args.card for c in cards))
+    offered = cards
+    if args.card is not None and not stroke_id:
+        cards = [c for c in cards if c.card_id == args.card]
     if args.split_strokes:
-        from ..cards import split_strokes
-
         strokes: list[Card] = []
         for card in cards:
             try:
                 strokes.extend(split_strokes(card))
             except CardError as exc:
-                rows.append(Row(card_id=card.card_id, source=card.source,
-                                status="invalid-input", reason=str(exc), card=card))
+                if not stroke_id:
+                    rows.append(Row(card_id=card.card_id, source=card.source,
+                                    status="invalid-input", reason=str(exc), card=card))
         cards = strokes
+        if stroke_id:
+            offered = strokes
+            cards = [c for c in strokes if c.card_id == args.card]
+    if args.card is not None and not cards and not errors:
+        ids = ", ".join(printable(c.card_id) for c in offered[:20])
+        more = f" and {len(offered) - 20} more" if len(offered) > 20 else ""
+        rows.append(Row(card_id=args.card, source=path, status="invalid-input",
+                        reason=f"no card {printable(args.card)!r} in this file; its "
+                               f"{'strokes' if stroke_id else 'cards'} are: {ids}{more}"))
     return cards, rows
 
 
@@ -400,10 +405,22 @@ class _Predictor:
                 raise CliError(f"--predict: {exc}") from None
         self.in_file: Card | None = None
 
-    def use_file(self, cards: Sequence[Card]) -> None:
-        """The target among a file's cards (when it is an id)."""
-        if self.target is not None and self.card is None:
-            self.in_file = next((c for c in cards if c.card_id == self.target), None)
+    def use_file(self, cards: Sequence[Card], strokes: bool = False) -> None:
+        """The target among a file's cards (when it is an id), or among their strokes with
+        ``--split-strokes`` (an id RECORD#k)."""
+        if self.target is None or self.card is not None:
+            return
+        self.in_file = next((c for c in cards if c.card_id == self.target), None)
+        if self.in_file is None and strokes:
+            record, _, _k = self.target.rpartition("#")
+            for card in cards:
+                if card.card_id != record:
+                    continue
+                try:
+                    pieces = split_strokes(card)
+                except CardError:
+                    continue
+                self.in_file = next((c for c in pieces if c.card_id == self.target), None)
 
     def predict(self, row: Row) -> None:
         if self.target is None or row.result is None or row.result.model is None:
@@ -453,7 +470,7 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
                 raise
             yield path, exc, []
             continue
-        predictor.use_file(cards)
+        predictor.use_file(cards, strokes=args.split_strokes)
         if single and args.predict and predictor.card is None and predictor.in_file is None:
             raise CliError(f"--predict: no card {printable(args.predict)!r} in "
                            f"{printable(path)} and no such file")
