@@ -124,3 +124,16 @@ def test_real_cards_through_pumpid_downhole(shared_raw: Path, tmp_path: Path, ca
     a, b = default["downhole"]["load"], runs["fd"]["downhole"]["load"]
     span = max(a) - min(a)
     assert max(abs(x - y) for x, y in zip(a, b, strict=True)) < 0.01 * span
+
+
+def test_the_text_says_what_the_intake_pressure_assumes(shared_raw: Path, tmp_path: Path,
+                                                       capsys) -> None:
+    # fj2's text block had no note, while the JSON said the rods end 13.28 m above the pump
+    # and the intake pressure takes the tubing-head pressure as 0 (not in the well file).
+    well, entry = well_file(shared_raw, "fj2", tmp_path)
+    card = shared_raw / FOLDER / entry["card_csv"]
+    main(["downhole", str(card), "--well", str(well), "--spm", f"{float(entry['spm']):g}",
+          "--no-identify"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "note: the rod string ends 13.28 m above the pump depth" in out
+    assert "note: pump intake pressure with the tubing-head pressure taken as 0" in out

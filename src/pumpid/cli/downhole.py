@@ -149,10 +149,13 @@ class _Text:
             print(f"pump identification: {said}", file=self.stream)
 
 
-#: Words of the notes printed without --verbose: a card read in reverse, and a quantity
-#: beside the card that cannot be physical as it stands (an intake pressure of -830 psi was
-#: printed with its note only under --verbose).
-_ALWAYS_SAID = ("reverse", "intake pressure is negative")
+#: Words of the notes printed without --verbose: a card read in reverse, a quantity beside
+#: the card that cannot be physical as it stands (an intake pressure of -830 psi was printed
+#: with its note only under --verbose), and what a printed quantity assumes (the intake
+#: pressure with no tubing-head pressure in the well file; the pump card computed at the
+#: rods' bottom, short of the pump).
+_ALWAYS_SAID = ("reverse", "intake pressure is negative", "tubing-head pressure taken as 0",
+                "above the pump depth")
 
 
 class _Json:
