@@ -137,3 +137,24 @@ def test_the_text_says_what_the_intake_pressure_assumes(shared_raw: Path, tmp_pa
     out = " ".join(capsys.readouterr().out.split())
     assert "note: the rod string ends 13.28 m above the pump depth" in out
     assert "note: pump intake pressure with the tubing-head pressure taken as 0" in out
+
+
+def test_the_load_lines_are_on_the_card_shown(shared_raw: Path, tmp_path: Path,
+                                             capsys) -> None:
+    # --convention true on fj2: the card ran from -12.07 to 16.62 kN and its load lines
+    # were printed at 20.20 and -5.74 kN, the effective card's, 4.96 kN off.
+    well, entry = well_file(shared_raw, "fj2", tmp_path)
+    card = shared_raw / FOLDER / entry["card_csv"]
+    got = {c: run(capsys, card, well, float(entry["spm"]), "--damping", "0", "--method", "fd",
+                  "--convention", c) for c in ("effective", "true")}
+    shift = got["effective"]["pump"]["upper_load_line"]["value"] - \
+        got["true"]["pump"]["upper_load_line"]["value"]
+    assert shift > 1.0  # kN: the fluid pressure on the rod's section at the pump
+    for c, doc in got.items():
+        loads = doc["downhole"]["load"]
+        q = doc["pump"]
+        assert min(loads) - 1.0 < q["lower_load_line"]["value"] < q["upper_load_line"][
+            "value"] < max(loads) + 1.0, c
+    assert got["effective"]["pump"]["lower_load_line"]["value"] - got["true"]["pump"][
+        "lower_load_line"]["value"] == pytest.approx(shift)
+    assert got["true"]["pump"]["fluid_load"] == got["effective"]["pump"]["fluid_load"]

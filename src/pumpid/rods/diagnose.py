@@ -81,7 +81,11 @@ class DownholeResult:
         Position (card unit, upwards, the pump's lowest point at 0) and load (card unit,
         :attr:`convention`) at the bottom of each taper; the last row is the pump card.
     pump : PumpMeasure or None
-        Pump quantities (SI).
+        Pump quantities (SI), measured on the effective card.
+    true_shift : float
+        What the true convention takes off the pump card's effective loads (N): the fluid
+        pressure on the rod's section at the pump; 0 in the effective convention. The load
+        lines are given in the convention of the card shown.
     notes : tuple of str
         Everything assumed, converted or noticed.
     """
@@ -101,6 +105,7 @@ class DownholeResult:
     load: Array | None = None
     pump: PumpMeasure | None = None
     notes: tuple[str, ...] = field(default=())
+    true_shift: float = 0.0
 
     @property
     def ok(self) -> bool:
@@ -123,9 +128,12 @@ class DownholeResult:
             return {}
         units = quantity_units(self.well, self.card)
         m = self.pump
+        # The load lines on the card shown: in the true convention they sat 5 kN above the
+        # card they were printed with (fj2), as measured on the effective one.
         values = {"gross_stroke": m.gross_stroke, "net_stroke": m.net_stroke,
                   "fluid_load": m.fluid_load, "fillage": m.fillage,
-                  "upper_load_line": m.upper_load, "lower_load_line": m.lower_load,
+                  "upper_load_line": m.upper_load - self.true_shift,
+                  "lower_load_line": m.lower_load - self.true_shift,
                   "displacement": m.displacement, "intake_pressure": m.intake_pressure}
         return {name: {"value": None if v is None else float(v) / units[name][1],
                        "unit": units[name][0]} for name, v in values.items()}
@@ -449,8 +457,10 @@ def _result(card: Card, well: Well, static: _Static, pos: Array, ten: Array, rev
         notes.append(f"{opt.harmonics} harmonics asked, the card's {card.n} samples resolve "
                      f"{used}")
     shown = ten[:count] + static.below[:, None]
+    true_shift = 0.0
     if opt.convention == "true":
         shown = shown - static.pressure_force[:, None]
+        true_shift = float(static.pressure_force[count - 1])
     pos = pos[:count] - pos[count - 1].min()
     if rev:
         pos, shown = pos[:, ::-1], shown[:, ::-1]
@@ -467,7 +477,7 @@ def _result(card: Card, well: Well, static: _Static, pos: Array, ten: Array, rev
         card=card, status="computed", well=well, method=opt.method, damping=opt.nu,
         damping_rule=opt.rule, harmonics=used, convention=opt.convention, reversed=rev,
         depths=static.depths, position=pos / kp, load=shown / kl, pump=measure,
-        notes=tuple(dict.fromkeys(notes)))
+        notes=tuple(dict.fromkeys(notes)), true_shift=true_shift)
 
 
 def diagnose_card(card: Card, well: Well | WellFile, **options: Any) -> DownholeResult:
