@@ -392,7 +392,31 @@ def test_one_iteration_fit_has_no_convergence_figure(result: FitResult, tmp_path
     assert "history" not in paths and not (tmp_path / "history.png").exists()
     doc = parse(paths["report"].read_text(encoding="utf-8"))
     body = " ".join(" ".join(v) for v in doc.text.values())
-    assert "The solver made 1 iteration: its start was already at the optimum" in body
+    assert "The solver's last solve made 1 iteration: its start was already at the optimum" \
+        in body
+
+
+@pytest.mark.realdata
+def test_the_history_ends_at_the_answer_reported(shared_raw, tmp_path) -> None:
+    # SX6I03A: the history ended at k0 = 1.276e8 beside the reported 3.469e8 (the boundary
+    # test moves k0 to its limit after the solver's last iteration), and said "the solver
+    # made 1 iteration" beside "iterations 2" in the Convergence table.
+    from pumpid.cards import read_cards
+
+    card = next(c for c in read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")
+                if c.card_id == "SX6I03A")
+    fit = pumpid.fit(pumpid.Kelvin, card)
+    assert fit.boundary is not None and fit.history[-1]["k0"] != fit.params["k0"]
+    doc = parse(write_outputs(fit, tmp_path, dpi=40)["report"].read_text(encoding="utf-8"))
+    body = " ".join(" ".join(v) for v in doc.text.values())
+    assert "The last row is the answer reported: after the solver's last iteration the " \
+        "boundary test moved k0 toward its limit" in body
+    steps = sum(1 for row in fit.history if row["iteration"] > 0)
+    if fit.iterations != steps:
+        assert f"the fit made {fit.iterations} in all, over its stages" in body
+    history = next(t for t in doc.tables if t and t[0] and t[0][0] == "iteration")
+    assert history[-1][0] == "answer"
+    assert float(history[-1][1]) == pytest.approx(fit.params["k0"], rel=1e-7)
 
 
 @pytest.mark.parametrize("status", [Status.UNDETERMINED, Status.POOR_FIT])

@@ -429,25 +429,58 @@ def history_html(result: FitResult) -> str:
                 "<code>pumpid.fit(model, card)</code>, or <code>pumpid fit FILE --card ID "
                 "--out DIR</code>).</p>")
     intro = ""
+    steps = sum(1 for row in result.history if (row.get("iteration") or 0) > 0)
     if not has_history_figure(result):
-        steps = sum(1 for row in result.history if (row.get("iteration") or 0) > 0)
-        intro = (f"<p>The solver made {steps} iteration{'s' if steps != 1 else ''}: its "
-                 "start was already at the optimum, so there is no convergence figure.</p>\n")
+        intro = (f"<p>The solver's last solve made {steps} iteration{'s' if steps != 1 else ''}"
+                 ": its start was already at the optimum, so there is no convergence "
+                 "figure.</p>\n")
+    if result.iterations != steps:
+        # The count of the Convergence table is the whole fit's, over its stages; the
+        # history is the last solve's ("iterations 2" beside "made 1 iteration").
+        intro += (f"<p>The table holds the last solve's iterations; the fit made "
+                  f"{result.iterations} in all, over its stages.</p>\n")
     infos = _param_infos(result)
-    cols = history_columns(result.history)
+    history = list(result.history)
+    last = history[-1]
+    moved = [n for n, v in result.params.items()
+             if n in last and not _same(last[n], v)]
+    if moved:
+        # A boundary fit is moved to its limit after the solver's last iteration: the
+        # history ended at k0 = 1.3e8 beside the reported 3.5e8, with no word of why.
+        history.append({"iteration": math.nan, **result.params,
+                        **({"C": result.scale} if "C" in last else {}),
+                        **({"offset": result.offset} if "offset" in last else {}),
+                        "cost": result.cost})
+        limits = [b.name for b in result.boundary.limits] if result.boundary else []
+        why = (f"after the solver's last iteration the boundary test moved "
+               f"{', '.join(limits)} toward {'its' if len(limits) == 1 else 'their'} limit, "
+               "where the fit is as good, and refitted the other values there"
+               if limits else
+               f"after the solver's last iteration a later stage moved {', '.join(moved)}")
+        intro += f"<p>The last row is the answer reported: {why}.</p>\n"
+    cols = history_columns(history)
     headers = [c if c == "iteration" else f"{c} [{_param_unit(result, infos, c) or '-'}]"
                for c in cols]
     rows = []
-    for entry in result.history:
+    for entry in history:
         cells = []
         for c in cols:
             v = entry.get(c)
             if c == "iteration" and v is not None and math.isfinite(v):
                 cells.append(str(int(v)))
+            elif c == "iteration":
+                cells.append("answer")
             else:
                 cells.append(number(v, 8))
         rows.append(cells)
     return intro + table(headers, rows, cls="history")
+
+
+def _same(a: float | None, b: float) -> bool:
+    """Two values equal to the digits the table shows (8)."""
+    if a is None or not (math.isfinite(a) and math.isfinite(b)):
+        return a is None or (a == b) or (math.isnan(a) and math.isnan(b))
+    return abs(a - b) <= 1e-8 * max(abs(a), abs(b))
 
 
 def prediction_html(result: FitResult, pred: Any) -> str | None:
