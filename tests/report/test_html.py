@@ -445,3 +445,22 @@ def test_fit_quality_sets_r2_beside_the_stroke_s_fundamental(tiny_figures) -> No
     rest = pumpid.fit(pumpid.Kelvin, (t, load, pumpid.simulate(
         pumpid.Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0), t, load)))
     assert "fundamental" not in render_html(rest, figures=tiny_figures)
+
+
+def test_a_model_choice_is_a_table(tmp_path) -> None:
+    # --model auto's ranking was under "Other results" as a Python dict cut off after a few
+    # hundred characters, its rss without a unit.
+    from pumpid.cli import main
+
+    example = pumpid.__path__[0] + "/data/example_cards.csv"
+    assert main(["fit", example, "--card", "EX-1A", "--model", "auto", "--out",
+                 str(tmp_path / "out")]) in (0, 6)
+    page = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
+    doc = parse(page)
+    assert "Other results" not in page and "'rss'" not in page
+    ranking = next(t for t in doc.tables if t and t[0][:3] == ["structure", "fitted values",
+                                                              "R^2"])
+    names = [row[0] for row in ranking[1:]]
+    assert {"msd", "kelvin (u2)", "maxwell"} <= set(names)
+    assert abs(sum(float(row[6]) for row in ranking[1:]) - 1.0) < 0.01
+    assert "Chosen: " in page and "likelihood ratio" in page

@@ -36,6 +36,7 @@ from .sections import (
     history_html,
     identifiability_html,
     input_html,
+    model_choice_html,
     params_html,
     prediction_arrays,
     prediction_html,
@@ -69,7 +70,8 @@ CAPTIONS: dict[str, str] = {
 _KNOWN_EXTRA = ("model_name", "gauge", "start", "card", "stderr", "ci95", "stderr_hac",
                 "ci95_hac", "stderr_white", "ci95_white", "errors_shown", "correlation",
                 "identifiability", "boundaries", "reduced", "prediction", "edges",
-                "covariance", "sigma2", "uncertainty", "determined", "derived")
+                "covariance", "sigma2", "uncertainty", "determined", "derived",
+                "model_choice")
 
 _CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 2em auto;
@@ -233,6 +235,10 @@ def render_html(
         body.append(section("Derived quantities", derived_html(result), sid="derived"))
     if result.warnings:
         body.append(section("Warnings", bullet_list(result.warnings), sid="warnings"))
+    choice = result.application.get("model_choice")
+    if choice:
+        # The ranking as a table: "Other results" showed it as a cut-off Python dict.
+        body.append(section("Model choice", model_choice_html(choice), sid="choice"))
     boundary_part = boundary_html(result)
     if boundary_part:
         body.append(section("Boundary solution", boundary_part, sid="boundary"))

@@ -31,6 +31,7 @@ __all__ = [
     "history_html",
     "identifiability_html",
     "input_html",
+    "model_choice_html",
     "params_html",
     "prediction_arrays",
     "prediction_html",
@@ -582,3 +583,38 @@ def boundary_html(result: FitResult) -> str | None:
                      f"({escape(status)}{escape(why)})</p>")
         parts.append(table(("parameter", "value", "unit"), rows, num_cols=(1,)))
     return "\n".join(parts) if parts else None
+
+
+def model_choice_html(choice: Mapping[str, Any]) -> str:
+    """A model choice's ranking (``application["model_choice"]``), as the text output has
+    it: the criterion and effective sample size, a row per structure, the nested tests.
+
+    Parameters
+    ----------
+    choice : mapping
+        The ranking.
+
+    Returns
+    -------
+    str
+        HTML.
+    """
+    data = choice.get("n_eff_data", choice["n_eff"])
+    data = choice["n_eff"] if data is None or not math.isfinite(data) else float(data)
+    used = (f"n_eff = {data:.1f}" if abs(data - choice["n_eff"]) < 0.05 else
+            f"n_eff = {data:.1f}, counted as {choice['n_eff']:.1f} by the criteria, their "
+            "smallest usable size")
+    intro = (f"<p>Chosen: <b>{escape(str(choice['chosen']))}</b>, by "
+             f"{escape(str(choice['criterion']).upper())} on the effective sample size (n = "
+             f"{choice['n']} samples, residual lag-1 autocorrelation {choice['rho']:.3f}, "
+             f"{escape(used)}). Delta is each structure's criterion above the best; the "
+             "weights are the criterion's evidence weights (they sum to 1).</p>\n")
+    rows = [[str(c["name"]), str(c["k"]), number(c["r2"], 6), number(c["bic"], 6),
+             number(c["aicc"], 6), number(c["delta"], 4), number(c["weight"], 3),
+             str(c["status"])] for c in choice["candidates"]]
+    out = intro + table(["structure", "fitted values", "R^2", "BIC", "AICc", "delta",
+                         "weight", "status"], rows, cls="choice")
+    tests = [f"likelihood ratio {t['big']} against {t['small']} ({t['limit']}): statistic "
+             f"{t['statistic']:.3g} on {t['dof']} degrees of freedom, p = {t['p_value']:.3g}"
+             for t in choice.get("nested_tests", ())]
+    return out + (bullet_list(tests) if tests else "")
