@@ -70,22 +70,21 @@ A level falling steadily over the history widens the two-segment test's scatter 
 it parts its medians: on a straight decline of 14 cards that test's statistic is 5.2
 however steep the fall, below its threshold of 5.6 when a pump field's nine quantities
 share the false-alarm probability (a pump's fillage falling from 0.99 to 0.61 over 14
-daily cards went unreported). Where both
-alert, the one further beyond its threshold names the change (``method`` ``"two-segment"``
-or ``"drift"``). A step's first card is the maximising split of the two-segment statistic
-and ``before`` / ``after`` the medians either side; a drift is under way from the
-history's first card, ``before`` / ``after`` the fitted line's values at its first and last
-cards and ``change_se`` the slope over its standard error. The alarm card is the history's
-last. At most one change per short
-history; a step in its first or last two cards cannot be told from an outlier and is not
-reported. ``benchmarks/bench_changes.py`` measures the false-alarm rate and power.
+daily cards went unreported). Where both alert, the one further beyond its threshold names
+the change (``method`` ``"two-segment"`` or ``"drift"``). A step's first card is the
+maximising split of the two-segment statistic and ``before`` / ``after`` the medians either
+side; a drift is under way from the history's first card, ``before`` / ``after`` the fitted
+line's values at its first and last cards and ``change_se`` the slope over its standard
+error. The alarm card is the history's last. At most one change per short history; a step
+in its first or last two cards cannot be told from an outlier and is not reported.
+``benchmarks/bench_changes.py`` measures the false-alarm rate and power.
 
 Assumptions: levels are piecewise constant between changes with independent card-to-card
 noise; in a long history a slow drift shows as a late alert, or several alerts in the same
-direction (a short one has the drift test). The
-first ``min_cards`` cards of a segment (the reference) cannot themselves hold a change
-(two changes closer than ``min_cards`` cards are seen as one); a history shorter than
-``min_short_cards`` usable cards is not tested (:func:`history_coverage` says which).
+direction (a short one has the drift test). The first ``min_cards`` cards of a segment (the
+reference) cannot themselves hold a change (two changes closer than ``min_cards`` cards are
+seen as one); a history shorter than ``min_short_cards`` usable cards is not tested
+(:func:`history_coverage` says which).
 
 Column conventions of the results table
 ---------------------------------------
@@ -430,10 +429,9 @@ def detect_changes(
         on the log scale, in ``unit`` otherwise), ``first_index``/``alarm_index``
         (positions among the well's usable cards of that quantity), ``delay_cards``,
         ``n_before``/``n_after`` (cards in the segments; 0 and the history's cards for a
-        drift), ``threshold`` (``h``, in noise
-        scales) and ``order`` (``"time"`` or ``"card order"``), ``method`` (``"cusum"``,
-        ``"two-segment"`` or ``"drift"``: a short history's steady rise or fall). Sorted by
-        well, quantity and first card.
+        drift), ``threshold`` (``h``, in noise scales) and ``order`` (``"time"`` or
+        ``"card order"``), ``method`` (``"cusum"``, ``"two-segment"`` or ``"drift"``: a
+        short history's steady rise or fall). Sorted by well, quantity and first card.
 
     Raises
     ------

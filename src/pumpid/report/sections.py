@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..models import Model, OwnModel, ParamInfo, model_class
-from ..result import FitResult, Prediction
+from ..result import FitResult, Prediction, n_eff_words
 from .markup import bullet_list, escape, interval, number, table, value_html
 from .plots import (
     has_history_figure,
@@ -432,14 +432,13 @@ def history_html(result: FitResult) -> str:
     intro = ""
     steps = sum(1 for row in result.history if (row.get("iteration") or 0) > 0)
     if not has_history_figure(result):
-        intro = (f"<p>The solver's last solve made {steps} iteration{'s' if steps != 1 else ''}"
-                 ": its start was already at the optimum, so there is no convergence "
-                 "figure.</p>\n")
+        intro = (f"<p>The solver made {steps} iteration{'s' if steps != 1 else ''}: its "
+                 "start was already at the optimum, so there is no convergence figure.</p>\n")
     if result.iterations != steps:
         # The count of the Convergence table is the whole fit's, over its stages; the
-        # history is the last solve's ("iterations 2" beside "made 1 iteration").
-        intro += (f"<p>The table holds the last solve's iterations; the fit made "
-                  f"{result.iterations} in all, over its stages.</p>\n")
+        # history one solve's ("iterations 2" beside "made 1 iteration").
+        intro += (f"<p>The table holds the iterations of the solve that recorded them; the "
+                  f"fit made {result.iterations} in all, over its stages.</p>\n")
     infos = _param_infos(result)
     history = list(result.history)
     last = history[-1]
@@ -599,11 +598,7 @@ def model_choice_html(choice: Mapping[str, Any]) -> str:
     str
         HTML.
     """
-    data = choice.get("n_eff_data", choice["n_eff"])
-    data = choice["n_eff"] if data is None or not math.isfinite(data) else float(data)
-    used = (f"n_eff = {data:.1f}" if abs(data - choice["n_eff"]) < 0.05 else
-            f"n_eff = {data:.1f}, counted as {choice['n_eff']:.1f} by the criteria, their "
-            "smallest usable size")
+    used = n_eff_words(choice)
     intro = (f"<p>Chosen: <b>{escape(str(choice['chosen']))}</b>, by "
              f"{escape(str(choice['criterion']).upper())} on the effective sample size (n = "
              f"{choice['n']} samples, residual lag-1 autocorrelation {choice['rho']:.3f}, "

@@ -24,7 +24,7 @@ from .boundaries import BoundaryInfo, Limiting, ReducedFit
 from .derived import Derived
 from .fit import FitResult, derived_text, diagnostics_text, format_report
 from .parts import CardInfo, Prediction, StartInfo, Status, Units, jsonable
-from .text import model_choice_text
+from .text import model_choice_text, n_eff_words
 from .uncertainty import Uncertainty
 
 __all__ = [
@@ -45,4 +45,5 @@ __all__ = [
     "format_report",
     "jsonable",
     "model_choice_text",
+    "n_eff_words",
 ]

@@ -6,7 +6,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-__all__ = ["error_table", "fmt", "fmt_error", "model_choice_text"]
+__all__ = ["error_table", "fmt", "fmt_error", "model_choice_text", "n_eff_words"]
 
 
 def fmt(value: float | None, digits: int = 6) -> str:
@@ -43,14 +43,20 @@ def error_table(names: Sequence[str], values: Mapping[str, float], units: Mappin
     return lines
 
 
+def n_eff_words(choice: Mapping[str, Any]) -> str:
+    """A model choice's effective sample size in words: the data's, and what the criteria
+    counted where that differs."""
+    data = choice.get("n_eff_data", choice["n_eff"])
+    data = choice["n_eff"] if data is None or not math.isfinite(data) else float(data)
+    return (f"n_eff = {data:.1f}" if abs(data - choice["n_eff"]) < 0.05 else
+            f"n_eff = {data:.1f}, counted as {choice['n_eff']:.1f} by the criteria, their "
+            f"smallest usable size")
+
+
 def model_choice_text(choice: Mapping[str, Any]) -> str:
     """A model choice's ranking (``application["model_choice"]``) as text."""
     crit = str(choice["criterion"]).upper()
-    data = choice.get("n_eff_data", choice["n_eff"])
-    data = choice["n_eff"] if data is None or not math.isfinite(data) else float(data)
-    used = (f"n_eff = {data:.1f}" if abs(data - choice["n_eff"]) < 0.05 else
-            f"n_eff = {data:.1f}, counted as {choice['n_eff']:.1f} by the criteria, their "
-            f"smallest usable size")
+    used = n_eff_words(choice)
     lines = [f"Model choice by {crit} on the effective sample size (n = {choice['n']}, "
              f"residual lag-1 autocorrelation {choice['rho']:.3f}, {used}); chosen: "
              f"{choice['chosen']}",
