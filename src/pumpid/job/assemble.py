@@ -149,9 +149,11 @@ def build_result(problem: Problem, k: int, card: CardState, options: JobOptions,
         # The reduced model was fitted inside the job, which knows no units: its parameters'
         # units come from this card's, as the full model's do.
         red_cls = model_class(reduced.model)
+        # C's unit too where it has one (a first-order lag's turns load * s into position).
+        scale_unit = red_cls.scale_unit.format(load=units.load, position=units.position)
         reduced = dataclasses.replace(reduced, units={
             **{p.name: p.unit_for(units.load, units.position) for p in red_cls.param_info()},
-            "C": red_cls.scale_unit.format(load=units.load, position=units.position)})
+            **({"C": scale_unit} if scale_unit != "1" else {})})
     boundary = (BoundaryInfo(card.limits, reduced) if card.limits else None)
     state = problem.initial_states[k]
     one_period = (state == "periodic" and problem.uniform[k] and problem.residual == "linear"
