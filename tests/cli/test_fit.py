@@ -183,4 +183,25 @@ def test_a_stroke_is_chosen_by_the_id_split_strokes_gives_it(shared_raw, capsys)
     assert out.count("prediction of card 3X6E03#3: R^2 = ") == 6
     assert main(["fit", record, "--split-strokes", "--card", "3X6E03#9"]) == 2
     err = capsys.readouterr().err
-    assert "no card '3X6E03#9' in this file; its strokes are: 3X6E03#0, 3X6E03#1" in err
+    assert "no stroke '3X6E03#9': record '3X6E03' splits into 3X6E03#0, 3X6E03#1" in err
+    assert main(["fit", record, "--split-strokes", "--card", "3X6E04#1"]) == 2
+    err = capsys.readouterr().err
+    assert "no card '3X6E04' (of stroke '3X6E04#1') in this file; its cards are: 3X6E03" in err
+
+
+def test_a_record_that_cannot_be_split_is_one_row(tmp_path, capsys) -> None:
+    # --split-strokes --card A, A too short a stroke to split: its reason and a second row
+    # "no card 'A' in this file; its cards are: A, B".
+    t = np.arange(120) * 0.1
+    rows = ["card_id,t,position_in,load_lbf"]
+    for cid, period in (("A", 1.0), ("B", 6.0)):
+        pos = 50 * (1 - np.cos(2 * np.pi * t / period))
+        rows += [f"{cid},{ti:.3f},{p:.4f},{5000 + 30 * p:.3f}" for ti, p in zip(t, pos,
+                                                                             strict=True)]
+    path = tmp_path / "two.csv"
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    main(["fit", str(path), str(path), "--split-strokes", "--card", "A", "--brief"])
+    out = capsys.readouterr()
+    said = [ln for ln in (out.out + out.err).splitlines() if "no card" in ln]
+    assert said == [], said
+    assert (out.out + out.err).count("every stroke is shorter than") == 2

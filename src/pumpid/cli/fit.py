@@ -194,31 +194,39 @@ def _selected(cards: list[Card], path: str, args: argparse.Namespace,
     if args.card is not None:
         errors = [e for e in errors if e.card_id == args.card]
     rows: list[Row] = [_refused(e, path) for e in errors]
-    # A stroke's id (RECORD#k, as --split-strokes names them) is chosen after the split.
-    stroke_id = (args.split_strokes and args.card is not None
+    # A stroke's id (RECORD#k, as --split-strokes names them) is chosen after its record is
+    # split; any other id names a record, looked for before.
+    record = args.card.rpartition("#")[0] if args.card is not None else ""
+    stroke_id = (args.split_strokes and bool(record)
                  and not any(c.card_id == args.card for c in cards))
-    offered = cards
-    if args.card is not None and not stroke_id:
-        cards = [c for c in cards if c.card_id == args.card]
+    if args.card is not None:
+        wanted = record if stroke_id else args.card
+        chosen = [c for c in cards if c.card_id == wanted]
+        if not chosen and not errors:
+            ids = ", ".join(printable(c.card_id) for c in cards[:20])
+            more = f" and {len(cards) - 20} more" if len(cards) > 20 else ""
+            of = f" (of stroke {printable(args.card)!r})" if stroke_id else ""
+            rows.append(Row(card_id=args.card, source=path, status="invalid-input",
+                            reason=f"no card {printable(wanted)!r}{of} in this file; its "
+                                   f"cards are: {ids}{more}"))
+        cards = chosen
     if args.split_strokes:
         strokes: list[Card] = []
         for card in cards:
             try:
                 strokes.extend(split_strokes(card))
             except CardError as exc:
-                if not stroke_id:
-                    rows.append(Row(card_id=card.card_id, source=card.source,
-                                    status="invalid-input", reason=str(exc), card=card))
-        cards = strokes
-        if stroke_id:
-            offered = strokes
+                rows.append(Row(card_id=card.card_id, source=card.source,
+                                status="invalid-input", reason=str(exc), card=card))
+        if stroke_id and strokes:
             cards = [c for c in strokes if c.card_id == args.card]
-    if args.card is not None and not cards and not errors:
-        ids = ", ".join(printable(c.card_id) for c in offered[:20])
-        more = f" and {len(offered) - 20} more" if len(offered) > 20 else ""
-        rows.append(Row(card_id=args.card, source=path, status="invalid-input",
-                        reason=f"no card {printable(args.card)!r} in this file; its "
-                               f"{'strokes' if stroke_id else 'cards'} are: {ids}{more}"))
+            if not cards:
+                ids = ", ".join(printable(c.card_id) for c in strokes)
+                rows.append(Row(card_id=args.card, source=path, status="invalid-input",
+                                reason=f"no stroke {printable(args.card)!r}: record "
+                                       f"{printable(record)!r} splits into {ids}"))
+        else:
+            cards = strokes
     return cards, rows
 
 
@@ -412,7 +420,7 @@ class _Predictor:
             return
         self.in_file = next((c for c in cards if c.card_id == self.target), None)
         if self.in_file is None and strokes:
-            record, _, _k = self.target.rpartition("#")
+            record = self.target.rpartition("#")[0]
             for card in cards:
                 if card.card_id != record:
                     continue
