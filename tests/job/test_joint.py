@@ -177,3 +177,21 @@ def test_cards_that_share_no_parameter_set_are_named() -> None:
     steady = pumpid.fit(pumpid.Kelvin, steady_well(4), options=JOINT)
     assert not any("fit jointly" in w for w in steady.warnings)
     assert all(c["rmse"] <= 1.1 * c["rmse_alone"] for c in steady.application["joint"]["cards"])
+
+
+def test_records_from_a_given_state_are_not_checked_for_an_echo() -> None:
+    # Records started from a given state (an array) are not one period of a stroke: the
+    # echo check compared the array with "periodic" and raised instead of fitting.
+    from pumpid.engine.problem import CardData
+
+    t = np.linspace(0.0, 20.0, 201)
+    truth = pumpid.Kelvin(k0=40.0, m=1.0, c1=2.0, k1=30.0)
+    records = []
+    for amp in (3.0, 3.3):
+        load = 10.0 + amp * np.sin(0.9 * t) + np.sin(2.3 * t)
+        u = pumpid.simulate(truth, t, load, observe="u")
+        records.append(CardData(t, load, u, np.zeros(3), None))
+    joint = pumpid.fit(pumpid.Kelvin, records, options=JOINT)
+    assert joint.status in (pumpid.Status.CONVERGED, pumpid.Status.BOUNDARY), joint.reason
+    assert all(d.well_property for d in joint.derived.values())
+    assert not any("stroke frequency" in w for w in joint.warnings)

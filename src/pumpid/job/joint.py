@@ -131,11 +131,29 @@ class StackedCards(OwnModel):
 
     def derived(self, values: Array, numbers: Any, serial: bool,
                 limits: Sequence[tuple[str, str]]) -> Mapping[str, Any]:
-        """The lumped model's derived quantities (natural frequency, damping ratio, ...)."""
-        return derived_of(self.cls, values[: self.n_model], observe=self.observe, scale=1.0,
-                          nums=numbers, units=(self.units.load, self.units.position),
-                          serial=serial, limits=[b for b in limits
-                                                 if b[0] in self.cls.param_names()])
+        """The lumped model's derived quantities (natural frequency, damping ratio, ...), the
+        oscillating pair's marked where it echoes the cards' stroke frequency (before the
+        gates, which name an echo that they list as determined)."""
+        derived = derived_of(self.cls, values[: self.n_model], observe=self.observe,
+                             scale=1.0, nums=numbers,
+                             units=(self.units.load, self.units.position), serial=serial,
+                             limits=[b for b in limits if b[0] in self.cls.param_names()])
+        return self.echo(derived)[0]
+
+    def echo(self, derived: Mapping[str, Any]) -> tuple[dict[str, Any], str | None]:
+        """:func:`pumpid.inference.echo.echo_of` against each card's stroke frequency: the
+        quantities (the pair marked where it sits on any card's) and the finding in words
+        (None when it is clear of every card's, or a card is not one period)."""
+        periods = [r.period for r in self.records
+                   if isinstance(r.initial_state, str) and r.initial_state == "periodic"
+                   and r.period is not None]
+        if len(periods) != len(self.records):
+            return dict(derived), None
+        for period in dict.fromkeys(float(p) for p in periods):
+            marked, words = echo_of(derived, period)
+            if words is not None:
+                return marked, words
+        return dict(derived), None
 
 
 def joint_part(model: StackedCards, result: FitResult, ids: Sequence[str]) -> dict[str, Any]:
@@ -187,16 +205,26 @@ def misfit_warning(part: Mapping[str, Any], unit: str) -> str:
 
 
 def joint_echo(model: StackedCards, result: FitResult) -> FitResult:
-    """``result`` with its resonance checked against the cards' stroke frequency, as a
-    single card's is (:func:`pumpid.inference.echo.echo_of`): a joint fit of strokes of one
-    well echoes their pumping speed as each card's fit does (Sandia's SX6I03 pair at 0.96x
-    the stroke frequency jointly, as alone). Records that are not all one period of a
-    periodic motion are not checked; the cards' median period stands for them all."""
-    periods = [float(r.period) for r in model.records
-               if r.initial_state == "periodic" and r.period is not None]
-    if len(periods) != len(model.records) or not result.derived:
+    """``result`` with the warning and the list of quantities that are not the well's, where
+    its resonance sits on a card's stroke frequency (:meth:`StackedCards.echo`; a joint fit
+    of one well's strokes echoes their pumping speed as each card's fit does).
+
+    Parameters
+    ----------
+    model : StackedCards
+        The joint model the result was fitted with.
+    result : FitResult
+        Its result, the quantities already marked by :meth:`StackedCards.derived`.
+
+    Returns
+    -------
+    FitResult
+        The result, with the finding in its warnings and ``determined["not_well_property"]``
+        where there is one; else ``result`` itself.
+    """
+    if not result.derived:
         return result
-    derived, echo = echo_of(result.derived, float(np.median(periods)))
+    derived, echo = model.echo(result.derived)
     if echo is None:
         return result
     determined = {**result.determined,
