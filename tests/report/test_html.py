@@ -412,7 +412,8 @@ def test_the_history_ends_at_the_answer_reported(shared_raw, tmp_path) -> None:
         "boundary test moved k0 toward its limit" in body
     steps = sum(1 for row in fit.history if row["iteration"] > 0)
     if fit.iterations != steps:
-        assert f"the fit made {fit.iterations} in all, over its stages" in body
+        assert f"the Convergence table counts the last solve's iterations ({fit.iterations})" \
+            in body and f"The table holds the path the fit recorded ({steps} step" in body
     history = next(t for t in doc.tables if t and t[0] and t[0][0] == "iteration")
     assert history[-1][0] == "answer"
     assert float(history[-1][1]) == pytest.approx(fit.params["k0"], rel=1e-7)
@@ -463,3 +464,21 @@ def test_a_model_choice_is_a_table(tmp_path) -> None:
     assert {"msd", "kelvin (u2)", "maxwell"} <= set(names)
     assert abs(sum(float(row[6]) for row in ranking[1:]) - 1.0) < 0.01
     assert "Chosen: " in page and "likelihood ratio" in page
+
+
+def test_a_history_that_joins_solves_says_so(tmp_path) -> None:
+    # The bundled example's EX-1A: its path joins three solves (22 steps) while the
+    # Convergence table counts the last one's 9, and the page said "the fit made 9 in all".
+    from pumpid.cards import read_cards
+
+    card = next(c for c in read_cards(pumpid.__path__[0] + "/data/example_cards.csv")
+                if c.card_id == "EX-1A")
+    fit = pumpid.fit(pumpid.Kelvin, card)
+    steps = sum(1 for row in fit.history if row["iteration"] > 0)
+    doc = parse(write_outputs(fit, tmp_path, dpi=40)["report"].read_text(encoding="utf-8"))
+    body = " ".join(" ".join(v) for v in doc.text.values())
+    assert "in all, over its stages" not in body
+    if steps != fit.iterations:
+        assert f"recorded ({steps} steps" in body
+    history = next(t for t in doc.tables if t and t[0] and t[0][0] == "iteration")
+    assert len(history) - 1 == len(fit.history) + (history[-1][0] == "answer")

@@ -435,23 +435,33 @@ def history_html(result: FitResult) -> str:
         intro = (f"<p>The solver made {steps} iteration{'s' if steps != 1 else ''}: its "
                  "start was already at the optimum, so there is no convergence figure.</p>\n")
     if result.iterations != steps:
-        # The count of the Convergence table is the whole fit's, over its stages; the
-        # history one solve's ("iterations 2" beside "made 1 iteration").
-        intro += (f"<p>The table holds the iterations of the solve that recorded them; the "
-                  f"fit made {result.iterations} in all, over its stages.</p>\n")
+        # The Convergence table counts the last solve's iterations (a boundary fit's refit
+        # at its limit, say); the history is the path recorded, which joins a crawling
+        # card's solves ("iterations 2" beside "made 1 iteration"; 9 beside 22 steps).
+        intro += (f"<p>The table holds the path the fit recorded ({steps} step"
+                  f"{'s' if steps != 1 else ''}: a card that crawls along a flat valley "
+                  "joins its exact solve, the continuation on the card's harmonics and the "
+                  "exact solve from there); the Convergence table counts the last solve's "
+                  f"iterations ({result.iterations}).</p>\n")
     infos = _param_infos(result)
     history = list(result.history)
     last = history[-1]
-    moved = [n for n, v in result.params.items()
-             if n in last and not _same(last[n], v)]
+    moved = [n for n, v in result.params.items() if n in last and not _same(last[n], v)]
+    if "C" in last and not _same(last["C"], result.scale):
+        moved.append("C")
+    if "offset" in last and not _same(last["offset"], result.offset):
+        moved.append("offset")
     if moved:
         # A boundary fit is moved to its limit after the solver's last iteration: the
         # history ended at k0 = 1.3e8 beside the reported 3.5e8, with no word of why.
         history.append({"iteration": math.nan, **result.params,
                         **({"C": result.scale} if "C" in last else {}),
+                        **({"D": math.log(result.scale)} if "D" in last
+                           and result.scale > 0 else {}),
                         **({"offset": result.offset} if "offset" in last else {}),
                         "cost": result.cost})
-        limits = [b.name for b in result.boundary.limits] if result.boundary else []
+        limits = ([b.name for b in result.boundary.limits if b.name in moved]
+                  if result.boundary else [])
         why = (f"after the solver's last iteration the boundary test moved "
                f"{', '.join(limits)} toward {'its' if len(limits) == 1 else 'their'} limit, "
                "where the fit is as good, and refitted the other values there"
@@ -477,10 +487,8 @@ def history_html(result: FitResult) -> str:
 
 
 def _same(a: float | None, b: float) -> bool:
-    """Two values equal to the digits the table shows (8)."""
-    if a is None or not (math.isfinite(a) and math.isfinite(b)):
-        return a is None or (a == b) or (math.isnan(a) and math.isnan(b))
-    return abs(a - b) <= 1e-8 * max(abs(a), abs(b))
+    """Two values alike in the digits the table shows."""
+    return a is None or number(a, 8) == number(b, 8)
 
 
 def prediction_html(result: FitResult, pred: Any) -> str | None:
