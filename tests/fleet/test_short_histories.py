@@ -1,5 +1,5 @@
-"""Short histories (6 to 30 cards of a well) are tested, by the two-segment test, at its
-simulated false-alarm rate; shorter ones are named as not tested."""
+"""Short histories (6 to 30 cards of a well) are tested, by the two-segment and drift
+tests, at their simulated false-alarm rate; shorter ones are named as not tested."""
 
 from __future__ import annotations
 
@@ -86,7 +86,7 @@ def test_the_report_says_which_wells_were_tested(tmp_path) -> None:
     files = write_fleet_report(table, tmp_path, quantities=["stiffness"], steady_sample=0)
     page = files["report"].read_text(encoding="utf-8")
     assert "1 alert in 1 well" in page
-    assert "0 wells by the CUSUM" in page and "28 wells by the two-segment test" in page
+    assert "0 wells by the CUSUM" in page and "28 wells by the two-segment and drift tests" in page
     assert ("wells too short to test (fewer than 6 usable cards of every quantity)</td>"
             "<td>2 wells: W0010, W0011") in page
     wells = files["wells"].read_text(encoding="utf-8")
@@ -137,10 +137,10 @@ def test_the_two_segment_statistic_cannot_see_a_straight_line() -> None:
     assert drift[1][1][0] == pytest.approx(0.1) and drift[0][0][0] > drift_threshold(14)
 
 
-def test_one_wild_card_is_not_a_drift() -> None:
+def test_wild_first_and_last_cards_are_not_a_drift() -> None:
     rng = np.random.default_rng(4)
     y = 0.01 * rng.standard_normal(10)
-    y[-1] += 0.12  # the last card 12 noise scales off
+    y[-1] += 0.12  # the last card 12 noise scales up and the first down: a slope's worst case
     y[0] -= 0.12
     stat, slope, _, _ = drift_statistic(y)
     assert abs(slope[0]) < 0.005 and stat[0] < drift_threshold(10, alpha=0.01)
@@ -158,3 +158,32 @@ def test_the_report_says_a_drift(tmp_path: Path, capsys) -> None:
     assert "from card W0001-0000 (a steady drift over the history" in out
     page = (tmp_path / "fleet" / "report.html").read_text(encoding="utf-8")
     assert "down (steady drift)" in page and "(fitted line, first card → last)" in page
+
+
+def test_an_exact_line_is_a_drift() -> None:
+    # No scatter about the line and no errors: the drift test was skipped and the history
+    # called a step at its middle card.
+    from pumpid.fleet.detectors import scan_two_segments
+
+    got = scan_two_segments(np.linspace(0.0, 1.0, 14), np.zeros(14), alpha=0.01,
+                            tail_dof=5.0, outlier_fraction=0.01)
+    assert len(got) == 1 and got[0].drift and got[0].first == 0 and got[0].size == np.inf
+
+
+def test_the_wells_table_says_a_drift() -> None:
+    from pumpid.fleet.changes import summarise_wells
+
+    table = _declining_fillage()
+    alerts = detect_changes(table, ["stiffness"])
+    wells = summarise_wells(table, alerts, ["stiffness"]).set_index("well_id")
+    said = wells.loc["W0001", "largest_change"]
+    assert said.startswith("stiffness 1.001 -> 0.6278") and said.endswith(", a steady drift")
+
+
+def test_the_figure_draws_a_drift_through_its_cards(tmp_path) -> None:
+    from pumpid.fleet.report import write_fleet_report
+
+    table = _declining_fillage()
+    files = write_fleet_report(table, tmp_path, quantities=["stiffness"], steady_sample=0)
+    assert (tmp_path / "well_W0001.png").exists()
+    assert "steady drift" in files["report"].read_text(encoding="utf-8")

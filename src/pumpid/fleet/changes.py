@@ -57,27 +57,27 @@ Short histories
 ---------------
 A history of ``min_short_cards`` (6) to ``min_cards`` usable cards (a week of daily cards)
 has no room for a reference window; it is tested as a whole by the **two-segment test**
-(:func:`pumpid.fleet.thresholds.two_segment_statistic`): for every split into two runs of
-at least 3 cards, the difference of their medians over its standard error, the scale being
-the cards' scatter about their own run's median (never below the median of the fits'
-standard errors); the largest over the splits is compared with its ``1 - alpha / 2``
-quantile simulated for that very length under the same steady noise as the CUSUM's
+(:func:`pumpid.fleet.thresholds.two_segment_statistic`): for every split into two runs of at
+least 3 cards, the difference of their medians over its standard error, the scale being the
+cards' scatter about their own run's median (never below the median of the fits' standard
+errors); the largest over the splits is compared with its ``1 - alpha / 2`` quantile
+simulated for that very length under the same steady noise as the CUSUM's
 (:func:`pumpid.fleet.thresholds.two_segment_threshold`). Beside it, the **drift test**
 (:func:`pumpid.fleet.thresholds.drift_statistic`): the history's Theil-Sen slope over its
 standard error, the scale being the cards' scatter about that line, compared with its own
-simulated ``1 - alpha / 2`` quantile (:func:`pumpid.fleet.thresholds.drift_threshold`).
-A level falling steadily over the history widens the two-segment test's scatter as much as
-it parts its medians: on a straight decline of 14 cards that test's statistic is 5.2
-however steep the fall, below its threshold of 5.6 when a pump field's nine quantities
-share the false-alarm probability (a pump's fillage falling from 0.99 to 0.61 over 14
-daily cards went unreported). Where both alert, the one further beyond its threshold names
-the change (``method`` ``"two-segment"`` or ``"drift"``). A step's first card is the
-maximising split of the two-segment statistic and ``before`` / ``after`` the medians either
-side; a drift is under way from the history's first card, ``before`` / ``after`` the fitted
-line's values at its first and last cards and ``change_se`` the slope over its standard
-error. The alarm card is the history's last. At most one change per short history; a step
-in its first or last two cards cannot be told from an outlier and is not reported.
-``benchmarks/bench_changes.py`` measures the false-alarm rate and power.
+simulated ``1 - alpha / 2`` quantile (:func:`pumpid.fleet.thresholds.drift_threshold`). A
+level falling steadily over the history widens the two-segment test's scatter as much as it
+parts its medians: on a straight decline of 14 cards that test's statistic is 5.2 however
+steep the fall, below its threshold when a pump field's nine quantities share the
+false-alarm probability (5.6 with the whole of it, 6.3 with half; a pump's fillage falling from
+0.99 to 0.61 over 14 daily cards went unreported). Where both alert, the one further beyond
+its threshold names the change (``method`` ``"two-segment"`` or ``"drift"``). A step's first
+card is the maximising split of the two-segment statistic and ``before`` / ``after`` the
+medians either side; a drift is under way from the history's first card, ``before`` /
+``after`` the fitted line's values at its first and last cards and ``change_se`` the slope
+over its standard error. The alarm card is the history's last. At most one change per short
+history; a step in its first or last two cards cannot be told from an outlier and is not
+reported. ``benchmarks/bench_changes.py`` measures the false-alarm rate and power.
 
 Assumptions: levels are piecewise constant between changes with independent card-to-card
 noise; in a long history a slow drift shows as a late alert, or several alerts in the same
@@ -144,7 +144,8 @@ ALERT_COLUMNS = (
     "kind", "scale", "noise", "first_index", "alarm_index", "delay_cards", "n_before",
     "n_after", "threshold", "order", "method",
 )  # fmt: skip
-#: Shortest history :func:`detect_changes` tests by default (the two-segment test).
+#: Shortest history :func:`detect_changes` tests by default (the two-segment and drift
+#: tests).
 SHORT_MIN_CARDS = 6
 
 # Standard error of a median relative to that of a mean, for normal data.
@@ -403,7 +404,7 @@ def detect_changes(
         ``min_cards`` usable cards of a quantity; changes closer than this are seen as one.
     min_short_cards : int, default 6
         Shortest history tested: histories of ``min_short_cards`` to ``min_cards`` cards are
-        tested as a whole by the two-segment test (at most one change each).
+        tested as a whole by the two-segment and drift tests (at most one change each).
     false_alarm : float, default 0.01
         Probability that a steady well raises any alert over its history (split evenly
         over the quantities tested).
@@ -513,6 +514,9 @@ def _series_alerts(
             before, after = (float(v) for v in (np.exp(ends) if log else ends))
             change = after - before
             change_se = ch.size
+            # on a linear scale the line's start may lie near zero or below it
+            rel = (change / before if log else
+                   change / abs(before) if abs(before) > ch.noise else math.nan)
         else:
             before, after = float(np.median(seg_b)), float(np.median(seg_a))
             change = after - before
@@ -520,12 +524,13 @@ def _series_alerts(
                                    _median_se(seg_a, se[part_a]))
             change_se = (change / se_change if se_change > 0
                          else math.copysign(math.inf, change))
+            rel = change / before if before != 0 else math.nan
         out.append({
             "well_id": well, "quantity": q, "unit": unit,
             "first_card_id": ids[ch.first], "first_time": times[ch.first],
             "alarm_card_id": ids[ch.alarm], "alarm_time": times[ch.alarm],
             "before": before, "after": after, "change": change,
-            "change_rel": change / before if before != 0 else math.nan,
+            "change_rel": rel,
             "change_se": change_se,
             "direction": ch.direction, "kind": kind, "scale": "log" if log else "linear",
             "noise": ch.noise, "first_index": ch.first, "alarm_index": ch.alarm,

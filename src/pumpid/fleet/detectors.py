@@ -185,7 +185,9 @@ def scan_two_segments(y: NDArray[np.float64], se: NDArray[np.float64], *, alpha:
                               outlier_fraction=outlier_fraction)
     step_beyond, drift_beyond = float(stat[0]) / h, float(t_drift[0]) / h_drift
     k = int(split[0])
-    if drift_beyond > 1.0 and drift_beyond > step_beyond and d_scale[0] > 0:
+    if d_scale[0] == 0 and slope[0] != 0:
+        drift_beyond = math.inf  # an exact line: nothing about it but the slope
+    if drift_beyond > 1.0 and drift_beyond > step_beyond:
         # A drift has no change point within the history: it is under way from the first
         # card, and its size is the line's, first card to last (the medians of two halves
         # gave half of it, "from" the middle card).

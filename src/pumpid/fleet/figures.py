@@ -273,12 +273,17 @@ def well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str,
             ax.annotate(f"{a['change_rel']:+.0%}", (xc, 0.98), xycoords=("data", "axes fraction"),
                         xytext=(4, -10), textcoords="offset points", color="#b00020",
                         fontsize=8, fontweight="bold")
-            # the medians before and after, over the cards they were taken from; a drift's
-            # fitted line from its first card to its last
+            # The levels the alert compares, over the cards they come from: a step's medians
+            # either side; a drift's line, straight in card order on the analysis scale, so
+            # drawn through each card (geometric on a log scale, whatever the cards' times).
             xs, fi = x.to_numpy(), int(a["first_index"])
             if a.get("method") == "drift" and 0 <= fi < xs.size:
-                last = xs[min(int(a["alarm_index"]), xs.size - 1)]
-                ax.plot([xs[fi], last], [a["before"], a["after"]], color="#e6550d", lw=1.5,
+                last = min(int(a["alarm_index"]), xs.size - 1)
+                share = np.arange(last - fi + 1) / max(last - fi, 1)
+                before, after = float(a["before"]), float(a["after"])
+                line = (before * (after / before) ** share if a["scale"] == "log"
+                        else before + (after - before) * share)
+                ax.plot(xs[fi:last + 1], line, color="#e6550d", lw=1.5,
                         label="steady drift (fitted line)")
             elif 0 <= fi < xs.size:
                 lo = xs[max(fi - int(a["n_before"]), 0)]

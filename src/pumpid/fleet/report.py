@@ -196,8 +196,8 @@ def _coverage_rows(coverage: pd.DataFrame, min_cards: int,
     rows = [("wells tested",
              f"{count_words((tests == 'cusum').sum(), 'well')} by the CUSUM (more than "
              f"{min_cards} usable cards of a quantity), "
-             f"{count_words((tests == 'two-segment').sum(), 'well')} by the two-segment test "
-             f"({min_short} to {min_cards} cards)")]
+             f"{count_words((tests == 'two-segment').sum(), 'well')} by the two-segment and "
+             f"drift tests ({min_short} to {min_cards} cards)")]
     if short:
         shown = ", ".join(short[:30]) + (f" and {len(short) - 30} more" if len(short) > 30
                                          else "")
@@ -428,7 +428,8 @@ def write_fleet_report(
         settings = (f"per-well false-alarm probability "
                     f"{detect_options.get('false_alarm', 0.01):.1%}; robust two-sided CUSUM "
                     f"with reference windows of {min_cards} cards for histories of more than "
-                    f"{min_cards} cards; the two-segment test for {min_short} to {min_cards}")
+                    f"{min_cards} cards; the two-segment and drift tests for {min_short} to "
+                    f"{min_cards}")
     else:
         settings = "alerts given by the caller"
     coverage = history_coverage(frame, names, min_cards=min_cards, min_short_cards=min_short)
