@@ -49,3 +49,20 @@ def test_a_lower_layer_imports_no_upper_one(lower: str, upper: str) -> None:
     offenders = sorted(f"{module_of(p)} imports {m}" for p in paths for m in imported(p)
                        if m == upper or m.startswith(upper + "."))
     assert offenders == []
+
+
+def test_a_first_order_scale_has_its_unit() -> None:
+    # Driven by the load, a first-order lag's output is in load * s: C turns it into a
+    # position and was printed as a bare number ("-"); a Kelvin model's C is a number.
+    import numpy as np
+
+    import pumpid
+
+    t = np.linspace(0.0, 20.0, 201)
+    f = 10.0 + 3.0 * np.sin(t)
+    u = 2.0 * pumpid.simulate(pumpid.FirstOrder(tau=1.5), t, f)
+    lag = pumpid.fit(pumpid.FirstOrder, (t, f, u), options=pumpid.FitOptions(scale="free"))
+    assert lag.scale_unit() == f"{lag.units.position}/({lag.units.load}*s)"
+    assert "C (scale)        2" in lag.report() and lag.scale_unit() in lag.report()
+    kelvin = pumpid.fit(pumpid.Kelvin(k0=4.0, m=1.0, c1=0.2, k1=4.0), (t, f, u))
+    assert kelvin.scale_unit() == "-"

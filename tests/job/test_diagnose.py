@@ -153,3 +153,6 @@ def test_a_massless_kelvin_fit_names_a_reduced_model_only_where_it_is_the_limit(
     assert red is not None and red.model == "FirstOrder"
     assert red.r2 == pytest.approx(at_u2.r2, abs=1e-8)
     assert red.units["C"] == "m/(kgf*s)" and "m/(kgf*s)" in at_u2.report()
+    from pumpid.report import render_html
+
+    assert "<td>m/(kgf*s)</td>" in render_html(at_u2, figures={})

@@ -301,8 +301,9 @@ class Model:
     title: ClassVar[str] = ""
     #: Unit of the model's input: the first-order model of eq. (23) is driven by a rate.
     input_unit: ClassVar[str] = "{load}"
-    #: Unit of the output scale C: 1 where the parameters carry the units (a load-driven
-    #: model), else what turns the load into the observed position.
+    #: Unit of the output scale C when the model is driven by the card's load: 1 where the
+    #: parameters carry the units, else what turns the model's output into a position. It
+    #: is given beside a reduced model's C.
     scale_unit: ClassVar[str] = "1"
     #: Entries of A: {(row, col): terms}; of B: {row: terms}.
     a_terms: ClassVar[Mapping[tuple[int, int], tuple[Term, ...]]] = {}

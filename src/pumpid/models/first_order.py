@@ -37,7 +37,9 @@ class FirstOrder(Model):
     key: ClassVar[str] = "first-order"
     title: ClassVar[str] = "first-order relaxation u' = f - u/tau (paper eq. 23)"
     input_unit: ClassVar[str] = "{position}/s"
-    # Driven by a load, u is in load * s: C turns it into a position.
+    # The paper's form is driven by a rate; pumpid drives every model with the card's load,
+    # so u is in load * s and C turns it into a position (a Kelvin or mass-spring-dashpot
+    # model's parameters carry the units and their C is a number).
     scale_unit: ClassVar[str] = "{position}/({load}*s)"
     a_terms: ClassVar[Mapping[tuple[int, int], tuple[Term, ...]]] = {
         (0, 0): (term(-1, tau=-1),),

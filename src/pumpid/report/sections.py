@@ -281,7 +281,8 @@ def params_html(result: FitResult) -> str:
                         _param_status(result, name), info.doc if info else ""))
     if not isinstance(result.model, OwnModel):  # an own model has no lumped scale or offset
         scale_status = "fitted" if ({"C", "D"} & free) else "fixed"
-        rows.append(row("C", result.scale, "-", scale_status, "output scale factor"))
+        rows.append(row("C", result.scale, result.scale_unit(), scale_status,
+                        "output scale factor"))
         if result.residual == "log":
             d = math.log(result.scale) if result.scale > 0 else math.nan
             rows.append(row("D", d, "-", scale_status, "D = ln C (log residual)"))
@@ -576,7 +577,8 @@ def boundary_html(result: FitResult) -> str | None:
         units = model_param_units(str(reduced.get("model", "")), result.units) or (
             reduced.get("units") if isinstance(reduced.get("units"), Mapping) else {})
         rows = [(str(n), number(v, 8), str(units.get(n, ""))) for n, v in reduced["params"].items()]
-        rows.append(("C", number(reduced.get("scale"), 8), "-"))
+        rows.append(("C", number(reduced.get("scale"), 8),
+                     str((reduced.get("units") or {}).get("C", "-"))))
         if reduced.get("offset") is not None:
             rows.append(("offset", number(reduced.get("offset"), 8), result.units.position))
         rows.append(("RMSE", number(reduced.get("rmse")), result.units.position))

@@ -244,6 +244,12 @@ class FitResult:
         return {p.name: p.unit_for(self.units.load, self.units.position)
                 for p in self.model.param_info()}
 
+    def scale_unit(self) -> str:
+        """Unit of the output scale C in the data's units (``-`` where it is a number)."""
+        unit = getattr(self.model, "scale_unit", "1")
+        return "-" if unit == "1" else unit.format(load=self.units.load,
+                                                   position=self.units.position)
+
     def free_values(self) -> dict[str, float]:
         """The fitted values by name (parameters, C or D, offset)."""
         out: dict[str, float] = {}
@@ -451,7 +457,8 @@ def format_report(result: FitResult, history: bool = False) -> str:
     scale_state = "fitted" if "C" in result.free or "D" in result.free else "fixed"
     if result.problem is not None or scale_state == "fitted":
         # A lumped model's output scale; a model with its own simulator has none.
-        lines.append(f"  {'C (scale)':<15}  {fmt(result.scale, 10):<15}  - ({scale_state})")
+        lines.append(f"  {'C (scale)':<15}  {fmt(result.scale, 10):<15}  "
+                     f"{result.scale_unit()} ({scale_state})")
     if result.residual == "log" and result.scale > 0:
         lines.append(f"  {'D = ln C':<15}  {fmt(math.log(result.scale), 10):<15}  -")
     if "offset" in result.free or result.offset != 0.0:
