@@ -93,3 +93,24 @@ def test_a_fit_worse_than_the_fundamental_is_not_said_to_reproduce_it() -> None:
     assert fit.r2_beyond < -1e-3
     assert "reproduces only the stroke's fundamental" not in fit.reason
     assert "better than this fit" in fit.report()
+
+
+def test_an_undetermined_fits_echo_is_named_in_its_reason() -> None:
+    # No parameter determined, the fit explaining more than the fundamental, and the
+    # natural frequency determined but an echo of the stroke: the reason listed it among
+    # the "determined derived quantities" as if it were the well's.
+    import dataclasses
+
+    from pumpid.job.assemble import determination_gate
+
+    card, _truth = spread_card(6)
+    fit = pumpid.fit(pumpid.Kelvin, card)
+    assert fit.status is pumpid.Status.CONVERGED and fit.r2_beyond > 0.9
+    derived = dict(fit.derived)
+    derived["natural_frequency"] = dataclasses.replace(
+        derived["natural_frequency"], determined=True, well_property=False)
+    gated = determination_gate(fit.with_parts(
+        determined={**fit.determined, "parameters": []}, derived=derived))
+    assert gated.status is pumpid.Status.UNDETERMINED
+    assert ("determined derived quantities: natural_frequency (an echo of the stroke, not "
+            "the well's)") in gated.reason

@@ -159,19 +159,33 @@ OPEN_SHARE = 0.1
 #: median steps), while 3 of the 360 oilfield cards end 85 % of their stroke from their
 #: start (111-126 median steps) and one stroke cut from a Sandia record 12 % (23 steps).
 OPEN_STEPS = 3.0
+#: Fewest samples judged: below this a stroke's steps are a large share of it anyway.
+OPEN_MIN_SAMPLES = 8
 
 
 def open_stroke(position: NDArray[np.float64]) -> tuple[float, float] | None:
     """How far a stroke read as one period ends from where it began, when that is a gap
-    no sampling explains: (the gap as a share of the stroke, in median steps); None when
-    the stroke closes.
+    no sampling explains.
 
     A card taken as one period of a periodic motion is joined end to start; a partial or
     mis-cut stroke then has a jump there that the model must make, and fits as a poor fit
     whose reason points elsewhere.
+
+    Parameters
+    ----------
+    position : array (N,)
+        The stroke's positions, in time order.
+
+    Returns
+    -------
+    tuple of float, or None
+        The gap as a share of the stroke and in median steps (``inf`` where the median step
+        is zero: long dwells at the ends), when it is over :data:`OPEN_SHARE` of the stroke
+        and :data:`OPEN_STEPS` median steps; None when the stroke closes, or has fewer than
+        :data:`OPEN_MIN_SAMPLES` samples.
     """
     p = np.asarray(position, dtype=float)
-    if p.size < 8:
+    if p.size < OPEN_MIN_SAMPLES:
         return None
     stroke = float(np.ptp(p))
     gap = abs(float(p[-1] - p[0]))

@@ -155,7 +155,7 @@ class _Text:
 #: pressure with no tubing-head pressure in the well file; the pump card computed at the
 #: rods' bottom, short of the pump).
 _ALWAYS_SAID = ("reverse", "intake pressure is negative", "tubing-head pressure taken as 0",
-                "above the pump depth")
+                "the pump card is computed at the bottom of the rods")
 
 
 class _Json:

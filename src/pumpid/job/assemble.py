@@ -160,13 +160,14 @@ def build_result(problem: Problem, k: int, card: CardState, options: JobOptions,
                   and t.size > 1 and abs(problem.period[k] - t.size * (t[1] - t[0]))
                   <= 1e-6 * problem.period[k])
     r2_fundamental = fundamental_share(d) if one_period else math.nan
-    gap = open_stroke(d) if state == "periodic" and problem.residual == "linear" else None
+    gap = open_stroke(d) if state == "periodic" else None
     if gap is not None:
+        steps = f", {gap[1]:.0f} median steps" if math.isfinite(gap[1]) else ""
         text = (*text, (
             f"the card does not close: it ends {float(abs(d[-1] - d[0])):.4g} {units.position} "
-            f"({100 * gap[0]:.0f} % of its stroke, {gap[1]:.0f} median steps) from where it "
-            "starts, and a card fitted as one period of a periodic motion is joined end to "
-            "start: a partial or mis-cut stroke? The fit must make that jump"))
+            f"({100 * gap[0]:.0f} % of its stroke{steps}) from where it starts, and a card "
+            "fitted as one period of a periodic motion is joined end to start: a partial or "
+            "mis-cut stroke? The fit must make that jump"))
     if math.isfinite(r2_fundamental):
         # What the fundamental leaves is worth explaining only above the data's noise: a
         # position that is one sinusoid plus noise leaves any model nothing to explain.

@@ -12,7 +12,9 @@ within its declared bounds. A positive parameter is at a boundary when pushing i
 factor 1000 either way leaves the cost within the likelihood-ratio test's 95 % point (the
 data cannot tell it from its limit; where only one way is, a factor 10 the other way too,
 for a value pushed past what the simulation resolves), or when it ends on the edge of its
-window; a signed one when it ends on a declared bound.
+window; a signed one when it ends on a declared bound. Flat both ways, its limit is the way
+the fit went when it went more than a factor 10 from its start, else the way the cost falls
+(for every own model: joint fits, pump identification, a user's).
 """
 
 from __future__ import annotations

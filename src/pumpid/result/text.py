@@ -44,8 +44,19 @@ def error_table(names: Sequence[str], values: Mapping[str, float], units: Mappin
 
 
 def n_eff_words(choice: Mapping[str, Any]) -> str:
-    """A model choice's effective sample size in words: the data's, and what the criteria
-    counted where that differs."""
+    """A model choice's effective sample size in words.
+
+    Parameters
+    ----------
+    choice : mapping
+        ``application["model_choice"]``: ``n_eff`` (what the criteria counted) and
+        ``n_eff_data`` (the data's, when known).
+
+    Returns
+    -------
+    str
+        ``n_eff = X``, and what the criteria counted where that differs.
+    """
     data = choice.get("n_eff_data", choice["n_eff"])
     data = choice["n_eff"] if data is None or not math.isfinite(data) else float(data)
     return (f"n_eff = {data:.1f}" if abs(data - choice["n_eff"]) < 0.05 else
