@@ -114,7 +114,7 @@ def nested_candidates(problem: Problem, k: int, z: Array, log_sens: Array,
     ref = problem.reference[k]
     out = []
     for lim in problem.model.limits:
-        if not lim.reduces(problem.observe):
+        if lim.reduced is None:
             continue
         i = names.index(lim.param)
         free = list(problem.free_idx)

@@ -133,9 +133,10 @@ class Limit:
     model's near the limit (a massless MSD is a first-order lag with gain 1/c).
     ``from_reduced`` maps a reduced solution back to a full-model point next to the limit
     (to restart a full fit that the reduced model beats). ``observe`` is the reduced model's
-    observed output; ``full_observe`` the full model's output for which the reduced model
-    is the limit (None: every output): a massless Kelvin model is a first-order lag at u2,
-    but at u the series spring adds the load's own share ``F / k0``, which no lag has.
+    observed output; ``companions`` the other limits the reduced model takes at once, by the
+    full model's observed output: a massless Kelvin model is a first-order lag at u2, but
+    at u the series spring adds the load's own share ``F / k0``, which no lag has, so there
+    the lag is the limit m -> 0 with k0 -> infinity.
     """
 
     param: str
@@ -146,11 +147,19 @@ class Limit:
     to_reduced: Mapping[str, tuple[Term, ...]] = field(default_factory=dict)
     gain: tuple[Term, ...] = (Term(1.0),)
     from_reduced: Mapping[str, tuple[Term, ...]] = field(default_factory=dict)
-    full_observe: str | None = None
+    companions: Mapping[str, tuple[tuple[str, str], ...]] = field(default_factory=dict)
 
-    def reduces(self, observe: str) -> bool:
-        """Whether the limit has a reduced model for the full model observing ``observe``."""
-        return self.reduced is not None and self.full_observe in (None, observe)
+    def with_limits(self, observe: str) -> tuple[tuple[str, str], ...]:
+        """The (parameter, direction) limits the reduced model takes with this one when the
+        full model observes ``observe``."""
+        return tuple(self.companions.get(observe, ()))
+
+    def named(self, observe: str) -> str:
+        """The limit in words, its companions included (``m -> 0 with k0 -> inf``)."""
+        head = self.description.split(":")[0]
+        extra = [f"{p} -> {'inf' if d == 'infinity' else '0'}"
+                 for p, d in self.with_limits(observe)]
+        return " with ".join([head, *extra])
 
     def reduced_start(self, params: Mapping[str, float]) -> tuple[dict[str, float], float]:
         """The reduced model's parameters and output gain at a full-model point."""

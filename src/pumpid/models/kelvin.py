@@ -133,7 +133,7 @@ class Kelvin(Model):
               "m -> 0: no inertia, a first-order creep c1 u2' + k1 u2 = F (u = u2 + F/k0)",
               reduced="first-order", observe="u",
               to_reduced={"tau": (term(1, c1=1, k1=-1),)}, gain=(term(1, c1=-1),),
-              full_observe="u2"),
+              companions={"u": (("k0", "infinity"),)}),
         Limit("c1", "infinity",
               "c1 -> inf: the Kelvin element is locked, an undamped mass on the spring k0"),
         Limit("c1", "zero", "c1 -> 0: no damping, a mass on the springs k0 and k1 in series"),

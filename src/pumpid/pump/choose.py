@@ -270,7 +270,7 @@ def _nested_tests(ranked: Sequence[Candidate], n: int, n_eff: float
     out = []
     for (key, observe), big in by_structure.items():
         for lim in model_class(key).limits:
-            if not lim.reduces(observe):
+            if not lim.reduced:
                 continue
             small = by_structure.get((lim.reduced, lim.observe or observe))
             if small is None or small.k >= big.k:
@@ -278,6 +278,6 @@ def _nested_tests(ranked: Sequence[Candidate], n: int, n_eff: float
             stat = max(n_eff * math.log(small.rss / big.rss), 0.0)
             dof = big.k - small.k
             out.append(NestedTest(small=small.name, big=big.name,
-                                  limit=lim.description.split(":")[0], statistic=stat,
+                                  limit=lim.named(observe), statistic=stat,
                                   dof=dof, p_value=float(scipy.special.chdtrc(dof, stat))))
     return tuple(out)
