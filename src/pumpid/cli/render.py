@@ -251,7 +251,8 @@ class TextPrinter:
             params = [f"{n} = {fmt(v, 5)} {unit_text(units.get(n, ''))}".rstrip()
                       for n, v in red.params.items()]
             lines += _wrap_items([*params, f"R^2 = {fmt(red.r2, 6)}"],
-                                 f"limiting model {red.model}: ")
+                                 f"limiting model {red.model}"
+                                 f"{f' ({red.limit})' if red.limit else ''}: ")
         said = (f"reduced model {res.boundary.reduced.model}"
                 if res.boundary is not None and res.boundary.reduced is not None else None)
         for w in _card_warnings(row):

@@ -131,7 +131,6 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
                          and bool(np.all(log_sens[j] >= bnd.SUSPICION))
                          for j, i in enumerate(idx)])
     found: list[list[Limiting]] = [[] for _ in idx]
-    companions: list[set[str]] = [set() for _ in idx]
     push = [j for j in range(len(idx)) if not interior[j]]
     if push:
         res = bnd.push_test(problem, sub_cards[push], z[push],
@@ -175,10 +174,15 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
                 # The reduced model fits clearly better: the full fit has not reached the
                 # limit it crawls toward, or it is stuck elsewhere. The limit itself first
                 # (the parameter at the window's edge, the others refitted) ...
-                reached = (() if lim.param in known
-                           else _limit_reaches(problem, k, card, lim, red.cost, options))
-                if reached is not None:
-                    _mark(problem, card, lim, found[j], known, reached, companions[j])
+                if lim.param in known or _limit_reaches(problem, k, card, lim, red.cost,
+                                                        options):
+                    if lim.param not in known:
+                        f = list(problem.free_idx).index(problem.model.param_names().index(
+                            lim.param))
+                        found[j].append(Limiting(lim.param, lim.direction,
+                                                 float(np.exp(min(card.z[f], 709.0))),
+                                                 lim.description, "nested"))
+                        known.add(lim.param)
                     if best_red is None or red.cost < best_red[0]:
                         best_red = (red.cost, red, lim)
                     continue
@@ -189,12 +193,18 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
                     restarts[k] = np.array([point[n] for n in problem.model.param_names()])
                 continue
             if excess <= LR_95 * sigma2 + 1e-12 * sst:
-                _mark(problem, card, lim, found[j], known, companions=companions[j])
+                if lim.param not in known:
+                    f = list(problem.free_idx).index(problem.model.param_names().index(
+                        lim.param))
+                    found[j].append(Limiting(lim.param, lim.direction,
+                                             float(np.exp(min(card.z[f], 709.0))), lim.description,
+                                             "nested"))
+                    known.add(lim.param)
                 if best_red is None or red.cost < best_red[0]:
                     best_red = (red.cost, red, lim)
         if not found[j] or k in restarts:
             continue
-        found[j] = _to_the_limits(problem, k, card, found[j], companions[j], options)
+        _to_the_limit(problem, k, card, found[j], options)
         found[j] = _at_final_values(problem, card, found[j])
         card.status = Status.BOUNDARY
         names = ", ".join(b.name for b in found[j])
@@ -205,14 +215,8 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
         card.warnings.extend(b.describe() for b in found[j])
         card.limits = tuple(found[j])
         if best_red is None and isinstance(problem.initial_states[k], str):
-            # A reduced model stands for the limits found only when it takes no other: at u a
-            # first-order lag is m -> 0 with k0 -> infinity, and printed beside m -> 0 alone
-            # it fitted worse (CUPB's S22).
-            held = {(b.name, b.direction) for b in found[j]}
-            target = next((lim for lim in (problem.model.limit(b.name, b.direction)
-                                           for b in found[j])
-                           if lim.reduced and set(lim.with_limits(problem.observe)) <= held),
-                          None)
+            target = next((problem.model.limit(b.name, b.direction) for b in found[j]
+                           if problem.model.limit(b.name, b.direction).reduced), None)
             if target is not None:
                 got = _fit_reduced(problem, [(k, target)], fits, position,
                                    refit).get((k, target.param, target.direction))
@@ -221,80 +225,27 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
                     best_red = (red.cost, red, target)
         if best_red is not None:
             red, lim = best_red[1], best_red[2]
-            card.reduced = _summary_of(red)
+            card.reduced = dataclasses.replace(_summary_of(red),
+                                               limit=lim.named(problem.observe))
             card.warnings.append(
                 f"reduced model {red.model_name} ({lim.named(problem.observe)}) fitted: "
                 f"R^2 = {red.r2:.6g}, RMSE = {red.rmse:.4g} {{position}}")
     return restarts
 
 
-def _mark(problem: Problem, card: CardState, lim: Any, found: list[Limiting],
-          known: set[str], limits: Sequence[tuple[str, str]] | None = None,
-          companions: set[str] | None = None) -> None:
-    """Add ``limits`` to the card's (default: the limit a reduced model stands for, with the
-    limits it takes at once, :meth:`pumpid.models.base.Limit.with_limits`)."""
-    names = problem.model.param_names()
-    free = list(problem.free_idx)
-    if limits is None:
-        limits = ((lim.param, lim.direction), *lim.with_limits(problem.observe))
-    for name, direction in limits:
-        i = names.index(name)
-        if name in known or i not in free:
-            continue
-        f = free.index(i)
-        found.append(Limiting(name, direction, float(np.exp(min(card.z[f], 709.0))),
-                              problem.model.limit(name, direction).description, "nested"))
-        known.add(name)
-        if companions is not None and name != lim.param:
-            companions.add(name)
-
-
-def _to_the_limits(problem: Problem, k: int, card: CardState, limits: list[Limiting],
-                   companions: set[str], options: JobOptions) -> list[Limiting]:
-    """:func:`_to_the_limit` for the card's limits; the limits it ends at. A limit found
-    only as one a reduced model takes at once (``companions``) is dropped where the card
-    fits clearly better moved to the others alone: a controller-like card fitted 3.5 %
-    better with m -> 0 alone than with its first-order lag's m -> 0 with k0 -> infinity."""
-    alone = [b for b in limits if b.name not in companions]
-    if not companions or not alone:
-        _to_the_limit(problem, k, card, limits, options)
-        return limits
-    trials = []
-    for chosen in (limits, alone):
-        trial = CardState(z=card.z.copy(), cost=card.cost)
-        _to_the_limit(problem, k, trial, chosen, options)
-        card.evaluations += trial.evaluations
-        trials.append((trial, chosen))
-    (both, _), (single, _) = trials
-    trial, chosen = trials[1] if single.cost < both.cost * (1 - 1e-9) else trials[0]
+def _limit_reaches(problem: Problem, k: int, card: CardState, lim: Any, target: float,
+                   options: JobOptions) -> bool:
+    """Move card k to the limit ``lim`` (parameter at the window's edge, the others refitted);
+    True, with the card moved there, when that reaches the reduced model's cost ``target``."""
+    trial = CardState(z=card.z.copy(), cost=card.cost)
+    _to_the_limit(problem, k, trial, [Limiting(lim.param, lim.direction, math.nan,
+                                               lim.description, "nested")], options)
+    if not trial.cost <= target * (1 + 1e-6) + 1e-300:
+        return False
+    card.evaluations += trial.evaluations
     card.accepted += trial.accepted
     card.z, card.cost = trial.z, trial.cost
-    return chosen
-
-
-def _limit_reaches(problem: Problem, k: int, card: CardState, lim: Any, target: float,
-                   options: JobOptions) -> tuple[tuple[str, str], ...] | None:
-    """Move card k to the limit ``lim`` (parameter at the window's edge, the others refitted),
-    else to it with the limits its reduced model takes at once; the limits that reach the
-    reduced model's cost ``target``, with the card moved there, or None.
-
-    The parameter alone first: a controller-like card whose m -> 0 alone (k0 finite) ended
-    3.5 % below its first-order lag (m -> 0 with k0 -> infinity) kept that answer."""
-    own = ((lim.param, lim.direction),)
-    tries = [own] + ([own + lim.with_limits(problem.observe)]
-                     if lim.with_limits(problem.observe) else [])
-    for limits in tries:
-        trial = CardState(z=card.z.copy(), cost=card.cost)
-        _to_the_limit(problem, k, trial,
-                      [Limiting(name, direction, math.nan,
-                                problem.model.limit(name, direction).description, "nested")
-                       for name, direction in limits], options)
-        card.evaluations += trial.evaluations
-        if trial.cost <= target * (1 + 1e-6) + 1e-300:
-            card.accepted += trial.accepted
-            card.z, card.cost = trial.z, trial.cost
-            return limits
-    return None
+    return True
 
 
 def _to_the_limit(problem: Problem, k: int, card: CardState, limits: Sequence[Limiting],

@@ -134,9 +134,10 @@ class Limit:
     ``from_reduced`` maps a reduced solution back to a full-model point next to the limit
     (to restart a full fit that the reduced model beats). ``observe`` is the reduced model's
     observed output; ``companions`` the other limits the reduced model takes at once, by the
-    full model's observed output: a massless Kelvin model is a first-order lag at u2, but
-    at u the series spring adds the load's own share ``F / k0``, which no lag has, so there
-    the lag is the limit m -> 0 with k0 -> infinity.
+    full model's observed output, named with it: a massless Kelvin model is a first-order
+    lag at u2, but at u the series spring adds the load's own share ``F / k0``, which no lag
+    has, so there the lag is the limit m -> 0 with k0 -> infinity (it was printed as the
+    limit m -> 0 alone). The tests that accept a limit are unchanged by them.
     """
 
     param: str

@@ -46,7 +46,9 @@ class Limiting:
 
 @dataclass(frozen=True)
 class ReducedFit:
-    """The limiting (reduced) model fitted where the full model ran to a boundary."""
+    """The limiting (reduced) model fitted where the full model ran to a boundary; ``limit``
+    names the limits it stands for (``m -> 0 with k0 -> inf``: a Kelvin model's first-order
+    lag observing u, which may lie beyond the limits the fit reached)."""
 
     model: str
     params: Mapping[str, float]
@@ -57,12 +59,13 @@ class ReducedFit:
     r2: float
     status: str
     reason: str
+    limit: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form."""
-        return {"model": self.model, "params": dict(self.params), "scale": self.scale,
-                "offset": self.offset, "units": dict(self.units), "rmse": self.rmse,
-                "r2": self.r2, "converged": self.status == "converged",
+        return {"model": self.model, "limit": self.limit, "params": dict(self.params),
+                "scale": self.scale, "offset": self.offset, "units": dict(self.units),
+                "rmse": self.rmse, "r2": self.r2, "converged": self.status == "converged",
                 "status": self.status, "reason": self.reason}
 
 

@@ -474,7 +474,8 @@ def format_report(result: FitResult, history: bool = False) -> str:
     reduced = result.boundary.reduced if result.boundary else None
     if reduced:
         lines.append("")
-        lines.append(f"  reduced model ({reduced.model}, the limit the data want):")
+        named = reduced.limit or "the limit the data want"
+        lines.append(f"  reduced model ({reduced.model}, {named}):")
         for name, value in reduced.params.items():
             lines.append(f"  {name:<15}  {fmt(value, 10):<15}  {reduced.units.get(name, '')}")
         scale_unit = reduced.units.get("C", "1")
