@@ -386,29 +386,11 @@ def drift_threshold(
     seed: int = 20261129,
 ) -> float:
     """The drift test's threshold: false-alarm probability ``alpha`` on a steady history
-    of ``n_cards`` cards.
+    of ``n_cards`` cards, in standard errors of the slope.
 
-    Simulated as :func:`two_segment_threshold` is (the same noise, the larger of the
-    heavy-tailed and the Gaussian thresholds, no standard-error floor), on
-    :func:`drift_statistic`.
-
-    Parameters
-    ----------
-    n_cards : int
-        Cards of the history, at least ``2 * MIN_SEGMENT``.
-    alpha : float, default 0.01
-        False-alarm probability per history.
-    tail_dof, outlier_fraction : float, default 5 and 0.01
-        The simulated steady noise.
-    replicates : int, optional
-        Simulated histories; default ``max(20000, 100 / alpha)``.
-    seed : int
-        Seed of the simulation.
-
-    Returns
-    -------
-    float
-        The threshold, in standard errors of the slope.
+    Simulated as :func:`two_segment_threshold` is, with the same parameters (the same noise,
+    the larger of the heavy-tailed and the Gaussian thresholds, no standard-error floor), on
+    :func:`drift_statistic`; only the seed's default differs.
     """
     return _short_threshold("drift", n_cards, alpha, tail_dof, outlier_fraction, replicates,
                             seed)
