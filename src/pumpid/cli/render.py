@@ -34,7 +34,7 @@ from ..cards import Card, printable
 from ..inference.serial import widening
 from ..report.units import model_param_units, unit_text
 from ..result import FitResult, Prediction, jsonable, model_choice_text
-from ..result.fit import fundamental_better
+from ..result.fit import beyond_text
 from .common import fmt, plural
 
 __all__ = ["JsonPrinter", "LinePrinter", "Row", "RunInfo", "TextPrinter", "first_sentence"]
@@ -105,14 +105,7 @@ def _id(row: Row) -> str:
 
 
 def _quality(res: FitResult) -> str:
-    beyond = res.r2_beyond
-    tail = ""
-    if math.isfinite(beyond):
-        tail = (f" (fundamental alone {fmt(res.r2_fundamental, 6)}: better than this fit)"
-                if fundamental_better(res) else
-                f" (fundamental alone {fmt(res.r2_fundamental, 6)}: explains "
-                f"{100 * max(beyond, 0.0):.1f} % of the rest)")
-    return (f"R^2 = {fmt(res.r2, 6)}{tail}, RMSE = {fmt(res.rmse, 4)} "
+    return (f"R^2 = {fmt(res.r2, 6)}{beyond_text(res, short=True)}, RMSE = {fmt(res.rmse, 4)} "
             f"{unit_text(res.units.position)}")
 
 

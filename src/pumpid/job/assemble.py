@@ -150,7 +150,7 @@ def build_result(problem: Problem, k: int, card: CardState, options: JobOptions,
         # units come from this card's, as the full model's do.
         red_cls = model_class(reduced.model)
         # C's unit too where it has one (a first-order lag's turns load * s into position).
-        scale_unit = red_cls.scale_unit.format(load=units.load, position=units.position)
+        scale_unit = red_cls.scale_unit_for(units.load, units.position)
         reduced = dataclasses.replace(reduced, units={
             **{p.name: p.unit_for(units.load, units.position) for p in red_cls.param_info()},
             **({"C": scale_unit} if scale_unit != "1" else {})})

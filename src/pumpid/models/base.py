@@ -601,6 +601,11 @@ class Model:
             factors, repeat=base.size)])
 
     @classmethod
+    def scale_unit_for(cls, load: str, position: str) -> str:
+        """:attr:`scale_unit` in the data's units (``"1"`` where C is a number)."""
+        return cls.scale_unit.format(load=load, position=position)
+
+    @classmethod
     def limit(cls, name: str, direction: str) -> Limit:
         """The known limit of a parameter (a generic description when none is declared)."""
         for lim in cls.limits:

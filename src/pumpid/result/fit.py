@@ -35,17 +35,22 @@ def fundamental_better(result: FitResult) -> bool:
     return result.r2_beyond < -1e-3
 
 
-def beyond_text(result: FitResult) -> str:
+def beyond_text(result: FitResult, short: bool = False) -> str:
     """What R^2 means beside the stroke's fundamental, for a fit quality line ("" off a
-    periodic card)."""
+    periodic card); ``short`` in the few words of a card's one-line summary."""
     beyond = result.r2_beyond
     if not math.isfinite(beyond):
         return ""
+    alone = fmt(result.r2_fundamental, 6)
+    share = f"{100 * max(beyond, 0.0):.1f} %"
+    if short:
+        return (f" (fundamental alone {alone}: "
+                + ("better than this fit)" if fundamental_better(result)
+                   else f"explains {share} of the rest)"))
     if fundamental_better(result):
-        return (f" (the stroke's fundamental alone: {fmt(result.r2_fundamental, 6)}, "
-                "better than this fit)")
-    return (f" (the stroke's fundamental alone: {fmt(result.r2_fundamental, 6)}; the model "
-            f"explains {100 * max(beyond, 0.0):.1f} % of what it leaves)")
+        return f" (the stroke's fundamental alone: {alone}, better than this fit)"
+    return (f" (the stroke's fundamental alone: {alone}; the model explains {share} of what "
+            "it leaves)")
 
 
 def _frozen(a: Any) -> Any:
@@ -246,9 +251,10 @@ class FitResult:
 
     def scale_unit(self) -> str:
         """Unit of the output scale C in the data's units (``-`` where it is a number)."""
-        unit = getattr(self.model, "scale_unit", "1")
-        return "-" if unit == "1" else unit.format(load=self.units.load,
-                                                   position=self.units.position)
+        if not isinstance(self.model, Model):
+            return "-"
+        unit = self.model.scale_unit_for(self.units.load, self.units.position)
+        return "-" if unit == "1" else unit
 
     def free_values(self) -> dict[str, float]:
         """The fitted values by name (parameters, C or D, offset)."""
@@ -478,9 +484,8 @@ def format_report(result: FitResult, history: bool = False) -> str:
         lines.append(f"  reduced model ({reduced.model}, {named}):")
         for name, value in reduced.params.items():
             lines.append(f"  {name:<15}  {fmt(value, 10):<15}  {reduced.units.get(name, '')}")
-        scale_unit = reduced.units.get("C", "1")
         lines.append(f"  {'C (scale)':<15}  {fmt(reduced.scale, 10):<15}  "
-                     f"{'-' if scale_unit == '1' else scale_unit}")
+                     f"{reduced.units.get('C', '-')}")
         lines.append(f"  fit quality: RMSE = {fmt(reduced.rmse, 6)} {result.units.position}, "
                      f"R^2 = {fmt(reduced.r2, 8)}")
     if result.warnings:
