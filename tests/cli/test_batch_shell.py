@@ -65,6 +65,8 @@ def test_nothing_fittable_exits_2(tmp_path: Path, capsys) -> None:
     (["--scale", "inf"], "output scale must be a positive number"),
     (["--scale", "x"], "neither a number nor 'free'"),
     (["--max-nfev", "0"], "--max-nfev 0"),
+    # One evaluation is only a solve's start: it ran two and said "(2) was reached".
+    (["--max-nfev", "1"], "at least 2 (a solve's start and one step)"),
     (["--min-r2", "nan"], "R^2 is a number at most 1"),
     (["--min-r2", "2"], "R^2 is a number at most 1"),
     (["--x0", "m=1,c=nan,k=1"], "not a finite number"),

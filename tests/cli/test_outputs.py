@@ -67,6 +67,9 @@ def test_one_card_writes_into_the_folder_and_a_rerun_says_what_it_replaces(
     names = {p.name for p in out.iterdir()}
     assert {"report.html", "result.json", "card.png", "prediction.png", "notes.txt",
             MANIFEST} <= names
+    # result.json is the report in machine form: the prediction the report shows is in it.
+    said = json.loads((out / "result.json").read_text())["prediction"]
+    assert said["card"] == "W-2" and 0 < said["rmse"] and said["r2"] <= 1
     # Rerun without a prediction: the old prediction.png must not sit beside the new report.
     assert main(["fit", str(path), *U, "--card", "W-1", "--out", str(out)]) == 0
     err = capsys.readouterr().err

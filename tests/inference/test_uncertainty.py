@@ -245,7 +245,7 @@ def test_robust_errors_that_cannot_be_computed_are_nan_and_not_shown() -> None:
     rows = np.vstack([np.zeros((len(names), T.size)), res.residuals])
     nums = _numbers(rows, names, [res.params[n] for n in names],
                     [res.params[n] for n in names])
-    unc = uncertainty_of(nums, list(range(len(names))), [], [], "m^2")
+    unc = uncertainty_of(nums, list(range(len(names))), [], "m^2")
     assert unc is not None and unc.hac is None
     assert not unc.whiteness["white"]
     assert set(unc.stderr_hac) == set(unc.stderr)
@@ -266,7 +266,7 @@ def test_robust_covariance_of_an_undetermined_direction_is_infinite() -> None:
     nums = _numbers(rows, names, values, values)
     found = findings_of(nums, model_names=KELVIN.param_names(), gauge_fixed=False,
                         initial_state="rest", residual="linear")
-    unc = uncertainty_of(nums, found.undetermined, [], found.notes, "m^2")
+    unc = uncertainty_of(nums, found.undetermined, found.notes, "m^2")
     assert all(math.isinf(v) for v in unc.stderr_hac.values())
     assert all(math.isinf(v) for v in unc.stderr.values())
 

@@ -100,6 +100,25 @@ def test_a_parameter_the_data_cannot_see_is_a_boundary() -> None:
     assert "tau" not in res.determined.get("parameters", [])
 
 
+class CappedStep(Step):
+    """Step with its gain declared at most -3.5 V: the data (g = -3) want it beyond."""
+
+    parameters = (Parameter("tau", "s", start=1.0),
+                  Parameter("g", "V", lower=-math.inf, upper=-3.5, start=-4.0),
+                  Parameter("b", "V", lower=-math.inf, start=0.0))
+
+
+def test_a_value_held_at_its_declared_bound_is_worded_as_that_bound() -> None:
+    # The words said "it runs to zero ... only an upper bound exists" for a gain held at its
+    # upper bound: the data want it higher, so only a lower bound exists.
+    res = pumpid.fit(CappedStep(), _record(1))
+    assert res.status is pumpid.Status.BOUNDARY
+    assert [(b.name, b.direction) for b in res.boundary.limits] == [("g", "upper")]
+    said = next(s for s in res.identifiability if s.startswith("g is at a boundary"))
+    assert "runs to its upper bound" in said and "only a lower bound exists" in said
+    assert "zero" not in said
+
+
 def test_many_records_fixed_parameters_and_refusals() -> None:
     batch = pumpid.fit(Step(), [_record(1), _record(2), CardData(T[:2], T[:2], T[:2])],
                        options=pumpid.FitOptions(fixed={"b": 0.5}))

@@ -210,7 +210,9 @@ def add_fit_options(p: Any, models: Sequence[str]) -> None:
     p.add_argument("--x0", action="append", metavar="NAME=VALUE[,...]",
                    help="starting guess shared by every card (default: automatic start)")
     p.add_argument("--max-nfev", type=int, metavar="N",
-                   help="model evaluations allowed per card (lm)")
+                   help="model evaluations allowed each solve of a card (lm; at least 2: "
+                        "a fit runs several, its start's, the main one, moves to a limit, "
+                        "and nfev counts them all)")
     p.add_argument("--min-r2", type=float, metavar="R2",
                    help="quality gate: a fit with R^2 below this has status poor-fit and "
                         "the run exits with 5 (default 0.95)")
@@ -334,9 +336,9 @@ def check_fit_options(cls: Any, *, observe: str | None = None, scale: str | None
             raise CliError(f"--min-r2 {min_r2}: R^2 is a number at most 1")
         out["min_r2"] = min_r2
     if max_nfev is not None:
-        if max_nfev < 1:
+        if max_nfev < 2:
             raise CliError(f"--max-nfev {max_nfev}: give a whole number of model "
-                           "evaluations of at least 1")
+                           "evaluations of at least 2 (a solve's start and one step)")
         out["max_nfev"] = max_nfev
     if x0:
         values = parse_assignments(x0, "--x0")

@@ -605,12 +605,6 @@ def item_rows(buffer: np.ndarray, starts: np.ndarray, i: int, q: int) -> np.ndar
     return part.reshape(q + 1, part.size // (q + 1))
 
 
-def column_norms(cards, z, data, model, settings):
-    """Norms of the Jacobian's columns (m, q) at points z (NaN rows where not finite):
-    :func:`summary_items`' second half (one compiled function for both)."""
-    return summary_items(cards, z, data, model, settings)[1]
-
-
 def summary_items(cards, z, data, model, settings):
     """At each item's point: cost, RMSE and R^2 of the fitted displacement, the data's noise
     level (from second differences) and the Jacobian's column norms (m, q).

@@ -122,7 +122,9 @@ class LevenbergMarquardt:
     tol : float
         Relative tolerance of the stop tests (MINPACK's xtol = ftol = gtol).
     max_evaluations : int, optional
-        Model evaluations per item (the start's included); default 400 per solver
+        Model evaluations per solve of an item (the start's included, at least 2); each of
+        a fit's solves (its start's, the main one, a move to a limit, a wider search's
+        polishes) has this budget, so a card's total ``nfev`` can exceed it; default 400 per solver
         coordinate (on noiseless well-like Kelvin records, 100 per coordinate stopped 15 of
         400 fits short of the optimum along a slow valley; 400 per coordinate, 1 of 400).
     noise_tol : float
@@ -150,10 +152,11 @@ class LevenbergMarquardt:
             raise ValueError(f"noise_tol must be >= 0, got {self.noise_tol!r}")
         if not (isinstance(self.harmonics, int | np.integer) and self.harmonics >= 0):
             raise ValueError(f"harmonics must be an integer >= 0, got {self.harmonics!r}")
+        # A solve is its start and at least one trial step: a budget of 1 ran 2 and said so.
         if self.max_evaluations is not None and not (
-                isinstance(self.max_evaluations, int | np.integer) and self.max_evaluations >= 1):
-            raise ValueError(
-                f"max_evaluations must be a positive integer, got {self.max_evaluations!r}")
+                isinstance(self.max_evaluations, int | np.integer) and self.max_evaluations >= 2):
+            raise ValueError("max_evaluations must be an integer >= 2 (the start and a step), "
+                             f"got {self.max_evaluations!r}")
 
     def budget(self, q: int) -> int:
         """Evaluations per item for a problem with q solver coordinates."""

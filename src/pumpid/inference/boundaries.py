@@ -33,7 +33,6 @@ __all__ = [
     "BoundaryInfo",
     "Limiting",
     "ReducedFit",
-    "log_sensitivity",
     "nested_candidates",
     "push_test",
 ]
@@ -51,15 +50,6 @@ def spread(problem: Problem, k: int) -> float:
     if problem.residual == "log":
         d = np.log(d)
     return float(np.linalg.norm(d - d.mean())) or 1.0
-
-
-def log_sensitivity(problem: Problem, cards: NDArray[np.int64], z: Array) -> Array:
-    """``||theta_i dr/dtheta_i|| / ||d - mean d||`` of the free parameters (m, n_free)."""
-    data, model, settings = problem.arrays
-    norms = drive.column_norms(np.ascontiguousarray(cards, dtype=np.int64),
-                               np.ascontiguousarray(z), data, model, settings)
-    spreads = np.array([spread(problem, int(k)) for k in cards])
-    return norms[:, : problem.n_free] / spreads[:, None]
 
 
 def push_test(problem: Problem, cards: NDArray[np.int64], z: Array, cost: Array,

@@ -155,8 +155,11 @@ def findings_of(
             "the ratios " + ", ".join(f"{n}/C" for n in model_names)
             + " (reported as the parameters on the gauge C = 1)")
     for name, direction, limit in boundaries:
-        arrow = "infinity" if direction == "infinity" else "zero"
-        side = "a lower" if arrow == "infinity" else "an upper"
+        # A model's declared bound ("lower"/"upper") leaves an interval open on the side the
+        # data want, as 0 and infinity do.
+        arrow, side = {"infinity": ("infinity", "a lower"), "zero": ("zero", "an upper"),
+                       "lower": ("its lower bound", "an upper"),
+                       "upper": ("its upper bound", "a lower")}[direction]
         sentences.append(
             f"{name} is at a boundary (it runs to {arrow}): the data are described by the "
             f"limiting model {limit}. {name} has no finite estimate and no two-sided "

@@ -380,8 +380,8 @@ def _embed(inner_cov: Array, q: int, inner: Sequence[int]) -> Array:
     return cov
 
 
-def uncertainty_of(nums: Numbers, undetermined: Sequence[int], at_bound: Sequence[int],
-                   notes: Sequence[str], sigma2_unit: str) -> Uncertainty | None:
+def uncertainty_of(nums: Numbers, undetermined: Sequence[int], notes: Sequence[str],
+                   sigma2_unit: str) -> Uncertainty | None:
     """Assemble the :class:`Uncertainty` of one card from its numbers (None if unusable)."""
     if not nums.usable or nums.dof <= 0:
         return None

@@ -119,8 +119,11 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
     """
     idx = [i for i, k in enumerate(cards)
            if np.all(np.isfinite(fits[i].z)) and math.isfinite(fits[i].cost)]
-    if not idx or problem.fixed:
+    if not idx:
         return {}
+    # A reduced model cannot hold the full model's fixed values: with any value fixed only
+    # the push test (which needs none) runs.
+    nested = not problem.fixed
     sub_cards = cards[idx]
     z = np.array([fits[i].z for i in idx])
     norms = np.array([fits[i].norms if fits[i].norms is not None
@@ -145,7 +148,7 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
     for j, i in enumerate(idx):
         k = int(cards[i])
         lims = []
-        if isinstance(problem.initial_states[k], str):
+        if nested and isinstance(problem.initial_states[k], str):
             lims = bnd.nested_candidates(problem, k, fits[i].z, log_sens[j], fits[i].edges,
                                          fits[i].stopped_early)
         cand.append(lims)
@@ -167,7 +170,8 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
             if got is None:
                 continue
             red = got[0].results[got[1]]
-            if red is None or not math.isfinite(red.cost):
+            # A reduced fit that stopped unfinished is no optimum to compare with.
+            if red is None or not math.isfinite(red.cost) or red.status is Status.FAILED:
                 continue
             excess = 2.0 * (red.cost - card.cost)
             if excess < -LR_95 * sigma2 - 1e-12 * sst and lim.from_reduced:
@@ -204,8 +208,18 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
                     best_red = (red.cost, red, lim)
         if not found[j] or k in restarts:
             continue
-        _to_the_limit(problem, k, card, found[j], options)
+        at_limit = _to_the_limit(problem, k, card, found[j], options)
         found[j] = _at_final_values(problem, card, found[j])
+        # A limit is a finished answer when some solve converged: the card's own, or the
+        # one at the limit, fitting within the likelihood-ratio test of the card's cost (a
+        # fit crawling toward the limit often runs out of evaluations on the way).
+        settled = 2.0 * (at_limit - card.cost) <= LR_95 * sigma2 + 1e-12 * sst
+        if not (settled or card.stop.converged):
+            # No solve finished, at the limit or before it: the limit is a suspicion the
+            # answer's words carry, not a status (a budget-stopped fit stays failed).
+            card.warnings.extend(f"{b.describe()} (suspected only: no solve converged, at "
+                                 "the limit or before it)" for b in found[j])
+            continue
         card.status = Status.BOUNDARY
         names = ", ".join(b.name for b in found[j])
         # The solver's stop after the status's own words: "converged: ..." first read as
@@ -214,7 +228,7 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
                        f"interior optimum (the solver's stop: {card.reason})")
         card.warnings.extend(b.describe() for b in found[j])
         card.limits = tuple(found[j])
-        if best_red is None and isinstance(problem.initial_states[k], str):
+        if best_red is None and nested and isinstance(problem.initial_states[k], str):
             target = next((problem.model.limit(b.name, b.direction) for b in found[j]
                            if problem.model.limit(b.name, b.direction).reduced), None)
             if target is not None:
@@ -249,9 +263,10 @@ def _limit_reaches(problem: Problem, k: int, card: CardState, lim: Any, target: 
 
 
 def _to_the_limit(problem: Problem, k: int, card: CardState, limits: Sequence[Limiting],
-                  options: JobOptions) -> None:
+                  options: JobOptions) -> float:
     """Move parameters found at a boundary to the edge of the search window (the limit as
     far as the window reaches) and refit the others there; kept when it fits better.
+    Returns that refit's cost where it met a convergence test (infinity elsewhere).
 
     Along a limit the cost keeps creeping down while the solver's steps shrink, so where a
     boundary parameter stops is a matter of the solver's patience: at the window's edge the
@@ -274,6 +289,7 @@ def _to_the_limit(problem: Problem, k: int, card: CardState, limits: Sequence[Li
         card.z = out.z[0].copy()
         card.cost = float(out.cost[0])
         card.accepted += int(out.accepted[0])
+    return float(out.cost[0]) if out.stops[0].converged else math.inf
 
 
 def _at_final_values(problem: Problem, card: CardState, limits: list[Limiting]) -> list[Limiting]:

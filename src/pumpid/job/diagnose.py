@@ -138,12 +138,10 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
     local = num
     for index, se in (floors or {}).items():
         num = widened(num, index, se)
-    names = list(num.names)
     f = findings_of(num, model_names=model_names, gauge_fixed=gauge_fixed,
                     initial_state=initial_state, residual=residual,
                     boundaries=[(b.name, b.direction, b.limit) for b in limits], serial=serial)
-    unc = uncertainty_of(num, f.undetermined, [names.index(b.name) for b in limits
-                                               if b.name in names], f.notes, unit)
+    unc = uncertainty_of(num, f.undetermined, f.notes, unit)
     unc = shown_errors(unc, serial, robust_covariance(num, f.undetermined), calibration)
     return Assessment(num, serial, f.sentences, f.determined, unc, local)
 

@@ -479,8 +479,12 @@ def cost_change(before: float, after: float) -> str:
     while digits < 17 and f"{before:.{digits}g}" == f"{after:.{digits}g}":
         digits += 1
     rel = (before - after) / before if before > 0 else math.nan
-    return (f"cost {before:.{digits}g} -> {after:.{digits}g}, lower by {rel:.2g} of it"
-            if math.isfinite(rel) else f"cost {before:.{digits}g} -> {after:.{digits}g}")
+    said = f"cost {before:.{digits}g} -> {after:.{digits}g}"
+    if not math.isfinite(rel):
+        return said
+    # In per cent from 1e-3 on: "lower by 1 of it" was 0.9988 rounded.
+    share = f"{100 * rel:.3g} %" if rel >= 1e-3 else f"{rel:.2g}"
+    return f"{said}, lower by {share} of it"
 
 
 def compile_first(problem: Problem, k: int) -> bool:

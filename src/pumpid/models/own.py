@@ -196,7 +196,8 @@ class OwnModel(abc.ABC):
             The fitted values.
         numbers : pumpid.inference.uncertainty.Numbers
             The analysis at the optimum (covariances over the solver's coordinates: the
-            logarithm of each positive parameter, a signed one as it is).
+            logarithm of each positive parameter, a signed one divided by the data's range;
+            ``numbers.scales`` holds each coordinate's unit step in the value's units).
         serial : bool
             The residuals are serially correlated (the robust errors are shown).
         limits : sequence of (name, direction)

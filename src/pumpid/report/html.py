@@ -10,6 +10,7 @@ contents.
 from __future__ import annotations
 
 import base64
+import json
 from collections.abc import Iterable, Mapping, Sequence
 from importlib import metadata
 from pathlib import Path
@@ -362,7 +363,13 @@ def write_outputs(
     paths: dict[str, Path] = {}
     for name, png in pngs.items():
         paths[name] = atomic_write(out / f"{safe_name(name)}.png", png)
-    paths["json"] = atomic_write(out / "result.json", result.to_json(indent=2) + "\n")
+    doc = result.to_dict()
+    if prediction is not None:
+        # The file is the report's in machine form: the prediction it shows belongs in it
+        # (the scores, as --json gives them; the arrays are the other record's data).
+        source = prediction_source(result, prediction)
+        doc["prediction"] = {k: source.get(k) for k in ("card", "rmse", "r2")}
+    paths["json"] = atomic_write(out / "result.json", json.dumps(doc, indent=2) + "\n")
     paths["report"] = write_report(result, out, title=title, figures=pngs, notes=notes,
                                    prediction=prediction, extra_sections=extra_sections)
     return paths

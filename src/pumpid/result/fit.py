@@ -368,6 +368,22 @@ class FitResult:
         return self.report()
 
 
+def _why_robust(result: FitResult) -> str:
+    """Why the robust errors are shown: the whiteness warning where it was given, else the
+    eager 5 % test's figures (the warning asks for 99.5 %, so it can be absent)."""
+    if not (result.whiteness or {}).get("white", True):
+        return "see the warning below"
+    hac = result.uncertainty.hac if result.uncertainty is not None else None
+    test = (hac or {}).get("serial_test")
+    if not test:
+        lag1 = (result.whiteness or {}).get("lag1_autocorrelation", math.nan)
+        return (f"the residuals' lag-1 autocorrelation {lag1:.2f} fails a one-sided 5 % "
+                "test of independence")
+    return (f"the residuals' lag-1 autocorrelation {test['lag1']:.2f} is {test['z']:.1f} "
+            "standard deviations above its value for independent noise: a one-sided 5 % "
+            "test")
+
+
 def diagnostics_text(result: FitResult) -> str:
     """The diagnostics as report lines (uncertainty table, correlations, findings)."""
     lines: list[str] = []
@@ -384,7 +400,7 @@ def diagnostics_text(result: FitResult) -> str:
                          f"prewhitened Bartlett kernel, bandwidth {m} "
                          f"sample{'s' if m != 1 else ''}, widened by "
                          f"{float(unc.hac.get('factor', 1.0)):.3g} for the estimate's own "
-                         "spread; see the warning below):")
+                         f"spread; {_why_robust(result)}):")
             lines += error_table(result.free, values, units, unc.stderr, unc.ci95)
             lines.append("  assuming independent noise (too narrow for these residuals: "
                          "stderr_white, ci95_white):")
@@ -450,16 +466,24 @@ def format_report(result: FitResult, history: bool = False) -> str:
     robust = result.errors_shown == "robust"
     white = result.stderr_white if robust else {}
     loose = set(result.determined.get("not_determined", []) or [])
-    for name, value in result.params.items():
+    limited = set(result.determined.get("boundary", []) or [])
+
+    def errors_and_flag(name: str) -> str:
+        # The same marks as the short output and the HTML: an offset the data do not fix
+        # read "(fitted)" here alone.
         se = stderr.get(name)
         se_white = white.get(name)
         white_txt = (f"; independent-noise +/- {fmt_error(se_white, 3)}"
                      if se_white is not None and math.isfinite(se_white) else "")
         what = "robust " if robust else ""
         se_txt = f"  ({what}+/- {fmt_error(se, 3)}{white_txt})" if se is not None else ""
-        flag = "  (not determined)" if name in loose else ""
-        lines.append(f"  {name:<15}  {fmt(value, 10):<15}  {units.get(name, '')}{se_txt}"
-                     f"{flag}")
+        flag = ("  (fixed)" if name not in result.free else "  (at a limit)" if name in limited
+                else "  (not determined)" if name in loose else "")
+        return se_txt + flag
+
+    for name, value in result.params.items():
+        lines.append(f"  {name:<15}  {fmt(value, 10):<15}  {units.get(name, '')}"
+                     f"{errors_and_flag(name)}")
     scale_state = "fitted" if "C" in result.free or "D" in result.free else "fixed"
     if result.problem is not None or scale_state == "fitted":
         # A lumped model's output scale; a model with its own simulator has none.
@@ -468,9 +492,8 @@ def format_report(result: FitResult, history: bool = False) -> str:
     if result.residual == "log" and result.scale > 0:
         lines.append(f"  {'D = ln C':<15}  {fmt(math.log(result.scale), 10):<15}  -")
     if "offset" in result.free or result.offset != 0.0:
-        off_state = "fitted" if "offset" in result.free else "fixed"
         lines.append(f"  {'offset':<15}  {fmt(result.offset, 10):<15}  "
-                     f"{result.units.position} ({off_state})")
+                     f"{result.units.position}{errors_and_flag('offset')}")
     lines += ["", f"  fit quality: RMSE = {fmt(result.rmse, 6)} {result.units.position}, "
               f"R^2 = {fmt(result.r2, 8)}{beyond_text(result)}"]
     lines += derived_text(result)
