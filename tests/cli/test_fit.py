@@ -205,3 +205,28 @@ def test_a_record_that_cannot_be_split_is_one_row(tmp_path, capsys) -> None:
     said = [ln for ln in (out.out + out.err).splitlines() if "no card" in ln]
     assert said == [], said
     assert (out.out + out.err).count("every stroke is shorter than") == 2
+
+
+def test_the_short_output_marks_an_echo_and_a_fundamental_alone(tmp_path: Path,
+                                                                   capsys) -> None:
+    # A position that is one sinusoid within the noise: the mass-spring-dashpot's natural
+    # frequency is "determined" on the stroke frequency, an echo the HTML marked and this
+    # line printed as the well's; its R^2 "explained 0.0 % of the rest" of mere noise.
+    period = 7.5
+    t = np.arange(200) * period / 200
+    w = 2 * np.pi / period
+    load = 50.0 + 10.0 * np.sin(w * t) + 2.0 * np.sin(2 * w * t)
+    pos = 1.5 * np.sin(w * t - 1.2) + 0.01 * np.random.default_rng(0).standard_normal(200)
+    path = tmp_path / "sine.csv"
+    path.write_text("t_s,position_in,load_lbf\n" + "".join(
+        f"{a:.6f},{b:.8f},{c:.6f}\n" for a, b, c in zip(t, pos, load, strict=True)))
+    assert main(["fit", str(path), "--model", "msd", "--period", str(period)]) == 0
+    out = capsys.readouterr().out
+    assert "natural frequency = " in out
+    assert "(an echo of the stroke, not the well's)" in out
+    assert "the rest is noise)" in out and "of the rest)" not in out
+    # --verbose's table marks the offset as the short output does (it said "(fitted)").
+    assert main(["fit", str(path), "--period", str(period), "--verbose"]) in (0, 6)
+    table = capsys.readouterr().out
+    offset = next(ln for ln in table.splitlines() if ln.startswith("  offset  "))
+    assert offset.endswith("(not determined)") and "(fitted)" not in offset

@@ -71,6 +71,23 @@ def test_a_sinusoidal_position_leaves_nothing_beyond_its_fundamental_to_judge_by
     assert "reproduces only the stroke's fundamental" not in fit.reason
 
 
+def test_a_sinusoidal_position_says_what_its_two_numbers_determine() -> None:
+    # A mass-spring-dashpot on a position that is one sinusoid within the noise: c (the
+    # ratio of the fundamentals' quadrature) is determined and m, k are not, converged; it
+    # read "explains 0.0 % of the rest" beside m in the millions, without a word.
+    t = np.arange(200) * PERIOD / 200
+    w = 2 * np.pi / PERIOD
+    load = 50.0 + 10.0 * np.sin(w * t) + 2.0 * np.sin(2 * w * t)
+    position = 1.5 * np.sin(w * t - 1.2) + 0.01 * np.random.default_rng(0).standard_normal(200)
+    fit = pumpid.fit(pumpid.MassSpringDamper, (t, load, position), options=_periodic())
+    assert fit.determined["signal_beyond_fundamental"] is False
+    assert fit.status is pumpid.Status.CONVERGED and fit.determined["parameters"] == ["c"]
+    assert any(w.startswith("the position is the stroke's fundamental within the noise")
+               for w in fit.warnings)
+    assert "what it leaves is at the noise level" in fit.report()
+    assert "% of what it leaves" not in fit.report()
+
+
 def test_records_that_are_not_one_period_have_no_fundamental_share() -> None:
     t = np.linspace(0.0, 20.0, 401)
     truth = pumpid.Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0)

@@ -161,7 +161,9 @@ def _derived(res: FitResult) -> list[str]:
     out = []
     for d in res.derived.values():
         unit = "" if d.unit in ("1", "-", "") else f" {unit_text(d.unit)}"
-        flag = "" if d.determined else " (not determined)"
+        # The HTML and --joint mark an echo; this line printed it as the well's.
+        flag = (" (not determined)" if not d.determined
+                else "" if d.well_property else " (an echo of the stroke, not the well's)")
         out.append(f"{d.name.replace('_', ' ')} = {fmt(d.value, 4)}{unit}{flag}")
     return out
 

@@ -29,6 +29,15 @@ __all__ = ["build_result", "determination_gate", "quality_gate"]
 Array = NDArray[np.float64]
 
 
+#: What a card whose position is its fundamental within the noise can tell.
+NOTHING_BEYOND = (
+    "the position is the stroke's fundamental within the noise: the card holds two numbers, "
+    "the gain and the phase of the position against the load at the stroke frequency, so at "
+    "most two combinations of the model's values follow from the data (for a "
+    "mass-spring-dashpot, c and k - m (2 pi f)^2); the values called determined are those, "
+    "the others rest on the model's form")
+
+
 def determination_gate(res: FitResult) -> FitResult:
     """``undetermined`` for an answer (converged or at a boundary) that determines none of
     the model's parameters, or that reproduces the stroke's fundamental alone: a converged
@@ -42,6 +51,10 @@ def determination_gate(res: FitResult) -> FitResult:
     only = bool(res.determined.get("signal_beyond_fundamental")) \
         and FUNDAMENTAL_WORSE < res.r2_beyond < FUNDAMENTAL_ONLY
     none = not any(n in res.params for n in res.determined.get("parameters", ()))
+    if res.determined.get("signal_beyond_fundamental") is False and not none:
+        # A position that is one sinusoid within the noise holds two numbers: "converged,
+        # explains 0.0 % of the rest" beside m = 4.9e6 kN*s^2/m read as a contradiction.
+        res = dataclasses.replace(res, warnings=(*res.warnings, NOTHING_BEYOND))
     if not (only or none):
         return res
     determined = dict(res.determined)

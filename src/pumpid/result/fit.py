@@ -43,6 +43,12 @@ def beyond_text(result: FitResult, short: bool = False) -> str:
         return ""
     alone = fmt(result.r2_fundamental, 6)
     share = f"{100 * max(beyond, 0.0):.1f} %"
+    if result.determined.get("signal_beyond_fundamental") is False:
+        # Nothing beyond the fundamental but noise: "explains 0.0 % of the rest" blamed the
+        # model for what no model can explain.
+        return (f" (fundamental alone {alone}: the rest is noise)" if short else
+                f" (the stroke's fundamental alone: {alone}; what it leaves is at the noise "
+                "level)")
     if short:
         return (f" (fundamental alone {alone}: "
                 + ("better than this fit)" if fundamental_better(result)
