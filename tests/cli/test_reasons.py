@@ -67,6 +67,20 @@ def test_joint_json_has_the_shape_of_every_json(two_cards: Path, capsys) -> None
     assert all({"level", "offset", "r2", "rmse", "single"} <= set(c) for c in doc["cards"])
 
 
+def test_card_given_again_chooses_more_cards(tmp_path: Path, capsys) -> None:
+    # "--card A --card B" kept only B: a joint fit of two named cards of a file of four
+    # was told it had fewer than two.
+    path = write_cards(tmp_path / "four.csv", ["W-1", "W-2", "W-3", "W-4"])
+    code = main(["fit", str(path), "--card", "W-3", "--card", "W-1", "--joint", "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 0 and [c["card"]["id"] for c in doc["cards"]] == ["W-1", "W-3"]
+    code = main(["fit", str(path), "--card", "W-2", "--card", "W-9", "--brief"])
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if not ln.startswith("#")]
+    assert code == 3  # some cards fitted, some not
+    assert {ln.split("\t")[0] for ln in lines} == {"W-2", "W-9"}
+    assert any(ln.startswith("W-9\tinvalid-input") and "no card 'W-9'" in ln for ln in lines)
+
+
 @pytest.mark.parametrize("argv", [["fit", "{cards}", "--out", ""],
                                   ["fit", "{cards}", "--out", " "],
                                   ["batch", "{cards}", "--out", ""],

@@ -229,7 +229,9 @@ def add_card_options(p: Any) -> None:
     p.add_argument("--period", type=float, help="stroke period in s (cards without time)")
     p.add_argument("--format", help="force a format: csv, scada, json, whitespace, ts")
     p.add_argument("--encoding", help="text encoding of the files (default: detected)")
-    p.add_argument("--card", help="only this card id")
+    p.add_argument("--card", action="append", metavar="ID",
+                   help="only this card id (give it again for more cards; with "
+                        "--split-strokes a stroke's id RECORD#k too)")
     p.add_argument("--well-id", metavar="ID",
                    help="the well of every card of the files (over the files' own; for "
                         "files of one well without a well column)")

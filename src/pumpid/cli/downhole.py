@@ -93,7 +93,7 @@ def _read(path: str, args: argparse.Namespace) -> list[Card]:
                        load_unit=args.load_unit, spm=args.spm, period=args.period,
                        columns=columns, encoding=args.encoding, well_id=args.well_id)
     if args.card is not None:
-        cards = [c for c in cards if c.card_id == args.card]
+        cards = [c for c in cards if c.card_id in args.card]
     if args.split_strokes:
         from ..cards import split_strokes
 
@@ -337,7 +337,8 @@ def _inputs(args: argparse.Namespace) -> Iterator[tuple[str, list[Card] | CardEr
             yield path, exc
             continue
         if single and not cards and args.card is not None:
-            raise CliError(f"{printable(path)}: no card {printable(args.card)!r}")
+            raise CliError(f"{printable(path)}: no card "
+                           + " or ".join(repr(printable(c)) for c in args.card))
         yield path, cards
 
 

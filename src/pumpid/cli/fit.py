@@ -189,44 +189,56 @@ def _refused(error: CardError, path: str) -> Row:
 
 def _selected(cards: list[Card], path: str, args: argparse.Namespace,
               errors: Sequence[CardError] = ()) -> tuple[list[Card], list[Row]]:
-    """The cards to fit (``--card``, ``--split-strokes``) and rows for cards refused: by the
-    reader (``errors``, in file order), by ``--card``, or by the stroke splitter."""
-    if args.card is not None:
-        errors = [e for e in errors if e.card_id == args.card]
+    """The cards to fit (``--card``, given once or more, and ``--split-strokes``), in the
+    file's order, and rows for cards refused: by the reader (``errors``, in file order), by
+    ``--card``, or by the stroke splitter."""
+    wanted: list[str] = list(dict.fromkeys(args.card or ()))
+    if wanted:
+        errors = [e for e in errors if e.card_id in wanted]
     rows: list[Row] = [_refused(e, path) for e in errors]
     # A stroke's id (RECORD#k, as --split-strokes names them) is chosen after its record is
     # split; any other id names a record, looked for before.
-    record = args.card.rpartition("#")[0] if args.card is not None else ""
-    stroke_id = (args.split_strokes and bool(record)
-                 and not any(c.card_id == args.card for c in cards))
-    if args.card is not None:
-        wanted = record if stroke_id else args.card
-        chosen = [c for c in cards if c.card_id == wanted]
-        if not chosen and not errors:
-            ids = ", ".join(printable(c.card_id) for c in cards[:20])
+    ids = {c.card_id for c in cards}
+    records: set[str] = set()
+    strokes_of: dict[str, set[str]] = {}
+    for want in wanted:
+        record = want.rpartition("#")[0]
+        if args.split_strokes and record and want not in ids:
+            strokes_of.setdefault(record, set()).add(want)
+            name = record
+        else:
+            records.add(want)
+            name = want
+        if name not in ids and not any(e.card_id == name for e in errors):
+            listed = ", ".join(printable(c.card_id) for c in cards[:20])
             more = f" and {len(cards) - 20} more" if len(cards) > 20 else ""
-            of = f" (of stroke {printable(args.card)!r})" if stroke_id else ""
-            rows.append(Row(card_id=args.card, source=path, status="invalid-input",
-                            reason=f"no card {printable(wanted)!r}{of} in this file; its "
-                                   f"cards are: {ids}{more}"))
-        cards = chosen
+            of = f" (of stroke {printable(want)!r})" if name != want else ""
+            rows.append(Row(card_id=want, source=path, status="invalid-input",
+                            reason=f"no card {printable(name)!r}{of} in this file; its "
+                                   f"cards are: {listed}{more}"))
+    if wanted:
+        cards = [c for c in cards if c.card_id in records or c.card_id in strokes_of]
     if args.split_strokes:
         strokes: list[Card] = []
         for card in cards:
             try:
-                strokes.extend(split_strokes(card))
+                pieces = split_strokes(card)
             except CardError as exc:
                 rows.append(Row(card_id=card.card_id, source=card.source,
                                 status="invalid-input", reason=str(exc), card=card))
-        if stroke_id and strokes:
-            cards = [c for c in strokes if c.card_id == args.card]
-            if not cards:
-                ids = ", ".join(printable(c.card_id) for c in strokes)
-                rows.append(Row(card_id=args.card, source=path, status="invalid-input",
-                                reason=f"no stroke {printable(args.card)!r}: record "
-                                       f"{printable(record)!r} splits into {ids}"))
-        else:
-            cards = strokes
+                continue
+            asked = strokes_of.get(card.card_id)
+            if asked is None or card.card_id in records:
+                strokes.extend(pieces)
+                continue
+            strokes.extend(c for c in pieces if c.card_id in asked)
+            names = {c.card_id for c in pieces}
+            for want in sorted(asked - names):
+                listed = ", ".join(printable(c.card_id) for c in pieces)
+                rows.append(Row(card_id=want, source=path, status="invalid-input",
+                                reason=f"no stroke {printable(want)!r}: record "
+                                       f"{printable(card.card_id)!r} splits into {listed}"))
+        cards = strokes
     return cards, rows
 
 
@@ -634,7 +646,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     add_card_options(p)
     p.add_argument("--joint", action="store_true",
                    help="one parameter set for all the cards (strokes of one well), each "
-                        "card with its own offset; prints the joint fit")
+                        "card with its own offset; prints the joint fit (no --out, "
+                        "--predict, --x0 or --model auto with it)")
     add_fit_options(p, sorted(MODELS))
     p.add_argument("--predict", metavar="CARD_OR_FILE",
                    help="predict another card (an id in the same file, or a file) with each fit")
