@@ -310,6 +310,17 @@ def test_progress_displays() -> None:
     assert "fitting on local (2 threads)" in text
     assert "20 of about 80 cards (25 %)" in text and "cards/s" in text and "time left" in text
     assert text.rstrip().splitlines()[-1].startswith("pumpid batch: 40 of 40 cards (100 %)")
+    # A resume with nothing left says so ("0.0 cards/s, time left unknown" did not).
+    lines = io.StringIO()
+    progress = make_progress("lines", stream=lines, interval=0.0)
+    progress.start(100, "local")
+    progress.file_read(100, 10)
+    progress.all_read()
+    progress.advance(10, skipped=True)
+    progress.close()
+    last = lines.getvalue().rstrip().splitlines()[-1]
+    assert last == ("pumpid batch: 10 of 10 cards (100 %), every one from an earlier run: "
+                    "nothing to fit")
     bar = io.StringIO()
     threads = set(threading.enumerate())
     progress = make_progress("bar", stream=bar)

@@ -57,7 +57,7 @@ def test_report_files_and_page(table: pd.DataFrame, tmp_path: Path) -> None:
         assert f"<h2>{section}</h2>" in page
     assert "13 wells" in page and "1800 cards" in page and "40 cards (2.2%)" in page
     assert "lbf/in" in page and "Hz" in page
-    assert "2 wells with an alert: all; 11 wells without an alert: 2 picked at random" in page
+    assert "all 2 wells with an alert; 2 of the 11 wells without an alert, picked at random" in page
 
 
 def test_alerts_csv_round_trips(table: pd.DataFrame, tmp_path: Path) -> None:
@@ -81,7 +81,7 @@ def test_many_wells_are_sampled_and_no_alerts(tmp_path: Path) -> None:
     page = files["report"].read_text(encoding="utf-8")
     assert "No persistent change was found" in page
     assert "The first 50 of 900 wells are listed" in page
-    assert "900 wells without an alert: 3 picked at random" in page
+    assert "3 of the 900 wells without an alert, picked at random" in page
     assert len([k for k in files if k.startswith("well_")]) == 3
     assert len(pd.read_csv(files["wells"])) == 900
 
@@ -143,8 +143,11 @@ def test_cards_without_well_ids_are_counted_not_trended(tmp_path: Path) -> None:
     assert wells.loc[0, "tested"] == "not tested (no well id)"
     assert card_counts(frame) == {"cards": 89, "repeats": 1, "wells": 0, "unnamed": 89,
                                   "undated": 0}
-    # Nothing of it is trended, and the summary says so beside the quantity.
-    assert "stiffness [lbf/in] (no usable value: not trended)" in page
+    # Nothing of it is trended, and the summary says why beside the quantity (it said "no
+    # usable value", where the values are usable and the missing well id is the reason).
+    assert ("stiffness [lbf/in] (usable values only on cards without a well id: not "
+            "trended)") in page
+    assert "stiffness: usable values only on cards without a well id." in page
 
 
 def test_failed_and_invalid_cards_of_a_well_are_drawn(tmp_path: Path) -> None:
@@ -216,7 +219,7 @@ def test_one_well_reads_right(tmp_path: Path) -> None:
     frame["d_stiffness_se"] = 0.6 * frame["d_stiffness"]
     files = write_fleet_report(frame, tmp_path, quantities=["stiffness"])
     page = files["report"].read_text(encoding="utf-8")
-    assert "Drawn: 1 well without an alert: it." in page
+    assert "Drawn: the well without an alert." in page
     assert "0 of 0" not in page
     assert "too few wells for a histogram" in page
     # the values span most of the panel's height, not a sliver of an axis made for bands

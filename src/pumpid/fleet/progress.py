@@ -121,6 +121,10 @@ class LinesProgress(Progress):
         exact = self.reading_done or total is None
         of = "" if total is None else f" of {'' if exact else 'about '}{total}"
         share = f" ({100.0 * self.done / total:.0f} %)" if total else ""
+        if exact and total is not None and self.done >= total and not self.fitted:
+            # A resume with nothing left: "0.0 cards/s, time left unknown" said nothing true.
+            return (f"pumpid batch: {self.done}{of} cards{share}, every one from an earlier "
+                    "run: nothing to fit")
         return (f"pumpid batch: {self.done}{of} cards{share}, {self.rate():.1f} cards/s, "
                 f"time left {_clock(self.remaining())}")
 

@@ -206,6 +206,14 @@ def _coverage_rows(coverage: pd.DataFrame, min_cards: int,
     return rows
 
 
+def _no_value(frame: pd.DataFrame, quantity: str) -> str:
+    """Why a quantity has nothing to trend, in words: "no usable value" was said of pumps
+    identified on cards without a well id, where the missing id is the reason."""
+    if quantity_values(frame, quantity)[2].any():
+        return "usable values only on cards without a well id"
+    return "no usable value in any well"
+
+
 def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFrame,
                      quantities: Sequence[str], units: dict[str, str], settings: str,
                      coverage_rows: Sequence[tuple[str, str]] = ()) -> str:
@@ -239,7 +247,7 @@ def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFr
         ("period covered", span),
         ("quantities trended", ", ".join(
             f"{q} [{unit_text(units[q])}]" + ("" if quantity_values(named, q)[2].any() else
-                                             " (no usable value: not trended)")
+                                             f" ({_no_value(frame, q)}: not trended)")
             for q in quantities) or "none"),
         ("alerts", f"{count_words(len(alerts), 'alert')} in "
                    f"{count_words(alerts['well_id'].nunique(), 'well')}"),
@@ -342,18 +350,22 @@ def _drawn_words(drawn_alerted: Sequence[str], alerted: Sequence[str],
                  drawn_steady: Sequence[str], steady: Sequence[str], seed: int) -> str:
     """Which wells the trends show, in words that fit one well as well as thousands."""
     parts = []
+    # "1 well without an alert: it." read as a broken sentence: the count goes into words
+    # that stand for one well as well as for thousands.
     if alerted:
-        which = ("it" if len(alerted) == 1 else "all" if len(drawn_alerted) == len(alerted)
-                 else f"the {len(drawn_alerted)} with the largest changes")
-        parts.append(f"{count_words(len(alerted), 'well')} with an alert: {which}")
+        n = len(alerted)
+        parts.append("the well with an alert" if n == 1 else
+                     f"all {n} wells with an alert" if len(drawn_alerted) == n else
+                     f"the {len(drawn_alerted)} of the {n} wells with an alert with the "
+                     "largest changes")
     if steady:
-        if not drawn_steady:
-            which = "none drawn"
-        elif len(drawn_steady) == len(steady):
-            which = "it" if len(steady) == 1 else "all"
-        else:
-            which = f"{len(drawn_steady)} picked at random (seed {seed}) for comparison"
-        parts.append(f"{count_words(len(steady), 'well')} without an alert: {which}")
+        n = len(steady)
+        parts.append(f"none of the {count_words(n, 'well')} without an alert"
+                     if not drawn_steady else
+                     "the well without an alert" if n == 1 else
+                     f"all {n} wells without an alert" if len(drawn_steady) == n else
+                     f"{len(drawn_steady)} of the {n} wells without an alert, picked at random "
+                     f"(seed {seed}) for comparison")
     if not parts:
         return "No well has a usable card to draw."
     return "Drawn: " + "; ".join(parts) + "."
@@ -494,7 +506,7 @@ def write_fleet_report(
     for q in names:
         fig = distribution_figure(named, q, units[q], alerted)
         if fig is None:
-            parts.append(f"<p>{_e(q)}: no usable value in any well.</p>")
+            parts.append(f"<p>{_e(q)}: {_no_value(frame, q)}.</p>")
             continue
         name = _safe_name(f"distribution_{q}", taken)
         few = named["well_id"].nunique() < MIN_WELLS_HISTOGRAM
