@@ -97,7 +97,7 @@ def test_json_form_has_each_quantity_with_error_and_the_fit(made) -> None:
     assert got["status"] == "converged"
     assert set(got["pump"]) == {"fluid_load", "fillage", "gross_stroke", "net_stroke",
                                 "displacement", "intake_pressure"}
-    assert set(got["pump"]["fillage"]) == {"value", "stderr", "unit"}
+    assert set(got["pump"]["fillage"]) == {"value", "stderr", "unit", "determined"}
     assert 0.99 < got["r2"] <= 1 and got["residual_autocorrelation"] is not None
     assert got["energy"]["unit"] == "lbf*in" and got["energy"]["loss_unit"] == "fraction"
     assert 0 < got["energy"]["string_loss"] < 1

@@ -80,8 +80,8 @@ def test_json_shape_and_units(tmp_path: Path, surface, capsys) -> None:
     for name in ("gross_stroke", "net_stroke", "fluid_load", "fillage", "displacement",
                  "intake_pressure"):
         entry = full["pump"][name]
-        assert set(entry) == {"value", "stderr", "unit"}
-        assert 0 < entry["stderr"] < 0.05 * abs(entry["value"])
+        assert set(entry) == {"value", "stderr", "unit", "determined"}
+        assert 0 < entry["stderr"] < 0.05 * abs(entry["value"]) and entry["determined"]
         assert set(down["pump"][name]) == {"value", "unit"}
     for name in ("upper_load_line", "lower_load_line"):  # measured on the diagnostic only
         assert full["pump"][name]["stderr"] is None
@@ -143,6 +143,13 @@ def test_metric_card_with_us_well_file_is_converted(tmp_path: Path, surface, cap
         assert b["pump"][name]["stderr"] == pytest.approx(
             a["pump"][name]["stderr"] * factor, rel=0.05)
     assert any("converted" in n for n in b["notes"])
+    # The text says it too, without --verbose (it printed kN beside the well file's units
+    # with the note in the JSON only).
+    main(["downhole", str(tmp_path / "si.csv"), "--well", str(well), "--spm", str(SPM),
+          "--card", "card1", "--no-identify"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert ("note: the card is in m/kN and the well file in US units: converted, results in "
+            "the card's units") in text
 
 
 def test_wells_matched_by_id_and_unknown_well_refused(tmp_path: Path, surface,

@@ -9,6 +9,7 @@ are printed in the test summary.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -158,3 +159,25 @@ def test_the_load_lines_are_on_the_card_shown(shared_raw: Path, tmp_path: Path,
     assert got["effective"]["pump"]["lower_load_line"]["value"] - got["true"]["pump"][
         "lower_load_line"]["value"] == pytest.approx(shift)
     assert got["true"]["pump"]["fluid_load"] == got["effective"]["pump"]["fluid_load"]
+
+
+def test_a_pump_quantity_whose_error_exceeds_it_is_not_determined(shared_raw: Path,
+                                                                   tmp_path: Path,
+                                                                   capsys) -> None:
+    # fj2's identified intake pressure, 4014 +- 1e4 kPa, was shown as a used value in the
+    # text, the HTML and the JSON, with no word that the card does not determine it.
+    well, entry = well_file(shared_raw, "fj2", tmp_path)
+    card = shared_raw / FOLDER / entry["card_csv"]
+    spm = float(entry["spm"])
+    doc = run(capsys, card, well, spm, codes=(0, 5, 6))
+    pump = doc["pump"]
+    loose = [n for n, q in pump.items() if q.get("determined") is False]
+    for name, q in pump.items():
+        if q.get("determined"):
+            assert q["stderr"] is not None and q["stderr"] <= abs(q["value"]), name
+    assert loose == ["intake_pressure"], pump
+    assert pump["intake_pressure"]["stderr"] > abs(pump["intake_pressure"]["value"])
+    main(["downhole", str(card), "--well", str(well), "--spm", f"{spm:g}"])
+    text = " ".join(capsys.readouterr().out.split())
+    for name in loose:
+        assert re.search(name.replace("_", " ") + r" [^,]* \(not determined\)", text), name

@@ -153,9 +153,11 @@ class _Text:
 #: the card that cannot be physical as it stands (an intake pressure of -830 psi was printed
 #: with its note only under --verbose), and what a printed quantity assumes (the intake
 #: pressure with no tubing-head pressure in the well file; the pump card computed at the
-#: rods' bottom, short of the pump).
+#: rods' bottom, short of the pump); and a card in other units than its well file (the text
+#: mixed in/lbf with m3/d and kPa without a word).
 _ALWAYS_SAID = ("reverse", "intake pressure is negative", "tubing-head pressure taken as 0",
-                "the pump card is computed at the bottom of the rods")
+                "the pump card is computed at the bottom of the rods",
+                "converted, results in the card's units")
 
 
 class _Json:

@@ -211,9 +211,11 @@ class PumpFit:
         return self.fit is not None and self.model is not None
 
     def quantities(self) -> dict[str, dict[str, Any]]:
-        """Each pump quantity as ``{"value", "stderr", "unit"}``: the fluid load is the fitted
-        parameter, the others are measured on the fitted pump card (errors by the delta
-        method). Empty when the card was not fitted."""
+        """Each pump quantity as ``{"value", "stderr", "unit", "determined"}``: the fluid
+        load is the fitted parameter, the others are measured on the fitted pump card
+        (errors by the delta method). ``determined`` follows the lumped fits' rule: the
+        fit calls it determined and its error (the march's own included) is at most its
+        value. Empty when the card was not fitted."""
         if not self.ok or self.well is None:
             return {}
         assert self.fit is not None
@@ -222,12 +224,17 @@ class PumpFit:
         for name in SHOWN:
             if name == "fluid_load":
                 value, se = self.fit.params[name], _stderr(self.fit, name)
+                called = name in self.fit.determined.get("parameters", ())
             else:
                 d = self.fit.derived.get(name)
                 value = math.nan if d is None else d.value
                 se = math.nan if d is None else d.stderr
+                called = d is not None and d.determined
             se = math.hypot(se, self.discretization.get(name, 0.0))
-            out[name] = {"value": _num(value), "stderr": _num(se), "unit": units[name][0]}
+            # An intake pressure of 4014 +- 1e4 kPa was shown as a used value.
+            determined = bool(called and math.isfinite(se) and se <= abs(value))
+            out[name] = {"value": _num(value), "stderr": _num(se), "unit": units[name][0],
+                         "determined": determined}
         return out
 
     def damping(self) -> dict[str, Any]:

@@ -126,14 +126,15 @@ class DownholeCard:
 
     def pump(self) -> dict[str, dict[str, Any]]:
         """Each pump quantity as ``{"value", "stderr", "unit"}``: identified with its error
-        when usable, else the diagnostic card's with ``stderr`` None. The load lines are
-        always the diagnostic card's (the identification fits the fluid load itself)."""
+        and ``determined`` (:meth:`PumpFit.quantities`) when usable, else the diagnostic
+        card's with ``stderr`` None. The load lines are always the diagnostic card's (the
+        identification fits the fluid load itself)."""
         diag = self.downhole.quantities()
         out = {name: {"value": _num(q["value"]), "stderr": None, "unit": q["unit"]}
                for name, q in diag.items()}
         if self.identified and self.fit is not None:
             for name, q in self.fit.quantities().items():
-                out[name] = {"value": q["value"], "stderr": q["stderr"], "unit": q["unit"]}
+                out[name] = dict(q)
         return out
 
     def damping(self) -> dict[str, Any]:
@@ -243,11 +244,15 @@ class DownholeCard:
                      f"lag-1 autocorrelation {_fmt(self.residual_autocorrelation())}")
         else:
             fit = f", R^2 {self.r2():.4f}" if self.r2() is not None else ""
+            if self.residual_autocorrelation() is not None:
+                fit += (", residual lag-1 autocorrelation "
+                        f"{_fmt(self.residual_autocorrelation())}")
             head += (f"; pump not identified ({self.fit.status}{fit}: "
                      f"{printable(self.fit.reason)}); diagnostic pump card")
         q = self.pump()
         parts = [f"{name.replace('_', ' ')} "
                  + format_error(q[name]["value"], q[name]["stderr"], q[name]["unit"])
+                 + (" (not determined)" if q[name].get("determined") is False else "")
                  for name in SHOWN if name in q and q[name]["value"] is not None]
         damping = self.damping()
         nu = format_error(damping["value"], damping["stderr"], "")
