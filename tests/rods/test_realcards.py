@@ -181,3 +181,15 @@ def test_a_pump_quantity_whose_error_exceeds_it_is_not_determined(shared_raw: Pa
     text = " ".join(capsys.readouterr().out.split())
     for name in loose:
         assert re.search(name.replace("_", " ") + r" [^,]* \(not determined\)", text), name
+
+
+def test_an_unusable_identification_gives_its_residual_autocorrelation(
+        shared_raw: Path, tmp_path: Path, capsys) -> None:
+    # fj1's identification is undetermined: its line gave R^2 without the residuals' lag-1
+    # autocorrelation, which the usable ones give.
+    well, entry = well_file(shared_raw, "fj1", tmp_path)
+    main(["downhole", str(shared_raw / FOLDER / entry["card_csv"]), "--well", str(well),
+          "--spm", f"{float(entry['spm']):g}"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert re.search(r"pump not identified \(undetermined, R\^2 0\.\d+, residual lag-1 "
+                     r"autocorrelation 0\.\d\d:", text), text[:400]
