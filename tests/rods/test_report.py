@@ -60,6 +60,10 @@ def test_report_of_one_card(tmp_path: Path, surface, capsys) -> None:  # noqa: F
     assert "identified &plusmn; standard error" in page and "diagnostic pump card" in page
     assert re.search(r"<td>pump fillage</td><td class=\"num\">0\.(69|70)\d* \u00b1 ", page)
     assert "<th>fitted parameter</th>" in page and "<td>fluid_load</td>" in page
+    # the damping's unit in the words of the quantity table beside it (it said "1" there)
+    assert re.search(r"<td>damping</td><td class=\"num\">[^<]*</td><td>dimensionless</td>",
+                     page)
+    assert "<td>1</td>" not in page
     # the figure: measured and fitted surface loads, the residual, both pump cards (2 x 2)
     assert "measured minus fitted load over the stroke" in page
     assert "identified pump card (green) over the diagnostic one" in page

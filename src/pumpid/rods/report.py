@@ -280,6 +280,12 @@ class DownholeReport:
         return f"<table>{head}{''.join(rows)}</table>"
 
 
+def _unit_words(unit: Any) -> str:
+    """A unit as the page's other tables write it: a model's "1" is "dimensionless" there
+    (one page said both of the damping)."""
+    return "dimensionless" if unit in ("1", "-") else str(unit or "")
+
+
 def _pm(q: Mapping[str, Any]) -> str:
     """``value +- standard error`` (the error left out when there is none)."""
     text = _num(q.get("value"))
@@ -332,7 +338,9 @@ def _identification_said(extra: Mapping[str, Any], ident: Mapping[str, Any]) -> 
 
 def _parameter_table(ident: Mapping[str, Any]) -> str:
     rows = "".join(
-        f'<tr><td>{_e(name)}</td><td class="num">{_e(_pm(p))}</td><td>{_e(p.get("unit"))}</td>'
+        # The table's own column says whether it is determined.
+        f'<tr><td>{_e(name)}</td><td class="num">{_e(_pm({**p, "determined": None}))}</td>'
+        f'<td>{_e(_unit_words(p.get("unit")))}</td>'
         f"<td>{'yes' if p.get('determined') else 'no'}</td></tr>"
         for name, p in (ident.get("parameters") or {}).items())
     return ("<table><tr><th>fitted parameter</th><th>value &plusmn; standard error</th>"
