@@ -230,3 +230,6 @@ def test_the_short_output_marks_an_echo_and_a_fundamental_alone(tmp_path: Path,
     table = capsys.readouterr().out
     offset = next(ln for ln in table.splitlines() if ln.startswith("  offset  "))
     assert offset.endswith("(not determined)") and "(fitted)" not in offset
+    # The error table gives no relative error of an offset (its zero is a convention).
+    rows = [ln.split() for ln in table.splitlines() if ln.startswith("  offset  ")]
+    assert len(rows) >= 2 and rows[1][2] == "-", rows

@@ -6,7 +6,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-__all__ = ["error_table", "fmt", "fmt_error", "model_choice_text", "n_eff_words"]
+__all__ = ["ADDITIVE", "error_table", "fmt", "fmt_error", "model_choice_text", "n_eff_words"]
 
 
 def fmt(value: float | None, digits: int = 6) -> str:
@@ -25,6 +25,11 @@ def fmt_error(value: float | None, digits: int = 4) -> str:
     return f"{value:.{digits}g}"
 
 
+#: Values whose zero is a convention (a position offset, the log of the scale): an error
+#: relative to them means nothing, and the table printed one (an offset of -27.6 m "4.3 %").
+ADDITIVE = ("offset", "D")
+
+
 def error_table(names: Sequence[str], values: Mapping[str, float], units: Mapping[str, str],
                 stderr: Mapping[str, Any], ci95: Mapping[str, Any]) -> list[str]:
     """Report lines of standard errors, relative errors and 95 % intervals of ``names``."""
@@ -37,6 +42,8 @@ def error_table(names: Sequence[str], values: Mapping[str, float], units: Mappin
         ci = ci95.get(name)
         ci_txt = f"[{ci[0]:.6g}, {ci[1]:.6g}]" if ci else "none"
         rel_txt = f"{100 * rel:.3g} %" if math.isfinite(rel) else "n/a"
+        if name in ADDITIVE:
+            rel_txt = "-"
         se_txt = fmt_error(se)
         lines.append(f"  {name:<15}  {se_txt:<12}  {rel_txt:<8}  {ci_txt:<30}  "
                      f"{units.get(name, '')}")
