@@ -209,3 +209,23 @@ def test_python_m_pumpid_is_the_command() -> None:
     run = subprocess.run([sys.executable, "-m", "pumpid", "--version"], env=cli_env(),
                          capture_output=True, text=True, timeout=120, check=False)
     assert run.returncode == 0 and run.stdout.startswith("pumpid "), run.stderr
+
+
+def test_simulate_reads_the_columns_fit_reads(tmp_path, capsys) -> None:
+    # pumpid fit read t_s and load_lbf from their names; simulate refused them ("no column
+    # 't'") and wrote t,load without their units.
+    t = np.linspace(0, 20, 401)
+    load = 10 + 3 * np.sin(0.9 * t)
+    (tmp_path / "named.csv").write_text("time_ms,load_lbf\n" + "".join(
+        f"{1000 * float(a)!r},{float(b)!r}\n" for a, b in zip(t, load, strict=True)))
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", str(tmp_path / "named.csv"), "-p", "k0=4,m=1,c1=2,k1=4",
+                 "-o", str(out)]) == 0
+    assert out.read_text().startswith("t_s,load_lbf,displacement\n")
+    sim = np.genfromtxt(out, delimiter=",", names=True)
+    np.testing.assert_allclose(sim["t_s"], t, rtol=1e-12)
+    expected = pumpid.simulate(pumpid.Kelvin(k0=4, m=1, c1=2, k1=4), t, load)
+    np.testing.assert_allclose(sim["displacement"], expected, rtol=1e-12)
+    (tmp_path / "other.csv").write_text("a,b\n0,1\n1,2\n")
+    assert main(["simulate", str(tmp_path / "other.csv"), "-p", "k0=4,m=1,c1=2,k1=4"]) == 2
+    assert "no column 't'" in capsys.readouterr().err

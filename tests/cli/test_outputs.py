@@ -167,7 +167,7 @@ def test_simulate_output_problems(tmp_path: Path, capsys) -> None:
     assert "cannot write" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["adir", "load.csv"]
     assert main(["simulate", str(rec), *params, "-o", str(tmp_path / "sim.csv")]) == 0
-    assert (tmp_path / "sim.csv").read_text().startswith("t,load,displacement\n")
+    assert (tmp_path / "sim.csv").read_text().startswith("t_s,load,displacement\n")
 
 
 def test_flow_out_naming_a_file_is_exit_4(tmp_path: Path, capsys) -> None:

@@ -111,6 +111,7 @@ from ._readers import (
 )
 from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
 from ._strokes import split_strokes
+from ._text import interpret_name
 from ._types import TIME_SOURCES, Card
 from ._units import (
     LOAD_UNITS,
@@ -120,6 +121,7 @@ from ._units import (
     convert_position,
     normalize_load_unit,
     normalize_position_unit,
+    normalize_time_unit,
 )
 
 __all__ = [
@@ -137,9 +139,11 @@ __all__ = [
     "convert_position",
     "detect_column_roles",
     "detect_format",
+    "interpret_name",
     "loop_work",
     "normalize_load_unit",
     "normalize_position_unit",
+    "normalize_time_unit",
     "open_stroke",
     "parse_cards",
     "parse_cards_and_errors",

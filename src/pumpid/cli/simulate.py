@@ -7,13 +7,12 @@ import codecs
 import csv
 import io
 import sys
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..cards import printable
+from ..cards import TIME_UNITS, CardError, interpret_name, normalize_time_unit, printable
 from ..models import MODELS, model_class
 from ..report.output import OutputError, atomic_write
 from .common import EXIT_OK, CliError, initial_state_option, model_option, parse_assignments
@@ -51,7 +50,11 @@ def read_text(path: str, encoding: str | None = None) -> str:
                        "utf-16)") from None
 
 
-def _read_table(path: str, names: Sequence[str], encoding: str | None) -> dict[str, np.ndarray]:
+def _read_table(path: str, wanted: dict[str, str | None], encoding: str | None
+                ) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """The columns of roles ``t`` and ``load``: by the name given, else ``t``/``load``, else
+    the column whose name says its role as ``pumpid fit`` reads it (``t_s``, ``load_lbf``,
+    ``Time [ms]``). Returns the values by role and the header names used."""
     where = printable(path)
     text = read_text(path, encoding)
     rows = [r for r in csv.reader(io.StringIO(text, newline="")) if r and any(c.strip()
@@ -60,10 +63,16 @@ def _read_table(path: str, names: Sequence[str], encoding: str | None) -> dict[s
         raise CliError(f"{where}: empty file")
     header = [h.strip() for h in rows[0]]
     out: dict[str, np.ndarray] = {}
-    for name in names:
+    used: dict[str, str] = {}
+    for role, given in wanted.items():
+        name = given
+        if name is None:
+            by_role = [h for h in header if interpret_name(h)[0] == role]
+            name = role if role in header else (by_role[0] if by_role else role)
         if name not in header:
+            flag = "--t-col" if role == "t" else "--load-col"
             raise CliError(f"{where}: no column {printable(name)!r}; columns are "
-                           f"{', '.join(printable(h) for h in header)}")
+                           f"{', '.join(printable(h) for h in header)} (name it with {flag})")
         j = header.index(name)
         values = []
         for lineno, row in enumerate(rows[1:], start=2):
@@ -78,8 +87,20 @@ def _read_table(path: str, names: Sequence[str], encoding: str | None) -> dict[s
         if bad.size:
             raise CliError(f"{where}, line {int(bad[0]) + 2}, column {printable(name)!r}: "
                            "not a finite number")
-        out[name] = arr
-    return out
+        out[role] = arr
+        used[role] = name
+    return out, used
+
+
+def _seconds(path: str, name: str) -> float:
+    """Seconds per unit of a time column named with its unit (``t_ms``), 1 otherwise."""
+    unit = interpret_name(name)[2]
+    if unit is None:
+        return 1.0
+    try:
+        return TIME_UNITS[normalize_time_unit(unit)]
+    except CardError as exc:
+        raise CliError(f"{printable(path)}: time column {printable(name)!r}: {exc}") from None
 
 
 def _check_finite(path: str, t: np.ndarray, y: np.ndarray) -> None:
@@ -116,9 +137,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if not (0 < args.scale < np.inf):
         raise CliError(f"--scale {args.scale:g}: the output scale must be a positive finite "
                        "number")
-    t_col, load_col = args.t_col or "t", args.load_col or "load"
-    data = _read_table(args.file, [t_col, load_col], args.encoding)
-    t, load = data[t_col], data[load_col]
+    data, used = _read_table(args.file, {"t": args.t_col, "load": args.load_col},
+                             args.encoding)
+    # Time in seconds, as everywhere; the file's own unit converted at the edge.
+    t, load = data["t"] * _seconds(args.file, used["t"]), data["load"]
     state = initial_state_option(args.initial_state) or "rest"
     try:
         y = simulate(model, t, load, observe=args.observe, initial_state=state,
@@ -128,7 +150,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     _check_finite(args.file, t, y)
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(["t", "load", "displacement"])
+    # The load keeps its column's name (and so its unit); the time is in seconds.
+    writer.writerow(["t_s", used["load"], "displacement"])
     for row in zip(t, load, y, strict=True):
         writer.writerow([repr(float(v)) for v in row])
     if args.output:
@@ -145,8 +168,10 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--model", default="kelvin", choices=sorted(MODELS))
     p.add_argument("-p", "--param", action="append", metavar="NAME=VALUE",
                    help="model parameter (repeat, or comma-separate)")
-    p.add_argument("--t-col", help="time column (default t)")
-    p.add_argument("--load-col", help="load column (default load)")
+    p.add_argument("--t-col", help="time column (default t, else the column named as time, "
+                                    "e.g. t_s or time_ms, read in its unit)")
+    p.add_argument("--load-col", help="load column (default load, else the column named as "
+                                      "load, e.g. load_lbf)")
     p.add_argument("--encoding", help="text encoding of the file (default: UTF-8, or as its "
                                       "byte-order mark says)")
     p.add_argument("--observe")
