@@ -57,8 +57,9 @@ def push_test(problem: Problem, cards: NDArray[np.int64], z: Array, cost: Array,
     """Parameters at 0 or infinity by the push test, per item.
 
     A parameter is at a boundary when the solver stopped on the edge of its search window
-    (``edges``: free index -> direction) and pushing it further leaves the cost unchanged, or
-    when a push by a factor 1000 leaves the cost unchanged in exactly one direction.
+    (``edges``: free index -> direction) and pushing it further leaves the cost unchanged,
+    when a push by a factor 1000 leaves the cost unchanged in exactly one direction, or in
+    both where it lies beyond a factor 1000 from its natural scale already (on that side).
     """
     m = cards.size
     p = problem.n_free
@@ -71,6 +72,9 @@ def push_test(problem: Problem, cards: NDArray[np.int64], z: Array, cost: Array,
     item_cards = np.repeat(np.asarray(cards, dtype=np.int64), 2 * p)
     costs = drive.cost_items(item_cards, np.ascontiguousarray(trials), data, model,
                              settings).reshape(m, p, 2)
+    # How far each value lies from its natural scale (log).
+    far = z[:, :p] - np.log(problem.reference[np.asarray(cards, dtype=np.int64)][
+        :, problem.free_idx])
     out: list[list[Limiting]] = []
     for j in range(m):
         k = int(cards[j])
@@ -84,6 +88,11 @@ def push_test(problem: Problem, cards: NDArray[np.int64], z: Array, cost: Array,
                     if 2.0 * c - 2.0 * cost[j] <= tol]
             if i in edges[j] and edges[j][i] in hits:
                 hits = [edges[j][i]]
+            elif len(hits) == 2 and abs(far[j, i]) > math.log(PUSH):
+                # Flat both ways and already beyond a factor 1000 from its natural scale: a
+                # push cannot leave the limit it is in (k1 = 1.4e-5 kN/m, 1e-6 of its scale,
+                # stayed "converged" with an offset of -5e6 m and a time constant of 5e9 s).
+                hits = ["infinity" if far[j, i] > 0 else "zero"]
             if len(hits) == 1:
                 lim = problem.model.limit(name, hits[0])
                 found.append(Limiting(name, hits[0], _exp(float(z[j, i])),
