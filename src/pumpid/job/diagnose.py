@@ -225,8 +225,11 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
             z = card.z
             scale = scale_offset(problem, z)[0]
             # A quantity's error is its own local one, at least its reach to each open
-            # limit's point (not the parameters' widened errors carried through its
-            # gradient: a natural frequency the limit leaves where it was stays determined).
+            # limit's point (not the parameters' errors the open limits widened, carried
+            # through its gradient: a natural frequency the limit leaves where it was stays
+            # determined). The flat span along the inertia is part of the local analysis
+            # (the transform): the minima within the noise along it move the quantities
+            # the inertia sets, and their errors carry it.
             card.derived = derived_of(
                 problem.model, theta_of(problem, z), observe=problem.observe, scale=scale,
                 nums=said.local, units=(units[int(cards[i])].load, units[int(cards[i])].position),
