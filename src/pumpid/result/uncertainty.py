@@ -38,8 +38,9 @@ class Uncertainty:
     sigma2_unit: str = ""
     assumptions: str = field(default=(
         "linearised (Wald) intervals at the optimum; noise assumed white (independent "
-        "samples), homoscedastic and Gaussian; sigma^2 = SSR/(N - p) estimated from the "
-        "residuals, Student t quantile; positive parameters (and C) on the log scale, "
+        "samples), homoscedastic and Gaussian; sigma^2 = SSR/(N - q) estimated from the "
+        "residuals (q the fitted values: parameters, C when free, the offset), Student t "
+        "quantile; positive parameters (and C) on the log scale, "
         "value*exp(+-t se/value). stderr_hac and ci95_hac drop the independence and "
         "equal-variance assumptions (HAC sandwich, see hac)"))
 
