@@ -210,10 +210,12 @@ def check_boundaries(problem: Problem, cards: NDArray[np.int64], fits: list[Card
             continue
         at_limit = _to_the_limit(problem, k, card, found[j], options)
         found[j] = _at_final_values(problem, card, found[j])
-        # A limit is a finished answer when some solve converged: the card's own, or the
-        # one at the limit, fitting within the likelihood-ratio test of the card's cost (a
-        # fit crawling toward the limit often runs out of evaluations on the way).
-        settled = 2.0 * (at_limit - card.cost) <= LR_95 * sigma2 + 1e-12 * sst
+        # A limit is a finished answer when some solve converged: the card's own, the
+        # reduced model's that fits as well (the nested test's evidence), or the full
+        # model's at the window's edge within the likelihood-ratio test of the card's cost
+        # (a fit crawling toward the limit often runs out of evaluations on the way).
+        settled = (best_red is not None
+                   or 2.0 * (at_limit - card.cost) <= LR_95 * sigma2 + 1e-12 * sst)
         if not (settled or card.stop.converged):
             # No solve finished, at the limit or before it: the limit is a suspicion the
             # answer's words carry, not a status (a budget-stopped fit stays failed).
