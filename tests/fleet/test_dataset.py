@@ -39,6 +39,28 @@ def test_reads_cards_with_time_and_units(tmp_path: Path) -> None:
     np.testing.assert_allclose(card.position, 50 * (1 - np.cos(2 * np.pi * np.arange(30) / 30)))
 
 
+def test_a_duplicated_closing_point_is_dropped_as_from_every_file(tmp_path: Path) -> None:
+    # The same card gave 200 samples from Parquet and 199 from its .ts file (whose reader
+    # drops a last sample that repeats the first), and another fit status.
+    stroke = _long(["a"])
+    closed = pd.concat([stroke, stroke.iloc[[0]].assign(sample=30)], ignore_index=True)
+    closed.to_parquet(tmp_path / "closed.parquet")
+    (card,) = read_parquet_cards(tmp_path / "closed.parquet")
+    assert card.n == 30 and any("duplicated closing point dropped" in n for n in card.notes)
+    np.testing.assert_allclose(card.t, np.arange(30) * 10.0 / 30)
+    from pumpid.cards import read_cards
+
+    text = tmp_path / "closed.csv"
+    text.write_text("position,load\n" + "".join(
+        f"{p!r},{f!r}\n" for p, f in zip(closed["position"], closed["load"], strict=True)))
+    (same,) = read_cards(text, spm=6.0)
+    np.testing.assert_array_equal(same.position, card.position)
+    # With a t column the samples are the file's, every one kept.
+    timed = closed.drop(columns=["sample"]).assign(t=np.arange(31) * 0.3)
+    timed.to_parquet(tmp_path / "timed.parquet")
+    assert read_parquet_cards(tmp_path / "timed.parquet")[0].n == 31
+
+
 def test_folder_and_t_column(tmp_path: Path) -> None:
     _long(["a"]).to_parquet(tmp_path / "1.parquet")
     frame = _long(["b"]).drop(columns=["sample", "spm"])

@@ -96,6 +96,7 @@ a value is flagged only when it is implausible in every unit it could be in.
   other order with confidence 0.95 or more (not checked when the roles were just detected).
 """
 
+from ._common import repeats_first
 from ._errors import CardError
 from ._plausible import loop_work, open_stroke
 from ._printable import printable
@@ -151,5 +152,6 @@ __all__ = [
     "read_card",
     "read_cards",
     "read_cards_and_errors",
+    "repeats_first",
     "split_strokes",
 ]

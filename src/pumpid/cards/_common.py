@@ -178,6 +178,13 @@ def same(a: float, b: float) -> bool:
     return abs(a - b) <= _CLOSE_RTOL * max(abs(a), abs(b))
 
 
+def repeats_first(position: NDArray[np.float64], load: NDArray[np.float64]) -> bool:
+    """Whether a card's last sample repeats its first in position and load (to a relative
+    1e-9): a duplicated closing point, which every reader drops from a card without time."""
+    return (position.size >= 2 and same(position[0], position[-1])
+            and same(load[0], load[-1]))
+
+
 def file_unit(o: Opts, kind: str, text: str | None, *, line: int | None, field: str) -> str | None:
     """Validate a unit written in the file (column name, JSON units ...)."""
     if text is None:
@@ -328,7 +335,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
         )
     if o.drop_closing_point and t is None and keep.sum() >= 2:
         first, last = np.flatnonzero(keep)[[0, -1]]
-        if same(pos[first], pos[last]) and same(load[first], load[last]):
+        if repeats_first(pos[[first, last]], load[[first, last]]):
             keep[last] = False
             where = "" if lines is None else f" (line {int(lines[last])})"
             notes.append(

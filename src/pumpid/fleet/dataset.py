@@ -14,7 +14,9 @@ Layout (one file, or a folder of files read one by one in sorted order):
     Samples are put in order of ``sample`` (or of ``t``), which
     must not repeat. With ``t`` the time comes from the file; otherwise the card is one
     stroke sampled uniformly in time and its time is rebuilt from ``spm``
-    (``t_i = i T / N``, ``T = 60 / spm``; marked periodic), as pumpid's other readers do.
+    (``t_i = i T / N``, ``T = 60 / spm``; marked periodic), as pumpid's other readers do;
+    a last sample that repeats the first (a duplicated closing point) is then dropped, as
+    they do too.
 ``time`` (datetime, optional)
     The card's time; constant within a card; kept as a UTC ``pandas.Timestamp`` in
     ``Card.metadata["time"]`` (naive times are taken as UTC, with a note).
@@ -39,7 +41,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pumpid.cards import Card, CardError
+from pumpid.cards import Card, CardError, repeats_first
 
 __all__ = ["ParquetCardError", "iter_parquet_cards", "read_parquet_cards"]
 
@@ -158,6 +160,12 @@ def _card(
             kind = "NaN" if np.isnan(arr[bad[0]]) else "infinite"
             raise err(f"{kind} value in {col} (sample {int(bad[0])})", col)
         arrays[col] = arr
+    if order_col == "sample" and repeats_first(arrays["position"], arrays["load"]):
+        # As every reader of a card without time does: kept, the closing point made the
+        # same card 200 samples here and 199 from its .ts file, and its status another.
+        arrays = {k: v[:-1] for k, v in arrays.items()}
+        notes.append("duplicated closing point dropped: the last sample repeats the first in "
+                     "position and load")
     n = arrays["position"].size
     if n < min_samples:
         raise err(f"only {n} samples, at least {min_samples} needed", "position")
