@@ -270,3 +270,26 @@ def test_the_plots_leave_out_what_a_card_calls_an_echo_of_the_stroke() -> None:
     _value, _se, ok = quantity_values(frame, "stiffness")
     assert not ok[frame["d_stiffness_well_property"] == False].any()  # noqa: E712
     assert ok[frame["d_stiffness_well_property"]].all()
+
+
+def test_a_pump_run_gives_the_identifications_beside_the_fits(tmp_path: Path) -> None:
+    # The report gave only the lumped fits' statuses: an undetermined pump's quantities read
+    # like any other's, and the batch's "pumps identified: undetermined 1" appeared nowhere.
+    frame = results_table(2, 12, cv=0.02, seed=4)
+    frame["identify_status"] = "converged"
+    first = frame.index[frame["well_id"] == frame["well_id"].iloc[0]]
+    frame.loc[first[:3], "identify_status"] = "undetermined"
+    files = write_fleet_report(frame, tmp_path, quantities=["stiffness"])
+    page = files["report"].read_text(encoding="utf-8")
+    well = str(frame["well_id"].iloc[0])
+    assert "<th>pump identifications</th>" in page
+    assert "converged 9, undetermined 3" in page
+    assert re.search(r"pump identifications \(the status the pump quantities count by\)"
+                     r"</td><td>converged 21, undetermined 3</td>", page)
+    assert "the pump quantities count by the pump identification" in page
+    wells = pd.read_csv(files["wells"]).set_index("well_id")
+    assert wells.loc[well, "pump_identifications"] == "converged 9, undetermined 3"
+    # A run without identification has no such column.
+    files = write_fleet_report(frame.drop(columns=["identify_status"]), tmp_path / "plain",
+                               quantities=["stiffness"])
+    assert "pump identifications" not in files["report"].read_text(encoding="utf-8")

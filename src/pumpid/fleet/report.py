@@ -244,6 +244,9 @@ def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFr
           for st in counts.index if counts[st] or st in STATUSES),
         ("cards without a time",
          count_words(times.isna().sum() if times is not None else n, "card")),
+        *((("pump identifications (the status the pump quantities count by)",
+             _status_counts(frame["identify_status"])),) if "identify_status" in frame.columns
+          else ()),
         ("period covered", span),
         ("quantities trended", ", ".join(
             f"{q} [{unit_text(units[q])}]" + ("" if quantity_values(named, q)[2].any() else
@@ -296,6 +299,23 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
     return _table(headers, rows, num_cols=(4, 5, 6), row_classes=classes)
 
 
+def _status_counts(statuses: pd.Series) -> str:
+    """``converged 14, undetermined 2`` (most first; none: "none")."""
+    counts = statuses.dropna().astype(str).value_counts()
+    return ", ".join(f"{k} {int(v)}" for k, v in counts.items()) or "none"
+
+
+def _identifications(frame: pd.DataFrame) -> dict[str, str] | None:
+    """Each well's pump identification statuses in words, where the run identified pumps:
+    the wells table gave only the lumped fits' statuses, and an undetermined pump's fluid
+    load (11.97 +- 58.5 kN) read as its latest value like any other."""
+    if "identify_status" not in frame.columns:
+        return None
+    wells = frame["well_id"].astype("string").fillna(UNKNOWN_WELL)
+    return {str(w): _status_counts(group) for w, group in frame["identify_status"].groupby(
+        wells.to_numpy(), sort=False)}
+
+
 def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict[str, str],
                    limit: int) -> str:
     shown = summary.head(limit)
@@ -307,13 +327,17 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
               and np.isfinite(pd.to_numeric(shown[f"latest_{q}"], errors="coerce")).any()]
     # Counts and units go in the headers, so that every column fits a normal window; a
     # zero-width space after each underscore lets a quantity's name wrap there.
-    headers = ["well", "cards", *statuses, "alerts", "tested by", "largest change",
+    pumps = "pump_identifications" in shown.columns
+    headers = ["well", "cards", *statuses, *(["pump identifications"] if pumps else []),
+               "alerts", "tested by", "largest change",
                *(f"latest {q.replace('_', _WRAP_AFTER_UNDERSCORE)} "
                  f"[{unit_text(units.get(q, ''))}]" for q in latest)]
     rows, classes = [], []
     for _, w in shown.iterrows():
         cells = [str(w["well_id"]), str(int(w["cards"]))]
         cells += [str(int(w["n_" + st.replace("-", "_")])) for st in statuses]
+        if pumps:
+            cells.append(str(w["pump_identifications"]) or "none")
         cells.append(str(int(w["alerts"])))
         cells.append(str(w.get("tested", "")))
         # The phrase carries the change's signed size (the absolute one only ranks).
@@ -340,7 +364,9 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
             said.append(f"no latest usable value of {', '.join(empty)} in these wells")
         note += (f"<p class=\"muted\">Columns left out: {'; '.join(said)}; wells.csv has "
                  "them all.</p>")
-    num = range(1, 2 + len(statuses) + 1)
+    # Right-aligned: the cards, the statuses' counts, the alerts and the latest values.
+    alerts_col = 2 + len(statuses) + (1 if pumps else 0)
+    num = [*range(1, 2 + len(statuses)), alerts_col]
     return note + _table(headers, rows, num_cols=[*num, *range(len(headers) - len(latest),
                                                                len(headers))],
                          row_classes=classes)
@@ -451,6 +477,10 @@ def write_fleet_report(
     summary["tested"] = [_TESTED.get(tests.get(w, ""), "not tested (no well id)"
                                      if w == UNKNOWN_WELL else "no usable card")
                          for w in summary["well_id"].astype(str)]
+    identified = _identifications(frame)
+    if identified is not None:
+        summary["pump_identifications"] = [
+            identified.get(str(w), "") for w in summary["well_id"].astype(str)]
     units = {q: column_unit(frame, summary, q) for q in names}
     files: dict[str, Path] = {}
     alerts_path = out / "alerts.csv"
@@ -477,10 +507,13 @@ def write_fleet_report(
     parts.append(_summary_section(frame, named, alerts, names, units, settings,
                                   [*repeat_rows, *_coverage_rows(coverage, min_cards,
                                                                  min_short)]))
+    pumps = ("" if identified is None else
+             " These are the lumped model's statuses; the pump quantities count by the pump "
+             "identification's, given in the summary and the wells table.")
     parts.append(_figure_html(save(status_figure(counts), "status"), "status of every card",
                               f"Cards by fit status. Only {', '.join(USABLE_STATUSES)} "
                               "cards of named wells enter the trends; the others are counted "
-                              "here."))
+                              f"here.{pumps}"))
     parts.append("</section>")
 
     parts.append("<section id=\"alerts\"><h2>Alerts</h2>")
