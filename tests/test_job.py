@@ -372,3 +372,16 @@ def test_a_good_fit_passes_the_quality_gate() -> None:
     d = pumpid.simulate(truth, t, load, observe="u")
     res = pumpid.fit(pumpid.Kelvin, (t, load, d), options=FitOptions(observe="u"))
     assert res.status is not pumpid.Status.POOR_FIT and res.r2 > 0.999
+
+
+def test_the_quality_gate_prints_an_r2_that_differs_from_its_threshold() -> None:
+    # "R^2 = 0.995 is below the quality threshold 0.995": 0.994994 rounded to 4 digits.
+    import dataclasses
+
+    from pumpid.job.assemble import quality_gate
+
+    t, load, d = _unrelated_record()
+    res = pumpid.fit(pumpid.Kelvin, (t, load, d), options=FitOptions(offset=True, min_r2=0.0))
+    res = dataclasses.replace(res, r2=0.994994)
+    said = quality_gate(res, 0.995).warnings[-1]
+    assert said.startswith("poor fit: R^2 = 0.99499 is below the quality threshold 0.995")

@@ -89,3 +89,14 @@ def test_errors_are_value_errors(tmp_path):
     with pytest.raises(SystemExit):
         run(["flow", "fit", "x.csv", "--model", "kelvin"])
     assert PowerLawFluid(K=1, n=1, rho=1)  # constructor used by the commands
+
+
+def test_no_better_solution_is_claimed_at_the_same_cost(tmp_path, capsys):
+    # "the fit from the given guess looked wrong ...; the automatic multistart found a better
+    # solution (cost 1.98183e-09 -> 1.98183e-09)": no guess was given, and no cost changed.
+    out = tmp_path / "rec.csv"
+    assert run(["flow", "simulate", *FLUID, "--n", "0.4", "--dp", "1e5", "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert run(["flow", "fit", str(out), "--json"]) == 0
+    warnings = json.loads(capsys.readouterr().out)["warnings"]
+    assert not any("better solution" in w for w in warnings), warnings

@@ -151,4 +151,6 @@ def test_a_string_slightly_off_the_pump_depth_is_noted(depth: float, where: str)
     doc = json.loads(json.dumps(US))
     doc["wells"]["W-1"]["pump"]["depth"] = depth   # the string is 4,625 ft
     well = wells_from_dict(doc)["W-1"]
-    assert any(f"m {where} the pump depth" in n for n in well.notes)
+    # In the file's unit (it said "13.72 m" of a file in feet).
+    assert any(f"ends {abs(depth - 4625):g} ft {where} the pump depth" in n
+               for n in well.notes), well.notes

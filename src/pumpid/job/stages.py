@@ -276,10 +276,13 @@ def _guard(problem: Problem, cards: NDArray[np.int64], fits: list[CardState], gu
         g = guarded[j]
         first = fits[i]
         if math.isfinite(g.cost) and not (g.cost >= first.cost):
-            g.warnings.append(
-                "the fit from the given guess looked wrong (status "
-                f"{first.status.key}, R^2 = {first.r2:.4g}); the automatic multistart found "
-                f"a better solution (cost {first.cost:.6g} -> {g.cost:.6g})")
+            # Said only where it is better by more than rounding: "a better solution (cost
+            # 1.98183e-09 -> 1.98183e-09)" contradicted itself.
+            if g.cost < first.cost * (1 - BETTER_OPTIMUM):
+                g.warnings.append(
+                    "the fit from the starting guess looked wrong (status "
+                    f"{first.status.key}, R^2 = {first.r2:.4g}); the automatic multistart "
+                    f"found a better solution ({cost_change(first.cost, g.cost)})")
             g.evaluations += first.evaluations
             g.done = True
             fits[i] = g

@@ -240,7 +240,11 @@ class _Reader:
         total = sum(t.length for t in tapers)
         if abs(total - pump.depth) > 1e-9 * pump.depth:
             where = "above" if total < pump.depth else "below"
-            self.notes.append(f"the rod string ends {abs(pump.depth - total):.4g} m {where} "
+            # In the file's length unit: a US file's 5 ft read "1.524 m".
+            # Lengths are ft or m: the system names the file's unit.
+            unit = "ft" if self.system == "us" else "m"
+            gap = abs(pump.depth - total) / UNITS["length"][unit]
+            self.notes.append(f"the rod string ends {gap:.4g} {unit} {where} "
                               "the pump depth: the pump card is computed at the bottom of the "
                               "rods; the fluid load's pressures use the pump depth")
         try:
