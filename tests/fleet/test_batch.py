@@ -162,6 +162,10 @@ def test_changed_inputs_are_refused(tmp_path: Path) -> None:
     shutil.copy(victim, field / "csv" / "more.csv")
     with pytest.raises(ResultsFolderError, match=r"not in the run: .*more\.csv"):
         run_batch([field], out, resume=True)
+    # ... and so without the inputs named: the run's folders are searched again (a file
+    # added to one was resumed without a word).
+    with pytest.raises(ResultsFolderError, match=r"not in the run: .*more\.csv"):
+        run_batch([], out, resume=True)
     with pytest.raises(FileNotFoundError):
         run_batch([tmp_path / "nothing"], tmp_path / "out2")
     with pytest.raises(ValueError, match="unknown fit option"):

@@ -234,12 +234,20 @@ def _files_for(inputs: Sequence[str | os.PathLike[str]], out: Path, resume: bool
     if not resume:
         raise ValueError("no inputs given")
     out_files = []
-    for f in ResultsStore.files_of(out):
+    listed = ResultsStore.files_of(out)
+    for f in listed:
         try:
             now = InputFile.of(f["name"], Path(f["path"]))
         except OSError:
             now = InputFile(f["name"], f["path"], -1, -1)
         out_files.append(now)
+    # The run's folders searched again: a file added to one was resumed without a word,
+    # where the manifest's check refuses it when the inputs are named.
+    given = ResultsStore.inputs_of(out)
+    if given and all(Path(p).exists() for p in given):
+        known = {f["path"] for f in listed}
+        out_files += [f for f in find_inputs(given, exclude=[out, *exclude])
+                      if f.path not in known]
     return out_files
 
 
@@ -325,6 +333,9 @@ def run_batch(
     files = _files_for(inputs, folder, resume, [csv] if csv else [])
     manifest = {"pumpid": __version__, "table": [name for name, _kind in FIT],
                 "inputs": [os.fspath(i) for i in inputs],
+                # Absolute, for a resume without inputs to search the same folders again.
+                "input_paths": ([str(Path(os.fspath(i)).resolve()) for i in inputs] if inputs
+                                else ResultsStore.inputs_of(folder) if resume else []),
                 "files": [f.to_dict() for f in files],
                 "options": {"read": read.to_dict(), "fit": fit.to_dict(),
                             "partition_size": partition_size}}

@@ -243,6 +243,15 @@ class ResultsStore:
         return list(_read_manifest(out).get("files", []))
 
     @staticmethod
+    def inputs_of(folder: str | os.PathLike[str]) -> list[str]:
+        """The inputs (files and folders, absolute) a results folder's run was given; empty
+        for a folder written before they were recorded."""
+        out = Path(os.fspath(folder))
+        if not (out / MANIFEST).exists():
+            return []
+        return [str(p) for p in _read_manifest(out).get("input_paths", [])]
+
+    @staticmethod
     def options_of(folder: str | os.PathLike[str]) -> dict[str, Any] | None:
         """The options of the run in ``folder`` (None when it holds none): what a resume
         takes for the options it is not given."""
