@@ -57,7 +57,7 @@ def test_report_files_and_page(table: pd.DataFrame, tmp_path: Path) -> None:
         assert f"<h2>{section}</h2>" in page
     assert "13 wells" in page and "1800 cards" in page and "40 cards (2.2%)" in page
     assert "lbf/in" in page and "Hz" in page
-    assert "all 2 wells with an alert; 2 of the 11 wells without an alert, picked at random" in page
+    assert "both wells with an alert; 2 of the 11 wells without an alert, picked at random" in page
 
 
 def test_alerts_csv_round_trips(table: pd.DataFrame, tmp_path: Path) -> None:

@@ -311,6 +311,8 @@ def well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str,
     fig.legend(list(handles.values()), list(handles.keys()), loc="lower right", ncols=6,
                fontsize=8, frameon=False, bbox_to_anchor=(0.99, top))
     axes[-1].set_xlabel("card time (UTC)" if timed else "card number (no times in the table)")
+    if not timed:  # a card number is whole (one card's axis read -0.04 ... 0.04)
+        axes[-1].xaxis.set_major_locator(MaxNLocator(integer=True))
     fig.suptitle(f"well {label(well)}", fontsize=10, x=0.01, y=top + 0.1 / fig.get_figheight(),
                  ha="left", va="bottom")
     fig.autofmt_xdate()
@@ -349,9 +351,11 @@ def status_figure(counts: pd.Series) -> Figure:
         if n == 0:
             continue
         ax.barh([0], [n], left=left, color=STATUS_COLOURS.get(str(st), "#777777"),
-                label=f"{st}: {n} cards")
+                label=f"{st}: {count_words(n, 'card')}")
         left += n
     ax.set_xlim(0, max(total, 1))
+    # Cards come whole: no ticks at 0.5 of one.
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_yticks([])
     ax.set_xlabel("cards")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.9), ncols=3, fontsize=8,

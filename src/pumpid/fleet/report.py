@@ -176,7 +176,10 @@ def _version() -> str:
 
 # --------------------------------------------------------------------------- sections
 #: How each way of testing a well reads in the report, by :func:`history_coverage`'s method.
-_TESTED = {"cusum": "CUSUM", "two-segment": "two-segment", "too short": "too short"}
+#: How each well was tested, in words: the short-history method is two tests (it read
+#: "two-segment" alone), and a well "too short" may have 30 cards, too few of them usable.
+_TESTED = {"cusum": "CUSUM", "two-segment": "two-segment and drift",
+           "too short": "too few usable cards"}
 
 
 def _well_tests(coverage: pd.DataFrame) -> pd.Series:
@@ -270,12 +273,13 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
                     "them: a well column, or <code>--well-id ID</code> for the files of "
                     "one well).</p>")
         if not tested:
-            return ("<p>No well was tested for changes: every well's history is too short "
-                    "(see the run summary).</p>")
+            return ("<p>No well was tested for changes: no well has enough usable cards of "
+                    "a quantity (see the run summary).</p>")
         short = int((tests == "too short").sum())
-        rest = f"; {count_words(short, 'well')} too short to test" if short else ""
-        return (f"<p>No persistent change was found in the {count_words(tested, 'well')} "
-                f"tested{rest}.</p>")
+        rest = (f"; {count_words(short, 'well')} with too few usable cards to test" if short
+                else "")
+        which = "the well" if tested == 1 else f"the {tested} wells"
+        return f"<p>No persistent change was found in {which} tested{rest}.</p>"
     order = alerts.assign(_size=alerts["change_se"].astype(float).abs()).sort_values(
         ["_size"], ascending=False, kind="stable")
     rows, classes = [], []
@@ -381,7 +385,8 @@ def _drawn_words(drawn_alerted: Sequence[str], alerted: Sequence[str],
     if alerted:
         n = len(alerted)
         parts.append("the well with an alert" if n == 1 else
-                     f"all {n} wells with an alert" if len(drawn_alerted) == n else
+                     ("both wells with an alert" if n == 2 else f"all {n} wells with an alert")
+                     if len(drawn_alerted) == n else
                      f"the {len(drawn_alerted)} of the {n} wells with an alert with the "
                      "largest changes")
     if steady:
@@ -389,7 +394,8 @@ def _drawn_words(drawn_alerted: Sequence[str], alerted: Sequence[str],
         parts.append(f"none of the {count_words(n, 'well')} without an alert"
                      if not drawn_steady else
                      "the well without an alert" if n == 1 else
-                     f"all {n} wells without an alert" if len(drawn_steady) == n else
+                     ("both wells without an alert" if n == 2 else
+                      f"all {n} wells without an alert") if len(drawn_steady) == n else
                      f"{len(drawn_steady)} of the {n} wells without an alert, picked at random "
                      f"(seed {seed}) for comparison")
     if not parts:
@@ -567,16 +573,16 @@ def write_fleet_report(
                  "first card of each change; crosses at the bottom mark cards whose fit "
                  "failed or whose input was invalid.</p>")
     groups = {str(w): g for w, g in frame.groupby(frame["well_id"].astype(str))}
-    for label, wells in (("with an alert", drawn_alerted), ("without an alert", drawn_steady)):
-        for well in wells:
-            fig = well_figure(groups[well], names, units, alerts, well)
-            name = _safe_name(f"well_{well}", taken)
-            n_alerts = int((alerts["well_id"].astype(str) == well).sum())
-            parts.append(f"<h3>Well {_e(well)} ({_e(label)}: "
-                         f"{count_words(n_alerts, 'alert')})</h3>")
-            parts.append(_figure_html(save(fig, name), f"trends of well {well}",
-                                      f"Well {well}: quantities over time, value ± 2 SE.",
-                                      wide=True))
+    for well in [*drawn_alerted, *drawn_steady]:
+        fig = well_figure(groups[well], names, units, alerts, well)
+        name = _safe_name(f"well_{well}", taken)
+        n_alerts = int((alerts["well_id"].astype(str) == well).sum())
+        # "(without an alert: 0 alerts)" said it twice.
+        said = count_words(n_alerts, "alert") if n_alerts else "no alert"
+        parts.append(f"<h3>Well {_e(well)} ({_e(said)})</h3>")
+        parts.append(_figure_html(save(fig, name), f"trends of well {well}",
+                                  f"Well {well}: quantities over time, value ± 2 SE.",
+                                  wide=True))
     parts.append("</section>")
 
     body = "\n".join(parts)
