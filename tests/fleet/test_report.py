@@ -148,6 +148,7 @@ def test_cards_without_well_ids_are_counted_not_trended(tmp_path: Path) -> None:
     assert ("stiffness [lbf/in] (usable values only on cards without a well id: not "
             "trended)") in page
     assert "stiffness: usable values only on cards without a well id." in page
+    assert "<td>quantities asked for</td>" in page and "quantities trended" not in page
 
 
 def test_failed_and_invalid_cards_of_a_well_are_drawn(tmp_path: Path) -> None:

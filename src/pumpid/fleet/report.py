@@ -251,7 +251,9 @@ def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFr
              _status_counts(frame["identify_status"])),) if "identify_status" in frame.columns
           else ()),
         ("period covered", span),
-        ("quantities trended", ", ".join(
+        # Each is trended where it has usable values; "quantities trended" listed some
+        # marked "(not trended)".
+        ("quantities asked for", ", ".join(
             f"{q} [{unit_text(units[q])}]" + ("" if quantity_values(named, q)[2].any() else
                                              f" ({_no_value(frame, q)}: not trended)")
             for q in quantities) or "none"),
