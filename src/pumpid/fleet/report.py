@@ -290,7 +290,11 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
         rows.append([
             str(a["well_id"]), str(a["quantity"]),
             f"{a['first_card_id']} ({_when(a['first_time'])})",
-            f"{a['alarm_card_id']} ({count_words(a['delay_cards'], 'card')} later)",
+            # A short history is tested whole, at the report: its newest card is no
+            # detector's delay ("3 cards later" was read as one).
+            (f"{a['alarm_card_id']} (the newest card: the history is tested whole)"
+             if a["method"] in SHORT_METHODS else
+             f"{a['alarm_card_id']} ({count_words(a['delay_cards'], 'card')} later)"),
             f"{_with_unit(a['before'], unit)} → {_with_unit(a['after'], unit)}"
             + (" (fitted line, first card → last)" if a["method"] == "drift" else ""),
             f"{_with_unit(a['change'], unit)} ({float(a['change_rel']):+.1%})",
@@ -303,6 +307,10 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
                "median before → after", "change (relative)", "size (standard errors)",
                "direction", "cards before / after")
     return _table(headers, rows, num_cols=(4, 5, 6), row_classes=classes)
+
+
+#: The methods that test a short history as a whole (:mod:`pumpid.fleet.detectors`).
+SHORT_METHODS = ("two-segment", "drift")
 
 
 def _status_counts(statuses: pd.Series) -> str:
@@ -527,7 +535,8 @@ def write_fleet_report(
     parts.append("<section id=\"alerts\"><h2>Alerts</h2>")
     parts.append("<p>Each row is a persistent shift in one quantity of one well: the first "
                  "card of the new level (the estimated change point), the card at which the "
-                 "detector raised the alarm, the medians before and after, and the size of "
+                 "detector raised the alarm (a short history's tests judge it whole: their "
+                 "alarm is its newest card), the medians before and after, and the size of "
                  "the change in units of its standard error. Largest first.</p>")
     parts.append(_alerts_section(alerts, tests,
                                  len(named) < len(frame)))
