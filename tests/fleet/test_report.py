@@ -294,3 +294,17 @@ def test_a_pump_run_gives_the_identifications_beside_the_fits(tmp_path: Path) ->
     files = write_fleet_report(frame.drop(columns=["identify_status"]), tmp_path / "plain",
                                quantities=["stiffness"])
     assert "pump identifications" not in files["report"].read_text(encoding="utf-8")
+
+
+def test_the_comparison_wells_are_drawn_from_the_tested_ones(tmp_path: Path) -> None:
+    # Wells with too few usable cards to test came up in the random comparison, drawn as
+    # mostly empty panels, while tested wells went undrawn.
+    frame = results_table(8, 40, cv=0.02, seed=6)
+    wells = sorted(frame["well_id"].unique())
+    short = wells[:5]
+    keep = ~frame["well_id"].isin(short) | (frame.groupby("well_id").cumcount() < 3)
+    files = write_fleet_report(frame[keep], tmp_path, quantities=["stiffness"],
+                               steady_sample=2, seed=3)
+    page = files["report"].read_text(encoding="utf-8")
+    drawn = re.findall(r"<h3>Well (\S+) \(", page)
+    assert len(drawn) == 2 and not set(drawn) & set(short), drawn

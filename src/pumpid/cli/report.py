@@ -128,6 +128,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--min-cards", type=int, default=30,
                    help="cards in each reference window of the change detector (default 30)")
     p.add_argument("--max-wells", type=int, default=24,
-                   help="most alerted wells drawn (default 24)")
+                   help="most alerted wells drawn (default 24); 6 wells without an alert "
+                        "are drawn beside them for comparison, those the detector tested "
+                        "first, picked at random")
     p.set_defaults(func=cmd_report)
     return p

@@ -575,7 +575,15 @@ def write_fleet_report(
     steady = sorted(set(usable_wells) - alerted)
     rng = np.random.default_rng(seed)
     k = min(steady_sample, len(steady))
-    drawn_steady = sorted(rng.choice(steady, size=k, replace=False).tolist()) if k else []
+    # Wells the detector tested first: a comparison drawn from wells with too few usable
+    # cards showed mostly empty panels while tested wells went undrawn.
+    tested = [w for w in steady if tests.get(w, "too short") != "too short"]
+    first = sorted(rng.choice(tested, size=min(k, len(tested)), replace=False).tolist()) \
+        if tested else []
+    rest = [w for w in steady if w not in tested]
+    more = (sorted(rng.choice(rest, size=k - len(first), replace=False).tolist())
+            if k > len(first) else [])
+    drawn_steady = sorted([*first, *more])
     parts.append("<section id=\"trends\"><h2>Trends per well</h2>")
     parts.append(f"<p>{_drawn_words(drawn_alerted, ranked, drawn_steady, steady, seed)} "
                  "Each panel shows one quantity over the well's cards with a band of ± 2 "
