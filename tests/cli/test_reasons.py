@@ -111,3 +111,17 @@ def test_refused_resume_lists_its_differences_as_lines(tmp_path: Path, capsys) -
     lines = err.splitlines()
     assert lines[0].startswith("pumpid: error: ") and "not mixed with this one:" in lines[0]
     assert any(line.startswith("  - ") and '"model": "msd"' in line for line in lines[1:])
+
+
+@pytest.mark.parametrize(("counts", "code"), [
+    ({"converged": 2}, 0), ({"converged": 1, "poor-fit": 1}, 5),
+    ({"undetermined": 1, "converged": 1}, 6), ({"invalid-input": 2}, 2), ({}, 2),
+    ({"failed": 1}, 3), ({"converged": 1, "invalid-input": 1}, 3),
+    # Fitted, if poorly or undetermined, beside invalid cards: some fitted, some not (it
+    # said 2, "nothing fitted").
+    ({"undetermined": 3, "invalid-input": 1}, 3), ({"poor-fit": 1, "invalid-input": 1}, 3),
+])
+def test_exit_status_by_statuses(counts: dict[str, int], code: int) -> None:
+    from pumpid.cli.common import exit_status
+
+    assert exit_status(counts) == code

@@ -399,7 +399,9 @@ def exit_status(counts: collections.Counter[str] | dict[str, int]) -> int:
         return EXIT_OK
     if total and fitted + poor + undetermined == total:
         return EXIT_POOR_FIT if poor else EXIT_UNDETERMINED
-    if fitted == 0 and counts.get("failed", 0) == 0:
+    # Nothing even tried: a poor or undetermined fit beside invalid cards was fitted (it
+    # read "2, nothing fitted").
+    if fitted + poor + undetermined == 0 and counts.get("failed", 0) == 0:
         return EXIT_USAGE
     return EXIT_NOT_FITTED
 
