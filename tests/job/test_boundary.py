@@ -26,6 +26,15 @@ def test_a_fit_stopped_on_its_budget_is_not_called_a_limit() -> None:
                      solver=LevenbergMarquardt(max_evaluations=5))
     assert res.status is pumpid.Status.FAILED
     assert res.boundary is None or not res.boundary.limits
+    # From further away, stopped after 20-40: the solve at the limit beat the unfinished
+    # point (and the reduced model converged), and it was a boundary at k0 = 6.1e5. It
+    # stays failed, at its own point, the limit said as a suspicion.
+    for budget in (20, 40):
+        res = pumpid.fit(Kelvin(k0=400.0, m=1.3, c1=1.5, k1=5.0), data,
+                         options=FitOptions(observe="u", multistart=False),
+                         solver=LevenbergMarquardt(max_evaluations=budget))
+        assert res.status is pumpid.Status.FAILED, budget
+        assert res.params["k0"] < 1e5
     full = pumpid.fit(Kelvin, data, options=FitOptions(observe="u"))
     assert full.status is pumpid.Status.CONVERGED
     assert abs(full.params["k0"] - 4.0) < 5 * full.stderr["k0"]

@@ -30,6 +30,7 @@ from __future__ import annotations
 import hashlib
 import os
 import time
+import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -54,7 +55,8 @@ from .progress import Progress, QuietProgress
 from .store import ResultsFolderError, ResultsStore, results_schema, to_frame
 from .summary import BatchSummary, reason_kind
 
-__all__ = ["BatchSummary", "FitSpec", "fit_partition", "reason_kind", "run_batch"]
+__all__ = ["BatchSummary", "FitSpec", "fit_partition", "reason_kind", "run_batch",
+           "unlisted_inputs"]
 
 # --------------------------------------------------------------------------- the task
 def _utc(value: Any) -> pd.Timestamp | None:
@@ -241,14 +243,31 @@ def _files_for(inputs: Sequence[str | os.PathLike[str]], out: Path, resume: bool
         except OSError:
             now = InputFile(f["name"], f["path"], -1, -1)
         out_files.append(now)
-    # The run's folders searched again: a file added to one was resumed without a word,
-    # where the manifest's check refuses it when the inputs are named.
-    given = ResultsStore.inputs_of(out)
-    if given and all(Path(p).exists() for p in given):
-        known = {f["path"] for f in listed}
-        out_files += [f for f in find_inputs(given, exclude=[out, *exclude])
-                      if f.path not in known]
     return out_files
+
+
+def unlisted_inputs(out: Path, exclude: Sequence[str | os.PathLike[str]] = ()) -> list[str]:
+    """Files in a run's input folders that its manifest does not list (found by searching
+    the folders again), for a resume without inputs to name: a file added to a folder was
+    resumed without a word. Empty where the run recorded no inputs or they are gone.
+
+    Parameters
+    ----------
+    out : Path
+        The results folder.
+    exclude : sequence of path
+        Files and folders that are never inputs (the run's own ``--csv``).
+
+    Returns
+    -------
+    list of str
+        The files' names as found under the run's inputs.
+    """
+    given = ResultsStore.inputs_of(out)
+    if not (given and all(Path(p).exists() for p in given)):
+        return []
+    known = {f["path"] for f in ResultsStore.files_of(out)}
+    return [f.name for f in find_inputs(given, exclude=[out, *exclude]) if f.path not in known]
 
 
 def run_batch(
@@ -331,6 +350,18 @@ def run_batch(
             or partition_size < 1:
         raise ValueError(f"partition_size must be a whole number >= 1, got {partition_size!r}")
     files = _files_for(inputs, folder, resume, [csv] if csv else [])
+    if resume and not inputs:
+        # Said, not refused: the run's own files may sit in its input folders (a --csv
+        # written there), and they are no inputs of it.
+        more = unlisted_inputs(folder, [csv] if csv else [])
+        if more:
+            shown = ", ".join(more[:5]) + (f" and {len(more) - 5} more" if len(more) > 5
+                                           else "")
+            text = (f"{len(more)} file(s) in the run's input folders are not in the run "
+                    f"({shown}): resumed without them; name the inputs to include them in a "
+                    "new run")
+            progress.note(text)
+            warnings.warn(text, UserWarning, stacklevel=2)
     manifest = {"pumpid": __version__, "table": [name for name, _kind in FIT],
                 "inputs": [os.fspath(i) for i in inputs],
                 # Absolute, for a resume without inputs to search the same folders again.
