@@ -125,3 +125,38 @@ def test_exit_status_by_statuses(counts: dict[str, int], code: int) -> None:
     from pumpid.cli.common import exit_status
 
     assert exit_status(counts) == code
+
+
+def test_cards_named_across_files_are_each_found_once(tmp_path: Path, capsys) -> None:
+    # W-1 in one file and W-2 in another: both were fitted, and each file added a row for
+    # the card it lacked (exit 3); a joint fit of the two was refused.
+    a = write_cards(tmp_path / "a.csv", ["W-1"])
+    b = write_cards(tmp_path / "b.csv", ["W-2", "W-3"], seed=1)
+    code = main(["fit", str(a), str(b), "--card", "W-1", "--card", "W-2", "--card", "W-9",
+                 "--brief"])
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if not ln.startswith("#")]
+    assert sorted(ln.split("\t")[0] for ln in lines) == ["W-1", "W-2", "W-9"]
+    assert any(ln.startswith("W-9\tinvalid-input") and "in any of the 2 files" in ln
+               for ln in lines)
+    assert code == 3
+    code = main(["fit", str(a), str(b), "--card", "W-1", "--card", "W-2", "--joint",
+                 "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 0 and [c["card"]["id"] for c in doc["cards"]] == ["W-1", "W-2"]
+
+
+def test_a_stroke_of_a_refused_record_gives_the_readers_reason(tmp_path: Path,
+                                                              capsys) -> None:
+    # The record R refused by the reader (a NaN load) read "no card 'R' (of stroke 'R#1')".
+    path = write_cards(tmp_path / "two.csv", ["R", "S"])
+    text = path.read_text().splitlines()
+    first = next(i for i, ln in enumerate(text) if ln.startswith("R,"))
+    cells = text[first].split(",")
+    text[first] = ",".join([*cells[:-1], "nan"])
+    path.write_text("\n".join(text) + "\n")
+    code = main(["fit", str(path), "--split-strokes", "--card", "R#1", "--card", "S",
+                 "--brief"])
+    out = capsys.readouterr().out
+    row = next(ln for ln in out.splitlines() if ln.startswith("R\t"))
+    assert "NaN" in row and "no card 'R'" not in out
+    assert code == 3

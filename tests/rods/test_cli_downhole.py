@@ -252,6 +252,11 @@ def test_split_strokes_of_a_time_record(tmp_path: Path, surface, capsys) -> None
                            "--no-identify")
     assert code == 0 and len(split["cards"]) >= 2
     assert all(c["pump"]["fillage"]["value"] < 0.85 for c in split["cards"])
+    # A stroke by the id --split-strokes gives it, as pumpid fit takes it (it chose none).
+    stroke = split["cards"][1]["card"]["id"]
+    code, one = run_json(capsys, str(path), "--well", well, "--split-strokes",
+                         "--no-identify", "--card", stroke)
+    assert code == 0 and [c["card"]["id"] for c in one["cards"]] == [stroke]
 
 
 def test_text_gives_each_quantity_with_its_error_the_damping_and_r2(tmp_path: Path, surface,

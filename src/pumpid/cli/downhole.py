@@ -49,6 +49,7 @@ from .common import (
     fmt,
     rate_option,
 )
+from .select import selected
 
 __all__ = ["cmd_downhole", "identifies", "register"]
 
@@ -92,13 +93,15 @@ def _read(path: str, args: argparse.Namespace) -> list[Card]:
     cards = read_cards(path, format=args.format, position_unit=args.position_unit,
                        load_unit=args.load_unit, spm=args.spm, period=args.period,
                        columns=columns, encoding=args.encoding, well_id=args.well_id)
-    if args.card is not None:
-        cards = [c for c in cards if c.card_id in args.card]
-    if args.split_strokes:
-        from ..cards import split_strokes
-
-        cards = [stroke for c in cards for stroke in split_strokes(c)]
-    return cards
+    if args.card is None and not args.split_strokes:
+        return cards
+    # As pumpid fit chooses them: a stroke's id RECORD#k after its record is split (it
+    # chose nothing here, while the shared help promised it).
+    chosen, refused, _answered = selected(cards, path, args, report_missing=False)
+    if refused:  # a record that does not split, or no such stroke: named with the file
+        reason = refused[0].reason
+        raise CardError(reason) if printable(path) in reason else CardError(reason, path=path)
+    return chosen
 
 
 def _chunks(cards: list[Card]) -> Iterator[list[Card]]:

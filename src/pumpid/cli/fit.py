@@ -55,6 +55,7 @@ from .common import (
     rate_option,
 )
 from .render import JsonPrinter, LinePrinter, Row, RunInfo, TextPrinter, printable_block
+from .select import missing_rows, selected
 
 __all__ = ["cmd_fit", "register"]
 
@@ -179,67 +180,6 @@ def _read_file(path: str, setup: FitSetup) -> tuple[list[Card], list[CardError]]
 
     read = read_cards_and_errors(path, **setup.read)
     return read.cards, read.errors
-
-
-def _refused(error: CardError, path: str) -> Row:
-    """The row of a card of ``path`` that its reader refused (file, line and field named)."""
-    return Row(card_id=error.card_id, source=", ".join(p for p in (path, error.place) if p),
-               status="invalid-input", reason=str(error))
-
-
-def _selected(cards: list[Card], path: str, args: argparse.Namespace,
-              errors: Sequence[CardError] = ()) -> tuple[list[Card], list[Row]]:
-    """The cards to fit (``--card``, given once or more, and ``--split-strokes``), in the
-    file's order, and rows for cards refused: by the reader (``errors``, in file order), by
-    ``--card``, or by the stroke splitter."""
-    wanted: list[str] = list(dict.fromkeys(args.card or ()))
-    if wanted:
-        errors = [e for e in errors if e.card_id in wanted]
-    rows: list[Row] = [_refused(e, path) for e in errors]
-    # A stroke's id (RECORD#k, as --split-strokes names them) is chosen after its record is
-    # split; any other id names a record, looked for before.
-    ids = {c.card_id for c in cards}
-    records: set[str] = set()
-    strokes_of: dict[str, set[str]] = {}
-    for want in wanted:
-        record = want.rpartition("#")[0]
-        if args.split_strokes and record and want not in ids:
-            strokes_of.setdefault(record, set()).add(want)
-            name = record
-        else:
-            records.add(want)
-            name = want
-        if name not in ids and not any(e.card_id == name for e in errors):
-            listed = ", ".join(printable(c.card_id) for c in cards[:20])
-            more = f" and {len(cards) - 20} more" if len(cards) > 20 else ""
-            of = f" (of stroke {printable(want)!r})" if name != want else ""
-            rows.append(Row(card_id=want, source=path, status="invalid-input",
-                            reason=f"no card {printable(name)!r}{of} in this file; its "
-                                   f"cards are: {listed}{more}"))
-    if wanted:
-        cards = [c for c in cards if c.card_id in records or c.card_id in strokes_of]
-    if args.split_strokes:
-        strokes: list[Card] = []
-        for card in cards:
-            try:
-                pieces = split_strokes(card)
-            except CardError as exc:
-                rows.append(Row(card_id=card.card_id, source=card.source,
-                                status="invalid-input", reason=str(exc), card=card))
-                continue
-            asked = strokes_of.get(card.card_id)
-            if asked is None or card.card_id in records:
-                strokes.extend(pieces)
-                continue
-            strokes.extend(c for c in pieces if c.card_id in asked)
-            names = {c.card_id for c in pieces}
-            for want in sorted(asked - names):
-                listed = ", ".join(printable(c.card_id) for c in pieces)
-                rows.append(Row(card_id=want, source=path, status="invalid-input",
-                                reason=f"no stroke {printable(want)!r}: record "
-                                       f"{printable(card.card_id)!r} splits into {listed}"))
-        cards = strokes
-    return cards, rows
 
 
 # --------------------------------------------------------------------------- fitting
@@ -480,6 +420,8 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
     """Each file with its cards to fit and rows for cards refused before fitting, or the
     error that made it unreadable. With a single file, its problems are the run's: raised."""
     single = len(args.files) == 1
+    answered: set[str] = set()
+    pending: tuple[str, list[Card] | CardError, list[Row]] | None = None
     for path in args.files:
         try:
             cards, errors = _read_file(path, setup)
@@ -488,17 +430,34 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
         except CardError as exc:
             if single:
                 raise
-            yield path, exc, []
+            if pending is not None:
+                yield pending
+            pending = (path, exc, [])
             continue
         predictor.use_file(cards, strokes=args.split_strokes)
         if single and args.predict and predictor.card is None and predictor.in_file is None:
             raise CliError(f"--predict: no card {printable(args.predict)!r} in "
                            f"{printable(path)} and no such file")
-        chosen, refused = _selected(cards, path, args, errors)
+        chosen, refused, got = selected(cards, path, args, errors, report_missing=single)
+        answered |= got
         del cards, errors
         if single and args.card is not None and not chosen and refused:
             raise CliError(f"{printable(path)}: {refused[0].reason}")
-        yield path, chosen, refused
+        if pending is not None:
+            yield pending
+        pending = (path, chosen, refused)
+    # Over several files, an id is missing only when no file has it (each file that lacked
+    # one gave a row of its own, and two cards of two files ran with two such rows).
+    missing = [w for w in dict.fromkeys(args.card or ()) if w not in answered]
+    rows = missing_rows(set(), missing, f"in any of the {len(args.files)} files",
+                        ", ".join(args.files)) if not single else []
+    if pending is not None and not isinstance(pending[1], CardError):
+        pending = (pending[0], pending[1], [*pending[2], *rows])
+        rows = []
+    if pending is not None:
+        yield pending
+    if rows:
+        yield args.files[-1], [], rows
 
 
 def _joint_document(joint: FitResult, cards: Sequence[Card]) -> dict[str, Any]:
