@@ -7,7 +7,8 @@ longer changes. Such a solution is not an ordinary converged answer. Two tests r
 
 * the push test: moving one parameter a factor 1000 further in one direction leaves the cost
   unchanged (in both directions: not determined at all, which the identifiability analysis
-  reports instead);
+  reports instead, unless the value already lies beyond a factor 1000 from its natural
+  scale toward a limit the model declares: it is in that limit);
 * the nested test, for limits where pumpid has the reduced model: the reduced model fits as
   well as the full one by a likelihood-ratio test at the 95 % level. It catches a curved
   valley toward the limit, where the other parameters compensate a single push.
@@ -92,7 +93,12 @@ def push_test(problem: Problem, cards: NDArray[np.int64], z: Array, cost: Array,
                 # Flat both ways and already beyond a factor 1000 from its natural scale: a
                 # push cannot leave the limit it is in (k1 = 1.4e-5 kN/m, 1e-6 of its scale,
                 # stayed "converged" with an offset of -5e6 m and a time constant of 5e9 s).
-                hits = ["infinity" if far[j, i] > 0 else "zero"]
+                # Only toward a limit the model declares: elsewhere flat both ways is a
+                # value the data do not fix, wherever it started.
+                side = "infinity" if far[j, i] > 0 else "zero"
+                if any(lim.param == name and lim.direction == side
+                       for lim in problem.model.limits):
+                    hits = [side]
             if len(hits) == 1:
                 lim = problem.model.limit(name, hits[0])
                 found.append(Limiting(name, hits[0], _exp(float(z[j, i])),
