@@ -229,3 +229,10 @@ def test_simulate_reads_the_columns_fit_reads(tmp_path, capsys) -> None:
     (tmp_path / "other.csv").write_text("a,b\n0,1\n1,2\n")
     assert main(["simulate", str(tmp_path / "other.csv"), "-p", "k0=4,m=1,c1=2,k1=4"]) == 2
     assert "no column 't'" in capsys.readouterr().err
+    (tmp_path / "two.csv").write_text("t_s,load_kN,load_lbf\n0,1,2\n1,2,3\n2,3,4\n")
+    assert main(["simulate", str(tmp_path / "two.csv"), "-p", "k0=4,m=1,c1=2,k1=4"]) == 2
+    assert "'load_kN', 'load_lbf' all read as load; name one with --load-col" in \
+        capsys.readouterr().err
+    assert main(["simulate", str(tmp_path / "two.csv"), "-p", "k0=4,m=1,c1=2,k1=4",
+                 "--load-col", "t_s"]) == 2
+    assert "name the same column 't_s'" in capsys.readouterr().err

@@ -57,7 +57,8 @@ def test_report_files_and_page(table: pd.DataFrame, tmp_path: Path) -> None:
         assert f"<h2>{section}</h2>" in page
     assert "13 wells" in page and "1800 cards" in page and "40 cards (2.2%)" in page
     assert "lbf/in" in page and "Hz" in page
-    assert "both wells with an alert; 2 of the 11 wells without an alert, picked at random" in page
+    assert ("both wells with an alert; 2 of the 11 wells without an alert for comparison, "
+            "picked at random") in page
 
 
 def test_alerts_csv_round_trips(table: pd.DataFrame, tmp_path: Path) -> None:
@@ -81,7 +82,7 @@ def test_many_wells_are_sampled_and_no_alerts(tmp_path: Path) -> None:
     page = files["report"].read_text(encoding="utf-8")
     assert "No persistent change was found" in page
     assert "The first 50 of 900 wells are listed" in page
-    assert "3 of the 900 wells without an alert, picked at random" in page
+    assert "3 of the 900 wells without an alert for comparison, picked at random" in page
     assert len([k for k in files if k.startswith("well_")]) == 3
     assert len(pd.read_csv(files["wells"])) == 900
 

@@ -87,7 +87,7 @@ def test_the_report_says_which_wells_were_tested(tmp_path) -> None:
     page = files["report"].read_text(encoding="utf-8")
     assert "1 alert in 1 well" in page
     # Its alarm card is the history's newest, tested whole: no detector's delay is claimed.
-    assert "(the newest card: the history is tested whole)" in page and "later)" not in page
+    assert "(its newest usable card: the history is tested whole)" in page and "later)" not in page
     assert "0 wells by the CUSUM" in page and "28 wells by the two-segment and drift tests" in page
     assert ("wells too short to test (fewer than 6 usable cards of every quantity)</td>"
             "<td>2 wells: W0010, W0011") in page

@@ -179,8 +179,22 @@ def same(a: float, b: float) -> bool:
 
 
 def repeats_first(position: NDArray[np.float64], load: NDArray[np.float64]) -> bool:
-    """Whether a card's last sample repeats its first in position and load (to a relative
-    1e-9): a duplicated closing point, which every reader drops from a card without time."""
+    """Whether a card's last sample repeats its first: a duplicated closing point.
+
+    Every reader drops it from a card without time (the time rebuilt from the pumping speed
+    would be a sample off, and the fit another).
+
+    Parameters
+    ----------
+    position, load : ndarray
+        The card's samples, in order.
+
+    Returns
+    -------
+    bool
+        True where there are two samples or more and the last equals the first in position
+        and load to a relative 1e-9 (printed numbers copied as text).
+    """
     return (position.size >= 2 and same(position[0], position[-1])
             and same(load[0], load[-1]))
 

@@ -68,6 +68,11 @@ def _read_table(path: str, wanted: dict[str, str | None], encoding: str | None
         name = given
         if name is None:
             by_role = [h for h in header if interpret_name(h)[0] == role]
+            if role not in header and len(by_role) > 1:
+                # Two loads (load_kN, load_lbf): taking the first would choose a unit.
+                flag = "--t-col" if role == "t" else "--load-col"
+                raise CliError(f"{where}: columns {', '.join(map(repr, by_role))} all read as "
+                               f"{'time' if role == 't' else 'load'}; name one with {flag}")
             name = role if role in header else (by_role[0] if by_role else role)
         if name not in header:
             flag = "--t-col" if role == "t" else "--load-col"
@@ -89,6 +94,9 @@ def _read_table(path: str, wanted: dict[str, str | None], encoding: str | None
                            "not a finite number")
         out[role] = arr
         used[role] = name
+    if used.get("t") == used.get("load"):
+        raise CliError(f"{where}: --t-col and --load-col name the same column "
+                       f"{printable(used['t'])!r}")
     return out, used
 
 

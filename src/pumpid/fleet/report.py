@@ -175,9 +175,9 @@ def _version() -> str:
 
 
 # --------------------------------------------------------------------------- sections
-#: How each way of testing a well reads in the report, by :func:`history_coverage`'s method.
-#: How each well was tested, in words: the short-history method is two tests (it read
-#: "two-segment" alone), and a well "too short" may have 30 cards, too few of them usable.
+#: How each way of testing a well reads in the report, by :func:`history_coverage`'s method:
+#: the short-history method is two tests (it read "two-segment" alone), and a well "too
+#: short" may have 30 cards, too few of them usable.
 _TESTED = {"cusum": "CUSUM", "two-segment": "two-segment and drift",
            "too short": "too few usable cards"}
 
@@ -290,10 +290,10 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
         rows.append([
             str(a["well_id"]), str(a["quantity"]),
             f"{a['first_card_id']} ({_when(a['first_time'])})",
-            # A short history is tested whole, at the report: its newest card is no
-            # detector's delay ("3 cards later" was read as one).
-            (f"{a['alarm_card_id']} (the newest card: the history is tested whole)"
-             if a["method"] in SHORT_METHODS else
+            # A short history is tested whole (every method but the CUSUM), at the report:
+            # its newest card is no detector's delay ("3 cards later" was read as one).
+            (f"{a['alarm_card_id']} (its newest usable card: the history is tested whole)"
+             if a["method"] != "cusum" else
              f"{a['alarm_card_id']} ({count_words(a['delay_cards'], 'card')} later)"),
             f"{_with_unit(a['before'], unit)} → {_with_unit(a['after'], unit)}"
             + (" (fitted line, first card → last)" if a["method"] == "drift" else ""),
@@ -307,10 +307,6 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
                "median before → after", "change (relative)", "size (standard errors)",
                "direction", "cards before / after")
     return _table(headers, rows, num_cols=(4, 5, 6), row_classes=classes)
-
-
-#: The methods that test a short history as a whole (:mod:`pumpid.fleet.detectors`).
-SHORT_METHODS = ("two-segment", "drift")
 
 
 def _status_counts(statuses: pd.Series) -> str:
@@ -393,21 +389,26 @@ def _drawn_words(drawn_alerted: Sequence[str], alerted: Sequence[str],
     # "1 well without an alert: it." read as a broken sentence: the count goes into words
     # that stand for one well as well as for thousands.
     if alerted:
-        n = len(alerted)
-        parts.append("the well with an alert" if n == 1 else
-                     ("both wells with an alert" if n == 2 else f"all {n} wells with an alert")
-                     if len(drawn_alerted) == n else
-                     f"the {len(drawn_alerted)} of the {n} wells with an alert with the "
-                     "largest changes")
+        n, k = len(alerted), len(drawn_alerted)
+        if k == n:
+            parts.append("the well with an alert" if n == 1 else "both wells with an alert"
+                         if n == 2 else f"all {n} wells with an alert")
+        else:
+            parts.append(f"the one of the {n} wells with an alert with the largest change"
+                          if k == 1 else
+                         f"the {k} of the {n} wells with an alert with the largest changes")
     if steady:
-        n = len(steady)
-        parts.append(f"none of the {count_words(n, 'well')} without an alert"
-                     if not drawn_steady else
-                     "the well without an alert" if n == 1 else
-                     ("both wells without an alert" if n == 2 else
-                      f"all {n} wells without an alert") if len(drawn_steady) == n else
-                     f"{len(drawn_steady)} of the {n} wells without an alert, picked at random "
-                     f"(seed {seed}) for comparison")
+        n, k = len(steady), len(drawn_steady)
+        if k == n:
+            parts.append("the well without an alert" if n == 1 else
+                         "both wells without an alert" if n == 2 else
+                         f"all {n} wells without an alert")
+        elif k == 0:
+            parts.append("not the well without an alert" if n == 1 else
+                         f"none of the {n} wells without an alert")
+        else:
+            parts.append(f"{k} of the {n} wells without an alert for comparison, picked at "
+                         f"random (seed {seed}), the wells the detector tested first")
     if not parts:
         return "No well has a usable card to draw."
     return "Drawn: " + "; ".join(parts) + "."
@@ -536,7 +537,7 @@ def write_fleet_report(
     parts.append("<p>Each row is a persistent shift in one quantity of one well: the first "
                  "card of the new level (the estimated change point), the card at which the "
                  "detector raised the alarm (a short history's tests judge it whole: their "
-                 "alarm is its newest card), the medians before and after, and the size of "
+                 "alarm is its newest usable card), the medians before and after, and the size of "
                  "the change in units of its standard error. Largest first.</p>")
     parts.append(_alerts_section(alerts, tests,
                                  len(named) < len(frame)))

@@ -244,8 +244,19 @@ class ResultsStore:
 
     @staticmethod
     def inputs_of(folder: str | os.PathLike[str]) -> list[str]:
-        """The inputs (files and folders, absolute) a results folder's run was given; empty
-        for a folder written before they were recorded."""
+        """The inputs a results folder's run was given.
+
+        Parameters
+        ----------
+        folder : str or PathLike
+            The results folder.
+
+        Returns
+        -------
+        list of str
+            Its files and folders, absolute; empty for a folder holding no run, or one
+            written before they were recorded.
+        """
         out = Path(os.fspath(folder))
         if not (out / MANIFEST).exists():
             return []

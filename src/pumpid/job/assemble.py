@@ -30,7 +30,7 @@ Array = NDArray[np.float64]
 
 
 #: What a card whose position is its fundamental within the noise can tell.
-NOTHING_BEYOND = (
+_NOTHING_BEYOND = (
     "the position is the stroke's fundamental within the noise: the card holds two numbers, "
     "the gain and the phase of the position against the load at the stroke frequency, so at "
     "most two combinations of the model's values follow from the data (for a "
@@ -54,7 +54,7 @@ def determination_gate(res: FitResult) -> FitResult:
     if res.determined.get("signal_beyond_fundamental") is False and not none:
         # A position that is one sinusoid within the noise holds two numbers: "converged,
         # explains 0.0 % of the rest" beside m = 4.9e6 kN*s^2/m read as a contradiction.
-        res = dataclasses.replace(res, warnings=(*res.warnings, NOTHING_BEYOND))
+        res = dataclasses.replace(res, warnings=(*res.warnings, _NOTHING_BEYOND))
     if not (only or none):
         return res
     determined = dict(res.determined)
