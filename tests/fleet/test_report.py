@@ -139,6 +139,7 @@ def test_cards_without_well_ids_are_counted_not_trended(tmp_path: Path) -> None:
     files = write_fleet_report(frame, tmp_path, quantities=["stiffness"])
     page = files["report"].read_text(encoding="utf-8")
     assert "well_(unknown well)" not in files and "No well has a usable card to draw" in page
+    assert "Each panel shows" not in page  # no panel drawn, none described
     wells = pd.read_csv(files["wells"])
     assert wells.loc[0, "duplicates"] == 1 and wells.loc[0, "cards"] == 89
     assert wells.loc[0, "tested"] == "not tested (no well id)"

@@ -586,12 +586,15 @@ def write_fleet_report(
             if k > len(first) else [])
     drawn_steady = sorted([*first, *more])
     parts.append("<section id=\"trends\"><h2>Trends per well</h2>")
-    parts.append(f"<p>{_drawn_words(drawn_alerted, ranked, drawn_steady, steady, seed)} "
-                 "Each panel shows one quantity over the well's cards with a band of ± 2 "
-                 "standard errors (the axis is scaled to the values; a band running beyond "
-                 "it is cut and marked by a triangle at the edge); dashed lines mark the "
-                 "first card of each change; crosses at the bottom mark cards whose fit "
-                 "failed or whose input was invalid.</p>")
+    # The panels described only where some are drawn (a page without one described them).
+    panels = ("" if not (drawn_alerted or drawn_steady) else
+              " Each panel shows one quantity over the well's cards with a band of ± 2 "
+              "standard errors (the axis is scaled to the values; a band running beyond "
+              "it is cut and marked by a triangle at the edge); dashed lines mark the "
+              "first card of each change; crosses at the bottom mark cards whose fit "
+              "failed or whose input was invalid.")
+    parts.append(f"<p>{_drawn_words(drawn_alerted, ranked, drawn_steady, steady, seed)}"
+                 f"{panels}</p>")
     groups = {str(w): g for w, g in frame.groupby(frame["well_id"].astype(str))}
     for well in [*drawn_alerted, *drawn_steady]:
         fig = well_figure(groups[well], names, units, alerts, well)
