@@ -110,6 +110,9 @@ def test_rows_without_a_well_are_not_a_well_and_counts_agree(tmp_path: Path) -> 
     assert "<td>wells</td><td>3 wells</td>" in page
     assert re.search(r"<td>cards without a well id \(filed under \(unknown well\), with any "
                      r"unreadable input\S+ rows\)</td><td>3 cards</td>", page)
+    # The cards without a well id come last in the wells table, not among the named wells.
+    wells = pd.read_csv(files["wells"])["well_id"].tolist()
+    assert wells[-1] == "(unknown well)" and len(wells) == 4
 
 
 def test_cards_without_well_ids_are_not_called_unreadable_or_too_short(tmp_path: Path) -> None:

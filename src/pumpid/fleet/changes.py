@@ -682,6 +682,9 @@ def summarise_wells(
         out[f"latest_{q}_time"] = pd.to_datetime(when.reindex(out.index), utc=True)
     out = out.reset_index(names="well_id")
     out["_has"] = out["alerts"] > 0
-    out = out.sort_values(["_has", "max_abs_change_se", "well_id"],
-                          ascending=[False, False, True], na_position="last", kind="stable")
-    return out.drop(columns="_has").reset_index(drop=True)
+    # The cards without a well id last: "(unknown well)" sorted among the named wells.
+    out["_unknown"] = out["well_id"].astype(str) == UNKNOWN_WELL
+    out = out.sort_values(["_has", "_unknown", "max_abs_change_se", "well_id"],
+                          ascending=[False, True, False, True], na_position="last",
+                          kind="stable")
+    return out.drop(columns=["_has", "_unknown"]).reset_index(drop=True)
