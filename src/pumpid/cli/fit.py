@@ -421,7 +421,6 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
     error that made it unreadable. With a single file, its problems are the run's: raised."""
     single = len(args.files) == 1
     answered: set[str] = set()
-    pending: tuple[str, list[Card] | CardError, list[Row]] | None = None
     for path in args.files:
         try:
             cards, errors = _read_file(path, setup)
@@ -430,9 +429,7 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
         except CardError as exc:
             if single:
                 raise
-            if pending is not None:
-                yield pending
-            pending = (path, exc, [])
+            yield path, exc, []
             continue
         predictor.use_file(cards, strokes=args.split_strokes)
         if single and args.predict and predictor.card is None and predictor.in_file is None:
@@ -443,21 +440,14 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
         del cards, errors
         if single and args.card is not None and not chosen and refused:
             raise CliError(f"{printable(path)}: {refused[0].reason}")
-        if pending is not None:
-            yield pending
-        pending = (path, chosen, refused)
+        yield path, chosen, refused
     # Over several files, an id is missing only when no file has it (each file that lacked
     # one gave a row of its own, and two cards of two files ran with two such rows).
     missing = [w for w in dict.fromkeys(args.card or ()) if w not in answered]
-    rows = missing_rows(set(), missing, f"in any of the {len(args.files)} files",
-                        ", ".join(args.files)) if not single else []
-    if pending is not None and not isinstance(pending[1], CardError):
-        pending = (pending[0], pending[1], [*pending[2], *rows])
-        rows = []
-    if pending is not None:
-        yield pending
-    if rows:
-        yield args.files[-1], [], rows
+    if missing and not single:
+        files = ", ".join(args.files)
+        yield files, [], missing_rows(set(), missing, f"in any of the {len(args.files)} files",
+                                      files)
 
 
 def _joint_document(joint: FitResult, cards: Sequence[Card]) -> dict[str, Any]:
