@@ -121,6 +121,7 @@ __all__ = [
     "USABLE_STATUSES",
     "available_quantities",
     "card_counts",
+    "change_size",
     "cusum_threshold",
     "detect_changes",
     "history_coverage",
@@ -601,6 +602,14 @@ def _median_se(values: NDArray[np.float64], errors: NDArray[np.float64]) -> floa
     return max(_MEDIAN_SE * sigma / math.sqrt(values.size), floor)
 
 
+def change_size(alerts: pd.DataFrame) -> pd.Series:
+    """Each alert's |change_se| to 9 digits: one change seen in two quantities (a pump's
+    intake pressure follows its fluid load) ties, and the alerts' own order (by quantity)
+    decides, not a difference of 7e-13."""
+    size = pd.to_numeric(alerts["change_se"], errors="coerce").abs()
+    return size.map(lambda v: float(f"{v:.9g}") if np.isfinite(v) else v)
+
+
 def summarise_wells(
     table: pd.DataFrame | str | os.PathLike[str],
     alerts: pd.DataFrame | None = None,
@@ -652,8 +661,7 @@ def summarise_wells(
         out["first_time"], out["last_time"] = times.min(), times.max()
     else:
         out["first_time"] = out["last_time"] = pd.NaT
-    mine = alerts.assign(_w=alerts["well_id"].astype(str),
-                         _size=pd.to_numeric(alerts["change_se"], errors="coerce").abs())
+    mine = alerts.assign(_w=alerts["well_id"].astype(str), _size=change_size(alerts))
     by_well = mine.groupby("_w")
     out["alerts"] = by_well.size().reindex(out.index, fill_value=0).astype(int)
     out["alerted_quantities"] = by_well["quantity"].agg(

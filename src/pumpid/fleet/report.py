@@ -41,6 +41,7 @@ from .changes import (
     UNKNOWN_WELL,
     USABLE_STATUSES,
     available_quantities,
+    change_size,
     detect_changes,
     history_coverage,
     is_duplicate,
@@ -282,7 +283,7 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
                 else "")
         which = "the well" if tested == 1 else f"the {tested} wells"
         return f"<p>No persistent change was found in {which} tested{rest}.</p>"
-    order = alerts.assign(_size=alerts["change_se"].astype(float).abs()).sort_values(
+    order = alerts.assign(_size=change_size(alerts)).sort_values(
         ["_size"], ascending=False, kind="stable")
     rows, classes = [], []
     for _, a in order.iterrows():
