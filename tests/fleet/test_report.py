@@ -326,3 +326,17 @@ def test_one_change_in_two_quantities_is_ranked_by_quantity_not_by_rounding() ->
     assert size.iloc[0] == size.iloc[1]
     order = alerts.assign(_size=size).sort_values("_size", ascending=False, kind="stable")
     assert order["quantity"].tolist() == ["pump_fluid_load", "pump_intake_pressure"]
+
+
+def test_a_latest_value_older_than_the_wells_last_card_says_its_date(tmp_path: Path) -> None:
+    # The wells table's "latest" value had no date: one from 13 cards before the well's last
+    # read as current.
+    frame = results_table(2, 40, cv=0.02, seed=8)
+    first = frame["well_id"] == frame["well_id"].iloc[0]
+    stale = frame.index[first][-13:]
+    frame.loc[stale, "d_stiffness"] = np.nan
+    files = write_fleet_report(frame, tmp_path, quantities=["stiffness"])
+    page = files["report"].read_text(encoding="utf-8")
+    when = pd.Timestamp(frame.loc[frame.index[first][-14], "time"])
+    assert f"(of {when:%Y-%m-%d %H:%M})" in page
+    assert page.count("(of ") == 1  # the other well's latest is its last card's

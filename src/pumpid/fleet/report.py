@@ -357,7 +357,13 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
             unit = w.get(f"latest_{q}_unit", "")
             same = unit_text(unit) == unit_text(units.get(q, ""))
             value = w.get(f"latest_{q}")
-            cells.append(_num(value) if same else _with_unit(value, unit))
+            cell = _num(value) if same else _with_unit(value, unit)
+            # A latest value older than the well's last card says its date: it read as
+            # current while 13 later cards had none.
+            when, last = w.get(f"latest_{q}_time"), w.get("last_time")
+            if pd.notna(when) and pd.notna(last) and when < last and _num(value) != "n/a":
+                cell += f" (of {pd.Timestamp(when):%Y-%m-%d %H:%M})"
+            cells.append(cell)
         rows.append(cells)
         classes.append("alert" if w["alerts"] else "")
     note = ""
