@@ -62,6 +62,15 @@ def test_bad_options_are_exit_2_with_one_line(small: Path, option: list[str], ca
     assert captured.err.startswith("pumpid: error: ") and captured.err.count("\n") == 1
 
 
+def test_a_stroke_of_a_week_at_a_scale_of_1e300_is_no_internal_error(small: Path,
+                                                                     capsys) -> None:
+    # Found by the generated cases: the mass ran past ln m = 709 and the diagnostics' scan
+    # along it overflowed ("internal error (OverflowError: math range error)").
+    code = main(["fit", str(small), "--spm", "1e-05", "--model", "kelvin", "--scale",
+                 "1e300", "--brief"])
+    _check(capsys.readouterr(), code)
+
+
 def test_spm_of_a_file_beyond_reason_fails_its_card_only(tmp_path: Path, capsys) -> None:
     path = write_cards(tmp_path / "c.csv", ["A", "B"], n_samples=30)
     lines = path.read_text().splitlines()

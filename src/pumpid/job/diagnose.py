@@ -289,10 +289,14 @@ def _flat_inertia(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Car
             out.append(None)
             continue
         # Another local minimum within the threshold lies within the profile's interval too.
-        others = [math.exp(v) for v, c in card.inertia_minima if c <= limits[i]]
-        low, high = min([span[0], *others]), max([span[1], *others])
-        value = math.exp(float(card.z[j]))
-        reach = max(math.log(value / low), math.log(high / value))
+        # In logs: an inertia far out (ln m > 709 on a card of absurd options) overflowed.
+        others = [float(v) for v, c in card.inertia_minima if c <= limits[i]]
+        with np.errstate(divide="ignore", over="ignore"):
+            log_low = min([float(np.log(span[0])), *others])
+            log_high = max([float(np.log(span[1])), *others])
+            low, high = float(np.exp(log_low)), float(np.exp(log_high))
+        z = float(card.z[j])
+        reach = max(z - log_low, log_high - z)
         out.append((j, reach / float(tq[i]), low, high))
     return out
 
