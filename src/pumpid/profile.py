@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from .engine.problem import CardData, build_problem
 from .engine.solvers import LevenbergMarquardt
-from .inference.uncertainty import t_quantile
+from .inference.uncertainty import is_positive_quantity, t_quantile
 from .job import JobOptions, run
 from .result import FitResult
 
@@ -316,7 +316,7 @@ def profile(
     n_points = max(int(n_points), 3)
     refit = _Refitter(result, name)
     estimate = _value_of(result, name)
-    positive = name not in ("D", "offset")
+    positive = is_positive_quantity(name)
     n_obs = int(result.data.size)
     dof = max(n_obs - len(result.free), 1)
     sst = float(np.sum((result.data - result.data.mean()) ** 2))

@@ -236,8 +236,7 @@ def _files_for(inputs: Sequence[str | os.PathLike[str]], out: Path, resume: bool
     if not resume:
         raise ValueError("no inputs given")
     out_files = []
-    listed = ResultsStore.files_of(out)
-    for f in listed:
+    for f in ResultsStore.files_of(out):
         try:
             now = InputFile.of(f["name"], Path(f["path"]))
         except OSError:

@@ -35,6 +35,7 @@ from ..engine import drive, lm
 from ..engine.compiled import copy_into, jit
 from ..engine.problem import Problem
 from ..result import Uncertainty
+from ..result.text import ADDITIVE
 from .hac import long_run_rows, sandwich
 
 __all__ = [
@@ -294,7 +295,7 @@ def _whiteness(rho: float, n: int) -> dict[str, Any]:
 def is_positive_quantity(name: str, additive: Sequence[str] = ()) -> bool:
     """Physical parameters and C are positive (log coordinates); D, offset and the names in
     ``additive`` (an own model's signed parameters) are additive."""
-    return name not in ("D", "offset") and name not in additive
+    return name not in ADDITIVE and name not in additive
 
 
 def _interval(name: str, value: float, se: float, tq: float,

@@ -240,8 +240,7 @@ class _Reader:
         total = sum(t.length for t in tapers)
         if abs(total - pump.depth) > 1e-9 * pump.depth:
             where = "above" if total < pump.depth else "below"
-            # In the file's length unit: a US file's 5 ft read "1.524 m".
-            # Lengths are ft or m: the system names the file's unit.
+            # In the file's length unit, ft or m as its system says (5 ft read "1.524 m").
             unit = "ft" if self.system == "us" else "m"
             gap = abs(pump.depth - total) / UNITS["length"][unit]
             self.notes.append(f"the rod string ends {gap:.4g} {unit} {where} "
