@@ -340,3 +340,32 @@ def test_a_latest_value_older_than_the_wells_last_card_says_its_date(tmp_path: P
     when = pd.Timestamp(frame.loc[frame.index[first][-14], "time"])
     assert f"(of {when:%Y-%m-%d %H:%M})" in page
     assert page.count("(of ") == 1  # the other well's latest is its last card's
+
+
+def _well_axes(frame: pd.DataFrame, quantity: str) -> object:
+    from pumpid.fleet.figures import well_figure
+
+    empty = detect_changes(frame.iloc[:0])
+    fig = well_figure(frame, [quantity], {quantity: "lbf/in"}, empty, "W0000")
+    return fig.axes[0]
+
+
+def test_the_time_axis_runs_to_the_wells_last_card() -> None:
+    import matplotlib.dates as mdates
+
+    # The last 10 cards leave the stiffness undetermined: the axis stopped at card 49.
+    frame = results_table(1, 60, cv=0.03, seed=8)
+    frame.loc[frame.index[50:], "d_stiffness_determined"] = False
+    right = _well_axes(frame, "stiffness").get_xlim()[1]
+    last = mdates.date2num(frame["time"].iloc[-1].tz_localize(None))
+    assert right >= last
+
+
+def test_a_single_cards_band_is_drawn_whole() -> None:
+    # One card of 1000 lbf/in +- 2000: the axis spanned 1 % of the value and clipped the
+    # band to it, a thousand times narrower than it is.
+    frame = results_table(1, 1, cv=0.03, seed=8)
+    frame["d_stiffness"], frame["d_stiffness_se"] = 1000.0, 2000.0
+    bottom, top = _well_axes(frame, "stiffness").get_ylim()
+    lo, hi = 1000.0 / np.exp(4.0), 1000.0 * np.exp(4.0)
+    assert bottom <= lo and top >= hi

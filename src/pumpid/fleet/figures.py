@@ -310,6 +310,12 @@ def well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str,
     top = 1.0 - 0.45 / fig.get_figheight()
     fig.legend(list(handles.values()), list(handles.keys()), loc="lower right", ncols=6,
                fontsize=8, frameon=False, bbox_to_anchor=(0.99, top))
+    if len(x_all) > 1:
+        # Over every card of the well: scaled to the plotted points, the axis ended at the
+        # last card with a value, and the cards after it (none determined it) went unseen.
+        first, last = x_all.min(), x_all.max()
+        margin = 0.02 * (last - first)
+        axes[-1].set_xlim(first - margin, last + margin)
     axes[-1].set_xlabel("card time (UTC)" if timed else "card number (no times in the table)")
     if not timed:  # a card number is whole (one card's axis read -0.04 ... 0.04)
         axes[-1].xaxis.set_major_locator(MaxNLocator(integer=True))
@@ -325,14 +331,21 @@ def _value_axis(ax: Any, x: pd.Series, v: np.ndarray, lo: np.ndarray, hi: np.nda
     """Scale the value axis to the values (and the medians of any change), not to the
     +-2 SE bands: a band may widen the axis by a quarter of the values' range on either side
     at most (so the values fill at least two thirds of it); what runs
-    beyond is clipped and marked by a triangle at the axis edge."""
+    beyond is clipped and marked by a triangle at the axis edge. Values without a range
+    (one card) get their band whole."""
     marks = [*v, *pd.to_numeric(alerts["before"], errors="coerce").dropna(),
              *pd.to_numeric(alerts["after"], errors="coerce").dropna()]
     a, b = padded_limits(float(np.min(marks)), float(np.max(marks)))
-    half = 0.25 * (b - a)
     finite_lo, finite_hi = lo[np.isfinite(lo)], hi[np.isfinite(hi)]
-    bottom = max(a - half, float(finite_lo.min())) if finite_lo.size else a
-    top = min(b + half, float(finite_hi.max())) if finite_hi.size else b
+    if np.ptp(marks) > 0 or not (finite_lo.size and finite_hi.size):
+        half = 0.25 * (b - a)
+        bottom = max(a - half, float(finite_lo.min())) if finite_lo.size else a
+        top = min(b + half, float(finite_hi.max())) if finite_hi.size else b
+    else:
+        # One value (a single card, or cards that agree): the axis had only a margin of
+        # 1 % of it, and a band a thousand times wider was clipped to that margin, read
+        # as a narrow interval. The band is then drawn whole.
+        bottom, top = padded_limits(float(finite_lo.min()), float(finite_hi.max()))
     bottom, top = min(bottom, a), max(top, b)
     ax.set_ylim(bottom, top)
     for beyond, edge, marker in ((hi > top, 1.0, "^"), (lo < bottom, 0.0, "v")):
