@@ -315,19 +315,6 @@ def test_the_comparison_wells_are_drawn_from_the_tested_ones(tmp_path: Path) -> 
     assert len(drawn) == 2 and not set(drawn) & set(short), drawn
 
 
-def test_one_change_in_two_quantities_is_ranked_by_quantity_not_by_rounding() -> None:
-    # A leaking valve: the intake pressure follows the fluid load, their change_se equal to
-    # 7e-13, and the derived one ranked first by that rounding.
-    from pumpid.fleet.changes import change_size
-
-    alerts = pd.DataFrame({"quantity": ["pump_fluid_load", "pump_intake_pressure"],
-                           "change_se": [-27.959494717437952, 27.95949471743863]})
-    size = change_size(alerts)
-    assert size.iloc[0] == size.iloc[1]
-    order = alerts.assign(_size=size).sort_values("_size", ascending=False, kind="stable")
-    assert order["quantity"].tolist() == ["pump_fluid_load", "pump_intake_pressure"]
-
-
 def test_a_latest_value_older_than_the_wells_last_card_says_its_date(tmp_path: Path) -> None:
     # The wells table's "latest" value had no date: one from 13 cards before the well's last
     # read as current.

@@ -160,7 +160,7 @@ def test_the_report_says_a_drift(tmp_path: Path, capsys) -> None:
     assert "W0001: stiffness 1.001 -> 0.6278 lbf/in (-37.3%" in out
     assert "from card W0001-0000 (a steady drift over the history" in out
     page = (tmp_path / "fleet" / "report.html").read_text(encoding="utf-8")
-    assert "down (steady drift)" in page and "(fitted line, first card → last)" in page
+    assert "(-37.3%, a steady drift)" in page and "(fitted line, first card → last)" in page
 
 
 def test_an_exact_line_is_a_drift() -> None:

@@ -68,6 +68,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     """Write the fleet report; print where, and the alerts in one line each."""
 
     from ..fleet.changes import available_quantities, card_counts, detect_changes
+    from ..fleet.events import ordered_by_event
     from ..fleet.report import write_fleet_report
     from ..fleet.store import read_results
 
@@ -96,11 +97,14 @@ def cmd_report(args: argparse.Namespace) -> int:
                if n["undated"] else [])]
     print(f"pumpid report: {plural(n['cards'], 'card')} of {plural(n['wells'], 'well')}"
           f"{' (' + '; '.join(aside) + ')' if aside else ''}, "
-          f"{plural(len(alerts), 'alert')} in {plural(alerted, 'well')}")
-    for _, a in alerts.iterrows():
+          f"{plural(len(alerts), 'alert')} in {plural(alerted, 'well')}"
+          + (f", {plural(alerts['event'].nunique(), 'change')} (a change seen in several "
+             "quantities counts once)" if alerts["event"].nunique() < len(alerts) else ""))
+    for _, a in ordered_by_event(alerts).iterrows():
         drift = (" (a steady drift over the history: its fitted line, first card to last)"
                  if a["method"] == "drift" else "")
-        print(f"  well {printable(str(a['well_id']))}: {a['quantity']} {a['before']:.4g} -> "
+        print(f"  change {int(a['event'])}, well {printable(str(a['well_id']))}: "
+              f"{a['quantity']} {a['before']:.4g} -> "
               f"{a['after']:.4g} {a['unit']} ({a['change_rel']:+.1%}, {a['change_se']:.3g} "
               f"standard errors) from card {printable(str(a['first_card_id']))}{drift}")
     print(f"report: {printable(str(paths['report']))}")

@@ -111,6 +111,7 @@ from pumpid.models import model_class
 
 from .detectors import robust_sigma, scan_cusum, scan_two_segments
 from .downhole import is_pump_quantity, pump_quantities, pump_usable
+from .events import change_size, number_events
 from .thresholds import MIN_SEGMENT, cusum_threshold
 
 __all__ = [
@@ -121,7 +122,6 @@ __all__ = [
     "USABLE_STATUSES",
     "available_quantities",
     "card_counts",
-    "change_size",
     "cusum_threshold",
     "detect_changes",
     "history_coverage",
@@ -143,7 +143,7 @@ ALERT_COLUMNS = (
     "well_id", "quantity", "unit", "first_card_id", "first_time", "alarm_card_id",
     "alarm_time", "before", "after", "change", "change_rel", "change_se", "direction",
     "kind", "scale", "noise", "first_index", "alarm_index", "delay_cards", "n_before",
-    "n_after", "threshold", "order", "method",
+    "n_after", "threshold", "order", "method", "event",
 )  # fmt: skip
 #: Shortest history :func:`detect_changes` tests by default (the two-segment and drift
 #: tests).
@@ -433,7 +433,9 @@ def detect_changes(
         ``n_before``/``n_after`` (cards in the segments; 0 and the history's cards for a
         drift), ``threshold`` (``h``, in noise scales) and ``order`` (``"time"`` or
         ``"card order"``), ``method`` (``"cusum"``, ``"two-segment"`` or ``"drift"``: a
-        short history's steady rise or fall). Sorted by well, quantity and first card.
+        short history's steady rise or fall), ``event`` (alerts of one well over
+        overlapping cards share it: one change seen in several quantities; see
+        :func:`pumpid.fleet.events.number_events`). Sorted by well, quantity and first card.
 
     Raises
     ------
@@ -482,7 +484,9 @@ def detect_changes(
     out = out.sort_values(["well_id", "quantity", "first_index"], kind="stable")
     for col in ("first_time", "alarm_time"):
         out[col] = pd.to_datetime(out[col], utc=True).astype("datetime64[ns, UTC]")
-    return out.reset_index(drop=True)
+    out = out.reset_index(drop=True)
+    out["event"] = number_events(out)
+    return out
 
 
 def _series_alerts(
@@ -602,14 +606,6 @@ def _median_se(values: NDArray[np.float64], errors: NDArray[np.float64]) -> floa
     return max(_MEDIAN_SE * sigma / math.sqrt(values.size), floor)
 
 
-def change_size(alerts: pd.DataFrame) -> pd.Series:
-    """Each alert's |change_se| to 9 digits: one change seen in two quantities (a pump's
-    intake pressure follows its fluid load) ties, and the alerts' own order (by quantity)
-    decides, not a difference of 7e-13."""
-    size = pd.to_numeric(alerts["change_se"], errors="coerce").abs()
-    return size.map(lambda v: float(f"{v:.9g}") if np.isfinite(v) else v)
-
-
 def summarise_wells(
     table: pd.DataFrame | str | os.PathLike[str],
     alerts: pd.DataFrame | None = None,
@@ -632,7 +628,8 @@ def summarise_wells(
         ``well_id``, ``cards`` (rows; a card repeating an earlier one exactly is counted
         once), ``n_<status>`` for each of :data:`STATUSES` (and ``n_other`` for any other
         or missing status), ``usable``, ``duplicates`` (repeats set aside), ``first_time``,
-        ``last_time``, ``alerts``, ``alerted_quantities`` (comma-separated),
+        ``last_time``, ``alerts``, ``changes`` (the alerts' events: a change seen in
+        several quantities counts once), ``alerted_quantities`` (comma-separated),
         ``max_abs_change_se``, ``largest_change`` (a phrase with quantity, size and unit,
         relative and in standard errors, signed),
         and per quantity ``latest_<name>``, ``latest_<name>_unit`` (its last usable,
@@ -661,9 +658,12 @@ def summarise_wells(
         out["first_time"], out["last_time"] = times.min(), times.max()
     else:
         out["first_time"] = out["last_time"] = pd.NaT
-    mine = alerts.assign(_w=alerts["well_id"].astype(str), _size=change_size(alerts))
+    events = alerts["event"] if "event" in alerts.columns else number_events(alerts)
+    mine = alerts.assign(_w=alerts["well_id"].astype(str), _size=change_size(alerts),
+                         _event=events)
     by_well = mine.groupby("_w")
     out["alerts"] = by_well.size().reindex(out.index, fill_value=0).astype(int)
+    out["changes"] = by_well["_event"].nunique().reindex(out.index, fill_value=0).astype(int)
     out["alerted_quantities"] = by_well["quantity"].agg(
         lambda s: ", ".join(dict.fromkeys(s.astype(str)))).reindex(out.index, fill_value="")
     out["max_abs_change_se"] = by_well["_size"].max().reindex(out.index)

@@ -41,7 +41,6 @@ from .changes import (
     UNKNOWN_WELL,
     USABLE_STATUSES,
     available_quantities,
-    change_size,
     detect_changes,
     history_coverage,
     is_duplicate,
@@ -50,6 +49,7 @@ from .changes import (
     load_results,
     summarise_wells,
 )
+from .events import number_events, ordered_by_event
 from .figures import (
     MIN_WELLS_HISTOGRAM,
     column_unit,
@@ -258,12 +258,22 @@ def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFr
             f"{q} [{unit_text(units[q])}]" + ("" if quantity_values(named, q)[2].any() else
                                              f" ({_no_value(frame, q)}: not trended)")
             for q in quantities) or "none"),
-        ("alerts", f"{count_words(len(alerts), 'alert')} in "
-                   f"{count_words(alerts['well_id'].nunique(), 'well')}"),
+        ("alerts", _alert_count(alerts)),
         *coverage_rows,
         ("detection", settings),
     ]
     return _table(("item", "value"), rows)
+
+
+def _alert_count(alerts: pd.DataFrame) -> str:
+    """``9 alerts in 2 wells: 2 changes, ...``: one leak read as five alerts."""
+    text = (f"{count_words(len(alerts), 'alert')} in "
+            f"{count_words(alerts['well_id'].nunique(), 'well')}")
+    events = (alerts["event"] if "event" in alerts.columns else number_events(alerts)).nunique()
+    if events < len(alerts):
+        text += (f": {count_words(events, 'change')} (the alerts of a well over the same "
+                 "cards are one change seen in several quantities)")
+    return text
 
 
 def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> str:
@@ -283,13 +293,11 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
                 else "")
         which = "the well" if tested == 1 else f"the {tested} wells"
         return f"<p>No persistent change was found in {which} tested{rest}.</p>"
-    order = alerts.assign(_size=change_size(alerts)).sort_values(
-        ["_size"], ascending=False, kind="stable")
     rows, classes = [], []
-    for _, a in order.iterrows():
+    for _, a in ordered_by_event(alerts).iterrows():
         unit = a["unit"]
         rows.append([
-            str(a["well_id"]), str(a["quantity"]),
+            str(int(a["event"])), str(a["well_id"]), str(a["quantity"]),
             f"{a['first_card_id']} ({_when(a['first_time'])})",
             # A short history is tested whole (every method but the CUSUM), at the report:
             # its newest card is no detector's delay ("3 cards later" was read as one).
@@ -298,16 +306,18 @@ def _alerts_section(alerts: pd.DataFrame, tests: pd.Series, unnamed: bool) -> st
              f"{a['alarm_card_id']} ({count_words(a['delay_cards'], 'card')} later)"),
             f"{_with_unit(a['before'], unit)} → {_with_unit(a['after'], unit)}"
             + (" (fitted line, first card → last)" if a["method"] == "drift" else ""),
-            f"{_with_unit(a['change'], unit)} ({float(a['change_rel']):+.1%})",
+            # The sign gives the direction (a column of its own made the table too wide
+            # once the change numbers came in).
+            f"{_with_unit(a['change'], unit)} ({float(a['change_rel']):+.1%}"
+            f"{', a steady drift' if a['method'] == 'drift' else ''})",
             _num(a["change_se"], 3),
-            f"{a['direction']} (steady drift)" if a["method"] == "drift" else str(a["direction"]),
             f"{int(a['n_before'])} / {int(a['n_after'])}",
         ])  # fmt: skip
         classes.append("alert")
-    headers = ("well", "quantity", "first changed card (its time)", "alarm card",
+    headers = ("change", "well", "quantity", "first changed card (its time)", "alarm card",
                "median before → after", "change (relative)", "size (standard errors)",
-               "direction", "cards before / after")
-    return _table(headers, rows, num_cols=(4, 5, 6), row_classes=classes)
+               "cards before / after")
+    return _table(headers, rows, num_cols=(0, 5, 6, 7), row_classes=classes)
 
 
 def _status_counts(statuses: pd.Series) -> str:
@@ -349,7 +359,9 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
         cells += [str(int(w["n_" + st.replace("-", "_")])) for st in statuses]
         if pumps:
             cells.append(str(w["pump_identifications"]) or "none")
-        cells.append(str(int(w["alerts"])))
+        changes = int(w.get("changes", w["alerts"]))
+        cells.append(str(int(w["alerts"])) + (f" ({count_words(changes, 'change')})"
+                                              if changes < w["alerts"] else ""))
         cells.append(str(w.get("tested", "")))
         # The phrase carries the change's signed size (the absolute one only ranks).
         cells.append(str(w["largest_change"]) if w["alerts"] else "none")
@@ -545,7 +557,10 @@ def write_fleet_report(
                  "card of the new level (the estimated change point), the card at which the "
                  "detector raised the alarm (a short history's tests judge it whole: their "
                  "alarm is its newest usable card), the medians before and after, and the size of "
-                 "the change in units of its standard error. Largest first.</p>")
+                 "the change in units of its standard error. The alerts of a well over the "
+                 "same cards are one change seen in several quantities (a leak lowers the "
+                 "fluid load and raises the intake pressure): they share a number, the "
+                 "largest change first.</p>")
     parts.append(_alerts_section(alerts, tests,
                                  len(named) < len(frame)))
     parts.append("</section>")

@@ -1,0 +1,90 @@
+"""Alerts as the changes of a well: one change seen in several quantities counts once.
+
+The change detector tests each quantity of a well on its own, so one physical change shows
+as several alerts: a leaking pump's fluid load falls and its intake pressure (the discharge
+pressure less the fluid load over the plunger area) rises by the same number of standard
+errors; a fluid pound lowers the net stroke, the fillage and the displacement together. A
+field of two such wells read "9 alerts". Here the alerts of one well whose spans of cards
+overlap (the first changed card of one lies at or before the alarm card of the other, in
+time, or in card order where the well has no times) are one **event**, numbered over the
+run from the largest (by its largest alert in standard errors) down.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["change_size", "number_events", "ordered_by_event"]
+
+
+def change_size(alerts: pd.DataFrame) -> pd.Series:
+    """Each alert's |change_se| to 9 digits: one change seen in two quantities (a pump's
+    intake pressure follows its fluid load) ties, and the alerts' own order (by quantity)
+    decides, not a difference of 7e-13."""
+    size = pd.to_numeric(alerts["change_se"], errors="coerce").abs()
+    return size.map(lambda v: float(f"{v:.9g}") if np.isfinite(v) else v)
+
+
+def _spans(group: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Each alert's first and alarm positions: times where every alert of the well has
+    them, else the cards' indices in the quantity's history."""
+    first = pd.to_datetime(group["first_time"], utc=True)
+    alarm = pd.to_datetime(group["alarm_time"], utc=True)
+    if first.notna().all() and alarm.notna().all():
+        return (first.dt.tz_localize(None).to_numpy(dtype="datetime64[ns]").astype(np.int64),
+                alarm.dt.tz_localize(None).to_numpy(dtype="datetime64[ns]").astype(np.int64))
+    return (pd.to_numeric(group["first_index"]).to_numpy(dtype=np.int64),
+            pd.to_numeric(group["alarm_index"]).to_numpy(dtype=np.int64))
+
+
+def number_events(alerts: pd.DataFrame) -> pd.Series:
+    """The event of each alert (1, 2, ...; aligned with ``alerts``' index).
+
+    Parameters
+    ----------
+    alerts : pandas.DataFrame
+        :func:`pumpid.fleet.changes.detect_changes`' result (``well_id``, ``change_se``,
+        ``first_time``, ``alarm_time``, ``first_index``, ``alarm_index``).
+
+    Returns
+    -------
+    pandas.Series of int
+        Alerts of one well whose spans of cards overlap share a number; event 1 holds the
+        run's largest alert, and the others follow by their largest alert, the earlier
+        event first on a tie.
+    """
+    if alerts.empty:
+        return pd.Series(np.zeros(0, dtype=np.int64), index=alerts.index, name="event")
+    size = change_size(alerts).fillna(np.inf).to_numpy()
+    wells = alerts["well_id"].astype(str).to_numpy()
+    label = np.empty(len(alerts), dtype=np.int64)
+    events: list[tuple[float, str, int, int]] = []  # (size, well, start, label)
+    for well in dict.fromkeys(wells):
+        rows = np.flatnonzero(wells == well)
+        first, alarm = _spans(alerts.iloc[rows])
+        order = np.lexsort((alarm, first))
+        reach = None
+        for r in order:
+            # Sorted by first card: an alert joins the event in progress when it starts
+            # no later than the latest alarm seen in that event.
+            if reach is None or first[r] > reach:
+                events.append((0.0, well, int(first[r]), len(events)))
+                reach = alarm[r]
+            else:
+                reach = max(reach, alarm[r])
+            label[rows[r]] = len(events) - 1
+            big, w, start, k = events[-1]
+            events[-1] = (max(big, float(size[rows[r]])), w, start, k)
+    ranked = sorted(events, key=lambda e: (-e[0], e[2], e[3]))
+    number = {e[3]: i + 1 for i, e in enumerate(ranked)}
+    return pd.Series([number[k] for k in label], index=alerts.index, name="event")
+
+
+def ordered_by_event(alerts: pd.DataFrame) -> pd.DataFrame:
+    """``alerts`` with an ``event`` column (computed when missing), event by event and,
+    within one, the largest alert first (ties in the alerts' own order)."""
+    events = alerts["event"] if "event" in alerts.columns else number_events(alerts)
+    return (alerts.assign(event=events, _size=change_size(alerts))
+            .sort_values(["event", "_size"], ascending=[True, False], kind="stable")
+            .drop(columns="_size"))
