@@ -71,7 +71,8 @@ def test_json_shape_and_units(tmp_path: Path, surface, capsys) -> None:
     assert set(doc) == {"cards", "summary"} and len(doc["cards"]) == 2
     full, pound = doc["cards"]
     assert full["status"] == "computed" and full["reason"] == ""
-    assert full["card"] == {"id": "card0", "well": "W-1", "source": full["card"]["source"]}
+    assert {k: full["card"][k] for k in ("id", "well")} == {"id": "card0", "well": "W-1"}
+    assert full["card"]["warnings"] == [] and full["card"]["notes"]
     down = full["downhole"]
     assert down["units"] == {"position": "in", "load": "lbf"}
     assert len(down["position"]) == len(down["load"]) == 120
@@ -394,3 +395,42 @@ def test_true_loads_say_why_the_pump_cards_are_not_compared(tmp_path: Path, surf
     code = main(["downhole", str(cards), "--well", well, "--spm", str(SPM), "--card", "card1"])
     text = capsys.readouterr().out
     assert code == 0 and "fitted and diagnostic pump cards differ by RMS" in text
+
+
+def test_the_readers_warnings_are_given(tmp_path: Path, surface, capsys) -> None:
+    # Position and load columns swapped by their headers: the reader warned, downhole said
+    # nothing and gave a plunger stroke of tens of metres, exit 0.
+    s, loads = surface
+    path = tmp_path / "swapped.csv"
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(["card_id", "well_id", "load_lbf", "position_in"])
+        for a, b in zip(s / INCH, loads[0] / LBF, strict=True):
+            w.writerow(["card0", "W-1", f"{a:.6f}", f"{b:.4f}"])
+    well = write_well(tmp_path / "well.json")
+    main(["downhole", str(path), "--well", str(well), "--spm", str(SPM), "--no-identify"])
+    out = capsys.readouterr().out
+    assert re.search(r"\n  warning: .*swapped", out)
+    _, doc = run_json(capsys, str(path), "--well", str(well), "--spm", str(SPM),
+                      "--no-identify")
+    assert any("swapped" in w for w in doc["cards"][0]["card"]["warnings"])
+
+
+def test_a_rate_given_over_the_cards_own_is_a_warning(tmp_path: Path, surface,
+                                                      capsys) -> None:
+    # --spm 4 over a card file's own 8 SPM halved the displacement, said only in a note
+    # under --verbose.
+    s, loads = surface
+    path = tmp_path / "card.json"
+    path.write_text(json.dumps({"card_id": "c", "well_id": "W-1", "spm": SPM,
+                                "position": (s / INCH).tolist(),
+                                "load": (loads[0] / LBF).tolist(),
+                                "position_unit": "in", "load_unit": "lbf"}),
+                    encoding="utf-8")
+    well = write_well(tmp_path / "well.json")
+    main(["downhole", str(path), "--well", str(well), "--spm", "4", "--no-identify"])
+    out = capsys.readouterr().out
+    assert "warning: the card's time is rebuilt from the stroke rate given (4 SPM), not " \
+           "from the file's own (8 SPM" in out
+    main(["downhole", str(path), "--well", str(well), "--spm", str(SPM), "--no-identify"])
+    assert "warning" not in capsys.readouterr().out

@@ -430,11 +430,21 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
 
     # Time: file time wins; otherwise the caller's rate, then the file's rate.
     spm, period, rate_where = raw.spm, raw.period, raw.rate_where
+    overridden: list[str] = []
     if o.spm is not None or o.period is not None:
         if spm is not None or period is not None:
             notes.append(
                 f"stroke rate given by the caller overrides the one in the file ({rate_where})"
             )
+            mine = period if period is not None else 60.0 / spm  # type: ignore[operator]
+            given = o.period if o.period is not None else 60.0 / o.spm  # type: ignore[operator]
+            if t is None and not math.isclose(mine, given, rel_tol=1e-9):
+                # A field's --spm re-timed every card that states its own rate (8 SPM read
+                # as 4 halved the displacement) with only a note, shown under --verbose.
+                overridden.append(
+                    f"the card's time is rebuilt from the stroke rate given "
+                    f"({fmt(60.0 / given)} SPM), not from the file's own "
+                    f"({fmt(60.0 / mine)} SPM, {rate_where})")
         spm, period, rate_where = o.spm, o.period, "given by the caller"
     if spm is not None and period is None:
         period = 60.0 / spm
@@ -485,6 +495,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     card_time(meta, notes)
     warnings = [
         *raw.warnings,
+        *overridden,
         *plausibility_warnings(
             raw.card_id,
             pos,

@@ -129,9 +129,13 @@ class _Text:
     def row(self, res: DownholeCard) -> None:
         for line in res.text():
             print(line, file=self.stream)
+        # The reader's warnings (position and load that look swapped gave a 29.6 m plunger
+        # stroke without a word); its notes with the others below.
+        for warning in res.downhole.card.warnings:
+            print(f"  warning: {printable(warning)}", file=self.stream)
         if not res.downhole.ok:
             return
-        notes = list(res.downhole.notes)
+        notes = [*(res.downhole.card.notes if self.verbose else ()), *res.downhole.notes]
         if res.fitted and res.fit is not None:
             notes += list(res.fit.notes)
         if not self.verbose:  # the notes that change how the card reads

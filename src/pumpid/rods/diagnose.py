@@ -158,7 +158,10 @@ class DownholeResult:
             "card": {"id": card.card_id,
                      "well": card.well_id if card.well_id is not None else (
                          self.well.well_id if self.well is not None else None),
-                     "source": card.source},
+                     "source": card.source,
+                     # What the reader saw (columns that look swapped, a rate given over
+                     # the file's own): pumpid fit and batch gave them, downhole did not.
+                     "warnings": list(card.warnings), "notes": list(card.notes)},
         }
         if not self.ok or self.position is None or self.load is None:
             out["downhole"] = None
