@@ -296,7 +296,7 @@ def test_a_negative_intake_pressure_is_said_without_verbose(tmp_path: Path, surf
     # pressure comes out below zero. The note that says so was printed only with --verbose,
     # while the number stood on its own in the default output.
     light = json.loads(json.dumps(WELL))
-    light["wells"]["W-1"]["fluid"]["specific_gravity"] = 0.2
+    light["wells"]["W-1"]["fluid"]["specific_gravity"] = 0.4
     cards = write_cards(tmp_path / "cards.csv", surface)
     code = main(["downhole", str(cards), "--well", str(write_well(tmp_path / "w.json", light)),
                  "--spm", str(SPM), "--no-identify", "--card", "card1"])
@@ -434,3 +434,32 @@ def test_a_rate_given_over_the_cards_own_is_a_warning(tmp_path: Path, surface,
            "from the file's own (8 SPM" in out
     main(["downhole", str(path), "--well", str(well), "--spm", str(SPM), "--no-identify"])
     assert "warning" not in capsys.readouterr().out
+
+
+def test_a_card_without_fluid_load_gives_no_fillage(tmp_path: Path, surface, capsys) -> None:
+    # A damping far too high leaves the pump card no fluid load: "fillage 1" and an intake
+    # pressure above the discharge pressure were printed, the note only under --verbose.
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    well = str(write_well(tmp_path / "w.json"))
+    main(["downhole", str(cards), "--well", well, "--spm", str(SPM), "--no-identify",
+          "--card", "card0", "--damping", "5"])
+    text = capsys.readouterr().out
+    assert "fluid load -" in text and "fillage" not in text.split("note:")[0]
+    assert "note: the pump card has no fluid load" in text
+    _, doc = run_json(capsys, str(cards), "--well", well, "--spm", str(SPM), "--no-identify",
+                      "--card", "card0", "--damping", "5")
+    pump = doc["cards"][0]["pump"]
+    assert all(pump[q]["value"] is None
+               for q in ("fillage", "net_stroke", "displacement", "intake_pressure"))
+
+
+def test_loads_below_the_rods_weight_are_said(tmp_path: Path, surface, capsys) -> None:
+    # Loads in lbf read as N: the pump card's load lines sat far below zero, its fillage
+    # and displacement plausible, without a word.
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    wrong = tmp_path / "wrong.csv"
+    wrong.write_text(cards.read_text().replace("load_lbf", "load_N"), encoding="utf-8")
+    main(["downhole", str(wrong), "--well", str(write_well(tmp_path / "w.json")), "--spm",
+          str(SPM), "--no-identify", "--card", "card0"])
+    assert "note: the card's largest load is below the rods' weight in the fluid" in \
+        capsys.readouterr().out

@@ -85,6 +85,19 @@ def test_one_well_applies_to_every_card_several_are_matched(tmp_path: Path) -> N
      "unknown key"),
     (lambda d: d["units"].update(length="furlong"), "units.length", "unknown unit"),
     (lambda d: d["units"].pop("diameter"), "units.diameter", "missing"),
+    # Slips of unit or key gave confident pump quantities, exit 0.
+    (lambda d: d["wells"]["W-1"].update(fluid={"specific_gravity": 988}),
+     "fluid.specific_gravity", "a density belongs in fluid.density"),
+    (lambda d: d["wells"]["W-1"].update(fluid={"density": 0.9}), "fluid.density",
+     "outside the range of well fluids"),
+    (lambda d: d["wells"]["W-1"]["pump"].update(plunger_diameter=17.5), "pump.plunger_diameter",
+     "444.5 mm is outside the range of rod pumps' plungers"),
+    (lambda d: d["wells"]["W-1"]["rods"][1].update(diameter=8.75), "rods[1].diameter",
+     "outside the range of rods and sinker bars"),
+    (lambda d: d["wells"]["W-1"]["rods"][0].update(density=0.528), "rods[0].density",
+     "outside the range of rod materials"),
+    (lambda d: d["wells"]["W-1"]["rods"][0].update(modulus=30e9), "rods[0].modulus",
+     "outside the range of rod materials"),
 ])
 def test_every_problem_is_named(tmp_path: Path, mutate, field: str, words: str) -> None:
     doc = json.loads(json.dumps(US))

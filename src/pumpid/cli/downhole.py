@@ -158,13 +158,19 @@ class _Text:
 
 #: Words of the notes printed without --verbose: a card read in reverse, a quantity beside
 #: the card that cannot be physical as it stands (an intake pressure of -830 psi was printed
-#: with its note only under --verbose), and what a printed quantity assumes (the intake
-#: pressure with no tubing-head pressure in the well file; the pump card computed at the
-#: rods' bottom, short of the pump); and a card in other units than its well file (the text
-#: mixed in/lbf with m3/d and kPa without a word).
+#: with its note only under --verbose; a card with no fluid load), and what a printed
+#: quantity assumes or leaves out (the intake pressure with no tubing-head pressure in the
+#: well file, or none without a fluid; the pump card computed at the rods' bottom, short of
+#: the pump; a net stroke not corrected for a free tubing's stretch; a loop that does not
+#: close; fewer harmonics than asked); a card in other units than its well file (the text
+#: mixed in/lbf with m3/d and kPa without a word), or of another well, or lighter than the
+#: rods.
 _ALWAYS_SAID = ("reverse", "intake pressure is negative", "tubing-head pressure taken as 0",
                 "the pump card is computed at the bottom of the rods",
-                "converted, results in the card's units")
+                "converted, results in the card's units", "has no fluid load",
+                "no fluid entry", "not corrected for tubing stretch",
+                "differs from the well file's", "the loop does not close",
+                "below the rods' weight", "harmonics asked")
 
 
 class _Json:

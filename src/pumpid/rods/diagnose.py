@@ -130,11 +130,16 @@ class DownholeResult:
         m = self.pump
         # The load lines on the card shown: in the true convention they sat 5 kN above the
         # card they were printed with (fj2), as measured on the effective one.
-        values = {"gross_stroke": m.gross_stroke, "net_stroke": m.net_stroke,
-                  "fluid_load": m.fluid_load, "fillage": m.fillage,
+        # No fluid load: no fillage, net stroke or displacement, and an intake pressure
+        # above the discharge pressure; a fluid load of -200 kN printed "fillage 1" and an
+        # intake pressure of 1.5e5 kPa, and the fleet trended them.
+        lifts = m.fluid_load > 0
+        values = {"gross_stroke": m.gross_stroke, "net_stroke": m.net_stroke if lifts else None,
+                  "fluid_load": m.fluid_load, "fillage": m.fillage if lifts else None,
                   "upper_load_line": m.upper_load - self.true_shift,
                   "lower_load_line": m.lower_load - self.true_shift,
-                  "displacement": m.displacement, "intake_pressure": m.intake_pressure}
+                  "displacement": m.displacement if lifts else None,
+                  "intake_pressure": m.intake_pressure if lifts else None}
         return {name: {"value": None if v is None else float(v) / units[name][1],
                        "unit": units[name][0]} for name, v in values.items()}
 
@@ -452,6 +457,15 @@ def _result(card: Card, well: Well, static: _Static, pos: Array, ten: Array, rev
     if card.well_id is not None and card.well_id != well.well_id:
         notes.append(f"the card's well id {card.well_id!r} differs from the well file's only "
                      f"well {well.well_id!r}, which applies to every card")
+    weight = well.buoyant_weight()
+    if float(np.max(card.load)) * LOAD_UNITS[card.load_unit or "N"] < weight:
+        # A polished rod carries at least the rods' weight in the fluid on the upstroke:
+        # loads below it (the Sandia record against a guessed string) gave a pump card
+        # whose load lines sat at -10,700 lbf, its fillage and displacement plausible.
+        notes.append(f"the card's largest load is below the rods' weight in the fluid "
+                     f"({weight / LOAD_UNITS[card.load_unit or 'N']:.4g} "
+                     f"{card.load_unit or 'N'}): the well file, the load unit or the load "
+                     "cell's zero is wrong, and the pump card with it")
     if rev:
         notes.append("the card's loop turns the wrong way for time order (higher loads on the "
                      "falling half: stored in reverse time order); it was used reversed, and "

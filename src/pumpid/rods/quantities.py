@@ -208,7 +208,8 @@ def pump_measure(well: Well, gross: float, upper: float, lower: float, fillage: 
     fluid = upper - lower
     if not fluid > 0:
         notes.append("the pump card has no fluid load (its upstroke load is not above its "
-                     "downstroke load): fillage and net stroke are not meaningful")
+                     "downstroke load): its fillage, net stroke, displacement and intake "
+                     "pressure are not meaningful")
     net = fillage * gross
     tubing = well.tubing
     if not tubing.anchored:

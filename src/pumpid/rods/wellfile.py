@@ -53,6 +53,16 @@ _PUMP_KEYS = {"depth", "plunger_diameter", *_META}
 _TUBING_KEYS = {"anchored", "outer_diameter", "inner_diameter", "modulus", "head_pressure",
                 *_META}
 _FLUID_KEYS = {"specific_gravity", "density", *_META}
+#: Ranges no rod-pumped well leaves, in SI, with the unit their message gives them in and
+#: its size: a value beyond is a slip of unit or key (a specific gravity of 988, a plunger
+#: of 440 mm, rods of 8.5 kg/m3 gave confident pump quantities, exit 0).
+_PLAUSIBLE: dict[str, tuple[float, float, str, float, str]] = {
+    "diameter": (0.005, 0.1, "mm", 1e-3, "rods and sinker bars"),
+    "plunger_diameter": (0.01, 0.2, "mm", 1e-3, "rod pumps' plungers"),
+    "density": (1000.0, 20000.0, "kg/m3", 1.0, "rod materials"),
+    "modulus": (5e9, 5e11, "GPa", 1e9, "rod materials"),
+    "fluid density": (300.0, 2500.0, "kg/m3", 1.0, "well fluids"),
+}
 
 
 def _unit_key(text: str) -> str:
@@ -218,6 +228,15 @@ class _Reader:
             raise self.fail(f"must be a positive finite number, got {value!r}", f"{where}.{key}")
         return x * self.scale(unit)
 
+    def plausible(self, value: float | None, kind: str, where: str) -> float | None:
+        """``value`` (SI) when a rod-pumped well can have it; else the field is refused."""
+        lo, hi, unit, size, what = _PLAUSIBLE[kind]
+        if value is not None and not lo <= value <= hi:
+            raise self.fail(f"{value / size:.4g} {unit} is outside the range of {what} "
+                            f"({lo / size:g} to {hi / size:g} {unit}): check the value and "
+                            "the file's units", where)
+        return value
+
     def well(self, spec: Any) -> Well:
         spec = self.obj(spec, _WELL_KEYS, "well")
         rods = spec.get("rods")
@@ -232,9 +251,10 @@ class _Reader:
         if "pump" not in spec:
             raise self.fail("missing (depth and plunger_diameter)", "pump")
         p = self.obj(spec["pump"], _PUMP_KEYS, "pump")
+        plunger = self.plausible(self.number(p, "plunger_diameter", "pump", "diameter"),
+                                 "plunger_diameter", "pump.plunger_diameter")
         pump = Pump(depth=self.number(p, "depth", "pump", "length"),  # type: ignore[arg-type]
-                    plunger_diameter=self.number(p, "plunger_diameter", "pump",  # type: ignore[arg-type]
-                                                 "diameter"))
+                    plunger_diameter=plunger)  # type: ignore[arg-type]
         tubing = self.tubing(spec.get("tubing"))
         fluid = self.fluid(spec.get("fluid"))
         total = sum(t.length for t in tapers)
@@ -280,6 +300,9 @@ class _Reader:
             missing = "modulus" if modulus is None else "density"
             raise self.fail(f"give a material ({' or '.join(MATERIALS)}) or both modulus and "
                             f"density (missing {missing})", f"{where}.{missing}")
+        self.plausible(diameter, "diameter", f"{where}.diameter")
+        self.plausible(modulus, "modulus", f"{where}.modulus")
+        self.plausible(density, "density", f"{where}.density")
         return Taper(length=length, diameter=diameter, modulus=modulus,  # type: ignore[arg-type]
                      density=density, material=None if material is None else str(material).lower(),
                      kind=kind)
@@ -331,8 +354,14 @@ class _Reader:
                     math.isfinite(sg) and sg > 0):
                 raise self.fail(f"must be a positive number, got {sg!r}",
                                 "fluid.specific_gravity")
+            lo, hi = (v / WATER_DENSITY for v in _PLAUSIBLE["fluid density"][:2])
+            if not lo <= sg <= hi:
+                raise self.fail(f"{sg:g} is outside the range of well fluids ({lo:g} to "
+                                f"{hi:g}; water 1): a density belongs in fluid.density, "
+                                "with its unit", "fluid.specific_gravity")
             return Fluid(density=float(sg) * WATER_DENSITY)
         density = self.number(f, "density", "fluid", "density", required=False)
         if density is None:
             raise self.fail("give specific_gravity or density", "fluid")
-        return Fluid(density=density)
+        return Fluid(density=self.plausible(density, "fluid density",  # type: ignore[arg-type]
+                                            "fluid.density"))
