@@ -98,3 +98,37 @@ def test_a_batch_keeps_going_past_bad_rows() -> None:
 def test_wrong_kind_of_model_is_a_type_error() -> None:
     with pytest.raises(TypeError, match="model must be"):
         pumpid.fit({"k0": 4.0}, (T, LOAD, DISP))  # type: ignore[arg-type]
+
+
+def test_a_start_mapping_is_checked_as_the_other_forms_are() -> None:
+    # x0={"k0": -100, ...} became k0 = 1.0 without a word in a single fit.
+    for bad in (-100.0, 0.0):
+        with pytest.raises(ValueError, match=r"x0: .*k0"):
+            pumpid.fit(pumpid.Kelvin, (T, LOAD, DISP),
+                       x0={"k0": bad, "m": 1.0, "c1": 1.0, "k1": 1.0})
+
+
+def test_units_of_the_wrong_type_are_a_type_error() -> None:
+    # units="lbf" read as three entries for one record.
+    for bad in ("lbf", ("lbf", "in")):
+        with pytest.raises(TypeError, match=r"pumpid\.Units"):
+            pumpid.fit(pumpid.Kelvin, (T, LOAD, DISP), units=bad)  # type: ignore[arg-type]
+
+
+def test_an_empty_record_is_told_the_fits_minimum() -> None:
+    with pytest.raises(ValueError, match="a fit needs at least 10"):
+        pumpid.fit(pumpid.Kelvin, (np.zeros(0), np.zeros(0), np.zeros(0)))
+
+
+def test_a_period_given_makes_arrays_periodic() -> None:
+    # FitOptions.for_cards(period=T) on arrays was fitted from rest (715 times the cost of
+    # the periodic fit, converged, no warning).
+    period = 7.5
+    t = np.arange(200) * period / 200
+    load = 5000 + 2000 * np.sin(2 * np.pi * t / period) + 300 * np.sin(4 * np.pi * t / period)
+    pos = pumpid.simulate(pumpid.Kelvin(k0=40, m=1, c1=20, k1=40), t, load,
+                          initial_state="periodic", period=period)
+    res = pumpid.fit("kelvin", (t, load, pos), options=pumpid.FitOptions.for_cards(period=period))
+    assert res.initial_state == "periodic" and res.r2 > 0.999999
+    with pytest.raises(ValueError, match="would not use it"):
+        pumpid.FitOptions(period=period, initial_state="rest")

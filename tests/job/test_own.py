@@ -257,3 +257,41 @@ def test_a_model_is_told_which_parameters_each_fit_holds() -> None:
     assert res.params == free.params and res.stderr == free.stderr
     pumpid.fit(lazy, _record(3))
     assert told[-1] == frozenset()
+
+
+class BoundedStep(Step):
+    """Step with tau declared within 0.5-1.5 s: the data (tau = 2 s) want it beyond."""
+
+    parameters = (Parameter("tau", "s", lower=0.5, upper=1.5, start=1.0),
+                  Parameter("g", "V", lower=-math.inf, start=1.0),
+                  Parameter("b", "V", lower=-math.inf, start=0.0))
+
+
+def test_a_positive_value_on_its_declared_bound_is_at_that_bound() -> None:
+    # tau stopped on its declared upper bound was said to "run to infinity (fitted value
+    # 1.5 is arbitrary ...)", while pushing it on lowers the cost.
+    res = pumpid.fit(BoundedStep(), _record(1))
+    assert res.params["tau"] == pytest.approx(1.5)
+    assert [(b.name, b.direction) for b in res.boundary.limits] == [("tau", "upper")]
+    said = " ".join(res.identifiability) + " ".join(res.warnings)
+    assert "runs to its upper bound" in said
+    assert "infinity" not in said and "arbitrary" not in said
+
+
+def test_an_own_models_misuse_is_said_plainly() -> None:
+    class NoSensitivities(Step):
+        def simulate(self, values, data, sensitivities):
+            return super().simulate(values, data, False)
+
+    with pytest.raises(ValueError, match="returned no sensitivities when asked"):
+        pumpid.fit(NoSensitivities(), _record(1))
+    # Held values outside the declared bounds were fitted and reported (tau = 50 above an
+    # upper bound of 1.5, converged).
+    for fixed in ({"tau": 50.0}, {"tau": -1.0}, {"tau": 0.1}):
+        with pytest.raises(ValueError, match="is outside its bounds"):
+            pumpid.fit(BoundedStep(), _record(1), options=pumpid.FitOptions(fixed=fixed))
+    with pytest.raises(ValueError, match="above 0"):
+        pumpid.fit(Step(), _record(1), options=pumpid.FitOptions(fixed={"tau": 0.0}))
+    # The class for an instance: "must be a model instance ... or a model class".
+    with pytest.raises(TypeError, match=r"as an instance.*Step\(\.\.\.\)"):
+        pumpid.fit(Step, _record(1))

@@ -164,7 +164,21 @@ def initial_state_label(initial_state: InitialState) -> str | list[float]:
 
 @dataclass(frozen=True)
 class CardData:
-    """One card's samples and its initial-state choice (before validation)."""
+    """One card's samples and its initial-state choice (before validation).
+
+    Attributes
+    ----------
+    t : array_like
+        Time, s, strictly increasing.
+    load : array_like
+        The input (the polished-rod load of a card).
+    data : array_like
+        The measured output, in the observed state's terms (a card's displacement).
+    initial_state : {"rest", "equilibrium", "periodic"}, default "rest"
+        How the record starts.
+    period : float, optional
+        The stroke period, s, for ``initial_state="periodic"`` (default: the record's span).
+    """
 
     t: ArrayLike
     load: ArrayLike
@@ -456,9 +470,12 @@ def _validate_card(
 ) -> tuple[Array, Array, Array, int, Array, float, bool]:
     """One card's arrays, mode, given state, period and uniformity; ValueError naming the
     problem otherwise."""
+    # The fit's own minimum for every short record, an empty one included (it was told
+    # "at least 1 are needed").
+    size = check_signal("t", card.t).size
+    if size < MIN_SAMPLES:
+        raise ValueError(f"t: {size} samples; a fit needs at least {MIN_SAMPLES}")
     t, uniform = make_time(card.t, min_samples=1)
-    if t.size < MIN_SAMPLES:
-        raise ValueError(f"t: {t.size} samples; a fit needs at least {MIN_SAMPLES}")
     span = float(t[-1] - t[0])
     if not TIME_SPAN[0] <= span <= TIME_SPAN[1]:
         raise ValueError(f"t: the record lasts {span:.3g} s; a fit needs a duration between "

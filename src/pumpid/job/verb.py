@@ -83,6 +83,8 @@ def card_record(card: Card, options: FitOptions) -> CardData:
 def _record(item: CardData, options: FitOptions) -> CardData:
     """A record under ``options``: its own initial state and period unless they say."""
     state = item.initial_state if options.initial_state is None else options.initial_state
+    if options.initial_state is None and options.period is not None:
+        state = "periodic"  # a period given makes the record periodic (FitOptions.period)
     period = item.period if options.period is None else options.period
     return CardData(item.t, item.load, item.data, state, period)
 
@@ -208,6 +210,9 @@ def fit(
     """
     if options is not None and not isinstance(options, FitOptions):
         raise TypeError(f"options must be a FitOptions, got {type(options).__name__}")
+    if isinstance(model, type) and issubclass(model, OwnModel):
+        raise TypeError(f"an own model is given as an instance, with what it needs: "
+                        f"{model.__name__}(...), not the class {model.__name__}")
     if isinstance(model, OwnModel):
         # An own model's data are its own business: a list is many items, anything else one.
         own_items = list(data) if isinstance(data, list) else [data]
@@ -231,6 +236,10 @@ def fit(
 
 def _unit_rows(items: Sequence[Any], units: Units | Sequence[Units] | None) -> list[Units]:
     if units is not None and not isinstance(units, Units):
+        # A string is a sequence too: units="lbf" read as 3 entries for 1 record.
+        if isinstance(units, str | bytes) or not all(isinstance(u, Units) for u in units):
+            raise TypeError(f"units must be a pumpid.Units (or a list of one per record), "
+                            f"got {units!r}")
         rows = list(units)
         if len(rows) != len(items):
             raise ValueError(f"units: {len(rows)} entries for {len(items)} records")
@@ -435,7 +444,11 @@ def _start_theta(model: Model | type[Model], x0: Mapping[str, float] | Model | A
         for key in ("C", "D", "offset"):
             if key in x0:
                 extras[key] = _x0_number(x0[key], key)
-        return cls, np.array(values), extras
+        # Checked as the other forms are: a start of -100 became 1.0 without a word.
+        try:
+            return cls, cls.from_values(np.array(values)).values, extras
+        except ValueError as exc:
+            raise ValueError(f"x0: {exc}") from None
     arr = _x0_array(x0).ravel()
     return cls, cls.from_values(arr).values, extras
 
