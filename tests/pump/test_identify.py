@@ -52,8 +52,8 @@ def test_each_case_is_identified(made, index: int, name: str) -> None:
     assert q["fluid_load"]["unit"] == "lbf" and q["fillage"]["unit"] == "fraction"
     assert q["fluid_load"]["value"] == pytest.approx(fluid / LBF, rel=0.02)
     assert abs(q["fillage"]["value"] - truth.fillage) < 0.02
-    for entry in q.values():
-        assert entry["stderr"] is not None and entry["stderr"] >= 0
+    for entry in q.values():  # a full pump's fillage is held: no error
+        assert entry["held"] or (entry["stderr"] is not None and entry["stderr"] >= 0)
     damping = got.damping()
     assert damping["value"] == pytest.approx(NU, rel=0.1)
     assert damping["stderr"] > 0 and "identified from the card" in damping["rule"]
@@ -90,6 +90,10 @@ def test_full_pump_is_said_and_its_gas_parameter_held(made) -> None:
     assert "intake_ratio" not in full.fit.free
     assert any("full pump" in n for n in full.notes)
     assert fits[1].full_pump is False
+    # Its fillage is the hold, not a measurement: it read "1 +- 9.9e-06", determined.
+    fillage = full.quantities()["fillage"]
+    assert fillage["held"] and fillage["stderr"] is None and not fillage["determined"]
+    assert not fits[1].quantities()["fillage"]["held"]
 
 
 def test_json_form_has_each_quantity_with_error_and_the_fit(made) -> None:
@@ -97,7 +101,7 @@ def test_json_form_has_each_quantity_with_error_and_the_fit(made) -> None:
     assert got["status"] == "converged"
     assert set(got["pump"]) == {"fluid_load", "fillage", "gross_stroke", "net_stroke",
                                 "displacement", "intake_pressure"}
-    assert set(got["pump"]["fillage"]) == {"value", "stderr", "unit", "determined"}
+    assert set(got["pump"]["fillage"]) == {"value", "stderr", "unit", "determined", "held"}
     assert 0.99 < got["r2"] <= 1 and got["residual_autocorrelation"] is not None
     assert got["energy"]["unit"] == "lbf*in" and got["energy"]["loss_unit"] == "fraction"
     assert 0 < got["energy"]["string_loss"] < 1

@@ -81,7 +81,10 @@ def test_json_shape_and_units(tmp_path: Path, surface, capsys) -> None:
     for name in ("gross_stroke", "net_stroke", "fluid_load", "fillage", "displacement",
                  "intake_pressure"):
         entry = full["pump"][name]
-        assert set(entry) == {"value", "stderr", "unit", "determined"}
+        assert set(entry) == {"value", "stderr", "unit", "determined", "held"}
+        if name == "fillage":  # a full pump's: its liquid fraction held at 1
+            assert entry["held"] and entry["stderr"] is None and not entry["determined"]
+            continue
         assert 0 < entry["stderr"] < 0.05 * abs(entry["value"]) and entry["determined"]
         assert set(down["pump"][name]) == {"value", "unit"}
     for name in ("upper_load_line", "lower_load_line"):  # measured on the diagnostic only

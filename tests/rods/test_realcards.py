@@ -193,3 +193,23 @@ def test_an_unusable_identification_gives_its_residual_autocorrelation(
     text = " ".join(capsys.readouterr().out.split())
     assert re.search(r"pump not identified \(undetermined, R\^2 0\.\d+, residual lag-1 "
                      r"autocorrelation 0\.\d\d:", text), text[:400]
+
+
+def test_a_batch_row_gives_the_damping_of_the_values_it_gives(shared_raw: Path,
+                                                               tmp_path: Path) -> None:
+    # fj1's identification is undetermined, so the diagnostic card used the default rule's
+    # 0.05; the row's identified quantities came with pump_damping 0.05 beside them, not
+    # the 0.64 that made them.
+    import pandas as pd
+
+    well, entry = well_file(shared_raw, "fj1", tmp_path)
+    field = tmp_path / "field"
+    field.mkdir()
+    card = field / "fj1.csv"
+    card.write_bytes((shared_raw / FOLDER / entry["card_csv"]).read_bytes())
+    main(["batch", str(field), "--out", str(tmp_path / "res"), "--well-file", str(well),
+          "--spm", f"{float(entry['spm']):g}", "--pump-only", "--engine", "local"])
+    row = pd.read_parquet(tmp_path / "res").iloc[0]
+    assert row["identify_status"] == "undetermined"
+    assert row["downhole_damping"] == pytest.approx(0.05)
+    assert row["pump_damping"] > 0.3 and row["pump_damping_se"] > 0

@@ -313,8 +313,12 @@ def _identified_columns(row: dict[str, Any], fit: PumpFit | None) -> None:
         return
     assert fit.fit is not None
     white = fit.fit.whiteness
-    row["pump_damping"] = _finite(damping["value"])
-    row["pump_damping_se"] = _finite(damping["stderr"])
+    # The damping of the fit whose quantities the row gives: a poor fit's fluid load of
+    # 3174 lbf sat beside the default rule's 0.05, the diagnostic card's damping (which
+    # downhole_damping gives).
+    own = fit.damping(used=False)
+    row["pump_damping"] = _finite(own["value"])
+    row["pump_damping_se"] = _finite(own["stderr"])
     row["pump_r2"] = _finite(fit.fit.r2)
     row["pump_residual_rho"] = None if white is None else _finite(
         white.get("lag1_autocorrelation"))

@@ -231,17 +231,23 @@ class PumpFit:
                 se = math.nan if d is None else d.stderr
                 called = d is not None and d.determined
             se = math.hypot(se, self.discretization.get(name, 0.0))
+            # A full pump's fillage is its held liquid fraction, not a measurement: it read
+            # "1 +- 9.9e-06, determined" on a card whose identification was undetermined.
+            held = name == "fillage" and self.full_pump
+            if held:
+                se = math.nan
             # An intake pressure of 4014 +- 1e4 kPa was shown as a used value.
             determined = bool(called and math.isfinite(se) and se <= abs(value))
             out[name] = {"value": _num(value), "stderr": _num(se), "unit": units[name][0],
-                         "determined": determined}
+                         "determined": determined, "held": held}
         return out
 
-    def damping(self) -> dict[str, Any]:
+    def damping(self, used: bool = True) -> dict[str, Any]:
         """The damping used, ``{"value", "stderr", "unit", "rule"}`` (stderr None when given
-        or not identified)."""
+        or not identified); with ``used=False`` the fit's own, whatever the diagnostic card
+        used (a poor fit's quantities come with the damping that made them)."""
         fitted = self.fit.params["damping"] if self.fit is not None else math.nan
-        value = self.downhole.damping if self.downhole is not None else fitted
+        value = (self.downhole.damping if self.downhole is not None and used else fitted)
         # The fit's error belongs to the fitted value only: not to a default rule's value
         # used instead, nor to a damping held in the fit.
         held = self.fit is not None and "damping" not in self.fit.free

@@ -252,7 +252,7 @@ class DownholeCard:
         q = self.pump()
         parts = [f"{name.replace('_', ' ')} "
                  + format_error(q[name]["value"], q[name]["stderr"], q[name]["unit"])
-                 + (" (not determined)" if q[name].get("determined") is False else "")
+                 + _undetermined(q[name])
                  for name in SHOWN if name in q and q[name]["value"] is not None]
         damping = self.damping()
         nu = format_error(damping["value"], damping["stderr"], "")
@@ -271,6 +271,13 @@ class DownholeCard:
                          f"card is in {self.downhole.convention} loads, the fitted one in "
                          "effective loads")
         return lines
+
+
+def _undetermined(q: dict[str, Any]) -> str:
+    """What a quantity's value is when the fit does not determine it."""
+    if q.get("held"):
+        return " (held: a full pump)"
+    return " (not determined)" if q.get("determined") is False else ""
 
 
 def _solvers(consistency: float | None) -> str:

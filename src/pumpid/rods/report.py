@@ -292,7 +292,9 @@ def _pm(q: Mapping[str, Any]) -> str:
     se = q.get("stderr")
     if text != "n/a" and se is not None and math.isfinite(float(se)):
         text += f" \u00b1 {float(se):.2g}"
-    if q.get("determined") is False:
+    if q.get("held"):
+        text += " (held: a full pump)"
+    elif q.get("determined") is False:
         text += " (not determined)"
     return text
 
