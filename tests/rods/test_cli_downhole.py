@@ -395,6 +395,14 @@ def test_true_loads_say_why_the_pump_cards_are_not_compared(tmp_path: Path, surf
                  "--convention", "true"])
     text = capsys.readouterr().out
     assert code == 0 and "pump cards not compared: the diagnostic card is in true loads" in text
+    # The identified card is in effective loads: it was written as if in true ones.
+    out = tmp_path / "out"
+    main(["downhole", str(cards), "--well", well, "--spm", str(SPM), "--card", "card1",
+          "--convention", "true", "--out", str(out), "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["cards"][0]["identification"]["pump_card"]["convention"] == "effective"
+    head = (out / "pump_card.csv").read_text(encoding="utf-8").splitlines()[0]
+    assert "identified_effective_pump_load_lbf" in head and "pump_load_lbf" in head
     code = main(["downhole", str(cards), "--well", well, "--spm", str(SPM), "--card", "card1"])
     text = capsys.readouterr().out
     assert code == 0 and "fitted and diagnostic pump cards differ by RMS" in text

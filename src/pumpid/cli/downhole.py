@@ -219,8 +219,10 @@ def _pump_csv(res: DownholeCard) -> str:
     columns = [card.position, card.load, down.pump_position, down.pump_load]
     ident = res.identification()
     if ident is not None and "pump_card" in ident:
+        # The identified card's loads are effective ones, whatever the diagnostic's.
+        effective = "" if down.convention == "effective" else "effective_"
         head += [f"fitted_surface_load_{lu}", f"identified_pump_position_{pu}",
-                 f"identified_pump_load_{lu}"]
+                 f"identified_{effective}pump_load_{lu}"]
         columns += [ident["surface_fit"]["load"], ident["pump_card"]["position"],
                     ident["pump_card"]["load"]]
     w.writerow(head)

@@ -192,7 +192,8 @@ class DownholeCard:
             out["pump_card"] = {"position": self.file_order(pump[0]),
                                 "load": self.file_order(pump[1]),
                                 "units": {"position": card.position_unit,
-                                          "load": card.load_unit}}
+                                          "load": card.load_unit},
+                                "convention": "effective"}
         return out
 
     def to_dict(self) -> dict[str, Any]:
@@ -365,9 +366,11 @@ def draw_identified(card: DownholeCard, path: str | os.PathLike[str] | BinaryIO)
                 f"identified pump card ({fit.status}): not drawn, no periodic stroke of "
                 "the march at the fitted values")
     e.legend(loc="best", fontsize=8)
-    for ax in (d, e):
+    # The identified card is in effective loads whatever the run's convention (it was
+    # drawn on a "true pump load" axis).
+    for ax, convention in ((d, down.convention), (e, "effective")):
         ax.set_xlabel(f"plunger position from its lowest point ({pu})")
-        ax.set_ylabel(f"{down.convention} pump load ({lu})")
+        ax.set_ylabel(f"{convention} pump load ({lu})")
     for ax in (a, b, d, e):
         ax.grid(alpha=0.3)
     fl = shown["fluid_load"]
