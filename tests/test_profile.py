@@ -100,3 +100,17 @@ def test_profile_rejects_unknown_names(kelvin_fit) -> None:
         profile(kelvin_fit, "tau")
     with pytest.raises(ValueError, match="level"):
         profile(kelvin_fit, "m", level=1.5)
+
+
+def test_the_interval_ends_lie_on_the_threshold(kelvin_fit) -> None:
+    # A straight line across a coarse grid put an end where the profile had not reached
+    # the threshold (a real card's c1: 56.86 for about 55.9); each end is now refined by
+    # refits, so a refit held there costs the threshold.
+    prof = profile(kelvin_fit, "c1", n_points=5, span=1.5)
+    assert prof.lower is not None and prof.upper is not None
+    rise = prof.threshold - prof.cost_min
+    for end in (prof.lower, prof.upper):
+        held = fit(KELVIN, (T, LOAD, kelvin_fit.data),
+                   options=FitOptions(offset=True, fixed={"c1": end}),
+                   x0=dict(kelvin_fit.params))
+        assert held.cost == pytest.approx(prof.threshold, abs=2e-3 * rise)
