@@ -132,3 +132,11 @@ def test_a_period_given_makes_arrays_periodic() -> None:
     assert res.initial_state == "periodic" and res.r2 > 0.999999
     with pytest.raises(ValueError, match="would not use it"):
         pumpid.FitOptions(period=period, initial_state="rest")
+
+
+@pytest.mark.parametrize("factor", [1e-160, 1e-200])
+def test_data_whose_squares_underflow_are_refused(factor: float) -> None:
+    # Positions of 1e-160 gave "failed" beside R^2 0.9994; of 1e-200, "R^2 = not defined is
+    # below the quality threshold". Overflow was already refused.
+    with pytest.raises(ValueError, match="underflow the floating-point range; rescale"):
+        pumpid.fit(pumpid.Kelvin, (T, LOAD, DISP * factor))

@@ -96,15 +96,17 @@ def quality_gate(res: FitResult, min_r2: float) -> FitResult:
         return res
     if math.isfinite(res.r2) and res.r2 >= min_r2:
         return res
-    shown = "not defined"
+    # "R^2 = not defined is below the quality threshold" read as garbled.
+    shown = ("is not defined (the output's spread is zero or beyond the float range), so "
+             "it cannot pass")
     if math.isfinite(res.r2):
         # Enough digits to differ from the threshold: "R^2 = 0.995 is below the quality
         # threshold 0.995" was 0.994994.
         digits = 4
         while digits < 17 and float(f"{res.r2:.{digits}g}") >= min_r2:
             digits += 1
-        shown = f"{res.r2:.{digits}g}"
-    said = (f"poor fit: R^2 = {shown} is below the quality threshold {min_r2:g} (min_r2); "
+        shown = f"= {res.r2:.{digits}g} is below"
+    said = (f"poor fit: R^2 {shown} the quality threshold {min_r2:g} (min_r2); "
             f"the model does not reproduce this record: check the column roles and units, "
             f"the model structure, or the record itself before using these numbers")
     return dataclasses.replace(res, status=Status.POOR_FIT,
