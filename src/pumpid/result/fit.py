@@ -102,6 +102,42 @@ class FitResult:
         How the start was found (None for a user's guess taken as it was).
     card : CardInfo or None
         Where the data came from (card fits).
+    model_name, method, integrator, residual, observe : str
+        The model's name, the solver, the simulation scheme, the residual (``linear`` or
+        ``log``) and the observed output.
+    initial_state : str or tuple of float
+        The record's initial state (``rest``, ``equilibrium``, ``periodic`` or the values).
+    units : Units
+        The load and position units of the data.
+    free : tuple of str
+        The fitted values (parameters, ``C`` or ``D``, ``offset``), in the covariance's order.
+    t, load, data, fitted : ndarray
+        The record's time (s), input, measured output and the fitted output (read-only).
+    jacobian : ndarray or None
+        The residual's sensitivities at the answer, by the free values (read-only).
+    determined : mapping
+        What the data determine: ``parameters``, ``derived`` and ``boundary`` name lists.
+    derived : mapping of str to Derived
+        Derived quantities (natural frequency, damping ratio, static stiffness, ...) with
+        their errors and whether they are a property of the well.
+    gauge : str or None
+        The gauge fixed for a scale symmetry, in words.
+    r2_fundamental : float
+        R^2 of the stroke's fundamental alone on a periodic card (NaN elsewhere).
+    application : mapping
+        Application-specific facts (the joint fit's, the flow record's), read-only.
+    problem, options : Problem or None, mapping
+        What the fit solved and with which options, for refits (profiles, predictions).
+
+    Notes
+    -----
+    Computed views are properties (``stderr``, ``ci95``, ``stderr_white``, ``ci95_white``,
+    ``stderr_hac``, ``ci95_hac``, ``correlation``, ``covariance``, ``whiteness``,
+    ``residuals``, ``r2_beyond``, ``scale_name``; ``extra``, everything beyond the core
+    fields as the JSON has it, read-only); the dicts are fresh copies, so changing one
+    changes nothing in the result. Those that take the data's units into words
+    are methods (``param_units()``, ``scale_unit()``, ``free_values()``), as are the
+    outputs (``to_dict()``, ``to_json()``, ``to_row()``, ``report()``).
     """
 
     model: Model | None
