@@ -356,3 +356,15 @@ def test_a_single_cards_band_is_drawn_whole() -> None:
     bottom, top = _well_axes(frame, "stiffness").get_ylim()
     lo, hi = 1000.0 / np.exp(4.0), 1000.0 * np.exp(4.0)
     assert bottom <= lo and top >= hi
+
+
+def test_a_well_of_two_cards_shows_its_cards_not_a_middle_half() -> None:
+    # Two cards gave a "middle half" bar, an interpolation between them.
+    from pumpid.fleet.figures import few_wells_figure
+
+    frame = results_table(2, 2, cv=0.03, seed=8)
+    fig = few_wells_figure(frame, "stiffness", "lbf/in", set())
+    ax = fig.axes[0]
+    assert "each card (tick)" in ax.get_xlabel()
+    thick = [c for c in ax.collections if max(c.get_linewidths(), default=0) >= 5]
+    assert not thick

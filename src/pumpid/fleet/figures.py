@@ -119,6 +119,10 @@ def per_well_median(frame: pd.DataFrame, quantity: str) -> pd.Series:
 MIN_WELLS_HISTOGRAM = 5
 
 
+#: Fewest cards whose middle half (quartiles) is drawn.
+_MIN_QUARTILES = 4
+
+
 def padded_limits(lo: float, hi: float, log: bool = False) -> tuple[float, float]:
     """Axis limits around the values ``lo..hi``, with a margin; a single value gets a
     margin of 1 % of its size (a flat series is not stretched over an arbitrary range)."""
@@ -142,12 +146,19 @@ def few_wells_figure(frame: pd.DataFrame, quantity: str, unit: str,
     wells = sorted(groups.groups)
     fig = Figure(figsize=(6.4, 0.8 + 0.45 * len(wells)))
     ax = fig.subplots()
+    few = False
     for row, well in enumerate(wells):
         v = groups.get_group(well).to_numpy(dtype=float)
         q = np.quantile(v, [0.0, 0.25, 0.5, 0.75, 1.0])
         colour = "#b00020" if well in alerted else "#08519c"
         ax.hlines(row, q[0], q[4], color=colour, lw=1)
-        ax.hlines(row, q[1], q[3], color=colour, lw=5, alpha=0.5)
+        if v.size < _MIN_QUARTILES:
+            # A "middle half" of two or three cards is an interpolation between them: the
+            # cards themselves are drawn instead.
+            few = True
+            ax.plot(v, np.full(v.size, row), "|", color=colour, ms=10, mew=2)
+        else:
+            ax.hlines(row, q[1], q[3], color=colour, lw=5, alpha=0.5)
         ax.plot([q[2]], [row], "o", color=colour, ms=6)
     names = [f"{label(w)} ({count_words(groups.get_group(w).size, 'card')})" for w in wells]
     ax.set_yticks(range(len(wells)), names, fontsize=8)
@@ -155,7 +166,9 @@ def few_wells_figure(frame: pd.DataFrame, quantity: str, unit: str,
     allv = value[ok].to_numpy(dtype=float)
     ax.set_xlim(*padded_limits(float(allv.min()), float(allv.max())))
     ax.set_xlabel(f"{quantity} of each card [{unit_text(unit)}]: median (dot), middle "
-                  "half (bar), range (line)", fontsize=8)
+                  "half (bar), range (line)"
+                  + (f"; each card (tick) where a well has fewer than {_MIN_QUARTILES}"
+                     if few else ""), fontsize=8)
     ax.tick_params(labelsize=8)
     ax.grid(alpha=0.3, axis="x")
     ax.set_title(f"{quantity} in {count_words(len(wells), 'well')}"
