@@ -5,6 +5,8 @@ noise, so the model is not fitted to its own output."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -347,6 +349,9 @@ def test_the_quantities_errors_are_the_delta_method_over_the_fit(made, index: in
     white = np.array(fit.uncertainty.covariance_white)
     expected = np.sqrt(np.einsum("ai,ab,bi->i", grad, white, grad))
     for k, q in enumerate(("fillage", "gross_stroke")):
+        if q == "fillage" and got.full_pump:  # held with the liquid fraction: no error
+            assert math.isnan(fit.derived[q].stderr_white) and not fit.derived[q].determined
+            continue
         assert fit.derived[q].stderr_white == pytest.approx(expected[k], rel=0.05)
 
 

@@ -192,7 +192,11 @@ def test_an_unusable_identification_gives_its_residual_autocorrelation(
           "--spm", f"{float(entry['spm']):g}"])
     text = " ".join(capsys.readouterr().out.split())
     assert re.search(r"pump not identified \(undetermined, R\^2 0\.\d+, residual lag-1 "
-                     r"autocorrelation 0\.\d\d:", text), text[:400]
+                     r"autocorrelation 0\.\d\d\); diagnostic pump card why not identified: "
+                     r"no parameter", text), text[:400]
+    # A full pump's fillage follows from the held liquid fraction: not "determined".
+    assert "determined derived quantities: gross_stroke" in text
+    assert "fillage, gross_stroke" not in text
 
 
 def test_a_batch_row_gives_the_damping_of_the_values_it_gives(shared_raw: Path,

@@ -248,8 +248,10 @@ class DownholeCard:
             if self.residual_autocorrelation() is not None:
                 fit += (", residual lag-1 autocorrelation "
                         f"{_fmt(self.residual_autocorrelation())}")
-            head += (f"; pump not identified ({self.fit.status}{fit}: "
-                     f"{printable(self.fit.reason)}); diagnostic pump card")
+            # The reason on a line of its own: inside the head's parentheses it nested
+            # them four deep.
+            head += (f"; pump not identified ({self.fit.status}{fit}); diagnostic pump card"
+                     f"\n  why not identified: {printable(self.fit.reason)}")
         q = self.pump()
         parts = [f"{name.replace('_', ' ')} "
                  + format_error(q[name]["value"], q[name]["stderr"], q[name]["unit"])

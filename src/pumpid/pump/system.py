@@ -567,6 +567,12 @@ class PumpSystem(OwnModel):
                     grad[:, a] = math.nan
             se, se_hac = delta_errors(grad, numbers)
         units = quantity_units(self.surface.well, self.surface.card)
+        if names.index("liquid_fraction") in self._held:
+            # A full pump's fillage follows from the held liquid fraction, not from the
+            # data: its delta-method error (1e-5) made it "determined" on a card whose
+            # identification determined nothing.
+            k = QUANTITIES.index("fillage")
+            se[k] = se_hac[k] = math.nan
         out: dict[str, Derived] = {}
         for k, q in enumerate(QUANTITIES):
             shown = se_hac[k] if serial and not math.isnan(se_hac[k]) else se[k]
