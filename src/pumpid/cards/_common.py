@@ -292,6 +292,13 @@ def card_time(meta: dict[str, Any], notes: list[str]) -> None:
 
 
 # --------------------------------------------------------------------------- building
+def _period_of(spm: float | None, period: float | None) -> float | None:
+    """The stroke period (s) a rate states, None when it states none usable (a rate out of
+    range is refused further on, with its value)."""
+    value = period if period is not None else (60.0 / spm if spm else None)
+    return value if value is not None and math.isfinite(value) and value > 0 else None
+
+
 def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     """Check one raw card, apply the documented clean-ups and make the Card.
 
@@ -436,9 +443,9 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
             notes.append(
                 f"stroke rate given by the caller overrides the one in the file ({rate_where})"
             )
-            mine = period if period is not None else 60.0 / spm  # type: ignore[operator]
-            given = o.period if o.period is not None else 60.0 / o.spm  # type: ignore[operator]
-            if t is None and not math.isclose(mine, given, rel_tol=1e-9):
+            mine = _period_of(spm, period)
+            given = _period_of(o.spm, o.period)
+            if t is None and mine and given and not math.isclose(mine, given, rel_tol=1e-9):
                 # A field's --spm re-timed every card that states its own rate (8 SPM read
                 # as 4 halved the displacement) with only a note, shown under --verbose.
                 overridden.append(

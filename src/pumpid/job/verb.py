@@ -237,10 +237,10 @@ def fit(
 def _unit_rows(items: Sequence[Any], units: Units | Sequence[Units] | None) -> list[Units]:
     if units is not None and not isinstance(units, Units):
         # A string is a sequence too: units="lbf" read as 3 entries for 1 record.
-        if isinstance(units, str | bytes) or not all(isinstance(u, Units) for u in units):
+        rows = [] if isinstance(units, str | bytes) else list(units)
+        if not rows or not all(isinstance(u, Units) for u in rows):
             raise TypeError(f"units must be a pumpid.Units (or a list of one per record), "
                             f"got {units!r}")
-        rows = list(units)
         if len(rows) != len(items):
             raise ValueError(f"units: {len(rows)} entries for {len(items)} records")
         return rows
