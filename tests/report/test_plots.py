@@ -214,3 +214,15 @@ def test_unstated_units_are_labelled_as_such(result: FitResult) -> None:
     assert ax.get_xlabel() == "position [unit not stated]"
     assert ax.get_ylabel() == "load [unit not stated]"
     assert "unit-" not in ax.get_title()
+
+
+def test_a_cost_that_moves_in_its_tenth_digit_is_drawn_flat(result: FitResult) -> None:
+    # A change of 1.6e-10 of the cost filled the axis as a steep drop, labelled
+    # "1e-11+4.28864247e-1".
+    hist = [{"iteration": 0.0, "k0": 1.0, "cost": 0.42886424707},
+            {"iteration": 1.0, "k0": 1.0 + 1e-9, "cost": 0.42886424700}]
+    fig = plots.plot_history(dataclasses.replace(result, history=hist))
+    ax_cost = fig.axes[0]
+    low, high = ax_cost.get_ylim()
+    assert high - low == pytest.approx(2e-3 * 0.428864247, rel=1e-3)
+    assert any("the cost changed by 1.6e-10 of itself" in t.get_text() for t in ax_cost.texts)

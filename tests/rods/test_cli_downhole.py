@@ -403,6 +403,9 @@ def test_true_loads_say_why_the_pump_cards_are_not_compared(tmp_path: Path, surf
     assert doc["cards"][0]["identification"]["pump_card"]["convention"] == "effective"
     head = (out / "pump_card.csv").read_text(encoding="utf-8").splitlines()[0]
     assert "identified_effective_pump_load_lbf" in head and "pump_load_lbf" in head
+    # The caption promised the diagnostic card beneath the identified one.
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "in effective loads and alone: the diagnostic card is in true loads" in page
     code = main(["downhole", str(cards), "--well", well, "--spm", str(SPM), "--card", "card1"])
     text = capsys.readouterr().out
     assert code == 0 and "fitted and diagnostic pump cards differ by RMS" in text

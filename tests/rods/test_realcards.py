@@ -217,3 +217,19 @@ def test_a_batch_row_gives_the_damping_of_the_values_it_gives(shared_raw: Path,
     assert row["identify_status"] == "undetermined"
     assert row["downhole_damping"] == pytest.approx(0.05)
     assert row["pump_damping"] > 0.3 and row["pump_damping_se"] > 0
+
+
+def test_the_energy_balance_leads_with_the_card_used(shared_raw: Path, tmp_path: Path,
+                                                      capsys) -> None:
+    # fj1's identification is not used: its 68.7 % loss led the sentence, while the
+    # diagnostic card the outputs use loses 5.5 %; the share was of a surface work not
+    # printed.
+    well, entry = well_file(shared_raw, "fj1", tmp_path)
+    out = tmp_path / "out"
+    main(["downhole", str(shared_raw / FOLDER / entry["card_csv"]), "--well", str(well),
+          "--spm", f"{float(entry['spm']):g}", "--out", str(out)])
+    capsys.readouterr()
+    page = re.sub(r"<[^>]+>", "", (out / "report.html").read_text(encoding="utf-8"))
+    said = page[page.index("work per stroke: "):].split(".\n")[0]
+    assert said.startswith("work per stroke: the measured surface card ")
+    assert "the fitted surface card " in said and said.endswith("(the identification, not used)")

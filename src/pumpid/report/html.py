@@ -82,7 +82,8 @@ h2 { font-size: 1.25em; border-bottom: 1px solid #ccc; padding-bottom: 0.2em; ma
 table { border-collapse: collapse; margin: 0.6em 0; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }
 th { background: #f2f2f2; }
-td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace; }
+td.num { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace;
+         white-space: nowrap; }
 table.history td { text-align: right; font-family: ui-monospace, Menlo, Consolas, monospace; }
 .ok { color: #176a2c; font-weight: bold; }
 .warn { color: #9a5b00; font-weight: bold; }

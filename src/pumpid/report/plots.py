@@ -307,8 +307,16 @@ def plot_history(result: FitResult) -> Figure:
         # A log axis over less than a decade has no major ticks and labels its minor ticks
         # with identical rounded numbers (a fit started at its optimum changes the cost only
         # in the 7th digit); a linear axis with an offset reads correctly there.
-        if np.nanmax(cost) >= 10.0 * np.nanmin(cost):
+        top, bottom = float(np.nanmax(cost)), float(np.nanmin(cost))
+        if top >= 10.0 * bottom:
             ax_cost.set_yscale("log")
+        elif top - bottom <= 1e-6 * top:
+            # A change in the 10th digit filled the axis as a steep drop under an offset
+            # label ("1e-11+4.28864247e-1"): drawn flat on a scale of 0.1 % of the cost.
+            middle = 0.5 * (top + bottom)
+            ax_cost.set_ylim(middle * (1.0 - 1e-3), middle * (1.0 + 1e-3))
+            ax_cost.ticklabel_format(axis="y", useOffset=False)
+            _note(ax_cost, f"the cost changed by {(top - bottom) / top:.1e} of itself")
         else:
             ax_cost.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4), useOffset=True)
     else:
