@@ -100,3 +100,35 @@ def test_no_better_solution_is_claimed_at_the_same_cost(tmp_path, capsys):
     assert run(["flow", "fit", str(out), "--json"]) == 0
     warnings = json.loads(capsys.readouterr().out)["warnings"]
     assert not any("better solution" in w for w in warnings), warnings
+
+
+def _start_up(path, noise: float, seed: int = 0, delay: float = 0.0) -> None:
+    """A step of 1e5 Pa from t = 0, the flow rising from rest (tau 2 s), with noise."""
+    import numpy as np
+
+    t = np.linspace(0.0, 15.0, 301)
+    q = 3e-4 * (1.0 - np.exp(-np.clip(t - delay, 0.0, None) / 2.0))
+    q = q + noise * 3e-4 * np.random.default_rng(seed).standard_normal(t.size)
+    rows = "".join(f"{a:.17g},100000.0,{b:.17g}\n" for a, b in zip(t, q, strict=True))
+    path.write_text("t,dp,q\n" + rows, encoding="utf-8")
+
+
+def test_a_noisy_start_up_from_rest_is_fitted_from_rest(tmp_path, capsys):
+    # With 0.1-1 % noise its first flow is not 1e-6 of the largest: it was refused ("carries
+    # no information on the dynamics") or fitted from an equilibrium (R^2 0.0003).
+    path = tmp_path / "start.csv"
+    _start_up(path, noise=0.01)
+    assert run(["flow", "fit", str(path), "--json"]) == 0
+    obj = json.loads(capsys.readouterr().out)
+    assert obj["params"]["tau"] == pytest.approx(2.0, rel=0.05) and obj["r2"] > 0.99
+
+
+def test_a_poor_flow_fit_exits_as_every_command_does(tmp_path, capsys):
+    # A dead time the first-order model cannot follow: poor-fit, which exited 3 ("failed").
+    path = tmp_path / "delay.csv"
+    _start_up(path, noise=0.0, delay=3.0)
+    assert run(["flow", "fit", str(path), "--out", str(tmp_path / "out")]) == 5
+    capsys.readouterr()
+    # The cost of a flow fit is in (m^3/s)^2 (it read "m^3/s^2").
+    obj = json.loads((tmp_path / "out" / "result.json").read_text(encoding="utf-8"))
+    assert obj["uncertainty"]["sigma2_unit"] == "(m^3/s)^2"

@@ -24,11 +24,12 @@ import numpy as np
 
 from ..cards import printable
 from ..report.output import OutputError, OutputFolder, atomic_write
+from .common import exit_status
 
 __all__ = ["add_flow_parser", "cmd_flow_fit", "cmd_flow_simulate", "cmd_flow_study",
            "register"]
 
-EXIT_OK, EXIT_NOT_CONVERGED = 0, 3
+EXIT_OK = 0
 
 
 class FlowCliError(ValueError):
@@ -223,7 +224,8 @@ def cmd_flow_fit(args: argparse.Namespace) -> int:
             print(res.history_table())
         if args.out:
             print(f"\noutputs written to {args.out}")
-    return EXIT_OK if res.converged or res.status == "boundary" else EXIT_NOT_CONVERGED
+    # The exit codes of every command (a poor or undetermined fit exited 3, "failed").
+    return exit_status({res.status.key: 1})
 
 
 # --------------------------------------------------------------------------- study

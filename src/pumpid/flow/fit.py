@@ -28,7 +28,7 @@ from ..job import FitOptions, LevenbergMarquardt, fit, solver_for
 from ..models import Model, OwnModel, Parameter
 from ..result import FitResult, Units
 from .pipeflow import Pipe, PowerLawFluid, simulate_pipe_flow
-from .records import FlowRecord
+from .records import FlowRecord, starts_near_zero
 from .surrogates import (
     FirstOrderLag,
     PowerLawLag,
@@ -60,7 +60,7 @@ def _orient(record: FlowRecord, direction: str) -> tuple[FloatArray, FloatArray,
 
 def _initial_state(u: FloatArray, y: FloatArray, requested: Any) -> tuple[Any, str]:
     """The initial state for a fit and a sentence saying which and why."""
-    at_rest = abs(y[0]) <= 1e-6 * float(np.max(np.abs(y)))
+    at_rest = starts_near_zero(y)
     if requested in (None, "auto"):
         if at_rest:
             state: Any = "rest"

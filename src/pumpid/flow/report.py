@@ -229,7 +229,7 @@ def write_study_outputs(study: StepStudy, out_dir: str | os.PathLike[str]) -> di
     paths.update(write_flow_outputs(
         res, out, title=f"pumpid flow study: time constant vs pressure-drop step "
                         f"(n = {study.fluid.n:g})",
-        notes=[f"{len(study.records)} reference start-ups from rest (pumpid.pipeflow), "
+        notes=[f"{len(study.records)} reference start-ups from rest (pumpid.flow.pipeflow), "
                f"window '{study.window}'; the time-series figures show them end to end on one "
                "axis, each starting from rest", *verdict],
         extra_figures={"tau_vs_step": plot_tau_vs_step(study)},

@@ -46,7 +46,7 @@ from ..inference.uncertainty import (
     widened,
 )
 from ..models.base import Limit
-from ..result import Limiting, Units
+from ..result import Limiting, Units, squared
 from .options import START_SAMPLES
 from .state import CardState, numbers_for_true_offset, scale_offset, theta_of
 
@@ -209,7 +209,7 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                       initial_state=problem.initial_states[k], residual=problem.residual,
                       limits=card.limits,
                       unit=("(ln of position)^2, dimensionless" if problem.residual == "log"
-                            else f"{units[k].position}^2"),
+                            else squared(units[k].position)),
                       transform=transform, floors=reach)
         serial, unc = said.serial, said.uncertainty
         card.findings, card.determined = said.findings, said.determined

@@ -31,7 +31,16 @@ from ..engine.solvers import LevenbergMarquardt, PaperNewton, SolverOutcome, Sto
 from ..inference.identifiability import findings_of
 from ..inference.uncertainty import Numbers, analyse_rows
 from ..models.own import OwnModel
-from ..result import BoundaryInfo, FitBatch, FitResult, Limiting, StartInfo, Status, Units
+from ..result import (
+    BoundaryInfo,
+    FitBatch,
+    FitResult,
+    Limiting,
+    StartInfo,
+    Status,
+    Units,
+    squared,
+)
 from .assemble import determination_gate, quality_gate
 from .boundary import LR_95
 from .diagnose import assess
@@ -447,7 +456,7 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
                                       if not model.parameters[i].positive))
         said = assess(nums, lambda: scaled, -1, model_names=names, gauge_fixed=False,
                       initial_state=model.name, residual="linear", limits=limits,
-                      unit=f"{model.output_unit}^2")
+                      unit=squared(model.output_unit))
         uncertainty, findings, determined = said.uncertainty, said.findings, said.determined
         derived = model.derived(theta, said.numbers, said.serial,
                                 [(b.name, b.direction) for b in limits])

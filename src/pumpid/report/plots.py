@@ -24,7 +24,7 @@ from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
 from ..models import OwnModel
-from ..result import FitResult
+from ..result import FitResult, squared
 from .output import atomic_write
 from .units import UNSTATED_UNITS, model_param_units, unit_text
 
@@ -285,10 +285,7 @@ def plot_history(result: FitResult) -> Figure:
     fig.suptitle(f"{result.model_name}: convergence of the {result.method} solver, "
                  f"{steps} iteration{'s' if steps != 1 else ''}, {status}, "
                  f"{_r2_text(result.r2)}")
-    # A compound unit such as m^3/s must be bracketed before squaring.
-    plain = u.position.replace("_", "").isalnum()
-    cost_unit = (f"{u.position}²" if plain else f"({u.position})²") \
-        if result.residual == "linear" else "-"
+    cost_unit = squared(u.position, "²") if result.residual == "linear" else "-"
     ax_cost.set_ylabel(_label("cost ½Σr²", cost_unit))
     ax_step.set_ylabel(_label("relative change per iteration", "-"))
     ax_step.set_xlabel(_label("iteration", "-"))

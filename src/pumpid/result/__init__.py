@@ -24,7 +24,7 @@ from .boundaries import BoundaryInfo, Limiting, ReducedFit
 from .derived import Derived
 from .fit import FitResult, derived_text, diagnostics_text, format_report
 from .parts import CardInfo, Prediction, StartInfo, Status, Units, jsonable
-from .text import model_choice_text, n_eff_words
+from .text import model_choice_text, n_eff_words, squared
 from .uncertainty import Uncertainty
 
 __all__ = [
@@ -46,4 +46,5 @@ __all__ = [
     "jsonable",
     "model_choice_text",
     "n_eff_words",
+    "squared",
 ]
