@@ -132,3 +132,20 @@ def test_a_poor_flow_fit_exits_as_every_command_does(tmp_path, capsys):
     # The cost of a flow fit is in (m^3/s)^2 (it read "m^3/s^2").
     obj = json.loads((tmp_path / "out" / "result.json").read_text(encoding="utf-8"))
     assert obj["uncertainty"]["sigma2_unit"] == "(m^3/s)^2"
+
+
+def test_simulate_reads_the_time_unit_and_refuses_what_it_cannot_use(tmp_path, capsys):
+    # A history in ms was read as seconds; --t-end 0 took the default; --steps 1,1 fitted a
+    # slope through one abscissa.
+    hist = tmp_path / "hist.csv"
+    hist.write_text("t [ms],dp [kPa]\n" + "".join(f"{k * 10},{100 if k else 0}\n"
+                                                   for k in range(31)), encoding="utf-8")
+    out = tmp_path / "rec.csv"
+    assert run(["flow", "simulate", *FLUID, "--n", "1", "--dp-file", str(hist), "-o",
+                str(out)]) == 0
+    last = out.read_text(encoding="utf-8").splitlines()[-1]
+    assert float(last.split(",")[0]) == pytest.approx(0.3)
+    with pytest.raises(ValueError, match="--t-end must be positive"):
+        run(["flow", "simulate", *FLUID, "--dp", "1e5", "--t-end", "0"])
+    with pytest.raises(ValueError, match="two different positive factors"):
+        run(["flow", "study", *FLUID, "--steps", "1,1"])

@@ -57,8 +57,10 @@ def _parse_steps(text: str) -> list[float]:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
         raise FlowCliError(f"--steps: {text!r} is not a comma-separated list of numbers") from None
-    if len(values) < 2 or any(not (math.isfinite(v) and v > 0) for v in values):
-        raise FlowCliError("--steps: give at least two positive factors, e.g. 0.25,0.5,1,2,4")
+    if len(set(values)) < 2 or any(not (math.isfinite(v) and v > 0) for v in values):
+        # 1,1 gave a slope through two points of one abscissa.
+        raise FlowCliError("--steps: give at least two different positive factors, e.g. "
+                           "0.25,0.5,1,2,4")
     return values
 
 
@@ -86,7 +88,8 @@ def cmd_flow_simulate(args: argparse.Namespace) -> int:
     if args.dp is not None:
         if not (math.isfinite(args.dp) and args.dp != 0):
             raise FlowCliError("--dp: the pressure-drop step must be a non-zero number (Pa)")
-        t_end = args.t_end or 6.0 * power_law_time_scale(args.dp, fluid, pipe)
+        t_end = (6.0 * power_law_time_scale(args.dp, fluid, pipe) if args.t_end is None
+                 else args.t_end)  # 0 given is refused, not taken for "not given"
         if not (t_end > 0):
             raise FlowCliError("--t-end must be positive")
         if args.samples < 10:
@@ -116,7 +119,7 @@ def _read_dp_history(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
     import csv
 
     from ..cards import CardError
-    from ..flow.records import convert_pressure, split_header
+    from ..flow.records import convert_pressure, seconds_per, split_header
 
     path = args.dp_file
     try:
@@ -142,6 +145,9 @@ def _read_dp_history(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
     j_dp = names.index((args.dp_col or "dp").lower())
     unit = args.dp_unit or header[j_dp][1] or "Pa"
     dp = convert_pressure(dp, unit, "Pa")
+    # The header's time unit, as flow fit reads it: 't [ms]' was taken for seconds.
+    t = t * seconds_per(header[names.index((args.t_col or "t").lower())][1] or "s",
+                        field_name="t", path=path)
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(dp))):
         raise CardError("non-finite values", path=path)
     if np.any(np.diff(t) <= 0):
@@ -260,7 +266,8 @@ def _add_fluid_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--radius", type=float, required=True, help="pipe radius [m]")
     p.add_argument("--length", type=float, required=True, help="pipe length [m]")
     p.add_argument("--n-radial", type=int, default=200,
-                   help="radial cells of the reference simulator (200)")
+                   help="radial cells of the reference simulator (simulate: 200, study: "
+                        "120)")
 
 
 def add_flow_parser(subparsers: Any) -> argparse.ArgumentParser:

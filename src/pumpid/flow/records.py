@@ -50,6 +50,7 @@ __all__ = [
     "normalize_flow_unit",
     "normalize_pressure_unit",
     "read_flow_record",
+    "seconds_per",
     "split_header",
     "starts_near_zero",
 ]
@@ -107,6 +108,12 @@ def _normalize(unit: str, aliases: Mapping[str, str], known: Mapping[str, float]
 def normalize_pressure_unit(unit: str, *, field_name: str = "dp_unit") -> str:
     """Canonical name (a key of :data:`PRESSURE_UNITS`) of a pressure unit spelling."""
     return _normalize(unit, _PRESSURE_ALIASES, PRESSURE_UNITS, "pressure", field_name)
+
+
+def seconds_per(unit: str, *, field_name: str = "t_unit", path: str | None = None) -> float:
+    """Seconds in one of a time unit's spelling (``ms``: 1e-3); CardError for an unknown
+    one."""
+    return _TIME_UNITS[_normalize(unit, _TIME_ALIASES, _TIME_UNITS, "time", field_name, path)]
 
 
 def normalize_flow_unit(unit: str, *, field_name: str = "q_unit") -> str:
@@ -327,7 +334,7 @@ def read_flow_record(
         if required:
             raise CardError(
                 f"no {role} column; columns are {names} (name it with columns={{'{role}': "
-                "...}} or --" + role.replace("_", "-") + "-col)",
+                "...} or --" + role.replace("_", "-") + "-col)",
                 path=where, line=header_line, field=role)
         return None
 
