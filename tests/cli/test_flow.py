@@ -149,3 +149,17 @@ def test_simulate_reads_the_time_unit_and_refuses_what_it_cannot_use(tmp_path, c
         run(["flow", "simulate", *FLUID, "--dp", "1e5", "--t-end", "0"])
     with pytest.raises(ValueError, match="two different positive factors"):
         run(["flow", "study", *FLUID, "--steps", "1,1"])
+
+
+def test_a_magnitude_refusal_has_no_template_in_it(tmp_path):
+    # "natural size (({position})/({pressure drop dp [Pa]}))" reached the user.
+    import numpy as np
+
+    t = np.linspace(0.0, 15.0, 301)
+    q = 3e-304 * (1.0 - np.exp(-t / 2.0))
+    rows = "".join(f"{a:.17g},100000.0,{b:.17g}\n" for a, b in zip(t, q, strict=True))
+    path = tmp_path / "tiny.csv"
+    path.write_text("t,dp,q\n" + rows, encoding="utf-8")
+    with pytest.raises(ValueError) as info:
+        run(["flow", "fit", str(path)])
+    assert "rescale" in str(info.value) and "{" not in str(info.value)

@@ -460,9 +460,8 @@ def _check_magnitudes(model: type[Model], t: Array, f: Array, d: Array) -> None:
         if not tiny <= size < math.inf:
             raise ValueError(
                 f"displacement and load: their ranges ({base['{position}']:.3g} and "
-                f"{base['{load}']:.3g}) put parameter {info.name}'s natural size "
-                f"({info.unit}) outside the floating-point range; rescale the data (change "
-                "its units)")
+                f"{base['{load}']:.3g}) put parameter {info.name}'s natural size outside "
+                "the floating-point range; rescale the data (change its units)")
 
 
 def _validate_card(
