@@ -258,7 +258,9 @@ def whiteness_warning(check: dict[str, Any], n_obs: int, n_fitted: int,
     if shown_robust:
         # The figure a user compares is the errors shown against the independent-noise
         # ones; the AR(1) factor alone (6.5x) sat beside robust errors 72-80x wider.
-        size = f", {widened} the independent-noise ones on this card" if widened else ""
+        # The range is the parameters' (a derived quantity's may differ more).
+        size = (f", {widened} the independent-noise ones for the parameters of this card"
+                if widened else "")
         errors = ("The errors shown (stderr, ci95) are the autocorrelation-robust ones (also "
                   f"stderr_hac, ci95_hac){size}: {ar1}, and the robust estimate is widened "
                   "further for its own spread over so few effective samples. ")

@@ -433,17 +433,18 @@ def history_html(result: FitResult) -> str:
     intro = ""
     steps = sum(1 for row in result.history if (row.get("iteration") or 0) > 0)
     if not has_history_figure(result):
-        intro = (f"<p>The solver made {steps} iteration{'s' if steps != 1 else ''}: its "
-                 "start was already at the optimum, so there is no convergence figure.</p>\n")
+        intro = (f"<p>The path recorded has {steps} step{'s' if steps != 1 else ''}: it "
+                 "starts at or next to the optimum, so there is no convergence figure.</p>\n")
     if result.iterations != steps:
         # The Convergence table counts the last solve's iterations (a boundary fit's refit
         # at its limit, say); the history is the path recorded, which joins a crawling
         # card's solves ("iterations 2" beside "made 1 iteration"; 9 beside 22 steps).
+        # Said of every fit whose counts differ, not only of a card that crawled along a
+        # flat valley (the words claimed that path on every card).
         intro += (f"<p>The table holds the path the fit recorded ({steps} step"
-                  f"{'s' if steps != 1 else ''}: a card that crawls along a flat valley "
-                  "joins its exact solve, the continuation on the card's harmonics and the "
-                  "exact solve from there); the Convergence table counts the last solve's "
-                  f"iterations ({result.iterations}).</p>\n")
+                  f"{'s' if steps != 1 else ''}, joined from the solves that led to the "
+                  "answer); the Convergence table counts the iterations of the last solve "
+                  f"alone ({result.iterations}).</p>\n")
     infos = _param_infos(result)
     history = list(result.history)
     last = history[-1]
