@@ -256,3 +256,25 @@ def test_very_long_lines(folder, size, kind):
 def test_duplicate_headers_empty_columns_and_extremes(folder, text):
     check(folder, text.encode())
     check(folder, text.encode("utf-16"), min_samples=2)
+
+
+def test_a_padded_card_is_said_to_be_padded(tmp_path) -> None:
+    # A card whose last fifth repeats (0, 0) (41 of the public oilfield set's cards) was
+    # fitted as a fifth of the stroke without a word.
+    import numpy as np
+
+    from pumpid.cards import read_cards
+
+    x = np.linspace(0.0, 2 * np.pi, 200, endpoint=False)
+    pos, load = np.r_[30 - 30 * np.cos(x), np.zeros(50)], np.r_[5 + 2 * np.sin(x), np.zeros(50)]
+    path = tmp_path / "padded.csv"
+    path.write_text("position_in,load_klbf\n" + "".join(
+        f"{a:.6f},{b:.6f}\n" for a, b in zip(pos, load, strict=True)), encoding="utf-8")
+    (card,) = read_cards(path, spm=6)
+    assert any("its last 50 of 250 samples repeat one point" in w for w in card.warnings)
+    # A stroke's own turn-around (two samples held) is no padding.
+    path.write_text("position_in,load_klbf\n" + "".join(
+        f"{a:.6f},{b:.6f}\n" for a, b in zip(pos[:202], load[:202], strict=True)),
+        encoding="utf-8")
+    (card,) = read_cards(path, spm=6)
+    assert not any("padding" in w for w in card.warnings)

@@ -203,6 +203,19 @@ def _turns_backwards(position: NDArray[np.float64], load: NDArray[np.float64]) -
     return bool(span > 0 and loop_work(position, load) < -0.1 * span)
 
 
+#: A run of identical samples at a card's end at least this share of it (and 3 samples)
+#: reads as padding: a stroke's own turn-around holds a point for a sample or two.
+PADDING_SHARE = 0.05
+
+
+def _repeated_tail(position: NDArray[np.float64], load: NDArray[np.float64]) -> int:
+    """How many samples at the card's end repeat its last (position, load) point, when
+    they look like padding (else 0)."""
+    same = (position == position[-1]) & (load == load[-1])
+    run = int(np.argmin(same[::-1])) if not same.all() else position.size
+    return run if run >= max(3, PADDING_SHARE * position.size) else 0
+
+
 def plausibility_warnings(
     card_id: str,
     position: NDArray[np.float64],
@@ -246,6 +259,15 @@ def plausibility_warnings(
             f"{label}: its loop turns the wrong way for a card in time order (higher loads "
             "while the position falls): stored in reverse time order, or the position "
             "measured downwards? It is fitted as given")
+    padded = _repeated_tail(position, load)
+    if padded:
+        # 41 of the oilfield set's 360 cards end in 50 samples of exactly (0, 0): fitted as a
+        # fifth of the stroke, their period rebuilt from the SPM 25 % too long, without a word.
+        out.append(
+            f"{label}: its last {padded} of {position.size} samples repeat one point "
+            f"(position {_fmt(float(position[-1]))}, load {_fmt(float(load[-1]))}): padding "
+            "rather than a stroke? It is fitted as given, and a time rebuilt from the "
+            "stroke rate spreads the stroke over every sample; remove the padding")
     if check_swap and position.size >= 8:
         try:
             roles = detect_column_roles([position, load])
