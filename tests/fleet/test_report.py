@@ -289,6 +289,7 @@ def test_a_pump_run_gives_the_identifications_beside_the_fits(tmp_path: Path) ->
     page = files["report"].read_text(encoding="utf-8")
     well = str(frame["well_id"].iloc[0])
     assert "<th>pump identifications</th>" in page
+    assert "<th>converged (lumped fit)</th>" in page  # the column is not the pump's
     assert "converged 9, undetermined 3" in page
     assert re.search(r"pump identifications \(the status the pump quantities count by\)"
                      r"</td><td>converged 21, undetermined 3</td>", page)
@@ -368,3 +369,21 @@ def test_a_well_of_two_cards_shows_its_cards_not_a_middle_half() -> None:
     assert "each card (tick)" in ax.get_xlabel()
     thick = [c for c in ax.collections if max(c.get_linewidths(), default=0) >= 5]
     assert not thick
+
+
+def test_a_steady_well_is_not_drawn_at_the_scale_of_its_noise() -> None:
+    # A full pump's fillage, 0.98825-0.98950, filled its panel as a steep zigzag.
+    frame = results_table(1, 30, cv=0.0004, seed=8)
+    frame["d_stiffness"] = 0.9888 + 0.0006 * np.sin(np.arange(30))
+    bottom, top = _well_axes(frame, "stiffness").get_ylim()
+    assert top - bottom >= 0.02 * 0.9894
+
+
+def test_a_quantity_no_well_has_is_not_drawn(tmp_path: Path) -> None:
+    # Three panels of every pump well's figure said "no card of the well determined this
+    # quantity" for quantities the summary already called not trended.
+    frame = results_table(3, 40, cv=0.02, seed=3)
+    frame["d_damping_ratio_determined"] = False
+    page = write_fleet_report(frame, tmp_path, quantities=["stiffness", "damping_ratio"],
+                              steady_sample=2)["report"].read_text(encoding="utf-8")
+    assert "Quantities no well has a usable value of are not drawn: damping_ratio." in page

@@ -283,9 +283,12 @@ def well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str,
             xc = x_all[key].iloc[0]
             ax.axvline(xc, color="#b00020", lw=1.2, ls="--",
                        label="first card of a change" if _ == mine.index[0] else None)
+            # On a white box: the after-change values sit at the top of the axis too.
             ax.annotate(f"{a['change_rel']:+.0%}", (xc, 0.98), xycoords=("data", "axes fraction"),
                         xytext=(4, -10), textcoords="offset points", color="#b00020",
-                        fontsize=8, fontweight="bold")
+                        fontsize=8, fontweight="bold",
+                        bbox={"boxstyle": "round,pad=0.15", "facecolor": "white",
+                              "edgecolor": "none", "alpha": 0.85})
             # The levels the alert compares, over the cards they come from: a step's medians
             # either side; a drift's line, straight in card order on the analysis scale, so
             # drawn through each card (geometric on a log scale, whatever the cards' times).
@@ -349,6 +352,11 @@ def _value_axis(ax: Any, x: pd.Series, v: np.ndarray, lo: np.ndarray, hi: np.nda
     marks = [*v, *pd.to_numeric(alerts["before"], errors="coerce").dropna(),
              *pd.to_numeric(alerts["after"], errors="coerce").dropna()]
     a, b = padded_limits(float(np.min(marks)), float(np.max(marks)))
+    # At least 2 % of the values' size: a steady full pump's fillage (0.98825-0.98950)
+    # filled its panel as a steep zigzag beside a well whose fillage fell by a quarter.
+    least = 0.02 * float(np.max(np.abs(marks)))
+    if 0 < b - a < least:
+        a, b = 0.5 * (a + b - least), 0.5 * (a + b + least)
     finite_lo, finite_hi = lo[np.isfinite(lo)], hi[np.isfinite(hi)]
     if np.ptp(marks) > 0 or not (finite_lo.size and finite_hi.size):
         half = 0.25 * (b - a)

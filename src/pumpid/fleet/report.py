@@ -349,7 +349,10 @@ def _wells_section(summary: pd.DataFrame, quantities: Sequence[str], units: dict
     # Counts and units go in the headers, so that every column fits a normal window; a
     # zero-width space after each underscore lets a quantity's name wrap there.
     pumps = "pump_identifications" in shown.columns
-    headers = ["well", "cards", *statuses, *(["pump identifications"] if pumps else []),
+    # Beside the pumps' statuses, the lumped fits' are said to be theirs (P004's "converged
+    # 0, undetermined 16" read as its pump's, which converged 16 times).
+    shown_statuses = [f"{st} (lumped fit)" if pumps else st for st in statuses]
+    headers = ["well", "cards", *shown_statuses, *(["pump identifications"] if pumps else []),
                "alerts", "tested by", "largest change",
                *(f"latest {q.replace('_', _WRAP_AFTER_UNDERSCORE)} "
                  f"[{unit_text(units.get(q, ''))}]" for q in latest)]
@@ -607,6 +610,10 @@ def write_fleet_report(
     more = (sorted(rng.choice(rest, size=k - len(first), replace=False).tolist())
             if k > len(first) else [])
     drawn_steady = sorted([*first, *more])
+    # Quantities with no usable value in any well: a third of each pump well's figure was
+    # three panels saying "no card of the well determined this quantity".
+    empty = [q for q in names if not quantity_values(named, q)[2].any()]
+    drawn_names = [q for q in names if q not in empty] or names
     parts.append("<section id=\"trends\"><h2>Trends per well</h2>")
     # The panels described only where some are drawn (a page without one described them).
     panels = ("" if not (drawn_alerted or drawn_steady) else
@@ -614,12 +621,17 @@ def write_fleet_report(
               "standard errors (the axis is scaled to the values; a band running beyond "
               "it is cut and marked by a triangle at the edge); dashed lines mark the "
               "first card of each change; crosses at the bottom mark cards whose fit "
-              "failed or whose input was invalid.")
+              "failed or whose input was invalid. A card whose fit left a quantity "
+              "undetermined (or has no error for it: a full pump's held fillage) has no "
+              "point (or no band) in its panel; a line joins cards at most three usual spacings "
+              "apart."
+              + (f" Quantities no well has a usable value of are not drawn: "
+                 f"{', '.join(empty)}." if empty else ""))
     parts.append(f"<p>{_drawn_words(drawn_alerted, ranked, drawn_steady, steady, seed)}"
                  f"{panels}</p>")
     groups = {str(w): g for w, g in frame.groupby(frame["well_id"].astype(str))}
     for well in [*drawn_alerted, *drawn_steady]:
-        fig = well_figure(groups[well], names, units, alerts, well)
+        fig = well_figure(groups[well], drawn_names, units, alerts, well)
         name = _safe_name(f"well_{well}", taken)
         n_alerts = int((alerts["well_id"].astype(str) == well).sum())
         # "(without an alert: 0 alerts)" said it twice.
