@@ -65,7 +65,7 @@ def test_report_of_one_card(tmp_path: Path, surface, capsys) -> None:  # noqa: F
                      page)
     assert "<td>1</td>" not in page
     # the figure: measured and fitted surface loads, the residual, both pump cards (2 x 2)
-    assert "measured minus fitted load over the stroke" in page
+    assert "fitted minus measured load over the stroke" in page
     assert "identified pump card (green) over the diagnostic one" in page
     assert _figure(page) == (840, 1100)
     assert _figure(page) == matplotlib_shape(out / "cards.png")

@@ -347,7 +347,9 @@ def plot_history(result: FitResult) -> Figure:
             ax_step.semilogy(it, eps, "k--", linewidth=1.4, label="step ‖dx‖/‖x0‖ (eq. 21)")
             drawn += 1
     if drawn:
-        ax_step.legend(loc="best", fontsize=9, ncol=2)
+        # Beside the axes: inside, "best" still hid the offset's last iterations.
+        ax_step.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
+                       frameon=False)
     else:
         _note(ax_step, "fewer than two iterations: no changes to show")
     # Iterations are counts: integer ticks only.

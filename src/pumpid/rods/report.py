@@ -217,7 +217,7 @@ class DownholeReport:
             if fitted:
                 caption = ("Top left: the surface card as measured (black) and as the fitted "
                            "rod string and pump predict it (orange, dashed); top right: "
-                           "measured minus fitted load over the stroke; bottom left: the "
+                           "fitted minus measured load over the stroke; bottom left: the "
                            f"diagnostic pump card ({_e(e.caption)}), dashed: its load lines; "
                            + ("bottom right: the identified pump card (green) over the "
                               "diagnostic one (faint blue)" if e.convention == "effective" else
