@@ -460,3 +460,15 @@ def test_lag1_is_the_one_estimate_and_survives_extreme_scales() -> None:
     assert lag1(1e200 * x) == pytest.approx(lag1(x), rel=1e-12)  # no overflow
     assert lag1(x + 1e6) == pytest.approx(lag1(x), rel=1e-6)      # centred
     assert math.isnan(lag1(np.full(10, 3.0))) and math.isnan(lag1(np.array([])))
+
+
+@pytest.mark.realdata
+def test_two_loose_directions_over_the_same_values_are_said_once(shared_raw) -> None:
+    # SX6E03A listed "the trade-off between m and k1" twice, with two ratios: both
+    # directions of the (m, k1) plane are loose, so neither value is determined at all.
+    card = next(c for c in read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")
+                if c.card_id == "SX6E03A")
+    said = fit(Kelvin, card).identifiability
+    assert sum("m and k1" in s for s in said) == 1
+    assert any(s.startswith("m and k1 are practically not identifiable, separately or in any "
+                            "combination") for s in said)

@@ -94,6 +94,13 @@ def describe_direction(direction: Array, names: Sequence[str],
             "only the combinations unchanged along it are determined")
 
 
+def _loaded(direction: Array, names: Sequence[str]) -> tuple[str, ...]:
+    """The names a direction loads (as :func:`describe_direction` names them)."""
+    v = np.asarray(direction, dtype=float)
+    v = v / v[np.argmax(np.abs(v))]
+    return tuple(names[i] for i in range(v.size) if abs(v[i]) >= _LOADING)
+
+
 def _sentence(what: str, plural: bool, practical: bool) -> str:
     verb = "are" if plural else "is"
     how = "practically not" if practical else "not"
@@ -188,12 +195,33 @@ def findings_of(
             f"value {rel[k]:.1e}).")
         determined["combinations"].append(f"{what}: {det}")
     robust = serial and bool(np.any(np.isfinite(nums.direction_se_hac[:qi])))
+    loose_dirs: list[tuple[int, float]] = []
     for k in kept:
         se = sigma / s[k]
         if robust and math.isfinite(nums.direction_se_hac[k]):
             se = max(se, float(nums.direction_se_hac[k]))
-        if se <= PRACTICAL_REL_SE:
-            continue
+        if se > PRACTICAL_REL_SE:
+            loose_dirs.append((k, se))
+    # Directions over the same values, as many as the values: every combination of them is
+    # loose, said once ("the trade-off between m and k1" was listed twice, with two ratios).
+    groups: dict[tuple[str, ...], list[tuple[int, float]]] = {}
+    for k, se in loose_dirs:
+        groups.setdefault(_loaded(vt[k], inner_names), []).append((k, se))
+    for members, found in groups.items():
+        if (len(members) < 2 or len(found) != len(members)
+                or any(n == "offset" or n in nums.additive for n in members)):
+            continue  # a signed value's error is not relative: said direction by direction
+        for k, se in found:
+            loose_dirs.remove((k, se))
+        errors = " and ".join(f"{100 * se:.0f} %" for _k, se in found)
+        sentences.append(
+            f"{join_names(list(members))} are practically not identifiable, separately or "
+            f"in any combination: the data constrain the {len(found)} directions they span "
+            f"only to standard errors of {errors} (relative to the values"
+            + (", the larger of the ordinary and the serial-correlation-robust error"
+               if robust else "")
+            + "), so their intervals are wide.")
+    for k, se in loose_dirs:
         what, plural, _det = describe_direction(vt[k], inner_names, nums.additive)
         signed = [n for n in inner_names if n == "offset" or n in nums.additive]
         signed = [n for n in signed if re.search(rf"\b{re.escape(n)}\b", what)]
