@@ -89,3 +89,17 @@ def test_report_without_identification(tmp_path: Path, surface, capsys) -> None:
     assert "Pump not identified (--no-identify" in page
     assert "identified &plusmn;" not in page and "fitted parameter" not in page
     assert _figure(page) == (420, 1000)  # the surface card beside the pump card
+
+
+
+def test_the_all_cards_table_stacks_values_and_errors(tmp_path: Path, surface,  # noqa: F811
+                                                      capsys) -> None:
+    # At one line a cell, the table ran past the page: displacement and intake pressure
+    # went unseen at any window width.
+    out = tmp_path / "out"
+    main(["downhole", str(write_cards(tmp_path / "cards.csv", surface)), "--well",
+          str(write_well(tmp_path / "w.json")), "--spm", str(SPM), "--out", str(out)])
+    capsys.readouterr()
+    page = (out / "report.html").read_text(encoding="utf-8")
+    table = page[page.index("<h2>All cards</h2>"):page.index('<h2 id="card-0">')]
+    assert "<br>\u00b1 " in table and "displace&shy;ment [bbl/d]" in table

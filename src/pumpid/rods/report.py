@@ -35,6 +35,12 @@ _SHOWN = (("gross_stroke", "gross plunger stroke"), ("net_stroke", "net plunger 
           ("upper_load_line", "upper load line"), ("lower_load_line", "lower load line"),
           ("displacement", "pump displacement"), ("intake_pressure", "pump intake pressure"))
 
+#: The all-cards table's shorter headers (the page's width held all but its last two
+#: columns).
+_SHORT = {"gross_stroke": "gross stroke", "net_stroke": "net stroke", "fillage": "fillage",
+          "upper_load_line": "upper line", "lower_load_line": "lower line",
+          "displacement": "displace&shy;ment", "intake_pressure": "intake pressure"}
+
 _CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto;
        max-width: 1250px; padding: 0 1em; color: #222; line-height: 1.4; }
@@ -175,7 +181,7 @@ class DownholeReport:
         fits = any(e.extra is not None and e.extra.get("identification") for e in self.entries)
         head = ["card", "well", "status"] + (
             ["identification", "R&sup2;", "damping nu"] if fits else []) + [
-            f"{dict(_SHOWN)[n]} [{_e(units.get(n, ''))}]" for n in names]
+            f"{_SHORT.get(n, dict(_SHOWN)[n])} [{_e(units.get(n, ''))}]" for n in names]
         rows = []
         for k, e in enumerate(self.entries):
             cells = [f'<td><a href="#card-{k}">{_e(e.card_id)}</a></td>', f"<td>{_e(e.well)}</td>",
@@ -190,13 +196,13 @@ class DownholeReport:
                       if damping.get("stderr") is not None else None}
                 cells += [f"<td>{_e(ident.get('status', 'not run'))}</td>",
                           f'<td class="num">{_e(_num(extra.get("r2")))}</td>',
-                          f'<td class="num">{_e(_pm(nu))}</td>']
+                          f'<td class="num">{_stacked(_pm(nu))}</td>']
             for n in names:
                 q = e.quantities.get(n)
                 text = "n/a" if q is None else _pm(q)
                 if q is not None and units.get(n) != q["unit"] and text != "n/a":
                     text += f" {q['unit']}"  # another card's unit: said beside the value
-                cells.append(f'<td class="num">{_e(text)}</td>')
+                cells.append(f'<td class="num">{_stacked(text)}</td>')
             rows.append("<tr>" + "".join(cells) + "</tr>")
         return ('<div class="scroll"><table><tr>' + "".join(f"<th>{h}</th>" for h in head)
                 + "</tr>" + "".join(rows) + "</table></div>")
@@ -293,6 +299,15 @@ def _unit_words(unit: Any) -> str:
     """A unit as the page's other tables write it: a model's "1" is "dimensionless" there
     (one page said both of the damping)."""
     return "dimensionless" if unit in ("1", "-") else str(unit or "")
+
+
+def _stacked(text: str) -> str:
+    """A table cell's value, its error and its mark on lines of their own (HTML): at one
+    line a cell, the all-cards table ran past the page and its last columns (displacement,
+    intake pressure) went unseen."""
+    return (_e(text).replace(" \u00b1 ", "<br>\u00b1 ")
+            .replace(" (not determined)", "<br>(not<br>determined)")
+            .replace(" (held: a full pump)", "<br>(held: a full pump)"))
 
 
 def _pm(q: Mapping[str, Any]) -> str:
