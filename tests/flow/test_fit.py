@@ -267,3 +267,19 @@ def test_joint_fit_of_first_order_lag_and_report_files(tmp_path):
         assert paths[key].is_file()
     html = paths["report"].read_text(encoding="utf-8")
     assert "pressure drop in, flow rate out" in html
+
+
+def test_a_single_level_is_said_only_where_n_cannot_be_told():
+    # A ramp visits every level (n = 0.40005 +- 6e-5 beside "any n fits equally"), and the
+    # shear-thinning model's n shapes the transient of a single step.
+    fluid = PowerLawFluid(K=10.0, n=0.4, rho=1000.0)
+    t = np.linspace(0.0, 0.3, 121)
+    step = simulate_flow_record(t, 1e5, fluid=fluid, pipe=PIPE)
+    ramp = simulate_flow_record(t, 1e5 * np.clip(t / 0.15, 0.0, 1.0), fluid=fluid, pipe=PIPE)
+
+    def said(rec, model):
+        return any("visits a single level" in w for w in fit_flow(rec, model).warnings)
+
+    assert said(step, "power-law")
+    assert not said(ramp, "power-law")
+    assert not said(step, "shear-thinning")
