@@ -34,6 +34,8 @@ def test_simulate_then_fit_json_round_trip(tmp_path, capsys):
         assert key in obj
     assert obj["model"] == "FirstOrderLag" and obj["converged"] is True
     assert obj["units"]["params"] == {"tau": "s", "gain": "(m^3/s)/(Pa)"}
+    # A derived unit brackets the compound one too (it read "Pa/m^3/s").
+    assert obj["derived"]["static_stiffness"]["unit"] == "Pa/(m^3/s)"
     tau1 = newtonian_slowest_time_constant(10.0, 1000.0, Pipe(5e-3, 1.0))
     assert 0.9 * tau1 < obj["params"]["tau"] < tau1
     assert obj["r2"] > 0.999

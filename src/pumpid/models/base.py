@@ -183,8 +183,12 @@ class DerivedInfo:
     meaning: str
 
     def unit_for(self, load: str, position: str) -> str:
-        """The unit in the data's units."""
-        return self.unit.replace("{load}", load).replace("{position}", position)
+        """The unit in the data's units; a compound one bracketed inside a quotient (a flow
+        fit's static stiffness read "Pa/m^3/s" for Pa/(m^3/s))."""
+        def filled(unit: str) -> str:
+            return f"({unit})" if "/" in unit and self.unit not in ("{load}", "{position}") \
+                else unit
+        return self.unit.replace("{load}", filled(load)).replace("{position}", filled(position))
 
 
 #: The quantities of :meth:`Model.derived_values`, by the number of states.
