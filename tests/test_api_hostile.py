@@ -132,6 +132,10 @@ def test_a_period_given_makes_arrays_periodic() -> None:
     assert res.initial_state == "periodic" and res.r2 > 0.999999
     with pytest.raises(ValueError, match="would not use it"):
         pumpid.FitOptions(period=period, initial_state="rest")
+    # A record that states its own start keeps it, and is told (it became periodic).
+    with pytest.raises(ValueError, match="initial_state 'equilibrium' would not use it"):
+        pumpid.fit("kelvin", pumpid.CardData(t, load, pos, "equilibrium"),
+                   options=pumpid.FitOptions(period=period))
 
 
 @pytest.mark.parametrize("factor", [1e-160, 1e-200])

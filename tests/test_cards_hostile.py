@@ -259,7 +259,7 @@ def test_duplicate_headers_empty_columns_and_extremes(folder, text):
 
 
 def test_a_padded_card_is_said_to_be_padded(tmp_path) -> None:
-    # A card whose last fifth repeats (0, 0) (41 of the public oilfield set's cards) was
+    # A card whose last fifth repeats (0, 0) (39 of the public oilfield set's cards) was
     # fitted as a fifth of the stroke without a word.
     import numpy as np
 

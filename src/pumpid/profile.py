@@ -287,6 +287,12 @@ def _refined(deviance: Callable[[float], float], inside: float, outside: float,
     guess = _crossing(inside, d_in, outside, d_out, level)
 
     def gap(x: float) -> float:
+        # The bracket's ends are the grid's own points: not refitted (Brent evaluates them
+        # first), so the grid keeps its continuation's values there.
+        if x == inside:
+            return d_in - level
+        if x == outside:
+            return d_out - level
         d = deviance(x)
         if not math.isfinite(d):
             raise ArithmeticError

@@ -21,6 +21,7 @@ def _alerts(rows: list[tuple[str, float, str, str]]) -> pd.DataFrame:
     frame["alarm_time"] = pd.to_datetime(frame["alarm_time"], utc=True)
     frame["first_index"] = frame["alarm_index"] = 0
     frame["quantity"] = [f"q{i}" for i in range(len(frame))]
+    frame["first_card_id"] = [f"card{i}" for i in range(len(frame))]
     return frame
 
 
@@ -41,6 +42,20 @@ def test_a_well_without_times_is_grouped_by_card_positions() -> None:
     alerts = _alerts([("A", 5.0, None, None), ("A", 6.0, None, None), ("A", 3.0, None, None)])
     alerts["first_index"], alerts["alarm_index"] = [10, 12, 40], [14, 15, 45]
     assert number_events(alerts).tolist() == [1, 1, 2]
+
+
+def test_alerts_from_one_card_are_one_change_whatever_their_positions() -> None:
+    # Without times the positions count each quantity's own usable cards: a quantity
+    # missing on a well's first 6 cards placed the same first card 6 positions earlier, and
+    # one change read as two.
+    alerts = _alerts([("A", 5.0, None, None), ("A", 6.0, None, None), ("B", 1.0, None, None)])
+    alerts["first_index"], alerts["alarm_index"] = [6, 12, 0], [8, 14, 2]
+    alerts["first_card_id"] = ["X", "X", "Y"]
+    assert number_events(alerts).tolist() == [1, 1, 2]
+    # A size not known ranks last, not first.
+    alerts.loc[2, "change_se"] = np.nan
+    alerts.loc[2, "first_index"] = 0
+    assert number_events(alerts).tolist()[2] == 2
 
 
 def test_one_change_in_two_quantities_is_ranked_by_quantity_not_by_rounding() -> None:

@@ -465,6 +465,11 @@ def test_a_card_without_fluid_load_gives_no_fillage(tmp_path: Path, surface, cap
     pump = doc["cards"][0]["pump"]
     assert all(pump[q]["value"] is None
                for q in ("fillage", "net_stroke", "displacement", "intake_pressure"))
+    # Its figure too (the transfer point was drawn at fillage x stroke: a crash, exit 2).
+    assert main(["downhole", str(cards), "--well", well, "--spm", str(SPM), "--no-identify",
+                 "--card", "card0", "--damping", "5", "--out", str(tmp_path / "out")]) == 0
+    capsys.readouterr()
+    assert (tmp_path / "out" / "cards.png").is_file()
 
 
 def test_loads_below_the_rods_weight_are_said(tmp_path: Path, surface, capsys) -> None:

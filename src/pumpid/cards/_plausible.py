@@ -261,7 +261,7 @@ def plausibility_warnings(
             "measured downwards? It is fitted as given")
     padded = _repeated_tail(position, load)
     if padded:
-        # 41 of the oilfield set's 360 cards end in 50 samples of exactly (0, 0): fitted as a
+        # 39 of the oilfield set's 360 cards end in 50 samples of exactly (0, 0): fitted as a
         # fifth of the stroke, their period rebuilt from the SPM 25 % too long, without a word.
         out.append(
             f"{label}: its last {padded} of {position.size} samples repeat one point "

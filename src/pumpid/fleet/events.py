@@ -45,7 +45,8 @@ def number_events(alerts: pd.DataFrame) -> pd.Series:
     ----------
     alerts : pandas.DataFrame
         :func:`pumpid.fleet.changes.detect_changes`' result (``well_id``, ``change_se``,
-        ``first_time``, ``alarm_time``, ``first_index``, ``alarm_index``).
+        ``first_card_id``, ``first_time``, ``alarm_time``, ``first_index``,
+        ``alarm_index``).
 
     Returns
     -------
@@ -56,23 +57,29 @@ def number_events(alerts: pd.DataFrame) -> pd.Series:
     """
     if alerts.empty:
         return pd.Series(np.zeros(0, dtype=np.int64), index=alerts.index, name="event")
-    size = change_size(alerts).fillna(np.inf).to_numpy()
+    # A size not known ranks last (it was taken for an infinite one: change 1).
+    size = change_size(alerts).fillna(0.0).to_numpy()
     wells = alerts["well_id"].astype(str).to_numpy()
     label = np.empty(len(alerts), dtype=np.int64)
     events: list[tuple[float, str, int, int]] = []  # (size, well, start, label)
+    firsts = alerts["first_card_id"].astype(str).to_numpy()
     for well in dict.fromkeys(wells):
         rows = np.flatnonzero(wells == well)
         first, alarm = _spans(alerts.iloc[rows])
         order = np.lexsort((alarm, first))
         reach = None
+        cards: set[str] = set()
         for r in order:
             # Sorted by first card: an alert joins the event in progress when it starts
-            # no later than the latest alarm seen in that event.
-            if reach is None or first[r] > reach:
+            # no later than the latest alarm seen in that event, or at one of its first
+            # cards (without times the positions count each quantity's own usable cards,
+            # which differ when a quantity is missing on some).
+            if reach is None or (first[r] > reach and firsts[rows[r]] not in cards):
                 events.append((0.0, well, int(first[r]), len(events)))
-                reach = alarm[r]
+                reach, cards = alarm[r], set()
             else:
                 reach = max(reach, alarm[r])
+            cards.add(firsts[rows[r]])
             label[rows[r]] = len(events) - 1
             big, w, start, k = events[-1]
             events[-1] = (max(big, float(size[rows[r]])), w, start, k)

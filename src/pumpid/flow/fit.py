@@ -272,13 +272,18 @@ def fit_flow(
 
 
 def _distinct_levels(u: FloatArray, rel: float = 0.05) -> int:
-    """Number of non-zero pressure-drop levels (5 % of the largest apart) the record visits
-    for two samples or more: a step visits one, a ramp or a staircase several."""
+    """Number of non-zero pressure-drop levels the record visits: its values (above 5 % of
+    the largest) in runs split where sorted neighbours lie over 5 % of the largest apart,
+    a run spanning more than 10 % of it counted as a sweep of two levels or more. A step
+    visits one (its noise included: fixed bins split a noisy level in two), a ramp or a
+    staircase several."""
     mag = np.abs(u)
     top = float(mag.max()) or 1.0
-    bins = np.round(mag / (rel * top))
-    _, counts = np.unique(bins[mag > rel * top], return_counts=True)
-    return int(np.sum(counts >= 2))
+    values = np.sort(mag[mag > rel * top])
+    if values.size < 2:
+        return int(values.size)
+    runs = np.split(values, np.flatnonzero(np.diff(values) > rel * top) + 1)
+    return sum(2 if run[-1] - run[0] > 2 * rel * top else 1 for run in runs if run.size >= 2)
 
 
 # --------------------------------------------------------------------------- records jointly

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..cards import Card
-from ..engine.problem import CardData, build_problem
+from ..engine.problem import CardData, build_problem, initial_state_label
 from ..engine.solvers import LevenbergMarquardt, PaperNewton
 from ..engine.threads import default_workers
 from ..models import Model, OwnModel, model_class
@@ -84,7 +84,13 @@ def _record(item: CardData, options: FitOptions) -> CardData:
     """A record under ``options``: its own initial state and period unless they say."""
     state = item.initial_state if options.initial_state is None else options.initial_state
     if options.initial_state is None and options.period is not None:
-        state = "periodic"  # a period given makes the record periodic (FitOptions.period)
+        # A period given makes the record periodic (FitOptions.period): one from rest, the
+        # default of arrays; a record that states another start keeps it, and is told.
+        if not (isinstance(state, str) and state in ("rest", "periodic")):
+            raise ValueError(f"FitOptions.period={options.period!r}: the record's own "
+                             f"initial_state {initial_state_label(state)!r} would not use "
+                             "it; give initial_state='periodic' to fit it as a stroke")
+        state = "periodic"
     period = item.period if options.period is None else options.period
     return CardData(item.t, item.load, item.data, state, period)
 

@@ -39,16 +39,18 @@ def draw_cards(result: DownholeResult, path: str | os.PathLike[str] | BinaryIO) 
     for name in ("upper_load_line", "lower_load_line"):
         right.axhline(q[name]["value"], color="gray", lw=0.7, ls="--")
     # Positions are shown from the plunger's lowest point: the transfer point sits at
-    # fillage times the gross stroke.
-    right.axvline(q["fillage"]["value"] * q["gross_stroke"]["value"], color="tab:red",
-                  lw=0.7)
+    # fillage times the gross stroke (none without a fluid load: no fillage then).
+    fillage = q["fillage"]["value"]
+    if fillage is not None:
+        right.axvline(fillage * q["gross_stroke"]["value"], color="tab:red", lw=0.7)
     right.set_title(f"pump card ({result.convention} load, {result.method}, "
                     f"damping {result.damping:g})")
     for ax in (left, right):
         ax.set_xlabel(f"position ({pu})")
         ax.set_ylabel(f"load ({lu})")
         ax.grid(alpha=0.3)
-    fig.suptitle(f"card {card.card_id}: fillage {q['fillage']['value']:.2f}, fluid load "
+    said = "no fillage (no fluid load)" if fillage is None else f"fillage {fillage:.2f}"
+    fig.suptitle(f"card {card.card_id}: {said}, fluid load "
                  f"{q['fluid_load']['value']:.4g} {lu}, gross stroke "
                  f"{q['gross_stroke']['value']:.4g} {pu}", fontsize=10)
     fig.tight_layout()
