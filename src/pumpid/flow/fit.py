@@ -15,6 +15,7 @@ from a transient record with the same engine as the cards:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from collections.abc import Mapping, Sequence
@@ -261,7 +262,7 @@ def fit_flow(
         except ValueError as exc:
             raise _in_flow_words(exc, record, direction) from None
     return res.with_parts(
-        warnings=(*warnings, *res.warnings),
+        warnings=(*warnings, *res.warnings), derived=_in_flow_terms(res.derived, direction),
         application={"flow": {
             "source": record.source, "direction": direction,
             "input": "pressure drop" if direction == "dp->q" else "flow rate",
@@ -269,6 +270,20 @@ def fit_flow(
             "initial_state": why, "notes": list(record.notes),
             "dp_ref": getattr(cls, "dp_ref", None) if "n" in cls.param_names() else None,
         }})
+
+
+def _in_flow_terms(derived: Mapping[str, Any], direction: str) -> dict[str, Any]:
+    """The derived quantities said of a pipe, not of a rod-pumped well: the static
+    stiffness of a dp -> q fit is a hydraulic resistance (it read "load per unit
+    displacement", "a property of the well")."""
+    out = dict(derived)
+    static = out.get("static_stiffness")
+    if static is not None:
+        meaning = ("pressure drop per unit flow rate at steady state (1 / static gain): the "
+                   "line's hydraulic resistance" if direction == "dp->q" else
+                   "flow rate per unit pressure drop at steady state (1 / static gain)")
+        out["static_stiffness"] = dataclasses.replace(static, meaning=meaning)
+    return out
 
 
 def _distinct_levels(u: FloatArray, rel: float = 0.05) -> int:

@@ -310,11 +310,15 @@ def derived_html(result: FitResult) -> str:
              + ("" if d.well_property else "; not a property of the well"),
              d.meaning if d.well_property else f"{d.meaning}. {d.note}"]
             for d in result.derived.values()]
+    # The well's words only where a quantity is marked (a flow fit spoke of a well).
+    echo = any(not d.well_property for d in result.derived.values())
     return (
         "<p>Physical combinations of the parameters, from the model's poles and static gain: "
         "they stay determined where single parameters trade off, so they are the numbers "
-        "to trend, except those marked as not a property of the well (a resonance on the "
-        "stroke frequency echoes the pumping speed).</p>\n"
+        "to trend"
+        + (", except those marked as not a property of the well (a resonance on the "
+           "stroke frequency echoes the pumping speed)" if echo else "")
+        + ".</p>\n"
         + table(("quantity", "value", "unit", "std. error (shown: robust where the "
                  "residuals are serially correlated)", "std. error assuming independent "
                  "noise", "determined", "meaning"), rows, num_cols=(1, 3, 4)))
