@@ -38,6 +38,9 @@ def test_simulate_then_fit_json_round_trip(tmp_path, capsys):
     # a pipe's, not a rod-pumped well's ("load per unit displacement").
     assert obj["derived"]["static_stiffness"]["unit"] == "Pa/(m^3/s)"
     assert "hydraulic resistance" in obj["derived"]["static_stiffness"]["meaning"]
+    assert run(["flow", "fit", str(out), "--out", str(tmp_path / "report")]) == 0
+    html = (tmp_path / "report" / "report.html").read_text(encoding="utf-8")
+    assert "static_stiffness" in html and "property of the well" not in html
     tau1 = newtonian_slowest_time_constant(10.0, 1000.0, Pipe(5e-3, 1.0))
     assert 0.9 * tau1 < obj["params"]["tau"] < tau1
     assert obj["r2"] > 0.999
@@ -59,7 +62,6 @@ def test_fit_text_table_and_report_folder(tmp_path, capsys):
         assert (report / name).is_file()
     html = (report / "report.html").read_text(encoding="utf-8")
     assert "pressure drop in, flow rate out" in html
-    assert "property of the well" not in html  # a pipe's report spoke of a well
 
 
 def test_fit_reverse_direction_and_units(tmp_path, capsys):
