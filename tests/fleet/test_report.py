@@ -387,3 +387,14 @@ def test_a_quantity_no_well_has_is_not_drawn(tmp_path: Path) -> None:
     page = write_fleet_report(frame, tmp_path, quantities=["stiffness", "damping_ratio"],
                               steady_sample=2)["report"].read_text(encoding="utf-8")
     assert "Quantities no well has a usable value of are not drawn: damping_ratio." in page
+
+
+def test_quantities_without_a_value_are_said_above_the_figures(tmp_path: Path) -> None:
+    # As grid cells of their own, they left half-empty rows beside the figures.
+    frame = results_table(3, 40, cv=0.02, seed=3)
+    frame["d_damping_ratio_determined"] = False
+    page = write_fleet_report(frame, tmp_path, quantities=["stiffness", "damping_ratio"],
+                              steady_sample=0)["report"].read_text(encoding="utf-8")
+    section = page[page.index('id="distributions"'):page.index('id="trends"')]
+    grid = section[section.index('<div class="grid">'):]
+    assert "damping_ratio:" in section and "damping_ratio:" not in grid

@@ -577,12 +577,14 @@ def write_fleet_report(
 
     alerted = set(alerts["well_id"].astype(str))
     parts.append("<section id=\"distributions\"><h2>Quantities across wells</h2>")
-    parts.append("<div class=\"grid\">")
+    # The quantities without a value in one paragraph above the grid: as grid cells of
+    # their own they left half-empty rows beside the figures.
+    figures, missing = [], []
     taken: set[str] = set()
     for q in names:
         fig = distribution_figure(named, q, units[q], alerted)
         if fig is None:
-            parts.append(f"<p>{_e(q)}: {_no_value(frame, q)}.</p>")
+            missing.append(f"{_e(q)}: {_no_value(frame, q)}")
             continue
         name = _safe_name(f"distribution_{q}", taken)
         few = named["well_id"].nunique() < MIN_WELLS_HISTOGRAM
@@ -590,8 +592,10 @@ def write_fleet_report(
                    f"few wells for a histogram); red: wells with an alert." if few else
                    f"Distribution across wells of each well's median {q} "
                    f"[{unit_text(units[q])}]; triangles mark wells with an alert.")
-        parts.append(_figure_html(save(fig, name), f"distribution of {q}", caption))
-    parts.append("</div></section>")
+        figures.append(_figure_html(save(fig, name), f"distribution of {q}", caption))
+    if missing:
+        parts.append(f"<p>{'; '.join(missing)}.</p>")
+    parts.append("<div class=\"grid\">" + "".join(figures) + "</div></section>")
 
     # Which wells to draw: the alerted ones by decreasing size, then a random few steady.
     ranked = summary[summary["alerts"] > 0]["well_id"].astype(str).tolist()
