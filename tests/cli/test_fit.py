@@ -166,8 +166,11 @@ def test_history_prints_the_solvers_path(two_cards: Path, capsys) -> None:
     assert main(["fit", str(two_cards), *U, "--history", "--card", "W-1"]) == 0
     out = capsys.readouterr().out
     assert "no iterations recorded" not in out
-    header = next(ln for ln in out.splitlines() if ln.startswith("iteration "))
-    assert "cost" in header and "k0" in header
+    lines = out.splitlines()
+    at = next(i for i, ln in enumerate(lines) if ln.startswith("iteration "))
+    assert "cost" in lines[at] and "k0" in lines[at]
+    # Every column with its unit (the numbers stood bare).
+    assert "[in^2]" in lines[at + 1] and "[lbf/in]" in lines[at + 1]
 
 
 @pytest.mark.realdata

@@ -17,7 +17,7 @@ from ..models import Model
 from .boundaries import BoundaryInfo
 from .derived import Derived
 from .parts import CardInfo, StartInfo, Status, Units, jsonable
-from .text import error_table, fmt, fmt_error, model_choice_text
+from .text import error_table, fmt, fmt_error, model_choice_text, squared
 from .uncertainty import Uncertainty
 
 if TYPE_CHECKING:
@@ -394,7 +394,11 @@ class FitResult:
         if not self.history:
             return "(no iterations recorded)"
         keys = list(self.history[0].keys())
-        rows = [[str(k) for k in keys]]
+        # Every column with its unit (a flow fit's --history printed bare numbers).
+        units = {**self.param_units(), "C": self.scale_unit(), "D": "-", "epsilon": "-",
+                 "offset": self.units.position, "iteration": "",
+                 "cost": squared(self.units.position) if self.residual == "linear" else "-"}
+        rows = [[str(k) for k in keys], [f"[{units[k]}]" if units.get(k) else "" for k in keys]]
         for row in self.history:
             rows.append([str(int(row[k])) if k == "iteration" else fmt(row.get(k), 12)
                          for k in keys])
