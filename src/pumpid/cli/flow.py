@@ -64,10 +64,23 @@ def _parse_steps(text: str) -> list[float]:
     return values
 
 
+#: The simulator's field names as the options that give them (an error named the class:
+#: "PowerLawFluid.K (consistency) must be positive").
+_OPTION_OF = {"PowerLawFluid.K": "--K", "PowerLawFluid.n": "--n", "PowerLawFluid.rho": "--rho",
+              "Pipe.radius": "--radius", "Pipe.length": "--length"}
+
+
 def _fluid_pipe(args: argparse.Namespace) -> tuple[Any, Any]:
     from ..flow.pipeflow import Pipe, PowerLawFluid
 
-    return PowerLawFluid(K=args.K, n=args.n, rho=args.rho), Pipe(args.radius, args.length)
+    try:
+        return (PowerLawFluid(K=args.K, n=args.n, rho=args.rho),
+                Pipe(args.radius, args.length))
+    except ValueError as exc:
+        text = str(exc)
+        for field, option in _OPTION_OF.items():
+            text = text.replace(field, option)
+        raise FlowCliError(text) from None
 
 
 def _fmt(value: Any, digits: int = 8) -> str:
