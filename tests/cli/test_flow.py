@@ -175,8 +175,8 @@ def test_a_magnitude_refusal_has_no_template_in_it(tmp_path):
 def test_a_bad_fluid_or_pipe_is_named_by_its_option():
     # "PowerLawFluid.K (consistency) must be positive" named the class, not the option.
     with pytest.raises(ValueError, match=r"^--K \(consistency\) must be positive"):
-        run(["flow", "simulate", "--K", "-1", "--rho", "1000", "--radius", "5e-3",
+        run(["flow", "simulate", "--K=-1", "--rho", "1000", "--radius", "5e-3",
              "--length", "1", "--dp", "1e5"])
     with pytest.raises(ValueError, match=r"^--radius must be positive"):
-        run(["flow", "simulate", "--K", "10", "--rho", "1000", "--radius", "-5e-3",
+        run(["flow", "simulate", "--K", "10", "--rho", "1000", "--radius=-5e-3",
              "--length", "1", "--dp", "1e5"])
