@@ -459,7 +459,7 @@ def fit_flow_records(
                     "rmse": float(np.sqrt(np.mean(err**2))),
                     "r2": 1.0 - float(err @ err) / sst if sst > 0 else math.nan})
         i += rec.n
-    return res.with_parts(application={
+    return res.with_parts(derived=_in_flow_terms(res.derived, "dp->q"), application={
         "records": per,
         "flow": {"direction": "dp->q", "input": "pressure drop", "output": "flow rate",
                  "n_records": len(records), "dp_ref": getattr(cls, "dp_ref", None)}})
