@@ -86,6 +86,7 @@ def test_one_change_seen_in_two_quantities_counts_once(tmp_path: Path, capsys) -
                               quantities=["stiffness", "damping_ratio"])["report"]
     text = page.read_text(encoding="utf-8")
     assert "2 alerts in 1 well: 1 change (the alerts of a well over the same cards" in text
+    assert "3 wells, 240 cards, 2 alerts (1 change)." in text  # the page's headline
     assert "<td>2 (1 change)</td>" in text.replace('<td class="num">', "<td>")
     frame.to_parquet(tmp_path / "results.parquet")
     assert main(["report", str(tmp_path / "results.parquet"), "--out", str(tmp_path / "r"),

@@ -68,7 +68,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     """Write the fleet report; print where, and the alerts in one line each."""
 
     from ..fleet.changes import available_quantities, card_counts, detect_changes
-    from ..fleet.events import ordered_by_event
+    from ..fleet.events import count_events, ordered_by_event
     from ..fleet.report import write_fleet_report
     from ..fleet.store import read_results
 
@@ -98,8 +98,8 @@ def cmd_report(args: argparse.Namespace) -> int:
     print(f"pumpid report: {plural(n['cards'], 'card')} of {plural(n['wells'], 'well')}"
           f"{' (' + '; '.join(aside) + ')' if aside else ''}, "
           f"{plural(len(alerts), 'alert')} in {plural(alerted, 'well')}"
-          + (f", {plural(alerts['event'].nunique(), 'change')} (a change seen in several "
-             "quantities counts once)" if alerts["event"].nunique() < len(alerts) else ""))
+          + (f", {plural(count_events(alerts), 'change')} (a change seen in several "
+             "quantities counts once)" if count_events(alerts) < len(alerts) else ""))
     for _, a in ordered_by_event(alerts).iterrows():
         drift = (" (a steady drift over the history: its fitted line, first card to last)"
                  if a["method"] == "drift" else "")

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["change_size", "number_events", "ordered_by_event"]
+__all__ = ["change_size", "count_events", "number_events", "ordered_by_event"]
 
 
 def change_size(alerts: pd.DataFrame) -> pd.Series:
@@ -95,3 +95,11 @@ def ordered_by_event(alerts: pd.DataFrame) -> pd.DataFrame:
     return (alerts.assign(event=events, _size=change_size(alerts))
             .sort_values(["event", "_size"], ascending=[True, False], kind="stable")
             .drop(columns="_size"))
+
+
+def count_events(alerts: pd.DataFrame) -> int:
+    """How many changes the alerts are (their ``event`` column, computed when missing)."""
+    if alerts.empty:
+        return 0
+    return int((alerts["event"] if "event" in alerts.columns else number_events(alerts))
+               .nunique())

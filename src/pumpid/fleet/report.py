@@ -49,7 +49,7 @@ from .changes import (
     load_results,
     summarise_wells,
 )
-from .events import number_events, ordered_by_event
+from .events import count_events, ordered_by_event
 from .figures import (
     MIN_WELLS_HISTOGRAM,
     column_unit,
@@ -269,7 +269,7 @@ def _alert_count(alerts: pd.DataFrame) -> str:
     """``9 alerts in 2 wells: 2 changes, ...``: one leak read as five alerts."""
     text = (f"{count_words(len(alerts), 'alert')} in "
             f"{count_words(alerts['well_id'].nunique(), 'well')}")
-    events = (alerts["event"] if "event" in alerts.columns else number_events(alerts)).nunique()
+    events = count_events(alerts)
     if events < len(alerts):
         text += (f": {count_words(events, 'change')} (the alerts of a well over the same "
                  "cards are one change seen in several quantities)")
@@ -648,8 +648,10 @@ def write_fleet_report(
 
     body = "\n".join(parts)
     n_wells = named["well_id"].nunique()
+    events = count_events(alerts)
     headline = (f"{count_words(n_wells, 'well')}, {count_words(len(frame), 'card')}, "
-                f"{count_words(len(alerts), 'alert')}")
+                f"{count_words(len(alerts), 'alert')}"
+                + (f" ({count_words(events, 'change')})" if events < len(alerts) else ""))
     page = f"""<!DOCTYPE html>
 <html lang="en">
 <head>
