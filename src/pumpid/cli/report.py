@@ -95,11 +95,12 @@ def cmd_report(args: argparse.Namespace) -> int:
              *([f"{n['unnamed']} without a well id, not trended"] if n["unnamed"] else []),
              *([f"{n['undated']} without a time in wells with dated cards, not trended"]
                if n["undated"] else [])]
+    changes = count_events(alerts)
     print(f"pumpid report: {plural(n['cards'], 'card')} of {plural(n['wells'], 'well')}"
           f"{' (' + '; '.join(aside) + ')' if aside else ''}, "
           f"{plural(len(alerts), 'alert')} in {plural(alerted, 'well')}"
-          + (f", {plural(count_events(alerts), 'change')} (a change seen in several "
-             "quantities counts once)" if count_events(alerts) < len(alerts) else ""))
+          + (f", {plural(changes, 'change')} (a change seen in several quantities counts "
+             "once)" if changes < len(alerts) else ""))
     for _, a in ordered_by_event(alerts).iterrows():
         drift = (" (a steady drift over the history: its fitted line, first card to last)"
                  if a["method"] == "drift" else "")

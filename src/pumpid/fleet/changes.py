@@ -111,7 +111,7 @@ from pumpid.models import model_class
 
 from .detectors import robust_sigma, scan_cusum, scan_two_segments
 from .downhole import is_pump_quantity, pump_quantities, pump_usable
-from .events import change_size, number_events
+from .events import change_size, events_of, number_events
 from .thresholds import MIN_SEGMENT, cusum_threshold
 
 __all__ = [
@@ -658,9 +658,8 @@ def summarise_wells(
         out["first_time"], out["last_time"] = times.min(), times.max()
     else:
         out["first_time"] = out["last_time"] = pd.NaT
-    events = alerts["event"] if "event" in alerts.columns else number_events(alerts)
     mine = alerts.assign(_w=alerts["well_id"].astype(str), _size=change_size(alerts),
-                         _event=events)
+                         _event=events_of(alerts))
     by_well = mine.groupby("_w")
     out["alerts"] = by_well.size().reindex(out.index, fill_value=0).astype(int)
     out["changes"] = by_well["_event"].nunique().reindex(out.index, fill_value=0).astype(int)

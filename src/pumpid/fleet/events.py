@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["change_size", "count_events", "number_events", "ordered_by_event"]
+__all__ = ["change_size", "count_events", "events_of", "number_events",
+           "ordered_by_event"]
 
 
 def change_size(alerts: pd.DataFrame) -> pd.Series:
@@ -61,7 +62,9 @@ def number_events(alerts: pd.DataFrame) -> pd.Series:
     size = change_size(alerts).fillna(0.0).to_numpy()
     wells = alerts["well_id"].astype(str).to_numpy()
     label = np.empty(len(alerts), dtype=np.int64)
-    events: list[tuple[float, str, int, int]] = []  # (size, well, start, label)
+    # Each event's largest alert and first position, by its label.
+    biggest: list[float] = []
+    starts: list[int] = []
     firsts = alerts["first_card_id"].astype(str).to_numpy()
     for well in dict.fromkeys(wells):
         rows = np.flatnonzero(wells == well)
@@ -75,31 +78,33 @@ def number_events(alerts: pd.DataFrame) -> pd.Series:
             # cards (without times the positions count each quantity's own usable cards,
             # which differ when a quantity is missing on some).
             if reach is None or (first[r] > reach and firsts[rows[r]] not in cards):
-                events.append((0.0, well, int(first[r]), len(events)))
+                biggest.append(0.0)
+                starts.append(int(first[r]))
                 reach, cards = alarm[r], set()
             else:
                 reach = max(reach, alarm[r])
             cards.add(firsts[rows[r]])
-            label[rows[r]] = len(events) - 1
-            big, w, start, k = events[-1]
-            events[-1] = (max(big, float(size[rows[r]])), w, start, k)
-    ranked = sorted(events, key=lambda e: (-e[0], e[2], e[3]))
-    number = {e[3]: i + 1 for i, e in enumerate(ranked)}
+            label[rows[r]] = len(biggest) - 1
+            biggest[-1] = max(biggest[-1], float(size[rows[r]]))
+    ranked = sorted(range(len(biggest)), key=lambda e: (-biggest[e], starts[e], e))
+    number = {e: i + 1 for i, e in enumerate(ranked)}
     return pd.Series([number[k] for k in label], index=alerts.index, name="event")
+
+
+def events_of(alerts: pd.DataFrame) -> pd.Series:
+    """The alerts' ``event`` column, numbered here when they carry none (alerts given by
+    a caller)."""
+    return alerts["event"] if "event" in alerts.columns else number_events(alerts)
 
 
 def ordered_by_event(alerts: pd.DataFrame) -> pd.DataFrame:
     """``alerts`` with an ``event`` column (computed when missing), event by event and,
     within one, the largest alert first (ties in the alerts' own order)."""
-    events = alerts["event"] if "event" in alerts.columns else number_events(alerts)
-    return (alerts.assign(event=events, _size=change_size(alerts))
+    return (alerts.assign(event=events_of(alerts), _size=change_size(alerts))
             .sort_values(["event", "_size"], ascending=[True, False], kind="stable")
             .drop(columns="_size"))
 
 
 def count_events(alerts: pd.DataFrame) -> int:
     """How many changes the alerts are (their ``event`` column, computed when missing)."""
-    if alerts.empty:
-        return 0
-    return int((alerts["event"] if "event" in alerts.columns else number_events(alerts))
-               .nunique())
+    return int(events_of(alerts).nunique()) if not alerts.empty else 0

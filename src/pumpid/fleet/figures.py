@@ -326,10 +326,10 @@ def well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str,
     top = 1.0 - 0.45 / fig.get_figheight()
     fig.legend(list(handles.values()), list(handles.keys()), loc="lower right", ncols=6,
                fontsize=8, frameon=False, bbox_to_anchor=(0.99, top))
-    first, last = (x_all.min(), x_all.max()) if len(x_all) else (None, None)
-    if len(x_all) > 1 and last > first:
+    if len(x_all) > 1 and x_all.max() > x_all.min():
         # Over every card of the well: scaled to the plotted points, the axis ended at the
         # last card with a value, and the cards after it (none determined it) went unseen.
+        first, last = x_all.min(), x_all.max()
         margin = 0.02 * (last - first)
         axes[-1].set_xlim(first - margin, last + margin)
     axes[-1].set_xlabel("card time (UTC)" if timed else "card number (no times in the table)")

@@ -220,7 +220,8 @@ def _no_value(frame: pd.DataFrame, quantity: str) -> str:
 
 def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFrame,
                      quantities: Sequence[str], units: dict[str, str], settings: str,
-                     coverage_rows: Sequence[tuple[str, str]] = ()) -> str:
+                     empty: Sequence[str], coverage_rows: Sequence[tuple[str, str]] = ()
+                     ) -> str:
     status = frame["status"].where(frame["status"].isin(STATUSES), "other")
     counts = status.value_counts().reindex([*STATUSES, "other"], fill_value=0)
     n = len(frame)
@@ -255,8 +256,8 @@ def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFr
         # Each is trended where it has usable values; "quantities trended" listed some
         # marked "(not trended)".
         ("quantities asked for", ", ".join(
-            f"{q} [{unit_text(units[q])}]" + ("" if quantity_values(named, q)[2].any() else
-                                             f" ({_no_value(frame, q)}: not trended)")
+            f"{q} [{unit_text(units[q])}]" + (f" ({_no_value(frame, q)}: not trended)"
+                                             if q in empty else "")
             for q in quantities) or "none"),
         ("alerts", _alert_count(alerts)),
         *coverage_rows,
@@ -543,7 +544,11 @@ def write_fleet_report(
     parts.append("<section id=\"summary\"><h2>Run summary</h2>")
     repeat_rows = [("duplicate cards set aside (exact repeats of an earlier card of the "
                     "same well, counted once)", count_words(n_repeats, "card"))]
-    parts.append(_summary_section(frame, named, alerts, names, units, settings,
+    # Quantities with no usable value in any well: named so in the summary, left out of
+    # the trends (a third of each pump well's figure was three panels saying "no card of
+    # the well determined this quantity").
+    empty = [q for q in names if not quantity_values(named, q)[2].any()]
+    parts.append(_summary_section(frame, named, alerts, names, units, settings, empty,
                                   [*repeat_rows, *_coverage_rows(coverage, min_cards,
                                                                  min_short)]))
     pumps = ("" if identified is None else
@@ -614,9 +619,6 @@ def write_fleet_report(
     more = (sorted(rng.choice(rest, size=k - len(first), replace=False).tolist())
             if k > len(first) else [])
     drawn_steady = sorted([*first, *more])
-    # Quantities with no usable value in any well: a third of each pump well's figure was
-    # three panels saying "no card of the well determined this quantity".
-    empty = [q for q in names if not quantity_values(named, q)[2].any()]
     drawn_names = [q for q in names if q not in empty] or names
     parts.append("<section id=\"trends\"><h2>Trends per well</h2>")
     # The panels described only where some are drawn (a page without one described them).

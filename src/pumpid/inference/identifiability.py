@@ -66,9 +66,7 @@ def describe_direction(direction: Array, names: Sequence[str],
     determined : str
         What remains determined along it, e.g. ``"only their ratios are"``.
     """
-    v = np.asarray(direction, dtype=float)
-    v = v / v[np.argmax(np.abs(v))]
-    sig = [i for i in range(v.size) if abs(v[i]) >= _LOADING]
+    v, sig = _loadings(direction)
     parts = [names[i] for i in sig]
     if len(sig) == 1:
         return parts[0], False, "the data do not depend on it"
@@ -94,11 +92,16 @@ def describe_direction(direction: Array, names: Sequence[str],
             "only the combinations unchanged along it are determined")
 
 
-def _loaded(direction: Array, names: Sequence[str]) -> tuple[str, ...]:
-    """The names a direction loads (as :func:`describe_direction` names them)."""
+def _loadings(direction: Array) -> tuple[Array, list[int]]:
+    """A direction scaled to its largest component 1, and the components it loads."""
     v = np.asarray(direction, dtype=float)
     v = v / v[np.argmax(np.abs(v))]
-    return tuple(names[i] for i in range(v.size) if abs(v[i]) >= _LOADING)
+    return v, [i for i in range(v.size) if abs(v[i]) >= _LOADING]
+
+
+def _loaded(direction: Array, names: Sequence[str]) -> tuple[str, ...]:
+    """The names a direction loads (as :func:`describe_direction` names them)."""
+    return tuple(names[i] for i in _loadings(direction)[1])
 
 
 def _sentence(what: str, plural: bool, practical: bool) -> str:

@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from ..cards import printable
 from ..rods import DownholeResult
 from ..rods.figure import draw_cards
+from ..rods.report import quantity_mark
 from .identify import SHOWN, PumpFit
 
 __all__ = ["USABLE", "DownholeCard", "draw_identified", "format_error"]
@@ -277,10 +278,9 @@ class DownholeCard:
 
 
 def _undetermined(q: dict[str, Any]) -> str:
-    """What a quantity's value is when the fit does not determine it."""
-    if q.get("held"):
-        return " (held: a full pump)"
-    return " (not determined)" if q.get("determined") is False else ""
+    """What a quantity's value is when the fit does not determine it, as the report says."""
+    mark = quantity_mark(q)
+    return f" {mark}" if mark else ""
 
 
 def _solvers(consistency: float | None) -> str:

@@ -24,7 +24,7 @@ from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
 from ..models import OwnModel
-from ..result import FitResult, squared
+from ..result import FitResult
 from .output import atomic_write
 from .units import UNSTATED_UNITS, model_param_units, unit_text
 
@@ -275,7 +275,6 @@ def plot_history(result: FitResult) -> Figure:
     Figure
         Two axes sharing the iteration axis.
     """
-    u = result.units
     hist = result.history
     fig = _new_figure(8.0, 6.4)
     ax_cost, ax_step = fig.subplots(2, 1, sharex=True)
@@ -285,7 +284,7 @@ def plot_history(result: FitResult) -> Figure:
     fig.suptitle(f"{result.model_name}: convergence of the {result.method} solver, "
                  f"{steps} iteration{'s' if steps != 1 else ''}, {status}, "
                  f"{_r2_text(result.r2)}")
-    cost_unit = squared(u.position, "²") if result.residual == "linear" else "-"
+    cost_unit = result.cost_unit("²")
     ax_cost.set_ylabel(_label("cost ½Σr²", cost_unit))
     ax_step.set_ylabel(_label("relative change per iteration", "-"))
     ax_step.set_xlabel(_label("iteration", "-"))

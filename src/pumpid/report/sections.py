@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..models import Model, OwnModel, ParamInfo, model_class
-from ..result import FitResult, Prediction, n_eff_words, squared
+from ..result import FitResult, Prediction, n_eff_words
 from .markup import bullet_list, escape, interval, number, table, value_html
 from .plots import (
     has_history_figure,
@@ -90,7 +90,7 @@ def _param_unit(result: FitResult, infos: Mapping[str, ParamInfo], name: str) ->
     if name in ("C", "D", "epsilon"):
         return "-"
     if name == "cost":
-        return squared(result.units.position, "²") if result.residual == "linear" else "-"
+        return result.cost_unit("²")
     return ""
 
 

@@ -298,6 +298,11 @@ class FitResult:
         unit = self.model.scale_unit_for(self.units.load, self.units.position)
         return "-" if unit == "1" else unit
 
+    def cost_unit(self, mark: str = "^2") -> str:
+        """Unit of the cost (half the sum of squared residuals): the position's squared for
+        the linear residual, ``-`` for the log one; ``mark`` writes the square."""
+        return squared(self.units.position, mark) if self.residual == "linear" else "-"
+
     def free_values(self) -> dict[str, float]:
         """The fitted values by name (parameters, C or D, offset)."""
         out: dict[str, float] = {}
@@ -397,7 +402,7 @@ class FitResult:
         # Every column with its unit (a flow fit's --history printed bare numbers).
         units = {**self.param_units(), "C": self.scale_unit(), "D": "-", "epsilon": "-",
                  "offset": self.units.position, "iteration": "",
-                 "cost": squared(self.units.position) if self.residual == "linear" else "-"}
+                 "cost": self.cost_unit()}
         rows = [[str(k) for k in keys], [f"[{units[k]}]" if units.get(k) else "" for k in keys]]
         for row in self.history:
             rows.append([str(int(row[k])) if k == "iteration" else fmt(row.get(k), 12)

@@ -457,15 +457,16 @@ def _result(card: Card, well: Well, static: _Static, pos: Array, ten: Array, rev
     if card.well_id is not None and card.well_id != well.well_id:
         notes.append(f"the card's well id {card.well_id!r} differs from the well file's only "
                      f"well {well.well_id!r}, which applies to every card")
+    kp = POSITION_UNITS[card.position_unit or "m"]
+    kl = LOAD_UNITS[card.load_unit or "N"]
     weight = well.buoyant_weight()
-    if float(np.max(card.load)) * LOAD_UNITS[card.load_unit or "N"] < weight:
+    if float(np.max(card.load)) * kl < weight:
         # A polished rod carries at least the rods' weight in the fluid on the upstroke:
         # loads below it (the Sandia record against a guessed string) gave a pump card
         # whose load lines sat at -10,700 lbf, its fillage and displacement plausible.
         notes.append(f"the card's largest load is below the rods' weight in the fluid "
-                     f"({weight / LOAD_UNITS[card.load_unit or 'N']:.4g} "
-                     f"{card.load_unit or 'N'}): the well file, the load unit or the load "
-                     "cell's zero is wrong, and the pump card with it")
+                     f"({weight / kl:.4g} {card.load_unit or 'N'}): the well file, the load "
+                     "unit or the load cell's zero is wrong, and the pump card with it")
     if rev:
         notes.append("the card's loop turns the wrong way for time order (higher loads on the "
                      "falling half: stored in reverse time order); it was used reversed, and "
@@ -481,8 +482,6 @@ def _result(card: Card, well: Well, static: _Static, pos: Array, ten: Array, rev
     pos = pos[:count] - pos[count - 1].min()
     if rev:
         pos, shown = pos[:, ::-1], shown[:, ::-1]
-    kp = POSITION_UNITS[card.position_unit or "m"]
-    kl = LOAD_UNITS[card.load_unit or "N"]
     if well.system == "us" and card.position_unit in ("m", "cm", "mm"):
         notes.append(f"the card is in {card.position_unit}/{card.load_unit} and the well file "
                      "in US units: converted, results in the card's units")

@@ -27,7 +27,7 @@ from typing import Any
 from .diagnose import DownholeResult
 from .figure import draw_cards
 
-__all__ = ["DownholeReport"]
+__all__ = ["DownholeReport", "quantity_mark"]
 
 #: Pump quantities of the page's tables, in order, with their names in words.
 _SHOWN = (("gross_stroke", "gross plunger stroke"), ("net_stroke", "net plunger stroke"),
@@ -196,13 +196,14 @@ class DownholeReport:
                       if damping.get("stderr") is not None else None}
                 cells += [f"<td>{_e(ident.get('status', 'not run'))}</td>",
                           f'<td class="num">{_e(_num(extra.get("r2")))}</td>',
-                          f'<td class="num">{_stacked(_pm(nu))}</td>']
+                          f'<td class="num">{_stacked(nu)}</td>']
             for n in names:
                 q = e.quantities.get(n)
-                text = "n/a" if q is None else _pm(q)
-                if q is not None and units.get(n) != q["unit"] and text != "n/a":
-                    text += f" {q['unit']}"  # another card's unit: said beside the value
-                cells.append(f'<td class="num">{_stacked(text)}</td>')
+                # Another card's unit is said beside the value.
+                other = (q["unit"] if q is not None and units.get(n) != q["unit"]
+                         and _num(q.get("value")) != "n/a" else "")
+                cells.append(f'<td class="num">{"n/a" if q is None else _stacked(q, other)}'
+                             "</td>")
             rows.append("<tr>" + "".join(cells) + "</tr>")
         return ('<div class="scroll"><table><tr>' + "".join(f"<th>{h}</th>" for h in head)
                 + "</tr>" + "".join(rows) + "</table></div>")
@@ -301,26 +302,38 @@ def _unit_words(unit: Any) -> str:
     return "dimensionless" if unit in ("1", "-") else str(unit or "")
 
 
-def _stacked(text: str) -> str:
-    """A table cell's value, its error and its mark on lines of their own (HTML): at one
-    line a cell, the all-cards table ran past the page and its last columns (displacement,
-    intake pressure) went unseen."""
-    return (_e(text).replace(" \u00b1 ", "<br>\u00b1 ")
-            .replace(" (not determined)", "<br>(not<br>determined)")
-            .replace(" (held: a full pump)", "<br>(held: a full pump)"))
+def quantity_mark(q: Mapping[str, Any]) -> str:
+    """The word beside a quantity the fit does not determine ("" where it does): a full
+    pump's fillage is held, not measured."""
+    if q.get("held"):
+        return "(held: a full pump)"
+    return "(not determined)" if q.get("determined") is False else ""
+
+
+def _pm_parts(q: Mapping[str, Any]) -> list[str]:
+    """A quantity's value, its standard error (where it has one) and its mark."""
+    parts = [_num(q.get("value"))]
+    se = q.get("stderr")
+    if parts[0] != "n/a" and se is not None and math.isfinite(float(se)):
+        parts.append(f"\u00b1 {float(se):.2g}")
+    mark = quantity_mark(q)
+    return [*parts, mark] if mark else parts
 
 
 def _pm(q: Mapping[str, Any]) -> str:
-    """``value +- standard error`` (the error left out when there is none)."""
-    text = _num(q.get("value"))
-    se = q.get("stderr")
-    if text != "n/a" and se is not None and math.isfinite(float(se)):
-        text += f" \u00b1 {float(se):.2g}"
-    if q.get("held"):
-        text += " (held: a full pump)"
-    elif q.get("determined") is False:
-        text += " (not determined)"
-    return text
+    """``value +- standard error`` (the error left out when there is none), and its mark."""
+    return " ".join(_pm_parts(q))
+
+
+def _stacked(q: Mapping[str, Any], unit: str = "") -> str:
+    """A table cell (HTML): the value, its error and its mark on lines of their own, and
+    ``unit`` after them: at one line a cell, the all-cards table ran past the page and its
+    last columns (displacement, intake pressure) went unseen."""
+    parts = _pm_parts(q)
+    if unit:
+        parts[-1] += f" {unit}"
+    return "<br>".join(_e(p).replace("(not determined)", "(not<br>determined)")
+                       for p in parts)
 
 
 def _identification_said(extra: Mapping[str, Any], ident: Mapping[str, Any]) -> str:
