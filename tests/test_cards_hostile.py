@@ -258,23 +258,40 @@ def test_duplicate_headers_empty_columns_and_extremes(folder, text):
     check(folder, text.encode("utf-16"), min_samples=2)
 
 
-def test_a_padded_card_is_said_to_be_padded(tmp_path) -> None:
+def test_a_padded_card_is_read_without_its_padding(tmp_path) -> None:
     # A card whose last fifth repeats (0, 0) (39 of the public oilfield set's cards) was
-    # fitted as a fifth of the stroke without a word.
+    # fitted as a fifth of the stroke, its period spread over every sample.
     import numpy as np
 
+    import pumpid
     from pumpid.cards import read_cards
 
     x = np.linspace(0.0, 2 * np.pi, 200, endpoint=False)
     pos, load = np.r_[30 - 30 * np.cos(x), np.zeros(50)], np.r_[5 + 2 * np.sin(x), np.zeros(50)]
-    path = tmp_path / "padded.csv"
-    path.write_text("position_in,load_klbf\n" + "".join(
-        f"{a:.6f},{b:.6f}\n" for a, b in zip(pos, load, strict=True)), encoding="utf-8")
-    (card,) = read_cards(path, spm=6)
-    assert any("its last 50 of 250 samples repeat one point" in w for w in card.warnings)
+
+    def written(name: str, n: int) -> object:
+        path = tmp_path / name
+        path.write_text("position_in,load_klbf\n" + "".join(
+            f"{a:.6f},{b:.6f}\n" for a, b in zip(pos[:n], load[:n], strict=True)),
+            encoding="utf-8")
+        return path
+
+    (card,) = read_cards(written("padded.csv", 250), spm=6)
+    (plain,) = read_cards(written("plain.csv", 200), spm=6)
+    assert card.n == 200 and not card.warnings
+    assert any("padding dropped: the last 50 of 250 samples repeated one point (position 0 "
+               "in, load 0 klbf) (lines 202-251)" in n for n in card.notes)
+    np.testing.assert_array_equal(card.position, plain.position)
+    np.testing.assert_allclose(card.t, plain.t)  # the stroke's 10 s over its 200 samples
+    assert pumpid.fit(pumpid.Kelvin, card).cost == pumpid.fit(pumpid.Kelvin, plain).cost
+    # A card that is mostly padding is refused, saying why it is short.
+    from pumpid.cards import CardError
+
+    pos, load = pos[185:], load[185:]
+    with pytest.raises(CardError, match="only 15 samples after 50 samples of padding were "
+                                        "dropped, at least 20 needed"):
+        read_cards(written("short.csv", 65), spm=6)
+    pos, load = np.r_[30 - 30 * np.cos(x), np.zeros(50)], np.r_[5 + 2 * np.sin(x), np.zeros(50)]
     # A stroke's own turn-around (two samples held) is no padding.
-    path.write_text("position_in,load_klbf\n" + "".join(
-        f"{a:.6f},{b:.6f}\n" for a, b in zip(pos[:202], load[:202], strict=True)),
-        encoding="utf-8")
-    (card,) = read_cards(path, spm=6)
-    assert not any("padding" in w for w in card.warnings)
+    (card,) = read_cards(written("held.csv", 202), spm=6)
+    assert card.n == 202 and not any("padding" in w for w in (*card.notes, *card.warnings))

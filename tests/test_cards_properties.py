@@ -135,6 +135,8 @@ def card_arrays(draw):
     # Constant signals are rejected by design; make sure these are not constant.
     pos[0], pos[1] = -1.5, 2.5
     load[0], load[1] = 100.0, 250.0
+    # Nor padding: a run of one point at the end is dropped by design.
+    pos[-2] = 1.25 if pos[-1] != 1.25 else -1.25
     return np.array(pos), np.array(load)
 
 

@@ -262,11 +262,14 @@ class TestShapeformer:
 
 def test_the_oilfield_cards_that_do_not_close():
     # 3 of the 360 oilfield cards end 85 % of their stroke from where they start (SOURCE.md
-    # warns of mis-cut cards); every other card of the public sets read as one stroke closes.
+    # warns of mis-cut cards), and one 40 %: cut short and padded with (0, 0), which its
+    # padding had hidden; every other card of the public sets read as one stroke closes.
     path = RAW / "shapeformer_oilfield2d" / "OilfieldData2d_TEST_subset360.ts"
     cards = read_cards(path, spm=6, **OPTIONS["shapeformer_oilfield2d"])
     open_ones = [i for i, c in enumerate(cards) if open_stroke(c.position) is not None]
-    assert open_ones == [110, 250, 276]
-    assert all(0.84 < open_stroke(cards[i].position)[0] < 0.86 for i in open_ones)
+    assert open_ones == [110, 132, 250, 276]
+    assert all(0.84 < open_stroke(cards[i].position)[0] < 0.86 for i in (110, 250, 276))
+    assert 0.39 < open_stroke(cards[132].position)[0] < 0.41
+    assert any("padding dropped: the last 50 of 250 samples" in n for n in cards[132].notes)
     surface = read_cards(RAW / "sandia_dds" / "surface_cards.csv")
     assert all(open_stroke(c.position) is None for c in surface)

@@ -39,6 +39,17 @@ def test_reads_cards_with_time_and_units(tmp_path: Path) -> None:
     np.testing.assert_allclose(card.position, 50 * (1 - np.cos(2 * np.pi * np.arange(30) / 30)))
 
 
+def test_padding_is_dropped_as_from_every_file(tmp_path: Path) -> None:
+    # A fixed-length record filled with its last point, as the card files' readers drop it.
+    stroke = _long(["a"])
+    pad = pd.concat([stroke.iloc[[-1]]] * 6, ignore_index=True).assign(sample=np.arange(30, 36))
+    pd.concat([stroke, pad], ignore_index=True).to_parquet(tmp_path / "padded.parquet")
+    (card,) = read_parquet_cards(tmp_path / "padded.parquet")
+    assert card.n == 30
+    assert any("padding dropped: the last 6 of 36 samples" in n for n in card.notes)
+    np.testing.assert_allclose(card.t, np.arange(30) * 10.0 / 30)
+
+
 def test_a_duplicated_closing_point_is_dropped_as_from_every_file(tmp_path: Path) -> None:
     # The same card gave 200 samples from Parquet and 199 from its .ts file (whose reader
     # drops a last sample that repeats the first), and another fit status.

@@ -48,3 +48,25 @@ def test_a_fixed_value_leaves_the_push_test_on() -> None:
     assert res.status is pumpid.Status.BOUNDARY
     assert [(b.name, b.direction) for b in res.boundary.limits] == [("k0", "infinity")]
     assert res.params["m"] == 1.0
+
+
+def test_a_value_far_below_its_scale_is_not_said_to_run_to_infinity(shared_raw) -> None:
+    # An oilfield card (the first 200 samples of its 250, the rest padding) stopped on its
+    # budget at m = 8.4e-7 kN s^2/m, 4e6 below its natural scale; a push of m by 1000 up
+    # lowered the unfinished fit's cost, and the answer said "m runs to infinity (fitted
+    # value 8.424e-07 ...)".
+    from pumpid.cards import Card, read_cards
+
+    path = shared_raw / "shapeformer_oilfield2d" / "OilfieldData2d_TEST_subset360.ts"
+    read = read_cards(path, position_unit="m", load_unit="kN", spm=8)[181]
+    n, period = 200, 7.5
+    card = Card(position=read.position[:n], load=read.load[:n], t=np.arange(n) * period / n,
+                position_unit="m", load_unit="kN", time_source="spm", periodic=True,
+                period=period, spm=8.0, card_id="oilfield 181")
+    res = pumpid.fit(Kelvin, card)
+    said = [w for w in res.warnings if "runs to infinity" in w]
+    for w in said:
+        name = w.split()[0]
+        assert res.params[name] >= 1e-3 * res.problem.reference[0][
+            list(res.problem.model.param_names()).index(name)], w
+    assert not any(w.startswith("m runs to infinity") for w in res.warnings)

@@ -61,7 +61,10 @@ Conventions
   ``datetime`` (a time without a zone is taken as UTC, noted); other text is noted and left.
 * Clean-ups (each noted): rows flagged in a closure column (``is_closure_point``) are
   dropped; for cards without a time column, a last sample equal to the first in both
-  position and load (relative tolerance 1e-9) is dropped as a duplicated closing point.
+  position and load (relative tolerance 1e-9) is dropped as a duplicated closing point;
+  samples at a card's end that repeat its last point exactly in both position and load, at
+  least 3 of them and 5 % of the card, are dropped as padding (a moving rod never holds
+  both to every digit that long; an export that fills a fixed-length record does).
   Nothing else is repaired: NaN/inf, fewer than ``min_samples`` samples, time not strictly
   increasing, mismatched lengths, constant load or position (or varying only in the 12th
   significant digit, at any scale), unknown units, unparsable or complex numbers, a SPM or
@@ -98,7 +101,7 @@ a value is flagged only when it is implausible in every unit it could be in.
 
 from ._common import repeats_first
 from ._errors import CardError
-from ._plausible import loop_work, open_stroke
+from ._plausible import loop_work, open_stroke, trailing_padding
 from ._printable import printable
 from ._readers import (
     FORMATS,
@@ -154,4 +157,5 @@ __all__ = [
     "read_cards_and_errors",
     "repeats_first",
     "split_strokes",
+    "trailing_padding",
 ]

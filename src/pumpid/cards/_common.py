@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._errors import CardError
-from ._plausible import plausibility_warnings
+from ._plausible import plausibility_warnings, trailing_padding
 from ._strokes import split_strokes
 from ._text import iter_lines, normalize_name, number_problem, parse_number
 from ._types import Card
@@ -354,6 +354,20 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
             f"{idx.size} row(s) flagged as closure point in column {raw.closure_field!r} "
             f"dropped{where}"
         )
+    kept = np.flatnonzero(keep)
+    padded = trailing_padding(pos[kept], load[kept])
+    if padded:
+        # 39 of the public oilfield set's 360 cards end in 50 samples of exactly (0, 0):
+        # fitted as a fifth of the stroke, with a period rebuilt from the SPM 25 % too
+        # long, their statuses and values were another card's.
+        keep[kept[-padded:]] = False
+        where = "" if lines is None else f" ({line_span(lines[kept[-padded:]])})"
+        pu, lu = (f" {u}" if u else "" for u in (o.position_unit or raw.pos_unit,
+                                                 o.load_unit or raw.load_unit))
+        notes.append(
+            f"padding dropped: the last {padded} of {kept.size} samples repeated one "
+            f"point (position {fmt(pos[kept[-1]])}{pu}, load {fmt(load[kept[-1]])}{lu})"
+            f"{where}")
     if o.drop_closing_point and t is None and keep.sum() >= 2:
         first, last = np.flatnonzero(keep)[[0, -1]]
         if repeats_first(pos[[first, last]], load[[first, last]]):
@@ -381,8 +395,9 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
             )
     if pos.size < o.min_samples:
         first_line = None if lines is None or not lines.size else int(lines[0])
+        after = f" after {padded} samples of padding were dropped" if padded else ""
         raise o.error(
-            f"{label}: only {pos.size} samples, at least {o.min_samples} needed",
+            f"{label}: only {pos.size} samples{after}, at least {o.min_samples} needed",
             line=first_line if first_line is not None else raw.line,
             field=raw.pos_field,
         )

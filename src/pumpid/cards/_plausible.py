@@ -25,10 +25,12 @@ __all__ = [
     "MIN_LOAD_N",
     "MIN_LOAD_SWING",
     "MIN_STROKE_M",
+    "PADDING_SHARE",
     "SWAP_CONFIDENCE",
     "loop_work",
     "open_stroke",
     "plausibility_warnings",
+    "trailing_padding",
 ]
 
 #: Longest plausible polished-rod stroke (the longest long-stroke units reach about 10 m).
@@ -208,12 +210,44 @@ def _turns_backwards(position: NDArray[np.float64], load: NDArray[np.float64]) -
 PADDING_SHARE = 0.05
 
 
-def _repeated_tail(position: NDArray[np.float64], load: NDArray[np.float64]) -> int:
-    """How many samples at the card's end repeat its last (position, load) point, when
-    they look like padding (else 0)."""
+def trailing_padding(position: NDArray[np.float64], load: NDArray[np.float64]) -> int:
+    """How many samples at a card's end are padding: a run that repeats the card's last
+    (position, load) point exactly, at least 3 samples and :data:`PADDING_SHARE` of the
+    card (else 0), less its first sample where the run continues the stroke without a jump
+    (an export that repeats its last sample). A moving rod never holds both its position
+    and its load to every digit for that long; an export that fills a fixed-length record
+    does.
+
+    Parameters
+    ----------
+    position, load : ndarray
+        The card's samples, of equal length.
+
+    Returns
+    -------
+    int
+        The number of padding samples at the end (0: none).
+    """
+    if position.size == 0:
+        return 0
     same = (position == position[-1]) & (load == load[-1])
     run = int(np.argmin(same[::-1])) if not same.all() else position.size
-    return run if run >= max(3, PADDING_SHARE * position.size) else 0
+    if run < max(3, PADDING_SHARE * position.size) or run == position.size:
+        return 0
+    # An export that repeats the last sample to fill its record holds one real sample in
+    # the run: the run continues the stroke without a jump. One that fills with a constant
+    # (zeros) jumps to it, and the whole run is padding.
+    before = position.size - run
+    if before >= 3:
+        step_p, step_l = np.abs(np.diff(position[:before])), np.abs(np.diff(load[:before]))
+        jump_p = abs(float(position[-1] - position[before - 1]))
+        jump_l = abs(float(load[-1] - load[before - 1]))
+        # Against a high percentile of the card's steps, not its largest: a valve's
+        # opening can be one step as large as the jump to a fill of zeros.
+        if (jump_p <= 3.0 * float(np.percentile(step_p, 95))
+                and jump_l <= 3.0 * float(np.percentile(step_l, 95))):
+            run -= 1
+    return run
 
 
 def plausibility_warnings(
@@ -259,15 +293,6 @@ def plausibility_warnings(
             f"{label}: its loop turns the wrong way for a card in time order (higher loads "
             "while the position falls): stored in reverse time order, or the position "
             "measured downwards? It is fitted as given")
-    padded = _repeated_tail(position, load)
-    if padded:
-        # 39 of the oilfield set's 360 cards end in 50 samples of exactly (0, 0): fitted as a
-        # fifth of the stroke, their period rebuilt from the SPM 25 % too long, without a word.
-        out.append(
-            f"{label}: its last {padded} of {position.size} samples repeat one point "
-            f"(position {_fmt(float(position[-1]))}, load {_fmt(float(load[-1]))}): padding "
-            "rather than a stroke? It is fitted as given, and a time rebuilt from the "
-            "stroke rate spreads the stroke over every sample; remove the padding")
     if check_swap and position.size >= 8:
         try:
             roles = detect_column_roles([position, load])

@@ -59,8 +59,9 @@ def push_test(problem: Problem, cards: NDArray[np.int64], z: Array, cost: Array,
 
     A parameter is at a boundary when the solver stopped on the edge of its search window
     (``edges``: free index -> direction) and pushing it further leaves the cost unchanged,
-    when a push by a factor 1000 leaves the cost unchanged in exactly one direction, or in
-    both where it lies beyond a factor 1000 from its natural scale already (on that side).
+    when a push by a factor 1000 leaves the cost unchanged (or lowers it) in exactly one
+    direction, or in both where it lies beyond a factor 1000 from its natural scale already
+    (on that side). Beyond that factor, only the side it lies on can be its limit.
     """
     m = cards.size
     p = problem.n_free
@@ -89,16 +90,22 @@ def push_test(problem: Problem, cards: NDArray[np.int64], z: Array, cost: Array,
                     if 2.0 * c - 2.0 * cost[j] <= tol]
             if i in edges[j] and edges[j][i] in hits:
                 hits = [edges[j][i]]
-            elif len(hits) == 2 and abs(far[j, i]) > math.log(PUSH):
-                # Flat both ways and already beyond a factor 1000 from its natural scale: a
-                # push cannot leave the limit it is in (k1 = 1.4e-5 kN/m, 1e-6 of its scale,
-                # stayed "converged" with an offset of -5e6 m and a time constant of 5e9 s).
-                # Only toward a limit the model declares: elsewhere flat both ways is a
-                # value the data do not fix, wherever it started.
+            elif abs(far[j, i]) > math.log(PUSH):
                 side = "infinity" if far[j, i] > 0 else "zero"
-                if any(lim.param == name and lim.direction == side
-                       for lim in problem.model.limits):
-                    hits = [side]
+                if len(hits) == 2:
+                    # Flat both ways and already beyond a factor 1000 from its natural
+                    # scale: a push cannot leave the limit it is in (k1 = 1.4e-5 kN/m, 1e-6
+                    # of its scale, stayed "converged" with an offset of -5e6 m and a time
+                    # constant of 5e9 s). Only toward a limit the model declares: elsewhere
+                    # flat both ways is a value the data do not fix, wherever it started.
+                    if any(lim.param == name and lim.direction == side
+                           for lim in problem.model.limits):
+                        hits = [side]
+                else:
+                    # A push back toward its natural scale moves it inward, not to a
+                    # limit: an unfinished fit's m = 8.4e-7 kN s^2/m, 4e6 below its scale,
+                    # whose push up lowered the cost, was said to "run to infinity".
+                    hits = [h for h in hits if h == side]
             if len(hits) == 1:
                 lim = problem.model.limit(name, hits[0])
                 found.append(Limiting(name, hits[0], _exp(float(z[j, i])),
