@@ -295,3 +295,39 @@ def test_a_padded_card_is_read_without_its_padding(tmp_path) -> None:
     # A stroke's own turn-around (two samples held) is no padding.
     (card,) = read_cards(written("held.csv", 202), spm=6)
     assert card.n == 202 and not any("padding" in w for w in (*card.notes, *card.warnings))
+
+
+def test_a_record_of_strokes_without_time_is_not_read_as_one_stroke(tmp_path) -> None:
+    # Three strokes without a time column, given 6 SPM, were read as one stroke of 10 s:
+    # periodic, the motion three times too fast, without a word.
+    import numpy as np
+
+    from pumpid.cards import read_cards, split_strokes, strokes_seen
+
+    x = np.linspace(0.0, 2 * np.pi, 100, endpoint=False)
+    one_pos, one_load = 30 - 30 * np.cos(x), 5 + 2 * np.sin(x) + 0.5 * np.sin(2 * x)
+    noise = np.random.default_rng(0).normal(0.0, 0.05, 300)
+
+    def written(name: str, pos: np.ndarray, load: np.ndarray) -> object:
+        path = tmp_path / name
+        path.write_text("position_in,load_klbf\n" + "".join(
+            f"{a:.6f},{b:.6f}\n" for a, b in zip(pos, load, strict=True)), encoding="utf-8")
+        return path
+
+    (card,) = read_cards(written("three.csv", np.tile(one_pos, 3) + noise,
+                                 np.tile(one_load, 3)), spm=6)
+    assert not card.periodic and card.period == 10.0
+    np.testing.assert_allclose(np.diff(card.t), 0.1)  # 10 s over each stroke's 100 samples
+    assert any("holds several strokes, not one: its position rises through mid-stroke 3 "
+               "times, one every 100 samples" in w for w in card.warnings)
+    strokes = split_strokes(card)
+    assert len(strokes) == 3 and all(abs(s.period - 10.0) < 0.2 for s in strokes)
+    # The API's own rebuild says the same.
+    again = card.replace(t=None, time_source="none", periodic=False, warnings=()).with_spm(6)
+    assert not again.periodic and any("several strokes" in w for w in again.warnings)
+    # One stroke is one stroke wherever it starts (here mid-upstroke), and the public
+    # cards' strokes are each seen as one (tests/test_cards_realdata.py reads them all).
+    for shift in (0, 25, 50, 75):
+        (one,) = read_cards(written("one.csv", np.roll(one_pos, shift), np.roll(one_load, shift)),
+                            spm=6)
+        assert one.periodic and not one.warnings and strokes_seen(one.position)[0] <= 1

@@ -50,6 +50,18 @@ def test_padding_is_dropped_as_from_every_file(tmp_path: Path) -> None:
     np.testing.assert_allclose(card.t, np.arange(30) * 10.0 / 30)
 
 
+def test_a_record_of_strokes_is_timed_per_stroke_as_from_every_file(tmp_path: Path) -> None:
+    # Three strokes in one card without t were read as one stroke of 10 s.
+    frame = _long(["a"], n=90)
+    frame["position"] = np.tile(frame["position"].to_numpy()[::3], 3)
+    frame["load"] = np.tile(frame["load"].to_numpy()[::3], 3)
+    frame.to_parquet(tmp_path / "three.parquet")
+    (card,) = read_parquet_cards(tmp_path / "three.parquet")
+    assert not card.periodic
+    np.testing.assert_allclose(np.diff(card.t), 10.0 / 30)
+    assert any("holds several strokes" in w for w in card.warnings)
+
+
 def test_a_duplicated_closing_point_is_dropped_as_from_every_file(tmp_path: Path) -> None:
     # The same card gave 200 samples from Parquet and 199 from its .ts file (whose reader
     # drops a last sample that repeats the first), and another fit status.

@@ -54,7 +54,11 @@ Conventions
   warning. Given ``columns=`` always win.
 * Time: a time column wins. Otherwise SPM or period (caller first, then the file) rebuilds
   time assuming uniform sampling over ONE stroke: ``t_i = i*T/N`` for the ``N`` distinct
-  samples; such cards are marked ``periodic``. Otherwise ``t`` is None.
+  samples; such cards are marked ``periodic``. A card whose position rises through
+  mid-stroke (below 35 % then above 65 % of its range) twice or more holds several strokes:
+  each gets the period, ``t_i = i*T/S`` with ``S`` the median number of samples between two
+  rises, the card is a record (not ``periodic``) and a warning says so
+  (:func:`strokes_seen`, :func:`time_from_rate`). Otherwise ``t`` is None.
 * Card time (when the card was recorded): a field named ``timestamp``, ``datetime``,
   ``card_time``, ``time`` or ``date`` (any case; a SCADA field, a constant table column, a
   JSON key) holding ISO 8601 text is also given as ``metadata["time"]``, an aware UTC
@@ -113,6 +117,7 @@ from ._readers import (
     read_cards,
     read_cards_and_errors,
 )
+from ._rises import strokes_seen, time_from_rate
 from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
 from ._strokes import split_strokes
 from ._text import interpret_name
@@ -157,5 +162,7 @@ __all__ = [
     "read_cards_and_errors",
     "repeats_first",
     "split_strokes",
+    "strokes_seen",
+    "time_from_rate",
     "trailing_padding",
 ]

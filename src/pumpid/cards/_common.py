@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from ._errors import CardError
 from ._plausible import plausibility_warnings, trailing_padding
+from ._rises import time_from_rate
 from ._strokes import split_strokes
 from ._text import iter_lines, normalize_name, number_problem, parse_number
 from ._types import Card
@@ -452,7 +453,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
 
     # Time: file time wins; otherwise the caller's rate, then the file's rate.
     spm, period, rate_where = raw.spm, raw.period, raw.rate_where
-    overridden: list[str] = []
+    time_warnings: list[str] = []
     if o.spm is not None or o.period is not None:
         if spm is not None or period is not None:
             notes.append(
@@ -463,7 +464,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
             if t is None and mine and given and not math.isclose(mine, given, rel_tol=1e-9):
                 # A field's --spm re-timed every card that states its own rate (8 SPM read
                 # as 4 halved the displacement) with only a note, shown under --verbose.
-                overridden.append(
+                time_warnings.append(
                     f"the card's time is rebuilt from the stroke rate given "
                     f"({fmt(60.0 / given)} SPM), not from the file's own "
                     f"({fmt(60.0 / mine)} SPM, {rate_where})")
@@ -499,13 +500,18 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     elif spm is not None and period is not None:
         used = "spm" if raw.spm is not None or o.spm is not None else "period"
         what = f"{fmt(spm)} SPM" if used == "spm" else f"stroke period {fmt(period)} s"
-        t = np.arange(n) * (period / n)
         time_source = used
-        periodic = True
-        notes.append(
-            f"time rebuilt from {what} ({rate_where}) assuming uniform sampling over one stroke: "
-            f"t_i = i*T/N with T = {fmt(period)} s, N = {n}"
-        )
+        # A record of several strokes without time, given a stroke rate, was fitted as one
+        # stroke with its motion three times too fast, and without a word.
+        t, several = time_from_rate(raw.card_id, pos, period, f"{what} ({rate_where})")
+        if several:
+            time_warnings.append(several)
+        else:
+            periodic = True
+            notes.append(
+                f"time rebuilt from {what} ({rate_where}) assuming uniform sampling over one "
+                f"stroke: t_i = i*T/N with T = {fmt(period)} s, N = {n}"
+            )
     else:
         time_source = "none"
         notes.append(
@@ -517,7 +523,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     card_time(meta, notes)
     warnings = [
         *raw.warnings,
-        *overridden,
+        *time_warnings,
         *plausibility_warnings(
             raw.card_id,
             pos,

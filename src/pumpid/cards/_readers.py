@@ -506,7 +506,8 @@ def read_cards(
     spm, period : float, optional
         Strokes per minute or stroke period (s) for files without a time column. Time is then
         rebuilt assuming uniform sampling over one stroke, ``t_i = i*T/N`` for the ``N``
-        distinct samples. They override a stroke rate given in the file. A time column in
+        distinct samples (over each stroke of a card that holds several, with a warning: see
+        :func:`time_from_rate`). They override a stroke rate given in the file. A time column in
         the file always wins over both (the rate is then only stored).
     columns : mapping, optional
         Role -> column. Roles: ``t``, ``position``, ``load``, ``card``, ``well``, ``spm``,

@@ -7,26 +7,14 @@ from itertools import pairwise
 import numpy as np
 
 from ._errors import CardError
+from ._rises import BAND_LOW, mid_stroke_band
 from ._types import Card
 
 __all__ = ["split_strokes"]
 
-# Hysteresis levels, as fractions of the robust position range. A stroke boundary needs the
-# rod to go below LOW and then above HIGH, so noise around mid-stroke (or a wiggle at the
-# bottom) cannot create extra strokes.
-_LOW, _HIGH = 0.35, 0.65
 # A position minimum at the edge of the record is a real bottom of stroke only if the rod is
 # seen turning around there (TURN of the range) or it sits at the usual bottom level (LEVEL).
 _TURN, _LEVEL = 0.05, 0.01
-
-
-def _upward_crossings(pos: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """Indices where the position, having been below ``lo``, first gets above ``hi``."""
-    state = np.where(pos < lo, -1, np.where(pos > hi, 1, 0))
-    idx = np.where(state != 0, np.arange(pos.size), 0)
-    np.maximum.accumulate(idx, out=idx)  # carry the last decided state through the band
-    held = state[idx]
-    return np.flatnonzero((held[1:] == 1) & (held[:-1] == -1)) + 1
 
 
 def _noise_sd(x: np.ndarray) -> float:
@@ -89,20 +77,10 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
         raise CardError(
             f"card {card.card_id!r}: constant position, no strokes", path=where, field="position"
         )
-    # Work on the position divided by its largest magnitude: every level and range below is
-    # then finite and meaningful at any scale (1e-300 or 1e300), and the boundaries found
-    # are the same sample indices.
-    with np.errstate(all="ignore"):
-        scaled = raw / np.max(np.abs(raw))
-        pos = scaled
-        p_lo, p_hi = (float(v) for v in np.percentile(pos, [1.0, 99.0]))
-    span = p_hi - p_lo
-    if not span > 0:
-        p_lo, p_hi = float(pos.min()), float(pos.max())
-        span = p_hi - p_lo
-    ups = _upward_crossings(pos, p_lo + _LOW * span, p_lo + _HIGH * span)
+    scaled, p_lo, span, ups = mid_stroke_band(raw)
+    pos = scaled
 
-    lo = p_lo + _LOW * span
+    lo = p_lo + BAND_LOW * span
     if ups.size == 0:
         return [_whole(card)]
     if ups.size == 1:

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._errors import CardError
+from ._rises import time_from_rate
 from ._units import (
     load_factor,
     normalize_load_unit,
@@ -256,13 +257,15 @@ class Card:
         if not (math.isfinite(period_s) and period_s > 0):
             raise CardError(f"stroke period must be positive and finite, got {period_s}")
         n = self.n
-        t = np.arange(n) * (period_s / n)
+        t, several = time_from_rate(self.card_id, self.position, period_s, what)
+        replacing = "" if self.t is None else f" (replacing time from {self.time_source!r})"
+        if several:
+            return self.replace(t=t, spm=60.0 / period_s, period=period_s, time_source=source,
+                                periodic=False, warnings=(*self.warnings, several + replacing))
         note = (
             f"time rebuilt from {what} assuming uniform sampling over one stroke: "
-            f"t_i = i*T/N with T = {_fmt(period_s)} s, N = {n}"
+            f"t_i = i*T/N with T = {_fmt(period_s)} s, N = {n}{replacing}"
         )
-        if self.t is not None:
-            note += f" (replacing time from {self.time_source!r})"
         return self.replace(
             t=t, spm=60.0 / period_s, period=period_s, time_source=source, periodic=True, note=note
         )
@@ -272,7 +275,10 @@ class Card:
 
         The card is taken to be one stroke sampled uniformly in time, so with ``N`` samples
         ``t_i = i * T / N`` (the sample that would close the loop at ``t = T`` is not part of
-        the card). The result is marked ``periodic`` and gets a note.
+        the card). The result is marked ``periodic`` and gets a note. A card whose position
+        rises through mid-stroke twice or more holds several strokes: each gets the period
+        (``t_i = i * T / S``, ``S`` the samples between two rises), the result is a record,
+        not periodic, and a warning says so.
 
         Parameters
         ----------

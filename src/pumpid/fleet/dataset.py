@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pumpid.cards import Card, CardError, repeats_first, trailing_padding
+from pumpid.cards import Card, CardError, repeats_first, time_from_rate, trailing_padding
 
 __all__ = ["ParquetCardError", "iter_parquet_cards", "read_parquet_cards"]
 
@@ -197,19 +197,23 @@ def _card(
     period = None
     time_source = "none"
     periodic = False
+    warnings: list[str] = []
     if order_col == "t":
         t = order
         time_source = "file"
         notes.append("time taken from the file (t)")
     elif spm is not None:
         period = 60.0 / spm
-        t = np.arange(n) * (period / n)
         time_source = "spm"
-        periodic = True
-        notes.append(
-            f"time rebuilt from {spm:.6g} SPM assuming uniform sampling over one stroke: "
-            f"t_i = i*T/N with T = {period:.6g} s, N = {n}"
-        )
+        t, several = time_from_rate(card_id, arrays["position"], period, f"{spm:.6g} SPM")
+        if several:
+            warnings.append(several)
+        else:
+            periodic = True
+            notes.append(
+                f"time rebuilt from {spm:.6g} SPM assuming uniform sampling over one stroke: "
+                f"t_i = i*T/N with T = {period:.6g} s, N = {n}"
+            )
     else:
         notes.append("no t column and no spm column: the card has no time axis")
     stamp = None
@@ -241,6 +245,7 @@ def _card(
             periodic=periodic,
             notes=tuple(notes),
             metadata={"time": stamp},
+            warnings=tuple(warnings),
         )
     except CardError as exc:
         raise err(exc.reason, exc.field) from exc
