@@ -331,3 +331,27 @@ def test_a_record_of_strokes_without_time_is_not_read_as_one_stroke(tmp_path) ->
         (one,) = read_cards(written("one.csv", np.roll(one_pos, shift), np.roll(one_load, shift)),
                             spm=6)
         assert one.periodic and not one.warnings and strokes_seen(one.position)[0] <= 1
+
+
+def test_a_frozen_stretch_is_warned_about() -> None:
+    # 15 samples of one point mid-stroke (a frozen transmitter) were fitted without a word.
+    import numpy as np
+
+    from pumpid.cards import parse_cards
+
+    x = np.linspace(0.0, 2 * np.pi, 200, endpoint=False)
+    pos, load = 30 - 30 * np.cos(x), 5 + 2 * np.sin(x)
+    pos[80:95], load[80:95] = pos[80], load[80]
+
+    def read(p: np.ndarray, f: np.ndarray) -> object:
+        return parse_cards("position_in,load_klbf\n" + "".join(
+            f"{a:.6f},{b:.6f}\n" for a, b in zip(p, f, strict=True)), spm=6)[0]
+
+    card = read(pos, load)
+    assert card.n == 200
+    assert any("samples 80-94 (15 of 200) repeat one point (position 54.27 in, load 6.176 "
+               "klbf): a frozen sensor or a stopped unit?" in w for w in card.warnings)
+    # Below 5 % of the card (a turn-around held for a few samples) it is no warning.
+    pos, load = 30 - 30 * np.cos(x), 5 + 2 * np.sin(x)
+    pos[80:88], load[80:88] = pos[80], load[80]
+    assert not any("repeat one point" in w for w in read(pos, load).warnings)

@@ -100,7 +100,14 @@ a value is flagged only when it is implausible in every unit it could be in.
 * largest load magnitude above 450 kN (about 100,000 lbf) or below 10 N (about 2 lbf);
 * load range below 1 % of the mean load;
 * position and load that look swapped: the detector above, run on the two, prefers the
-  other order with confidence 0.95 or more (not checked when the roles were just detected).
+  other order with confidence 0.95 or more (not checked when the roles were just detected);
+* a loop that turns the wrong way for time order (negative work of more than a tenth of
+  the rectangle the stroke and the load's swing span);
+* consecutive samples that repeat one (position, load) point exactly, at least 3 and 5 % of
+  the card (a frozen sensor or a stopped unit; at the card's end such a run is padding and
+  is dropped);
+* a record of several strokes without time, given a stroke rate (timed per stroke, see
+  above).
 """
 
 from ._common import repeats_first

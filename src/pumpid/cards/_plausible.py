@@ -250,6 +250,19 @@ def trailing_padding(position: NDArray[np.float64], load: NDArray[np.float64]) -
     return run
 
 
+def _held_run(position: NDArray[np.float64], load: NDArray[np.float64]) -> tuple[int, int]:
+    """The longest run of consecutive samples that repeat one (position, load) point
+    exactly: (first index, length); length 1 where none repeats."""
+    same = (position[1:] == position[:-1]) & (load[1:] == load[:-1])
+    if not same.any():
+        return 0, 1
+    # Runs of True in ``same``: a run of k Trues is k + 1 equal samples.
+    edges = np.diff(np.r_[0, same.astype(np.int8), 0])
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    k = int(np.argmax(ends - starts))
+    return int(starts[k]), int(ends[k] - starts[k]) + 1
+
+
 def plausibility_warnings(
     card_id: str,
     position: NDArray[np.float64],
@@ -293,6 +306,18 @@ def plausibility_warnings(
             f"{label}: its loop turns the wrong way for a card in time order (higher loads "
             "while the position falls): stored in reverse time order, or the position "
             "measured downwards? It is fitted as given")
+    first, held = _held_run(position, load)
+    if held >= max(3, PADDING_SHARE * position.size):
+        # A frozen transmitter or a stopped unit: a moving rod never holds both its
+        # position and its load to every digit for 5 % of a stroke. (At the card's end such
+        # a run is padding, dropped by the readers.)
+        pu = f" {position_unit}" if position_unit else ""
+        lu = f" {load_unit}" if load_unit else ""
+        out.append(
+            f"{label}: samples {first}-{first + held - 1} ({held} of {position.size}) repeat "
+            f"one point (position {_fmt(float(position[first]))}{pu}, load "
+            f"{_fmt(float(load[first]))}{lu}): a frozen sensor or a stopped unit? It is "
+            "fitted as given")
     if check_swap and position.size >= 8:
         try:
             roles = detect_column_roles([position, load])
