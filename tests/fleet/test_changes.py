@@ -238,3 +238,20 @@ def test_a_change_near_the_history_end_is_sized_by_the_cards_errors(after: int) 
                        1.2533 * 0.1 * row["after"] / math.sqrt(row["n_after"]))
     assert math.isfinite(row["change_se"]) and row["change_se"] < 0
     assert abs(row["change_se"]) <= 1.02 * abs(row["change"]) / floor, (row["change_se"], floor)
+
+
+@pytest.mark.parametrize("n_cards", [20, 60])
+def test_errors_far_wider_than_the_scatter_do_not_hide_a_step(n_cards: int) -> None:
+    # A pump's fluid load stepped by 5 % (14 times its card-to-card scatter of 0.08 kN)
+    # with identification errors of +-14 kN: as the detector's noise, the errors hid the
+    # step (0 alerts). They now only weigh the cards against each other.
+    at = n_cards // 2
+    frame = results_table(1, n_cards, cv=0.004, seed=5, steps={0: ("stiffness", 0.95, at)})
+    frame["d_stiffness_se"] = 0.7 * frame["d_stiffness"]
+    found = detect_changes(frame, ["stiffness"])
+    assert len(found) == 1 and found.iloc[0]["direction"] == "down"
+    assert abs(int(found.iloc[0]["first_index"]) - at) <= 1
+    # The same errors on a steady well raise nothing.
+    steady = results_table(20, n_cards, cv=0.004, seed=6)
+    steady["d_stiffness_se"] = 0.7 * steady["d_stiffness"]
+    assert detect_changes(steady, ["stiffness"]).empty

@@ -25,6 +25,10 @@ coefficient of variation is a constant noise level; otherwise the values themsel
    ``tau² = max(sigma² - s_ref², 0)`` and a card's noise is ``sigma_i = sqrt(tau² + s_i²)``,
    never below ``sigma / 2``. A missing (NaN) standard error counts as ``s_ref``; so a
    poorly determined card weighs less, and NaN errors throughout reduce to ``sigma``.
+   Errors wider than the scatter (``s_ref > sigma``: a model error's robust errors, far
+   wider than the spread of consecutive cards) only weigh the cards against each other:
+   ``sigma_i = sigma s_i / s_ref``, the scatter's scale for a card of the reference's
+   error.
 3. **Robust two-sided CUSUM.** Each later card gives ``z_i = (y_i - m) / sigma_i``,
    clipped to ``[-clip, clip]`` (Huber's rule: one wild card moves the statistic by at most
    ``clip - reference``), and the upper and lower sums

@@ -98,7 +98,14 @@ def standardise(
         tau2 = max(sigma**2 - (s_ref**2 if math.isfinite(s_ref) else 0.0), 0.0)
         part = slice(start + lo, start + hi)
         s = np.where(np.isfinite(se[part]), se[part], s_ref if math.isfinite(s_ref) else 0.0)
-        sig_i = np.maximum(np.sqrt(tau2 + s**2), 0.5 * sigma)
+        sig_i = np.sqrt(tau2 + s**2)
+        if math.isfinite(s_ref) and s_ref > sigma:
+            # Errors wider than the cards' own scatter (a model error's robust errors: 4-100
+            # times the spread of consecutive real strokes) weigh the cards against each
+            # other, on the scatter's scale: as noise they hid a pump's fluid load falling
+            # by 14 times its scatter (errors of +-14 kN against a scatter of 0.08 kN).
+            sig_i = sig_i * (sigma / s_ref)
+        sig_i = np.maximum(sig_i, 0.5 * sigma)
         z[lo - w:hi - w] = (y[part] - level) / sig_i
         sig_all[lo - w:hi - w] = sig_i
         ref_sigma[lo - w:hi - w] = sigma
@@ -167,11 +174,15 @@ def scan_two_segments(y: NDArray[np.float64], se: NDArray[np.float64], *, alpha:
     The whole history is tested at once, so the alarm is its last card. Where both tests
     alert, the one further beyond its threshold names the change (a step parts two
     segments' medians more than a line explains it, a drift the other way round). Scales
-    are never below the median of the fits' standard errors; with neither scatter nor
-    errors the history is not tested.
+    are never below the median of the fits' standard errors, nor that floor above the
+    cards' own scatter (:func:`robust_sigma`; errors wider than the scatter hid a step of
+    14 times it); with neither scatter nor errors the history is not tested.
     """
     finite = np.isfinite(se)
     floor = float(np.median(se[finite])) if finite.any() else 0.0
+    scatter = robust_sigma(y)
+    if math.isfinite(scatter) and scatter > 0:
+        floor = min(floor, scatter)
     stat, split, scale = two_segment_statistic(y, floor)
     if not (math.isfinite(float(stat[0])) and scale[0] > 0):
         return []
