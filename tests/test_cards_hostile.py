@@ -355,3 +355,32 @@ def test_a_frozen_stretch_is_warned_about() -> None:
     pos, load = 30 - 30 * np.cos(x), 5 + 2 * np.sin(x)
     pos[80:88], load[80:88] = pos[80], load[80]
     assert not any("repeat one point" in w for w in read(pos, load).warnings)
+
+
+def test_a_stroke_no_pumping_unit_has_is_warned_about() -> None:
+    # A time column in milliseconds named plainly "time" gave a stroke of 4 hours and a
+    # displacement a thousand times too small, without a word.
+    import numpy as np
+
+    from pumpid.cards import parse_cards
+
+    x = np.linspace(0.0, 2 * np.pi, 143, endpoint=False)
+    pos, load = 2 - 2 * np.cos(x), 20 + 5 * np.sin(x)
+    t = np.arange(143) * 15.0 / 143 * 1000
+
+    def table(time_name: str) -> str:
+        return f"{time_name},position_m,load_kN\n" + "".join(
+            f"{a:.3f},{b:.5f},{c:.4f}\n" for a, b, c in zip(t, pos, load, strict=True))
+
+    (card,) = parse_cards(table("time"))
+    assert any("its stroke lasts 1.5e+04 s (0.004 strokes/min) by its time column 'time': "
+               "no pumping unit runs at that speed (0.5-40 strokes/min); a time in "
+               "milliseconds read as seconds?" in w for w in card.warnings)
+    (card,) = parse_cards(table("time_ms"))  # its unit named: 15 s, no warning
+    assert abs(card.period - 15.0) < 1e-6 and not card.warnings
+    plain = "position_m,load_kN\n" + "".join(
+        f"{b:.5f},{c:.4f}\n" for b, c in zip(pos, load, strict=True))
+    (card,) = parse_cards(plain, spm=0.1)
+    assert any("by the stroke rate (given by the caller)" in w and "check the stroke rate" in w
+               for w in card.warnings)
+    assert not parse_cards(plain, spm=6)[0].warnings

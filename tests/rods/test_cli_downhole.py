@@ -482,3 +482,15 @@ def test_loads_below_the_rods_weight_are_said(tmp_path: Path, surface, capsys) -
           str(SPM), "--no-identify", "--card", "card0"])
     assert "note: the card's largest load is below the rods' weight in the fluid" in \
         capsys.readouterr().out
+
+
+def test_the_text_says_the_stroke_every_rate_rests_on(tmp_path: Path, surface,
+                                                      capsys) -> None:
+    # A time column in milliseconds read as seconds gave a displacement a thousand times
+    # too small, with the stroke's period only in the JSON.
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    code = main(["downhole", str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                 "--spm", str(SPM), "--no-identify"])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert out.count("stroke 7.5 s = 8 strokes/min from the stroke rate") == 2, out

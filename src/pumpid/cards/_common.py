@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._errors import CardError
-from ._plausible import plausibility_warnings, trailing_padding
+from ._plausible import plausibility_warnings, stroke_rate_warning, trailing_padding
 from ._rises import time_from_rate
 from ._strokes import split_strokes
 from ._text import iter_lines, normalize_name, number_problem, parse_number
@@ -554,7 +554,15 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
         )
     except CardError as exc:  # pragma: no cover - the checks above should catch everything
         raise o.error(f"{label}: {exc.reason}", line=raw.line, field=exc.field) from exc
-    return one_period(card) if time_source == "file" else card
+    card = one_period(card) if time_source == "file" else card
+    if card.period is not None and card.periodic:
+        # A time column in milliseconds named plainly "time" gave a stroke of 4 hours, a
+        # displacement a thousand times too small and no word.
+        slow = stroke_rate_warning(raw.card_id, card.period,
+                                   raw.t_field if time_source == "file" else None, rate_where)
+        if slow:
+            card = card.replace(warnings=(*card.warnings, slow))
+    return card
 
 
 def one_period(card: Card) -> Card:

@@ -26,10 +26,12 @@ __all__ = [
     "MIN_LOAD_SWING",
     "MIN_STROKE_M",
     "PADDING_SHARE",
+    "SPM_PLAUSIBLE",
     "SWAP_CONFIDENCE",
     "loop_work",
     "open_stroke",
     "plausibility_warnings",
+    "stroke_rate_warning",
     "trailing_padding",
 ]
 
@@ -261,6 +263,32 @@ def _held_run(position: NDArray[np.float64], load: NDArray[np.float64]) -> tuple
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     k = int(np.argmax(ends - starts))
     return int(starts[k]), int(ends[k] - starts[k]) + 1
+
+
+#: Pumping speeds of rod-pumping units (strokes per minute): long-stroke and hydraulic units
+#: run down to about 1, small beam units up to about 20-30; a card outside this range was
+#: most likely timed in the wrong unit.
+SPM_PLAUSIBLE = (0.5, 40.0)
+
+
+def stroke_rate_warning(card_id: str, period: float, column: str | None,
+                        rate_where: str = "") -> str | None:
+    """A warning for a stroke period no pumping unit has (see :data:`SPM_PLAUSIBLE`), or
+    None. ``column`` names the time column the period comes from (None: from a stroke
+    rate, given ``rate_where``)."""
+    spm = 60.0 / period
+    lo, hi = SPM_PLAUSIBLE
+    if lo <= spm <= hi:
+        return None
+    if column is None:
+        where, hint = f"the stroke rate ({rate_where})", "check the stroke rate"
+    else:
+        where = f"its time column {column!r}"
+        hint = ("a time in milliseconds read as seconds? Name the column with its unit "
+                "(t_ms, 'time (ms)')" if spm < lo else "check the time column's unit")
+    return (f"card {card_id!r}: its stroke lasts {_fmt(period)} s ({_fmt(spm)} strokes/min) "
+            f"by {where}: no pumping unit runs at that speed ({lo:g}-{hi:g} strokes/min); "
+            f"{hint}")
 
 
 def plausibility_warnings(

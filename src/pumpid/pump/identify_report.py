@@ -238,7 +238,15 @@ class DownholeCard:
         if not down.ok:
             return [f"{head}: {printable(down.reason)}"]
         well = down.well.well_id if down.well is not None else "?"
-        head += f" (well {printable(well)}{', reversed' if down.reversed else ''})"
+        # The stroke's time, which every displacement and rate rests on: a time column in
+        # milliseconds read as seconds gave a displacement a thousand times too small,
+        # with the period only in the JSON.
+        stroke = ""
+        if card.period is not None:
+            timed = "file's time" if card.time_source == "file" else "stroke rate"
+            stroke = (f", stroke {card.period:.4g} s = {60.0 / card.period:.4g} "
+                      f"strokes/min from the {timed}")
+        head += f" (well {printable(well)}{', reversed' if down.reversed else ''}{stroke})"
         if self.fit is None:
             head += "; diagnostic pump card"
         elif self.identified:
