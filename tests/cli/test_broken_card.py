@@ -73,3 +73,27 @@ def test_batch_refuses_a_fifo_and_dev_null_by_what_they_are(tmp_path: Path, caps
         err = capsys.readouterr().err
         assert code == 2 and f"not a regular file but {words}" in err
         assert "no such file" not in err
+
+
+def test_json_is_given_when_the_only_file_cannot_be_read(tmp_path: Path, capsys) -> None:
+    # A script that fits one file a call parses stdout: when that file could not be read,
+    # --json printed nothing (the message only on stderr), though it promises its document.
+    import json
+
+    bad = tmp_path / "bad.csv"
+    bad.write_text("position_m,load_kN\n0,1\n1,\n", encoding="utf-8")
+    well = tmp_path / "w.json"
+    well.write_text(json.dumps({"units": {"length": "m", "diameter": "mm"}, "wells": {"W": {
+        "rods": [{"length": 1000, "diameter": 22, "material": "steel"}],
+        "pump": {"depth": 1000, "plunger_diameter": 38}, "tubing": {"anchored": True},
+        "fluid": {"specific_gravity": 1.0}}}}), encoding="utf-8")
+    for command in (["fit"], ["downhole", "--well", str(well)]):
+        code = main([*command, str(bad), "--spm", "4", "--json"])
+        doc = json.loads(capsys.readouterr().out)
+        assert code == 2
+        (card,) = doc["cards"]
+        assert card["status"] == "invalid-input" and "line 3, field 'load_kN'" in card["reason"]
+        assert doc["summary"]["status"] == {"invalid-input": 1}
+    # Without --json the message is the run's error, as before.
+    assert main(["fit", str(bad), "--spm", "4"]) == 2
+    assert "line 3, field 'load_kN': empty value" in capsys.readouterr().err

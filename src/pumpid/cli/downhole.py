@@ -349,7 +349,9 @@ def _inputs(args: argparse.Namespace) -> Iterator[tuple[str, list[Card] | CardEr
         try:
             cards = _read(path, args)
         except CardError as exc:
-            if single:
+            # --json always gives its document (a script reading one file a call got an
+            # empty output when that file could not be read).
+            if single and not args.json:
                 raise
             yield path, exc
             continue

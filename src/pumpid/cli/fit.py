@@ -424,10 +424,12 @@ def _inputs(args: argparse.Namespace, setup: FitSetup,
     for path in args.files:
         try:
             cards, errors = _read_file(path, setup)
-            if single and not cards and errors:
+            if single and not cards and errors and not args.json:
                 raise errors[0]  # nothing of the only file can be fitted: the run's error
         except CardError as exc:
-            if single:
+            # --json always gives its document: a script that fits one file a call got an
+            # empty output when that file could not be read.
+            if single and not args.json:
                 raise
             yield path, exc, []
             continue
