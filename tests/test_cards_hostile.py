@@ -292,9 +292,20 @@ def test_a_padded_card_is_read_without_its_padding(tmp_path) -> None:
                                         "dropped, at least 20 needed"):
         read_cards(written("short.csv", 65), spm=6)
     pos, load = np.r_[30 - 30 * np.cos(x), np.zeros(50)], np.r_[5 + 2 * np.sin(x), np.zeros(50)]
-    # A stroke's own turn-around (two samples held) is no padding.
+    # Two samples of one point are no padding (a stroke's turn-around can hold a point).
     (card,) = read_cards(written("held.csv", 202), spm=6)
     assert card.n == 202 and not any("padding" in w for w in (*card.notes, *card.warnings))
+    # Five rows of (0, 0) (under 5 % of the card: a fit of R^2 0.65, no word), and thirty
+    # at the start (warned about as a frozen sensor, and fitted: a fluid load twice the
+    # true one), are dropped too: the card jumps to them.
+    (card,) = read_cards(written("short.csv", 205), spm=6)
+    assert card.n == 200 and any("the last 5 of 205 samples" in n for n in card.notes)
+    pos, load = np.r_[np.zeros(30), pos[:200]], np.r_[np.zeros(30), load[:200]]
+    (card,) = read_cards(written("lead.csv", 230), spm=6)
+    assert card.n == 200 and not card.warnings
+    assert any("padding dropped: the first 30 of 230 samples repeated one point (position 0 "
+               "in, load 0 klbf) (lines 2-31)" in n for n in card.notes)
+    np.testing.assert_array_equal(card.position, plain.position)
 
 
 def test_a_record_of_strokes_without_time_is_not_read_as_one_stroke(tmp_path) -> None:

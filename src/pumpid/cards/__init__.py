@@ -66,9 +66,11 @@ Conventions
 * Clean-ups (each noted): rows flagged in a closure column (``is_closure_point``) are
   dropped; for cards without a time column, a last sample equal to the first in both
   position and load (relative tolerance 1e-9) is dropped as a duplicated closing point;
-  samples at a card's end that repeat its last point exactly in both position and load, at
-  least 3 of them and 5 % of the card, are dropped as padding (a moving rod never holds
-  both to every digit that long; an export that fills a fixed-length record does).
+  samples at a card's end (or start) that repeat one point exactly in both position and
+  load are dropped as padding: at least 3 of them where the card jumps to that point (a
+  fill of zeros), at least 5 % of the card where it runs on into it (a record filled with
+  its last sample, whose first repeat is kept); a moving rod never holds both to every
+  digit that long, an export that fills a fixed-length record does.
   Nothing else is repaired: NaN/inf, fewer than ``min_samples`` samples, time not strictly
   increasing, mismatched lengths, constant load or position (or varying only in the 12th
   significant digit, at any scale), unknown units, unparsable or complex numbers, a SPM or
@@ -104,15 +106,15 @@ a value is flagged only when it is implausible in every unit it could be in.
 * a loop that turns the wrong way for time order (negative work of more than a tenth of
   the rectangle the stroke and the load's swing span);
 * consecutive samples that repeat one (position, load) point exactly, at least 3 and 5 % of
-  the card (a frozen sensor or a stopped unit; at the card's end such a run is padding and
-  is dropped);
+  the card (a frozen sensor or a stopped unit; at the card's end or start such a run is
+  padding and is dropped);
 * a record of several strokes without time, given a stroke rate (timed per stroke, see
   above).
 """
 
 from ._common import repeats_first
 from ._errors import CardError
-from ._plausible import loop_work, open_stroke, trailing_padding
+from ._plausible import leading_padding, loop_work, open_stroke, trailing_padding
 from ._printable import printable
 from ._readers import (
     FORMATS,
@@ -156,6 +158,7 @@ __all__ = [
     "detect_column_roles",
     "detect_format",
     "interpret_name",
+    "leading_padding",
     "loop_work",
     "normalize_load_unit",
     "normalize_position_unit",

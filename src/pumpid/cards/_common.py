@@ -19,7 +19,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._errors import CardError
-from ._plausible import plausibility_warnings, stroke_rate_warning, trailing_padding
+from ._plausible import (
+    leading_padding,
+    plausibility_warnings,
+    stroke_rate_warning,
+    trailing_padding,
+)
 from ._rises import time_from_rate
 from ._strokes import split_strokes
 from ._text import iter_lines, normalize_name, number_problem, parse_number
@@ -355,20 +360,24 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
             f"{idx.size} row(s) flagged as closure point in column {raw.closure_field!r} "
             f"dropped{where}"
         )
-    kept = np.flatnonzero(keep)
-    padded = trailing_padding(pos[kept], load[kept])
-    if padded:
-        # 39 of the public oilfield set's 360 cards end in 50 samples of exactly (0, 0):
-        # fitted as a fifth of the stroke, with a period rebuilt from the SPM 25 % too
-        # long, their statuses and values were another card's.
-        keep[kept[-padded:]] = False
-        where = "" if lines is None else f" ({line_span(lines[kept[-padded:]])})"
-        pu, lu = (f" {u}" if u else "" for u in (o.position_unit or raw.pos_unit,
-                                                 o.load_unit or raw.load_unit))
+    # 39 of the public oilfield set's 360 cards end in 50 samples of exactly (0, 0): fitted
+    # as a fifth of the stroke, with a period rebuilt from the SPM 25 % too long, their
+    # statuses and values were another card's.
+    padded = 0
+    pu, lu = (f" {u}" if u else "" for u in (o.position_unit or raw.pos_unit,
+                                             o.load_unit or raw.load_unit))
+    for end, count in (("last", trailing_padding), ("first", leading_padding)):
+        kept = np.flatnonzero(keep)
+        run = count(pos[kept], load[kept])
+        if not run:
+            continue
+        padded += run
+        drop = kept[-run:] if end == "last" else kept[:run]
+        keep[drop] = False
+        where = "" if lines is None else f" ({line_span(lines[drop])})"
         notes.append(
-            f"padding dropped: the last {padded} of {kept.size} samples repeated one "
-            f"point (position {fmt(pos[kept[-1]])}{pu}, load {fmt(load[kept[-1]])}{lu})"
-            f"{where}")
+            f"padding dropped: the {end} {run} of {kept.size} samples repeated one point "
+            f"(position {fmt(pos[drop[0]])}{pu}, load {fmt(load[drop[0]])}{lu}){where}")
     if o.drop_closing_point and t is None and keep.sum() >= 2:
         first, last = np.flatnonzero(keep)[[0, -1]]
         if repeats_first(pos[[first, last]], load[[first, last]]):

@@ -28,6 +28,7 @@ __all__ = [
     "PADDING_SHARE",
     "SPM_PLAUSIBLE",
     "SWAP_CONFIDENCE",
+    "leading_padding",
     "loop_work",
     "open_stroke",
     "plausibility_warnings",
@@ -213,12 +214,12 @@ PADDING_SHARE = 0.05
 
 
 def trailing_padding(position: NDArray[np.float64], load: NDArray[np.float64]) -> int:
-    """How many samples at a card's end are padding: a run that repeats the card's last
-    (position, load) point exactly, at least 3 samples and :data:`PADDING_SHARE` of the
-    card (else 0), less its first sample where the run continues the stroke without a jump
-    (an export that repeats its last sample). A moving rod never holds both its position
-    and its load to every digit for that long; an export that fills a fixed-length record
-    does.
+    """How many samples at a card's end are padding: a run of at least 3 samples that
+    repeat the card's last (position, load) point exactly and jump to it from the stroke
+    (a fill of zeros: 5 rows of (0, 0) after a stroke ending at 28 kN), or, where the run
+    continues the stroke without a jump (an export that repeats its last sample), a run of
+    at least :data:`PADDING_SHARE` of the card, less its first sample (the stroke's own).
+    A moving rod never holds both its position and its load to every digit for that long.
 
     Parameters
     ----------
@@ -234,11 +235,8 @@ def trailing_padding(position: NDArray[np.float64], load: NDArray[np.float64]) -
         return 0
     same = (position == position[-1]) & (load == load[-1])
     run = int(np.argmin(same[::-1])) if not same.all() else position.size
-    if run < max(3, PADDING_SHARE * position.size) or run == position.size:
+    if run < 3 or run == position.size:
         return 0
-    # An export that repeats the last sample to fill its record holds one real sample in
-    # the run: the run continues the stroke without a jump. One that fills with a constant
-    # (zeros) jumps to it, and the whole run is padding.
     before = position.size - run
     if before >= 3:
         step_p, step_l = np.abs(np.diff(position[:before])), np.abs(np.diff(load[:before]))
@@ -248,8 +246,14 @@ def trailing_padding(position: NDArray[np.float64], load: NDArray[np.float64]) -
         # opening can be one step as large as the jump to a fill of zeros.
         if (jump_p <= 3.0 * float(np.percentile(step_p, 95))
                 and jump_l <= 3.0 * float(np.percentile(step_l, 95))):
-            run -= 1
+            return run - 1 if run >= PADDING_SHARE * position.size else 0
     return run
+
+
+def leading_padding(position: NDArray[np.float64], load: NDArray[np.float64]) -> int:
+    """How many samples at a card's start are padding: :func:`trailing_padding` of the card
+    read backwards (an export that fills the start of a fixed-length record)."""
+    return trailing_padding(position[::-1], load[::-1])
 
 
 def _held_run(position: NDArray[np.float64], load: NDArray[np.float64]) -> tuple[int, int]:
@@ -337,8 +341,8 @@ def plausibility_warnings(
     first, held = _held_run(position, load)
     if held >= max(3, PADDING_SHARE * position.size):
         # A frozen transmitter or a stopped unit: a moving rod never holds both its
-        # position and its load to every digit for 5 % of a stroke. (At the card's end such
-        # a run is padding, dropped by the readers.)
+        # position and its load to every digit for 5 % of a stroke. (At the card's end or
+        # start such a run is padding, dropped by the readers.)
         pu = f" {position_unit}" if position_unit else ""
         lu = f" {load_unit}" if load_unit else ""
         out.append(

@@ -16,8 +16,8 @@ Layout (one file, or a folder of files read one by one in sorted order):
     stroke sampled uniformly in time and its time is rebuilt from ``spm``
     (``t_i = i T / N``, ``T = 60 / spm``; marked periodic), as pumpid's other readers do;
     a last sample that repeats the first (a duplicated closing point) is then dropped, as
-    they do too. Samples at a card's end that repeat its last point exactly, at least 3
-    of them and 5 % of the card, are dropped as padding, as the card files' readers do.
+    they do too. Padding at a card's end or start (a run of one repeated point, see
+    :func:`pumpid.cards.trailing_padding`) is dropped, as the card files' readers do.
 ``time`` (datetime, optional)
     The card's time; constant within a card; kept as a UTC ``pandas.Timestamp`` in
     ``Card.metadata["time"]`` (naive times are taken as UTC, with a note).
@@ -42,7 +42,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pumpid.cards import Card, CardError, repeats_first, time_from_rate, trailing_padding
+from pumpid.cards import (
+    Card,
+    CardError,
+    leading_padding,
+    repeats_first,
+    time_from_rate,
+    trailing_padding,
+)
 
 __all__ = ["ParquetCardError", "iter_parquet_cards", "read_parquet_cards"]
 
@@ -161,13 +168,17 @@ def _card(
             kind = "NaN" if np.isnan(arr[bad[0]]) else "infinite"
             raise err(f"{kind} value in {col} (sample {int(bad[0])})", col)
         arrays[col] = arr
+    # As the card files' readers do: a fixed-length record's fill is no part of the stroke.
     padded = trailing_padding(arrays["position"], arrays["load"])
     if padded:
-        # As the card files' readers do: a fixed-length record filled with its last point
-        # is no part of the stroke.
         notes.append(f"padding dropped: the last {padded} of {arrays['position'].size} "
                      "samples repeated one point")
         arrays = {k: v[:-padded] for k, v in arrays.items()}
+    padded = leading_padding(arrays["position"], arrays["load"])
+    if padded:
+        notes.append(f"padding dropped: the first {padded} of {arrays['position'].size} "
+                     "samples repeated one point")
+        arrays = {k: v[padded:] for k, v in arrays.items()}
     if order_col == "sample" and repeats_first(arrays["position"], arrays["load"]):
         # As every reader of a card without time does: kept, the closing point made the
         # same card 200 samples here and 199 from its .ts file, and its status another.
