@@ -47,6 +47,7 @@ from ..inference.uncertainty import PRACTICAL_REL_SE
 from ..models import OwnModel, Parameter
 from ..result import Derived
 from ..rods import (
+    REVERSED_NOTE,
     PumpMeasure,
     StringArrays,
     Well,
@@ -168,8 +169,7 @@ class SurfaceCard:
         rev = bool(loop_work(y[None], f[None])[0] < 0)
         if rev:
             y, f = y[::-1].copy(), f[::-1].copy()
-            notes = [*notes, "the card's loop turns the wrong way for time order (stored in "
-                     "reverse time order); it was fitted reversed"]
+            notes = [*notes, REVERSED_NOTE]
         spectrum = np.fft.rfft(y)
         spectrum[int(harmonics) + 1:] = 0.0
         drive = np.asarray(np.fft.irfft(spectrum, n=y.size), dtype=float)

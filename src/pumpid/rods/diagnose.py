@@ -26,8 +26,9 @@ from .quantities import PumpMeasure, measure_pump_cards
 from .well import GRAVITY, Well
 from .wellfile import WellFile
 
-__all__ = ["CONVENTIONS", "DEFAULT_DAMPING", "METHODS", "DownholeResult", "diagnose_card",
-           "diagnose_cards", "loop_work", "quantity_units", "surface_arrays", "wells_for"]
+__all__ = ["CONVENTIONS", "DEFAULT_DAMPING", "METHODS", "REVERSED_NOTE", "DownholeResult",
+           "diagnose_card", "diagnose_cards", "loop_work", "quantity_units", "surface_arrays",
+           "wells_for"]
 
 Array = NDArray[np.float64]
 
@@ -43,6 +44,12 @@ _FLOW_UNITS = {"us": ("bbl/d", _BBL), "metric": ("m3/d", 1.0)}
 _PRESSURE_UNITS = {"us": ("psi", _PSI), "metric": ("kPa", 1000.0)}
 # A loop that does not close by more than this fraction of the stroke is flagged.
 _OPEN_LOOP = 0.05
+#: What the diagnostic and the identification say of a card whose loop turns the wrong way:
+#: one sentence for both (two had said it in two wordings, beside a reader's warning that
+#: it was fitted as given).
+REVERSED_NOTE = ("the card's loop turns the wrong way for time order (higher loads while "
+                 "the position falls): it is taken as stored in reverse time order and used "
+                 "reversed; a position measured downwards must be negated instead")
 
 
 @dataclass(frozen=True, eq=False)
@@ -468,9 +475,7 @@ def _result(card: Card, well: Well, static: _Static, pos: Array, ten: Array, rev
                      f"({weight / kl:.4g} {card.load_unit or 'N'}): the well file, the load "
                      "unit or the load cell's zero is wrong, and the pump card with it")
     if rev:
-        notes.append("the card's loop turns the wrong way for time order (higher loads on the "
-                     "falling half: stored in reverse time order); it was used reversed, and "
-                     "the downhole arrays are given back in the file's order")
+        notes += [REVERSED_NOTE, "the downhole arrays are given back in the file's order"]
     if opt.harmonics is not None and used is not None and used < opt.harmonics:
         notes.append(f"{opt.harmonics} harmonics asked, the card's {card.n} samples resolve "
                      f"{used}")
