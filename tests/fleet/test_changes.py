@@ -227,17 +227,25 @@ def test_a_resonance_that_echoes_the_stroke_is_not_trended_unless_asked() -> Non
 
 
 @pytest.mark.parametrize("after", [2, 3, 4])
-def test_a_change_near_the_history_end_is_sized_by_the_cards_errors(after: int) -> None:
+def test_a_change_near_the_history_end_is_sized_by_the_wells_scatter(after: int) -> None:
     # A step on the last few cards of a short history: a few cards after it have next to
-    # no scatter (one has none), so its size read -295 standard errors here (-692 and -934
-    # on the demo's pump field) where the cards' own errors (10 %) give a few.
+    # no scatter of their own (one has none), and its size read -295 standard errors here
+    # (-692 and -934 on the demo's pump field) from that alone. The cards' own errors (10 %)
+    # set a floor, but only up to the well's card-to-card scatter over its whole history
+    # (0.1 %): errors wider than that (a model error's, common to every card of the well)
+    # say nothing of how well a change between cards is measured, and had sized a fluid
+    # load's fall by 14 times its scatter at -0.17 standard errors.
     frame = results_table(1, 14, cv=0.001, seed=3, steps={0: ("stiffness", 0.76, 14 - after)})
     frame["d_stiffness_se"] = 0.1 * frame["d_stiffness"]
     row = detect_changes(frame, ["stiffness"], false_alarm=0.5).iloc[0]
-    floor = math.hypot(1.2533 * 0.1 * row["before"] / math.sqrt(row["n_before"]),
-                       1.2533 * 0.1 * row["after"] / math.sqrt(row["n_after"]))
+    scatter = 0.001 * 1.2533
+    floor = math.hypot(scatter * row["before"] / math.sqrt(row["n_before"]),
+                       scatter * row["after"] / math.sqrt(row["n_after"]))
     assert math.isfinite(row["change_se"]) and row["change_se"] < 0
-    assert abs(row["change_se"]) <= 1.02 * abs(row["change"]) / floor, (row["change_se"], floor)
+    # Never beyond what the well's scatter allows (a few cards cannot make it infinite) ...
+    assert abs(row["change_se"]) <= 1.5 * abs(row["change"]) / floor, (row["change_se"], floor)
+    if row["n_after"] == after:  # ... and, split at the step, far beyond the cards' errors
+        assert abs(row["change_se"]) > 50
 
 
 @pytest.mark.parametrize("n_cards", [20, 60])

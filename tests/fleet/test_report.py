@@ -398,3 +398,30 @@ def test_quantities_without_a_value_are_said_above_the_figures(tmp_path: Path) -
     section = page[page.index('id="distributions"'):page.index('id="trends"')]
     grid = section[section.index('<div class="grid">'):]
     assert "damping_ratio:" in section and "damping_ratio:" not in grid
+
+
+def test_wells_in_other_units_are_converted_for_the_views_across_wells(tmp_path: Path) -> None:
+    # A field of three controllers' exports (lbf/in, kN/m): the distribution's one axis,
+    # labelled with the most common unit, plotted each well's medians in its own unit.
+    from pumpid.fleet.figures import per_well_median
+    from pumpid.report.units import unit_factor
+
+    frame = results_table(6, 40, cv=0.02, seed=4)
+    metric = frame["well_id"].isin(["W0004", "W0005"])
+    to_si = unit_factor("lbf/in", "kN/m")
+    assert to_si == pytest.approx(0.17512683524647635)
+    frame.loc[metric, "d_stiffness"] *= to_si
+    frame.loc[metric, "d_stiffness_se"] *= to_si
+    frame.loc[metric, "d_stiffness_unit"] = "kN/m"
+    plain = results_table(6, 40, cv=0.02, seed=4)
+    np.testing.assert_allclose(per_well_median(frame, "stiffness", "lbf/in"),
+                               per_well_median(plain, "stiffness"), rtol=1e-12)
+    files = write_fleet_report(frame, tmp_path, quantities=["stiffness"], steady_sample=0)
+    page = files["report"].read_text(encoding="utf-8")
+    assert "Values stated in kN/m are converted to lbf/in." in page
+    # A unit that cannot be converted is left out of those views, and said.
+    frame.loc[frame["well_id"] == "W0005", "d_stiffness_unit"] = "furlongs"
+    assert "W0005" not in per_well_median(frame, "stiffness", "lbf/in").index
+    page = write_fleet_report(frame, tmp_path / "b", quantities=["stiffness"],
+                              steady_sample=0)["report"].read_text(encoding="utf-8")
+    assert "40 cards in a unit that cannot be converted to it are left out." in page

@@ -113,7 +113,7 @@ from numpy.typing import NDArray
 
 from pumpid.models import model_class
 
-from .detectors import robust_sigma, scan_cusum, scan_two_segments
+from .detectors import median_se, robust_sigma, scan_cusum, scan_two_segments
 from .downhole import is_pump_quantity, pump_quantities, pump_usable
 from .events import change_size, events_of, number_events
 from .thresholds import MIN_SEGMENT, cusum_threshold
@@ -152,10 +152,6 @@ ALERT_COLUMNS = (
 #: Shortest history :func:`detect_changes` tests by default (the two-segment and drift
 #: tests).
 SHORT_MIN_CARDS = 6
-
-# Standard error of a median relative to that of a mean, for normal data.
-_MEDIAN_SE = math.sqrt(math.pi / 2.0)
-
 
 # --------------------------------------------------------------------------- input
 def load_results(results: pd.DataFrame | str | os.PathLike[str]) -> pd.DataFrame:
@@ -513,6 +509,8 @@ def _series_alerts(
                                 outlier_fraction=outlier_fraction)
         method = "two-segment"
     bounds = [0] + [c.first for c in changes] + [values.size]
+    scatter = robust_sigma(y)
+    scatter = scatter if math.isfinite(scatter) and scatter > 0 else math.inf
     out = []
     for j, ch in enumerate(changes):
         part_b, part_a = slice(bounds[j], bounds[j + 1]), slice(bounds[j + 1], bounds[j + 2])
@@ -529,8 +527,13 @@ def _series_alerts(
         else:
             before, after = float(np.median(seg_b)), float(np.median(seg_a))
             change = after - before
-            se_change = math.hypot(_median_se(seg_b, se[part_b]),
-                                   _median_se(seg_a, se[part_a]))
+            # The well's card-to-card scatter over its whole history (robust to the step
+            # itself), in the values' unit on either side: the split's own scale varies
+            # with the split (30 times between two lengths of one history).
+            noise_b, noise_a = ((scatter * abs(before), scatter * abs(after)) if log
+                                else (scatter, scatter))
+            se_change = math.hypot(median_se(seg_b, se[part_b], noise_b),
+                                   median_se(seg_a, se[part_a], noise_a))
             change_se = (change / se_change if se_change > 0
                          else math.copysign(math.inf, change))
             rel = change / before if before != 0 else math.nan
@@ -590,24 +593,6 @@ def history_coverage(
                           else "too short")
                 rows.append({"well_id": well, "quantity": q, "cards": n, "method": method})
     return pd.DataFrame(rows, columns=["well_id", "quantity", "cards", "method"])
-
-
-def _median_se(values: NDArray[np.float64], errors: NDArray[np.float64]) -> float:
-    """Standard error of a segment's median from its card-to-card scatter, at least the
-    one its cards' own errors give.
-
-    Two or three cards' scatter can be far below what each card is known to within: a
-    fillage drop of 24 % on a pump field read -2.65, -692 and -934 standard errors as the
-    history grew by one and two cards (one card after the change: no scatter at all)."""
-    own = errors[np.isfinite(errors) & (errors > 0)]
-    floor = (_MEDIAN_SE * float(np.median(own)) / math.sqrt(values.size) if own.size
-             else 0.0)
-    if values.size < 2:
-        return floor if floor > 0 else math.nan
-    sigma = robust_sigma(values) if values.size >= 3 else float(np.std(values, ddof=1))
-    if not sigma > 0:  # identical values: fall back on the plain spread
-        sigma = float(np.std(values, ddof=1))
-    return max(_MEDIAN_SE * sigma / math.sqrt(values.size), floor)
 
 
 def summarise_wells(

@@ -27,8 +27,11 @@ from .thresholds import (
     two_segment_threshold,
 )
 
-__all__ = ["Change", "best_split", "robust_sigma", "scan_cusum", "scan_two_segments",
-           "standardise"]
+__all__ = ["MEDIAN_SE", "Change", "best_split", "median_se", "robust_sigma", "scan_cusum",
+           "scan_two_segments", "standardise"]
+
+#: Standard error of a median relative to that of a mean, for normal data.
+MEDIAN_SE = math.sqrt(math.pi / 2.0)
 
 
 def robust_sigma(y: NDArray[np.float64]) -> float:
@@ -210,3 +213,25 @@ def scan_two_segments(y: NDArray[np.float64], se: NDArray[np.float64], *, alpha:
         return []
     rising = bool(np.median(y[k:]) > np.median(y[:k]))
     return [Change(k, y.size - 1, "up" if rising else "down", h, float(scale[0]))]
+
+
+def median_se(values: NDArray[np.float64], errors: NDArray[np.float64],
+               noise: float = math.inf) -> float:
+    """Standard error of a segment's median from its card-to-card scatter, at least the
+    one its cards' own errors give, those errors taken at most at the well's card-to-card
+    ``noise`` (in the values' unit).
+
+    Two or three cards' scatter can be far below what each card is known to within: a
+    fillage drop of 24 % on a pump field read -2.65, -692 and -934 standard errors as the
+    history grew by one and two cards (one card after the change: no scatter at all). Errors
+    far wider than the well's scatter (a model error's robust errors) made a fluid load's
+    fall by 14 times its scatter read -0.17 standard errors."""
+    own = errors[np.isfinite(errors) & (errors > 0)]
+    floor = (MEDIAN_SE * min(float(np.median(own)), noise) / math.sqrt(values.size)
+             if own.size else 0.0)
+    if values.size < 2:
+        return floor if floor > 0 else math.nan
+    sigma = robust_sigma(values) if values.size >= 3 else float(np.std(values, ddof=1))
+    if not sigma > 0:  # identical values: fall back on the plain spread
+        sigma = float(np.std(values, ddof=1))
+    return max(MEDIAN_SE * sigma / math.sqrt(values.size), floor)

@@ -16,6 +16,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from pumpid.cards import printable
+from pumpid.report.units import unit_factor
 from pumpid.report.words import plural
 
 from .changes import USABLE_STATUSES
@@ -33,6 +34,7 @@ __all__ = [
     "per_well_median",
     "quantity_values",
     "status_figure",
+    "unit_mix",
     "unit_text",
     "well_figure",
 ]
@@ -77,14 +79,26 @@ def column_unit(frame: pd.DataFrame, summary: pd.DataFrame, quantity: str) -> st
     return str(stated.mode().iloc[0]) if len(stated) else ""
 
 
-def quantity_values(frame: pd.DataFrame, quantity: str) -> tuple[pd.Series, pd.Series, pd.Series]:
-    """Value, standard error and a usable mask of one quantity over rows of ``frame``."""
+def quantity_values(frame: pd.DataFrame, quantity: str, unit: str | None = None
+                    ) -> tuple[pd.Series, pd.Series, pd.Series]:
+    """Value, standard error and a usable mask of one quantity over rows of ``frame``.
+
+    With ``unit``, values a row states in another unit are converted to it
+    (:func:`pumpid.report.units.unit_factor`), and rows whose unit cannot be are not
+    usable: one axis across wells, each in its controller's units, had plotted lbf, klbf
+    and kN as one."""
     col = quantity if quantity.startswith(("p_", PUMP_PREFIX)) else f"d_{quantity}"
     value = pd.to_numeric(frame[col], errors="coerce")
     se = pd.Series(np.nan, index=frame.index)
     for c in (f"{col}_se", f"{col}_se_hac"):
         if c in frame.columns:
             se = np.fmax(se, pd.to_numeric(frame[c], errors="coerce"))
+    if unit and f"{col}_unit" in frame.columns:
+        stated = frame[f"{col}_unit"]
+        factors = {u: unit_factor(str(u), unit) for u in stated.dropna().unique()}
+        factor = stated.map(lambda u: 1.0 if pd.isna(u) else factors[u])
+        factor = pd.to_numeric(factor, errors="coerce")  # None (not convertible): NaN
+        value, se = value * factor, se * factor
     ok = frame["status"].isin(USABLE_STATUSES) & value.notna() & np.isfinite(value)
     if is_pump_quantity(quantity):  # counts when the pump card was computed
         ok = pump_usable(frame) & value.notna() & np.isfinite(value)
@@ -109,8 +123,24 @@ def _by_well(frame: pd.DataFrame, value: pd.Series, ok: pd.Series) -> Any:
     return pairs.groupby("well")["value"]
 
 
-def per_well_median(frame: pd.DataFrame, quantity: str) -> pd.Series:
-    value, _, ok = quantity_values(frame, quantity)
+def unit_mix(frame: pd.DataFrame, quantity: str, unit: str) -> tuple[list[str], int]:
+    """The other units a quantity's usable values are stated in that were converted to
+    ``unit`` for a view across wells, and how many values were left out because their unit
+    could not be."""
+    col = quantity if quantity.startswith(("p_", PUMP_PREFIX)) else f"d_{quantity}"
+    if not unit or f"{col}_unit" not in frame.columns:
+        return [], 0
+    _, _, ok = quantity_values(frame, quantity)
+    stated = frame.loc[np.asarray(ok, dtype=bool), f"{col}_unit"].dropna().astype(str)
+    others = sorted(set(stated) - {unit})
+    converted = [u for u in others if unit_factor(u, unit) is not None]
+    left = int(stated.isin([u for u in others if u not in converted]).sum())
+    return converted, left
+
+
+def per_well_median(frame: pd.DataFrame, quantity: str, unit: str | None = None) -> pd.Series:
+    """Each well's median of a quantity's usable values, in ``unit`` where given."""
+    value, _, ok = quantity_values(frame, quantity, unit)
     return _by_well(frame, value, ok).median()
 
 
@@ -139,7 +169,7 @@ def few_wells_figure(frame: pd.DataFrame, quantity: str, unit: str,
                       alerted: set[str]) -> Figure | None:
     """Each well's cards of one quantity as a row: the median, the middle half and the
     range, for fields of too few wells for a histogram."""
-    value, _, ok = quantity_values(frame, quantity)
+    value, _, ok = quantity_values(frame, quantity, unit)
     groups = _by_well(frame, value, ok)
     if not len(groups):
         return None
@@ -178,7 +208,7 @@ def few_wells_figure(frame: pd.DataFrame, quantity: str, unit: str,
 
 def distribution_figure(frame: pd.DataFrame, quantity: str, unit: str,
                          alerted: set[str]) -> Figure | None:
-    med = per_well_median(frame, quantity)
+    med = per_well_median(frame, quantity, unit)
     if med.empty:
         return None
     if len(med) < MIN_WELLS_HISTOGRAM:

@@ -57,6 +57,7 @@ from .figures import (
     distribution_figure,
     quantity_values,
     status_figure,
+    unit_mix,
     unit_text,
     well_figure,
 )
@@ -597,6 +598,13 @@ def write_fleet_report(
                    f"few wells for a histogram); red: wells with an alert." if few else
                    f"Distribution across wells of each well's median {q} "
                    f"[{unit_text(units[q])}]; triangles mark wells with an alert.")
+        converted, left = unit_mix(named, q, units[q])
+        if converted:
+            caption += (f" Values stated in {', '.join(converted)} are converted to "
+                        f"{unit_text(units[q])}.")
+        if left:
+            caption += (f" {count_words(left, 'card')} in a unit that cannot be converted "
+                        "to it are left out.")
         figures.append(_figure_html(save(fig, name), f"distribution of {q}", caption))
     if missing:
         parts.append(f"<p>{'; '.join(missing)}.</p>")

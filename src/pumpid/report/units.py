@@ -3,10 +3,14 @@ matplotlib)."""
 
 from __future__ import annotations
 
+import math
+import re
+
+from ..cards import LOAD_UNITS, POSITION_UNITS, TIME_UNITS
 from ..models import model_class
 from ..result import Units
 
-__all__ = ["UNSTATED_UNITS", "model_param_units", "unit_text"]
+__all__ = ["UNSTATED_UNITS", "model_param_units", "unit_factor", "unit_size", "unit_text"]
 
 
 #: What :func:`pumpid.fit` records for a card as the unit of a card whose file states none.
@@ -29,3 +33,59 @@ def model_param_units(model: str, units: Units) -> dict[str, str]:
     except ValueError:
         return {}
     return {p.name: p.unit_for(units.load, units.position) for p in cls.param_info()}
+
+
+# Sizes in SI of the units a card's quantities are stated in, with their dimension as powers
+# of (length, force, time). Written out here rather than taken from a units library: the
+# set is small and closed (the cards' own units and the pump quantities'), and a library
+# would be a dependency of every report for a few dozen names.
+_BASE: dict[str, tuple[float, tuple[int, int, int]]] = {
+    **{u: (f, (1, 0, 0)) for u, f in POSITION_UNITS.items()},
+    **{u: (f, (0, 1, 0)) for u, f in LOAD_UNITS.items()},
+    **{u: (f, (0, 0, 1)) for u, f in TIME_UNITS.items()},
+    "d": (86400.0, (0, 0, 1)),
+    "Hz": (1.0, (0, 0, -1)),
+    "bbl": (0.158987294928, (3, 0, 0)),
+    "Pa": (1.0, (-2, 1, 0)),
+    "kPa": (1e3, (-2, 1, 0)),
+    "MPa": (1e6, (-2, 1, 0)),
+    "bar": (1e5, (-2, 1, 0)),
+    "psi": (6894.757293168361, (-2, 1, 0)),
+    "1": (1.0, (0, 0, 0)),
+    "-": (1.0, (0, 0, 0)),
+    "fraction": (1.0, (0, 0, 0)),
+    "dimensionless": (1.0, (0, 0, 0)),
+}
+_TOKEN = re.compile(r"^([A-Za-z]+|1|-)(?:\^?(-?\d+))?$")
+
+
+def unit_size(unit: str) -> tuple[float, tuple[int, int, int]] | None:
+    """A unit's size in SI (m, N, s) and its dimension as powers of length, force and
+    time: ``"lbf*s^2/in"`` is (175.1, (-1, 1, 2)). Products and quotients of the cards'
+    units, ``d``, ``Hz``, ``bbl``, pressures and ``m3``-style powers; None for anything
+    else (a unit in brackets, a name not known)."""
+    text = str(unit).strip()
+    if not text or "(" in text:
+        return None
+    size, dims = 1.0, [0, 0, 0]
+    for k, part in enumerate(text.split("/")):
+        for token in part.split("*"):
+            match = _TOKEN.match(token.strip())
+            if match is None or match.group(1) not in _BASE:
+                return None
+            base, dim = _BASE[match.group(1)]
+            power = int(match.group(2) or 1) * (1 if k == 0 else -1)
+            size *= base**power
+            dims = [d + power * e for d, e in zip(dims, dim, strict=True)]
+    return size, (dims[0], dims[1], dims[2])
+
+
+def unit_factor(from_unit: str, to_unit: str) -> float | None:
+    """What a value in ``from_unit`` is multiplied by to be in ``to_unit`` (1 for the same
+    unit); None when either is not known (:func:`unit_size`) or their dimensions differ."""
+    if str(from_unit) == str(to_unit):
+        return 1.0
+    a, b = unit_size(from_unit), unit_size(to_unit)
+    if a is None or b is None or a[1] != b[1] or not (b[0] > 0 and math.isfinite(a[0])):
+        return None
+    return a[0] / b[0]
