@@ -395,3 +395,27 @@ def test_a_stroke_no_pumping_unit_has_is_warned_about() -> None:
     assert any("by the stroke rate (given by the caller)" in w and "check the stroke rate" in w
                for w in card.warnings)
     assert not parse_cards(plain, spm=6)[0].warnings
+
+
+def test_a_loggers_jitter_is_still_one_stroke(tmp_path) -> None:
+    # Timestamps with 5 % jitter made the same stroke a record fitted from rest (another
+    # status, c1 30.5 -> 6259) with nothing said why.
+    import numpy as np
+
+    from pumpid.cards import parse_cards
+
+    x = np.linspace(0.0, 2 * np.pi, 93, endpoint=False)
+    pos, load = 30 - 30 * np.cos(x), 5000 + 2000 * np.sin(x) + 300 * np.sin(2 * x)
+    t = np.arange(93) * 0.075 + np.random.default_rng(0).uniform(-0.05, 0.05, 93) * 0.075
+
+    def card(times: np.ndarray, keep: slice = slice(None)) -> object:
+        return parse_cards("t_s,position_in,load_lbf\n" + "".join(
+            f"{a:.6f},{b:.5f},{c:.3f}\n"
+            for a, b, c in zip(times[keep], pos[keep], load[keep], strict=True)))[0]
+
+    jittered = card(t)
+    assert jittered.periodic and jittered.period == pytest.approx(93 * 0.075, rel=2e-3)
+    assert "s apart on average, each step within" in jittered.notes[-1]
+    # A gap (a sample missing: one step of two) is no jitter: a record, as before.
+    gap = card(np.arange(93) * 0.075, np.r_[0:40, 41:93])
+    assert not gap.periodic

@@ -92,7 +92,8 @@ def test_folder_and_t_column(tmp_path: Path) -> None:
     frame.to_parquet(tmp_path / "2.parquet")
     cards = read_parquet_cards(tmp_path, position_unit="m", load_unit="kN")
     assert [c.card_id for c in cards] == ["a", "b"]
-    assert cards[1].time_source == "file" and not cards[1].periodic
+    # One stroke in its own time: one period, as every reader takes it.
+    assert cards[1].time_source == "file" and cards[1].periodic
     assert any("UTC" in n for n in cards[1].notes)
     assert cards[1].position_unit == "m"
 
@@ -135,3 +136,11 @@ def test_bad_files(tmp_path: Path) -> None:
     empty.mkdir()
     with pytest.raises(CardError, match=r"no \.parquet"):
         read_parquet_cards(empty)
+
+
+def test_one_stroke_with_its_time_is_one_period_as_from_every_file(tmp_path: Path) -> None:
+    # A stroke with a t column was fitted from rest from Parquet, as one period from CSV.
+    frame = _long(["a"]).drop(columns=["sample", "spm"]).assign(t=np.arange(30) * 10.0 / 30)
+    frame.to_parquet(tmp_path / "timed.parquet")
+    (card,) = read_parquet_cards(tmp_path / "timed.parquet")
+    assert card.periodic and card.period == pytest.approx(10.0)

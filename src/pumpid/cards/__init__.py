@@ -112,7 +112,7 @@ a value is flagged only when it is implausible in every unit it could be in.
   above).
 """
 
-from ._common import repeats_first
+from ._common import one_period, repeats_first
 from ._errors import CardError
 from ._plausible import leading_padding, loop_work, open_stroke, trailing_padding
 from ._printable import printable
@@ -163,6 +163,7 @@ __all__ = [
     "normalize_load_unit",
     "normalize_position_unit",
     "normalize_time_unit",
+    "one_period",
     "open_stroke",
     "parse_cards",
     "parse_cards_and_errors",

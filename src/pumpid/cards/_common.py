@@ -574,6 +574,11 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     return card
 
 
+#: Largest departure of a time column's steps from their mean (relative) that is still a
+#: uniformly sampled stroke: a logger's jitter, not a gap (a missing sample is a step of 2).
+JITTER = 0.25
+
+
 def one_period(card: Card) -> Card:
     """A card whose own time spans a single stroke, uniformly sampled, as one period.
 
@@ -581,10 +586,17 @@ def one_period(card: Card) -> Card:
     or only the stroke rate; without this, the same stroke with a time column was fitted as
     a record from rest, without a position offset (another status and other values), and
     ``pumpid downhole`` took the same file as one stroke. A record of several strokes (two
-    bottoms of stroke with the rod seen turning around) stays a record.
+    bottoms of stroke with the rod seen turning around) stays a record. A logger's jitter
+    (every step within :data:`JITTER` of the mean step) is still uniform sampling: with 5 %
+    jitter the same stroke was fitted from rest, its status and values another card's, and
+    nothing said why. The samples keep their own times; the period is N times the mean step.
     """
-    dt = card.dt
-    if dt is None or card.n < 8:
+    if card.t is None or card.n < 8:
+        return card
+    steps = np.diff(card.t)
+    dt = float(steps.mean())
+    spread = float(np.max(np.abs(steps - dt))) / dt
+    if not spread <= JITTER:
         return card
     try:
         strokes = split_strokes(card)
@@ -593,7 +605,9 @@ def one_period(card: Card) -> Card:
     if len(strokes) != 1 or strokes[0].n != card.n:
         return card
     period = card.n * dt
+    apart = (f"{fmt(dt)} s apart" if card.dt is not None else
+             f"{fmt(dt)} s apart on average, each step within {spread:.0%} of it")
     return card.replace(
         periodic=True, period=period, spm=60.0 / period,
-        note=(f"one stroke in the file's time ({card.n} samples, {fmt(dt)} s apart): "
-              f"treated as one period of a periodic motion, period N*dt = {fmt(period)} s"))
+        note=(f"one stroke in the file's time ({card.n} samples, {apart}): treated as one "
+              f"period of a periodic motion, period N*dt = {fmt(period)} s"))

@@ -12,7 +12,8 @@ Layout (one file, or a folder of files read one by one in sorted order):
     At least one is required. A ``t`` of dates and times (datetime64) is turned into
     seconds from the card's first sample, with a note; it is never read as epoch counts.
     Samples are put in order of ``sample`` (or of ``t``), which
-    must not repeat. With ``t`` the time comes from the file; otherwise the card is one
+    must not repeat. With ``t`` the time comes from the file (a card that holds one
+    stroke, sampled uniformly, is one period, as the card files' readers take it); otherwise the card is one
     stroke sampled uniformly in time and its time is rebuilt from ``spm``
     (``t_i = i T / N``, ``T = 60 / spm``; marked periodic), as pumpid's other readers do;
     a last sample that repeats the first (a duplicated closing point) is then dropped, as
@@ -46,6 +47,7 @@ from pumpid.cards import (
     Card,
     CardError,
     leading_padding,
+    one_period,
     repeats_first,
     time_from_rate,
     trailing_padding,
@@ -241,7 +243,7 @@ def _card(
             else:
                 stamp = stamp.tz_convert("UTC")
     try:
-        return Card(
+        card = Card(
             position=arrays["position"],
             load=arrays["load"],
             t=t,
@@ -260,6 +262,9 @@ def _card(
         )
     except CardError as exc:
         raise err(exc.reason, exc.field) from exc
+    # One stroke in its own time is one period, as the card files' readers take it: from
+    # Parquet the same stroke was fitted from rest.
+    return one_period(card) if order_col == "t" else card
 
 
 def iter_parquet_cards(
