@@ -499,3 +499,17 @@ def test_the_text_says_the_stroke_every_rate_rests_on(tmp_path: Path, surface,
     out = capsys.readouterr().out
     assert code == 0
     assert out.count("stroke 7.5 s = 8 strokes/min from the stroke rate") == 2, out
+
+
+def test_the_free_tubings_stretch_is_said_without_verbose(tmp_path: Path, surface,
+                                                          capsys) -> None:
+    # Free tubing of known size took 0.15 m off the net stroke, said only under --verbose.
+    doc = json.loads(json.dumps(WELL))
+    doc["wells"]["W-1"]["tubing"] = {"anchored": False, "outer_diameter": 2.875,
+                                     "inner_diameter": 2.441}
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    code = main(["downhole", str(cards), "--well", str(write_well(tmp_path / "w.json", doc)),
+                 "--spm", str(SPM), "--no-identify", "--card", "card0"])
+    out = capsys.readouterr().out
+    assert code == 0 and "note: net stroke less the free tubing's stretch under the fluid " \
+                         "load" in out, out

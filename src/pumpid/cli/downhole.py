@@ -169,6 +169,7 @@ _ALWAYS_SAID = ("reverse", "intake pressure is negative", "tubing-head pressure 
                 "the pump card is computed at the bottom of the rods",
                 "converted, results in the card's units", "has no fluid load",
                 "no fluid entry", "not corrected for tubing stretch",
+                "less the free tubing's stretch",
                 "differs from the well file's", "the loop does not close",
                 "below the rods' weight", "harmonics asked")
 

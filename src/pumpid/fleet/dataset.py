@@ -11,9 +11,9 @@ Layout (one file, or a folder of files read one by one in sorted order):
 ``sample`` (int) or ``t`` (float, seconds from the card's start)
     At least one is required. A ``t`` of dates and times (datetime64) is turned into
     seconds from the card's first sample, with a note; it is never read as epoch counts.
-    Samples are put in order of ``sample`` (or of ``t``), which
-    must not repeat. With ``t`` the time comes from the file (a card that holds one
-    stroke, sampled uniformly, is one period, as the card files' readers take it); otherwise the card is one
+    Samples are put in order of ``sample`` (or of ``t``), which must not repeat. With
+    ``t`` the time comes from the file (a card that holds one stroke, sampled uniformly,
+    is one period, as the card files' readers take it); otherwise the card is one
     stroke sampled uniformly in time and its time is rebuilt from ``spm``
     (``t_i = i T / N``, ``T = 60 / spm``; marked periodic), as pumpid's other readers do;
     a last sample that repeats the first (a duplicated closing point) is then dropped, as
