@@ -15,7 +15,9 @@ Layout (one file, or a folder of files read one by one in sorted order):
     ``t`` the time comes from the file (a card that holds one stroke, sampled uniformly,
     is one period, as the card files' readers take it); otherwise the card is one
     stroke sampled uniformly in time and its time is rebuilt from ``spm``
-    (``t_i = i T / N``, ``T = 60 / spm``; marked periodic), as pumpid's other readers do;
+    (``t_i = i T / N``, ``T = 60 / spm``; marked periodic; a card that holds several
+    strokes is timed per stroke and is a record, :func:`pumpid.cards.time_from_rate`), as
+    pumpid's other readers do;
     a last sample that repeats the first (a duplicated closing point) is then dropped, as
     they do too. Padding at a card's end or start (a run of one repeated point, see
     :func:`pumpid.cards.trailing_padding`) is dropped, as the card files' readers do.
