@@ -118,11 +118,15 @@ def test_an_unreadable_file_is_a_row_and_the_other_files_are_fitted(two_cards: P
     assert code == 3
 
 
-def test_single_unreadable_file_is_exit_2_with_nothing_on_stdout(tmp_path: Path,
-                                                                 capsys) -> None:
+def test_single_unreadable_file_is_exit_2_with_its_json_element(tmp_path: Path,
+                                                                capsys) -> None:
+    # --json promises its document: a script reading one file a call got an empty stdout.
     junk = tmp_path / "junk.csv"
     junk.write_bytes(b"\x00\x8f\xff" * 50)
     assert main(["fit", str(junk), "--json"]) == 2
+    (card,) = json.loads(capsys.readouterr().out)["cards"]
+    assert card["status"] == "invalid-input" and "junk.csv" in card["reason"]
+    assert main(["fit", str(junk)]) == 2  # without --json: the run's error, on stderr
     captured = capsys.readouterr()
     assert captured.out == "" and "junk.csv" in captured.err
 
