@@ -48,6 +48,13 @@ def test_padding_is_dropped_as_from_every_file(tmp_path: Path) -> None:
     assert card.n == 30
     assert any("padding dropped: the last 6 of 36 samples" in n for n in card.notes)
     np.testing.assert_allclose(card.t, np.arange(30) * 10.0 / 30)
+    # With a t column the times are dropped with their samples (the card was refused:
+    # "t has 36 samples but position has 30").
+    timed = pd.concat([stroke, pad], ignore_index=True).drop(columns=["sample"])
+    timed.assign(t=np.arange(36) * 10.0 / 30).to_parquet(tmp_path / "timed.parquet")
+    (card,) = read_parquet_cards(tmp_path / "timed.parquet")
+    assert card.n == 30 and card.periodic
+    np.testing.assert_allclose(card.t, np.arange(30) * 10.0 / 30)
 
 
 def test_a_record_of_strokes_is_timed_per_stroke_as_from_every_file(tmp_path: Path) -> None:

@@ -114,7 +114,13 @@ a value is flagged only when it is implausible in every unit it could be in.
 
 from ._common import one_period, repeats_first
 from ._errors import CardError
-from ._plausible import leading_padding, loop_work, open_stroke, trailing_padding
+from ._plausible import (
+    leading_padding,
+    loop_work,
+    open_stroke,
+    padding_dropped,
+    trailing_padding,
+)
 from ._printable import printable
 from ._readers import (
     FORMATS,
@@ -165,6 +171,7 @@ __all__ = [
     "normalize_time_unit",
     "one_period",
     "open_stroke",
+    "padding_dropped",
     "parse_cards",
     "parse_cards_and_errors",
     "printable",

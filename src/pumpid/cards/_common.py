@@ -19,12 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._errors import CardError
-from ._plausible import (
-    leading_padding,
-    plausibility_warnings,
-    stroke_rate_warning,
-    trailing_padding,
-)
+from ._plausible import padding_dropped, plausibility_warnings, stroke_rate_warning
 from ._rises import time_from_rate
 from ._strokes import split_strokes
 from ._text import iter_lines, normalize_name, number_problem, parse_number
@@ -363,21 +358,14 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     # 39 of the public oilfield set's 360 cards end in 50 samples of exactly (0, 0): fitted
     # as a fifth of the stroke, with a period rebuilt from the SPM 25 % too long, their
     # statuses and values were another card's.
-    padded = 0
-    pu, lu = (f" {u}" if u else "" for u in (o.position_unit or raw.pos_unit,
-                                             o.load_unit or raw.load_unit))
-    for end, count in (("last", trailing_padding), ("first", leading_padding)):
-        kept = np.flatnonzero(keep)
-        run = count(pos[kept], load[kept])
-        if not run:
-            continue
-        padded += run
-        drop = kept[-run:] if end == "last" else kept[:run]
-        keep[drop] = False
-        where = "" if lines is None else f" ({line_span(lines[drop])})"
-        notes.append(
-            f"padding dropped: the {end} {run} of {kept.size} samples repeated one point "
-            f"(position {fmt(pos[drop[0]])}{pu}, load {fmt(load[drop[0]])}{lu}){where}")
+    kept = np.flatnonzero(keep)
+    span, dropped = padding_dropped(pos[kept], load[kept], (o.position_unit or raw.pos_unit,
+                                                            o.load_unit or raw.load_unit))
+    padded = kept.size - len(range(*span.indices(kept.size)))
+    keep[kept] = False
+    keep[kept[span]] = True
+    for where, note in dropped:
+        notes.append(note + ("" if lines is None else f" ({line_span(lines[kept[where]])})"))
     if o.drop_closing_point and t is None and keep.sum() >= 2:
         first, last = np.flatnonzero(keep)[[0, -1]]
         if repeats_first(pos[[first, last]], load[[first, last]]):

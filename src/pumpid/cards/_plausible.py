@@ -31,6 +31,7 @@ __all__ = [
     "leading_padding",
     "loop_work",
     "open_stroke",
+    "padding_dropped",
     "plausibility_warnings",
     "stroke_rate_warning",
     "trailing_padding",
@@ -252,8 +253,54 @@ def trailing_padding(position: NDArray[np.float64], load: NDArray[np.float64]) -
 
 def leading_padding(position: NDArray[np.float64], load: NDArray[np.float64]) -> int:
     """How many samples at a card's start are padding: :func:`trailing_padding` of the card
-    read backwards (an export that fills the start of a fixed-length record)."""
+    read backwards (an export that fills the start of a fixed-length record).
+
+    Parameters
+    ----------
+    position, load : ndarray
+        The card's samples, of equal length.
+
+    Returns
+    -------
+    int
+        The number of padding samples at the start (0: none).
+    """
     return trailing_padding(position[::-1], load[::-1])
+
+
+def padding_dropped(position: NDArray[np.float64], load: NDArray[np.float64],
+                    units: tuple[str | None, str | None] = (None, None)
+                    ) -> tuple[slice, list[tuple[slice, str]]]:
+    """The samples left once the padding at a card's end, then at its start, is dropped
+    (:func:`trailing_padding`, :func:`leading_padding`), and for each run dropped the
+    samples it held and a note saying so (without where they are in the file, which the
+    reader adds).
+
+    Parameters
+    ----------
+    position, load : ndarray
+        The card's samples, of equal length.
+    units : tuple of str or None
+        The position and load units, for the notes.
+
+    Returns
+    -------
+    kept : slice
+    dropped : list of (slice, str)
+    """
+    n = position.size
+    last = trailing_padding(position, load)
+    first = leading_padding(position[: n - last], load[: n - last])
+    pu, lu = (f" {u}" if u else "" for u in units)
+    dropped = []
+    for end, run, where, size in (("last", last, slice(n - last, n), n),
+                                  ("first", first, slice(0, first), n - last)):
+        if run:
+            k = where.start
+            dropped.append((where, f"padding dropped: the {end} {run} of {size} samples "
+                                   f"repeated one point (position {_fmt(float(position[k]))}"
+                                   f"{pu}, load {_fmt(float(load[k]))}{lu})"))
+    return slice(first, n - last), dropped
 
 
 def _held_run(position: NDArray[np.float64], load: NDArray[np.float64]) -> tuple[int, int]:

@@ -48,11 +48,10 @@ import pandas as pd
 from pumpid.cards import (
     Card,
     CardError,
-    leading_padding,
     one_period,
+    padding_dropped,
     repeats_first,
     time_from_rate,
-    trailing_padding,
 )
 
 __all__ = ["ParquetCardError", "iter_parquet_cards", "read_parquet_cards"]
@@ -172,17 +171,13 @@ def _card(
             kind = "NaN" if np.isnan(arr[bad[0]]) else "infinite"
             raise err(f"{kind} value in {col} (sample {int(bad[0])})", col)
         arrays[col] = arr
-    # As the card files' readers do: a fixed-length record's fill is no part of the stroke.
-    padded = trailing_padding(arrays["position"], arrays["load"])
-    if padded:
-        notes.append(f"padding dropped: the last {padded} of {arrays['position'].size} "
-                     "samples repeated one point")
-        arrays = {k: v[:-padded] for k, v in arrays.items()}
-    padded = leading_padding(arrays["position"], arrays["load"])
-    if padded:
-        notes.append(f"padding dropped: the first {padded} of {arrays['position'].size} "
-                     "samples repeated one point")
-        arrays = {k: v[padded:] for k, v in arrays.items()}
+    # As the card files' readers do: a fixed-length record's fill is no part of the stroke
+    # (its samples, its order and its times dropped alike).
+    span, dropped = padding_dropped(arrays["position"], arrays["load"],
+                                    (position_unit, load_unit))
+    arrays = {k: v[span] for k, v in arrays.items()}
+    order = order[span]
+    notes += [note for _where, note in dropped]
     if order_col == "sample" and repeats_first(arrays["position"], arrays["load"]):
         # As every reader of a card without time does: kept, the closing point made the
         # same card 200 samples here and 199 from its .ts file, and its status another.
