@@ -416,6 +416,9 @@ def test_a_loggers_jitter_is_still_one_stroke(tmp_path) -> None:
     jittered = card(t)
     assert jittered.periodic and jittered.period == pytest.approx(93 * 0.075, rel=2e-3)
     assert "s apart on average, each step within" in jittered.notes[-1]
+    # Given the uniform times its logger meant (the downhole solvers refused the card).
+    assert jittered.dt == pytest.approx(jittered.period / 93)
+    assert "taken as uniform, t_i = t_0 + i*dt" in jittered.notes[-1]
     # A gap (a sample missing: one step of two) is no jitter: a record, as before.
     gap = card(np.arange(93) * 0.075, np.r_[0:40, 41:93])
     assert not gap.periodic

@@ -577,7 +577,9 @@ def one_period(card: Card) -> Card:
     bottoms of stroke with the rod seen turning around) stays a record. A logger's jitter
     (every step within :data:`JITTER` of the mean step) is still uniform sampling: with 5 %
     jitter the same stroke was fitted from rest, its status and values another card's, and
-    nothing said why. The samples keep their own times; the period is N times the mean step.
+    nothing said why. Such a stroke is given the uniform times its logger meant (the mean
+    step from its first sample; the solvers of a stroke's harmonics need them), and the note
+    says how far its own times were off.
     """
     if card.t is None or card.n < 8:
         return card
@@ -593,9 +595,15 @@ def one_period(card: Card) -> Card:
     if len(strokes) != 1 or strokes[0].n != card.n:
         return card
     period = card.n * dt
-    apart = (f"{fmt(dt)} s apart" if card.dt is not None else
-             f"{fmt(dt)} s apart on average, each step within {spread:.0%} of it")
+    changes: dict[str, object] = {}
+    apart = f"{fmt(dt)} s apart"
+    if card.dt is None:
+        times = card.t[0] + np.arange(card.n) * dt
+        off = float(np.max(np.abs(card.t - times)))
+        changes["t"] = times
+        apart = (f"{fmt(dt)} s apart on average, each step within {spread:.0%} of it: taken "
+                 f"as uniform, t_i = t_0 + i*dt, the file's times at most {fmt(off)} s off")
     return card.replace(
         periodic=True, period=period, spm=60.0 / period,
         note=(f"one stroke in the file's time ({card.n} samples, {apart}): treated as one "
-              f"period of a periodic motion, period N*dt = {fmt(period)} s"))
+              f"period of a periodic motion, period N*dt = {fmt(period)} s"), **changes)
