@@ -422,3 +422,20 @@ def test_a_loggers_jitter_is_still_one_stroke(tmp_path) -> None:
     # A gap (a sample missing: one step of two) is no jitter: a record, as before.
     gap = card(np.arange(93) * 0.075, np.r_[0:40, 41:93])
     assert not gap.periodic
+
+
+def test_a_record_of_strokes_no_pumping_unit_has_is_warned_about_too() -> None:
+    # Three strokes with a time column in milliseconds named "time": strokes of 10,000 s,
+    # and no word (the check ran on single strokes only).
+    import numpy as np
+
+    from pumpid.cards import parse_cards
+
+    x = np.linspace(0.0, 6 * np.pi, 300, endpoint=False)
+    pos, load = 2 - 2 * np.cos(x), 20 + 5 * np.sin(x)
+    t = np.arange(300) * 10.0 / 100 * 1000
+    (card,) = parse_cards("time,position_m,load_kN\n" + "".join(
+        f"{a:.3f},{b:.5f},{c:.4f}\n" for a, b, c in zip(t, pos, load, strict=True)))
+    assert not card.periodic
+    assert any("its stroke lasts 1e+04 s (0.006 strokes/min) by its time column 'time'" in w
+               for w in card.warnings), card.warnings

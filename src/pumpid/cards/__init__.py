@@ -112,13 +112,14 @@ a value is flagged only when it is implausible in every unit it could be in.
   above).
 """
 
-from ._common import one_period, repeats_first
+from ._common import one_period, repeats_first, stroke_period
 from ._errors import CardError
 from ._plausible import (
     leading_padding,
     loop_work,
     open_stroke,
     padding_dropped,
+    stroke_rate_warning,
     trailing_padding,
 )
 from ._printable import printable
@@ -180,6 +181,8 @@ __all__ = [
     "read_cards_and_errors",
     "repeats_first",
     "split_strokes",
+    "stroke_period",
+    "stroke_rate_warning",
     "strokes_seen",
     "time_from_rate",
     "trailing_padding",

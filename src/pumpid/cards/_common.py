@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from ._errors import CardError
 from ._plausible import padding_dropped, plausibility_warnings, stroke_rate_warning
-from ._rises import time_from_rate
+from ._rises import strokes_seen, time_from_rate
 from ._strokes import split_strokes
 from ._text import iter_lines, normalize_name, number_problem, parse_number
 from ._types import Card
@@ -552,14 +552,34 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     except CardError as exc:  # pragma: no cover - the checks above should catch everything
         raise o.error(f"{label}: {exc.reason}", line=raw.line, field=exc.field) from exc
     card = one_period(card) if time_source == "file" else card
-    if card.period is not None and card.periodic:
-        # A time column in milliseconds named plainly "time" gave a stroke of 4 hours, a
-        # displacement a thousand times too small and no word.
-        slow = stroke_rate_warning(raw.card_id, card.period,
-                                   raw.t_field if time_source == "file" else None, rate_where)
-        if slow:
-            card = card.replace(warnings=(*card.warnings, slow))
-    return card
+    # A time column in milliseconds named plainly "time" gave a stroke of 4 hours, a
+    # displacement a thousand times too small and no word.
+    slow = stroke_rate_warning(raw.card_id, stroke_period(card),
+                               raw.t_field if time_source == "file" else None, rate_where)
+    return card.replace(warnings=(*card.warnings, slow)) if slow else card
+
+
+def stroke_period(card: Card) -> float | None:
+    """The duration of one of a card's strokes (s): its period where it has one (one stroke,
+    or a record timed per stroke from a rate), else, for a record in its own time, the
+    samples between two rises through mid-stroke times the mean step; None when unknown.
+
+    Parameters
+    ----------
+    card : Card
+
+    Returns
+    -------
+    float or None
+    """
+    if card.period is not None:
+        return card.period
+    if card.t is None or card.n < 3:
+        return None
+    rises, per_stroke = strokes_seen(card.position)
+    if rises < 2:
+        return None
+    return per_stroke * float(card.t[-1] - card.t[0]) / (card.n - 1)
 
 
 #: Largest departure of a time column's steps from their mean (relative) that is still a

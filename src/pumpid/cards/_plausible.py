@@ -322,11 +322,26 @@ def _held_run(position: NDArray[np.float64], load: NDArray[np.float64]) -> tuple
 SPM_PLAUSIBLE = (0.5, 40.0)
 
 
-def stroke_rate_warning(card_id: str, period: float, column: str | None,
+def stroke_rate_warning(card_id: str, period: float | None, column: str | None,
                         rate_where: str = "") -> str | None:
-    """A warning for a stroke period no pumping unit has (see :data:`SPM_PLAUSIBLE`), or
-    None. ``column`` names the time column the period comes from (None: from a stroke
-    rate, given ``rate_where``)."""
+    """A warning for a stroke period no pumping unit has (see :data:`SPM_PLAUSIBLE`).
+
+    Parameters
+    ----------
+    card_id : str
+    period : float or None
+        The duration of one stroke (s); None: nothing to say.
+    column : str or None
+        The time column the period comes from (None: from a stroke rate).
+    rate_where : str
+        Where the stroke rate comes from, in words, when ``column`` is None.
+
+    Returns
+    -------
+    str or None
+    """
+    if period is None or not period > 0:
+        return None
     spm = 60.0 / period
     lo, hi = SPM_PLAUSIBLE
     if lo <= spm <= hi:
@@ -335,8 +350,9 @@ def stroke_rate_warning(card_id: str, period: float, column: str | None,
         where, hint = f"the stroke rate ({rate_where})", "check the stroke rate"
     else:
         where = f"its time column {column!r}"
-        hint = ("a time in milliseconds read as seconds? Name the column with its unit "
-                "(t_ms, 'time (ms)')" if spm < lo else "check the time column's unit")
+        hint = ("a time in milliseconds read as seconds? The column's unit is taken as "
+                "seconds; name it with its unit (t_ms, 'time (ms)')" if spm < lo
+                else "check the time column's unit")
     return (f"card {card_id!r}: its stroke lasts {_fmt(period)} s ({_fmt(spm)} strokes/min) "
             f"by {where}: no pumping unit runs at that speed ({lo:g}-{hi:g} strokes/min); "
             f"{hint}")

@@ -51,6 +51,8 @@ from pumpid.cards import (
     one_period,
     padding_dropped,
     repeats_first,
+    stroke_period,
+    stroke_rate_warning,
     time_from_rate,
 )
 
@@ -260,8 +262,11 @@ def _card(
     except CardError as exc:
         raise err(exc.reason, exc.field) from exc
     # One stroke in its own time is one period, as the card files' readers take it: from
-    # Parquet the same stroke was fitted from rest.
-    return one_period(card) if order_col == "t" else card
+    # Parquet the same stroke was fitted from rest. A stroke no pumping unit has is said.
+    card = one_period(card) if order_col == "t" else card
+    slow = stroke_rate_warning(card_id, stroke_period(card), "t" if order_col == "t" else None,
+                               "the spm column")
+    return card.replace(warnings=(*card.warnings, slow)) if slow else card
 
 
 def iter_parquet_cards(
