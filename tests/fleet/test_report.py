@@ -425,3 +425,8 @@ def test_wells_in_other_units_are_converted_for_the_views_across_wells(tmp_path:
     page = write_fleet_report(frame, tmp_path / "b", quantities=["stiffness"],
                               steady_sample=0)["report"].read_text(encoding="utf-8")
     assert "40 cards in a unit that cannot be converted to it are left out." in page
+    # Five wells left: the figure's view and its caption agree (one well less: one by one).
+    frame.loc[frame["well_id"] == "W0004", "d_stiffness_unit"] = "furlongs"
+    page = write_fleet_report(frame, tmp_path / "c", quantities=["stiffness"],
+                              steady_sample=0)["report"].read_text(encoding="utf-8")
+    assert "too few wells for a histogram" in page

@@ -86,7 +86,23 @@ def quantity_values(frame: pd.DataFrame, quantity: str, unit: str | None = None
     With ``unit``, values a row states in another unit are converted to it
     (:func:`pumpid.report.units.unit_factor`), and rows whose unit cannot be are not
     usable: one axis across wells, each in its controller's units, had plotted lbf, klbf
-    and kN as one."""
+    and kN as one. A row that states no unit is taken to be in ``unit``, as the change
+    detection takes it to share its well's.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Rows of a results table.
+    quantity : str
+        A derived quantity's name, ``p_<name>`` or ``pump_<name>``.
+    unit : str, optional
+        The unit to give the values in.
+
+    Returns
+    -------
+    value, se : pandas.Series
+    usable : pandas.Series of bool
+    """
     col = quantity if quantity.startswith(("p_", PUMP_PREFIX)) else f"d_{quantity}"
     value = pd.to_numeric(frame[col], errors="coerce")
     se = pd.Series(np.nan, index=frame.index)

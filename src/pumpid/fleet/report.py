@@ -55,6 +55,7 @@ from .figures import (
     column_unit,
     count_words,
     distribution_figure,
+    per_well_median,
     quantity_values,
     status_figure,
     unit_mix,
@@ -593,7 +594,8 @@ def write_fleet_report(
             missing.append(f"{_e(q)}: {_no_value(frame, q)}")
             continue
         name = _safe_name(f"distribution_{q}", taken)
-        few = named["well_id"].nunique() < MIN_WELLS_HISTOGRAM
+        # The view the figure drew: wells whose unit cannot be converted are not in it.
+        few = len(per_well_median(named, q, units[q])) < MIN_WELLS_HISTOGRAM
         caption = (f"{q} [{unit_text(units[q])}] of each well's cards, well by well (too "
                    f"few wells for a histogram); red: wells with an alert." if few else
                    f"Distribution across wells of each well's median {q} "

@@ -61,9 +61,19 @@ _TOKEN = re.compile(r"^([A-Za-z]+|1|-)(?:\^?(-?\d+))?$")
 
 def unit_size(unit: str) -> tuple[float, tuple[int, int, int]] | None:
     """A unit's size in SI (m, N, s) and its dimension as powers of length, force and
-    time: ``"lbf*s^2/in"`` is (175.1, (-1, 1, 2)). Products and quotients of the cards'
-    units, ``d``, ``Hz``, ``bbl``, pressures and ``m3``-style powers; None for anything
-    else (a unit in brackets, a name not known)."""
+    time: ``"lbf*s^2/in"`` is (175.1, (-1, 1, 2)).
+
+    Parameters
+    ----------
+    unit : str
+        Products and quotients of the cards' units, ``d``, ``Hz``, ``bbl``, pressures and
+        ``m3``-style powers.
+
+    Returns
+    -------
+    tuple or None
+        (size, dimension); None for anything else (a unit in brackets, a name not known).
+    """
     text = str(unit).strip()
     if not text or "(" in text:
         return None
@@ -75,14 +85,27 @@ def unit_size(unit: str) -> tuple[float, tuple[int, int, int]] | None:
                 return None
             base, dim = _BASE[match.group(1)]
             power = int(match.group(2) or 1) * (1 if k == 0 else -1)
-            size *= base**power
+            try:
+                size *= base**power
+            except OverflowError:  # "lbf^1000": no unit a card states
+                return None
             dims = [d + power * e for d, e in zip(dims, dim, strict=True)]
     return size, (dims[0], dims[1], dims[2])
 
 
 def unit_factor(from_unit: str, to_unit: str) -> float | None:
-    """What a value in ``from_unit`` is multiplied by to be in ``to_unit`` (1 for the same
-    unit); None when either is not known (:func:`unit_size`) or their dimensions differ."""
+    """What a value in ``from_unit`` is multiplied by to be in ``to_unit``.
+
+    Parameters
+    ----------
+    from_unit, to_unit : str
+
+    Returns
+    -------
+    float or None
+        1 for the same unit; None when either is not known (:func:`unit_size`) or their
+        dimensions differ.
+    """
     if str(from_unit) == str(to_unit):
         return 1.0
     a, b = unit_size(from_unit), unit_size(to_unit)
