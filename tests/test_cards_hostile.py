@@ -360,8 +360,9 @@ def test_a_frozen_stretch_is_warned_about() -> None:
 
     card = read(pos, load)
     assert card.n == 200
-    assert any("samples 80-94 (15 of 200) repeat one point (position 54.27 in, load 6.176 "
-               "klbf): a frozen sensor or a stopped unit?" in w for w in card.warnings)
+    assert any("its samples 80-94 (counted from 0, 15 of 200) repeat one point (position "
+               "54.27 in, load 6.176 klbf): a frozen sensor or a stopped unit?" in w
+               for w in card.warnings)
     # Below 5 % of the card (a turn-around held for a few samples) it is no warning.
     pos, load = 30 - 30 * np.cos(x), 5 + 2 * np.sin(x)
     pos[80:88], load[80:88] = pos[80], load[80]

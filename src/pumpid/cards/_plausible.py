@@ -410,7 +410,8 @@ def plausibility_warnings(
         pu = f" {position_unit}" if position_unit else ""
         lu = f" {load_unit}" if load_unit else ""
         out.append(
-            f"{label}: samples {first}-{first + held - 1} ({held} of {position.size}) repeat "
+            f"{label}: its samples {first}-{first + held - 1} (counted from 0, {held} of "
+            f"{position.size}) repeat "
             f"one point (position {_fmt(float(position[first]))}{pu}, load "
             f"{_fmt(float(load[first]))}{lu}): a frozen sensor or a stopped unit? It is "
             "fitted as given")

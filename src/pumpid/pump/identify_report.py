@@ -243,9 +243,11 @@ class DownholeCard:
         # with the period only in the JSON.
         stroke = ""
         if card.period is not None:
-            timed = "file's time" if card.time_source == "file" else "stroke rate"
+            timed = {"file": "the file's time", "spm": "the stroke rate",
+                     "period": "the stroke period given", "dt": "the sample interval given"
+                     }.get(card.time_source, "the card")
             stroke = (f", stroke {card.period:.4g} s = {60.0 / card.period:.4g} "
-                      f"strokes/min from the {timed}")
+                      f"strokes/min from {timed}")
         head += f" (well {printable(well)}{', reversed' if down.reversed else ''}{stroke})"
         if self.fit is None:
             head += "; diagnostic pump card"
