@@ -244,8 +244,11 @@ def test_a_change_near_the_history_end_is_sized_by_the_wells_scatter(after: int)
     assert math.isfinite(row["change_se"]) and row["change_se"] < 0
     # Never beyond what the well's scatter allows (a few cards cannot make it infinite) ...
     assert abs(row["change_se"]) <= 1.5 * abs(row["change"]) / floor, (row["change_se"], floor)
-    if row["n_after"] == after:  # ... and, split at the step, far beyond the cards' errors
-        assert abs(row["change_se"]) > 50
+    # ... and far beyond what the cards' errors would say (-4.0 before). With two cards
+    # after the step the split lands a card early: its second segment holds a card of the
+    # first level, whose own scatter sizes the change (-2.6).
+    if after >= 3:
+        assert row["n_after"] == after and abs(row["change_se"]) > 50, row["change_se"]
 
 
 @pytest.mark.parametrize("n_cards", [20, 60])
