@@ -20,7 +20,19 @@ BAND_LOW, BAND_HIGH = 0.35, 0.65
 
 
 def upward_crossings(pos: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """Indices where the position, having been below ``lo``, first gets above ``hi``."""
+    """Indices where the position, having been below ``lo``, first gets above ``hi``.
+
+    Parameters
+    ----------
+    pos : ndarray
+        The position, in time order.
+    lo, hi : float
+        The band's levels.
+
+    Returns
+    -------
+    ndarray of int
+    """
     state = np.where(pos < lo, -1, np.where(pos > hi, 1, 0))
     idx = np.where(state != 0, np.arange(pos.size), 0)
     np.maximum.accumulate(idx, out=idx)  # carry the last decided state through the band
@@ -32,7 +44,21 @@ def mid_stroke_band(raw: np.ndarray) -> tuple[np.ndarray, float, float, np.ndarr
     """The position scaled by its largest magnitude (every level below is then finite and
     meaningful at any scale, 1e-300 or 1e300, and the boundaries found are the same sample
     indices), its robust bottom and range, and its upward crossings of the mid-stroke
-    band."""
+    band.
+
+    Parameters
+    ----------
+    raw : ndarray
+        The position, in time order, not constant.
+
+    Returns
+    -------
+    scaled : ndarray
+    bottom, span : float
+        The scaled position's 1st percentile and its range to the 99th.
+    crossings : ndarray of int
+        :func:`upward_crossings` of the band from 35 % to 65 % of the range.
+    """
     with np.errstate(all="ignore"):
         pos = raw / np.max(np.abs(raw))
         p_lo, p_hi = (float(v) for v in np.percentile(pos, [1.0, 99.0]))

@@ -225,7 +225,22 @@ def median_se(values: NDArray[np.float64], errors: NDArray[np.float64],
     fillage drop of 24 % on a pump field read -2.65, -692 and -934 standard errors as the
     history grew by one and two cards (one card after the change: no scatter at all). Errors
     far wider than the well's scatter (a model error's robust errors) made a fluid load's
-    fall by 14 times its scatter read -0.17 standard errors."""
+    fall by 14 times its scatter read -0.17 standard errors.
+
+    Parameters
+    ----------
+    values : ndarray
+        The segment's values.
+    errors : ndarray
+        Their cards' standard errors (NaN where unknown).
+    noise : float
+        The well's card-to-card scatter, in the values' unit.
+
+    Returns
+    -------
+    float
+        NaN for a single card without errors.
+    """
     own = errors[np.isfinite(errors) & (errors > 0)]
     floor = (MEDIAN_SE * min(float(np.median(own)), noise) / math.sqrt(values.size)
              if own.size else 0.0)

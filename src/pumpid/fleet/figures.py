@@ -142,7 +142,22 @@ def _by_well(frame: pd.DataFrame, value: pd.Series, ok: pd.Series) -> Any:
 def unit_mix(frame: pd.DataFrame, quantity: str, unit: str) -> tuple[list[str], int]:
     """The other units a quantity's usable values are stated in that were converted to
     ``unit`` for a view across wells, and how many values were left out because their unit
-    could not be."""
+    could not be.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Rows of a results table.
+    quantity : str
+        As for :func:`quantity_values`.
+    unit : str
+        The views' unit.
+
+    Returns
+    -------
+    converted : list of str
+    left_out : int
+    """
     col = quantity if quantity.startswith(("p_", PUMP_PREFIX)) else f"d_{quantity}"
     if not unit or f"{col}_unit" not in frame.columns:
         return [], 0
