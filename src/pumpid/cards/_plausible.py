@@ -258,12 +258,12 @@ def leading_padding(position: NDArray[np.float64], load: NDArray[np.float64]) ->
     Parameters
     ----------
     position, load : ndarray
-        The card's samples, of equal length.
+        The card's samples in time order (its first samples are the ones looked at).
 
     Returns
     -------
     int
-        The number of padding samples at the start (0: none).
+        How many of its first samples are padding (0: none).
     """
     return trailing_padding(position[::-1], load[::-1])
 
