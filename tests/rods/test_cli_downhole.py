@@ -513,3 +513,16 @@ def test_the_free_tubings_stretch_is_said_without_verbose(tmp_path: Path, surfac
     out = capsys.readouterr().out
     assert code == 0 and "note: net stroke less the free tubing's stretch under the fluid " \
                          "load" in out, out
+
+
+def test_the_padding_dropped_is_said_without_verbose(tmp_path: Path, surface, capsys) -> None:
+    # A card that lost a fifth of its samples as padding said so only under --verbose.
+    cards = write_cards(tmp_path / "cards.csv", surface, ids=("W-1",))
+    lines = cards.read_text(encoding="utf-8").splitlines()
+    lines += ["card0,W-1,0.000000,0.0000"] * 30
+    cards.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    code = main(["downhole", str(cards), "--well", str(write_well(tmp_path / "w.json")),
+                 "--spm", str(SPM), "--no-identify"])
+    out = capsys.readouterr().out
+    assert code == 0 and "note: padding dropped: the last 30 of 150 samples" in out, out
+    assert "note: load unit" not in out  # the other reading notes: --verbose

@@ -135,7 +135,9 @@ class _Text:
             print(f"  warning: {printable(warning)}", file=self.stream)
         if not res.downhole.ok:
             return
-        notes = [*(res.downhole.card.notes if self.verbose else ()), *res.downhole.notes]
+        # The reader's notes too: those that change how the card reads (padding dropped)
+        # pass the filter below, the rest only under --verbose.
+        notes = [*res.downhole.card.notes, *res.downhole.notes]
         if res.fitted and res.fit is not None:
             notes += list(res.fit.notes)
         if not self.verbose:  # the notes that change how the card reads
@@ -164,12 +166,13 @@ class _Text:
 #: the pump; a net stroke not corrected for a free tubing's stretch; a loop that does not
 #: close; fewer harmonics than asked); a card in other units than its well file (the text
 #: mixed in/lbf with m3/d and kPa without a word), or of another well, or lighter than the
-#: rods.
+#: rods; the reader's padding dropped (a fifth of a card's samples, said under --verbose
+#: only).
 _ALWAYS_SAID = ("reverse", "intake pressure is negative", "tubing-head pressure taken as 0",
                 "the pump card is computed at the bottom of the rods",
                 "converted, results in the card's units", "has no fluid load",
                 "no fluid entry", "not corrected for tubing stretch",
-                "less the free tubing's stretch",
+                "less the free tubing's stretch", "padding dropped",
                 "differs from the well file's", "the loop does not close",
                 "below the rods' weight", "harmonics asked")
 
