@@ -139,8 +139,10 @@ from ._strokes import split_strokes
 from ._text import interpret_name
 from ._types import TIME_SOURCES, Card
 from ._units import (
+    BARREL_M3,
     LOAD_UNITS,
     POSITION_UNITS,
+    PSI_PA,
     TIME_UNITS,
     convert_load,
     convert_position,
@@ -150,9 +152,11 @@ from ._units import (
 )
 
 __all__ = [
+    "BARREL_M3",
     "FORMATS",
     "LOAD_UNITS",
     "POSITION_UNITS",
+    "PSI_PA",
     "ROLE_CONFIDENCE_MIN",
     "TIME_SOURCES",
     "TIME_UNITS",

@@ -361,7 +361,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     kept = np.flatnonzero(keep)
     span, dropped = padding_dropped(pos[kept], load[kept], (o.position_unit or raw.pos_unit,
                                                             o.load_unit or raw.load_unit))
-    padded = kept.size - len(range(*span.indices(kept.size)))
+    padded = kept.size - (span.stop - span.start)
     keep[kept] = False
     keep[kept[span]] = True
     for where, note in dropped:

@@ -15,8 +15,10 @@ from numpy.typing import ArrayLike, NDArray
 from ._errors import CardError
 
 __all__ = [
+    "BARREL_M3",
     "LOAD_UNITS",
     "POSITION_UNITS",
+    "PSI_PA",
     "TIME_UNITS",
     "convert_load",
     "convert_position",
@@ -28,6 +30,10 @@ __all__ = [
 ]
 
 _LBF_N = 4.4482216152605
+#: One pound-force per square inch in pascals, and one oil barrel in cubic metres (exact by
+#: definition): the US well files' pressures and the pump's displacement.
+PSI_PA = _LBF_N / 0.0254**2
+BARREL_M3 = 0.158987294928
 
 #: Canonical position units and their size in metres.
 POSITION_UNITS: Mapping[str, float] = MappingProxyType(

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import re
 
-from ..cards import LOAD_UNITS, POSITION_UNITS, TIME_UNITS
+from ..cards import BARREL_M3, LOAD_UNITS, POSITION_UNITS, PSI_PA, TIME_UNITS
 from ..models import model_class
 from ..result import Units
 
@@ -45,12 +45,12 @@ _BASE: dict[str, tuple[float, tuple[int, int, int]]] = {
     **{u: (f, (0, 0, 1)) for u, f in TIME_UNITS.items()},
     "d": (86400.0, (0, 0, 1)),
     "Hz": (1.0, (0, 0, -1)),
-    "bbl": (0.158987294928, (3, 0, 0)),
+    "bbl": (BARREL_M3, (3, 0, 0)),
     "Pa": (1.0, (-2, 1, 0)),
     "kPa": (1e3, (-2, 1, 0)),
     "MPa": (1e6, (-2, 1, 0)),
     "bar": (1e5, (-2, 1, 0)),
-    "psi": (6894.757293168361, (-2, 1, 0)),
+    "psi": (PSI_PA, (-2, 1, 0)),
     "1": (1.0, (0, 0, 0)),
     "-": (1.0, (0, 0, 0)),
     "fraction": (1.0, (0, 0, 0)),

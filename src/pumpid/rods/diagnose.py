@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..cards import LOAD_UNITS, POSITION_UNITS, Card, loop_work
+from ..cards import BARREL_M3, LOAD_UNITS, POSITION_UNITS, PSI_PA, Card, loop_work
 from .fd import fd_diagnostic
 from .fourier import StringArrays, fourier_diagnostic, harmonic_count
 from .quantities import PumpMeasure, measure_pump_cards
@@ -37,11 +37,9 @@ Array = NDArray[np.float64]
 DEFAULT_DAMPING = 0.05
 METHODS = ("fourier", "fd")
 CONVENTIONS = ("effective", "true")
-_BBL = 0.158987294928
-_PSI = 6894.757293168361
 # Units of the pump quantities that have no card unit, by the well file's system.
-_FLOW_UNITS = {"us": ("bbl/d", _BBL), "metric": ("m3/d", 1.0)}
-_PRESSURE_UNITS = {"us": ("psi", _PSI), "metric": ("kPa", 1000.0)}
+_FLOW_UNITS = {"us": ("bbl/d", BARREL_M3), "metric": ("m3/d", 1.0)}
+_PRESSURE_UNITS = {"us": ("psi", PSI_PA), "metric": ("kPa", 1000.0)}
 # A loop that does not close by more than this fraction of the stroke is flagged.
 _OPEN_LOOP = 0.05
 #: What the diagnostic and the identification say of a card whose loop turns the wrong way:

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from ..cards import PSI_PA
+
 __all__ = [
     "GRAVITY",
     "MATERIALS",
@@ -33,8 +35,8 @@ WATER_DENSITY = 1000.0
 #: 490 lb/ft^3, the values rod-pumping practice uses; fiberglass: 7.2e6 psi and 2000 kg/m^3
 #: (about 125 lb/ft^3), a typical glass-fibre sucker rod body.
 MATERIALS: dict[str, tuple[float, float]] = {
-    "steel": (30.5e6 * 6894.757293168361, 490.0 * 16.01846337396014),
-    "fiberglass": (7.2e6 * 6894.757293168361, 2000.0),
+    "steel": (30.5e6 * PSI_PA, 490.0 * 16.01846337396014),
+    "fiberglass": (7.2e6 * PSI_PA, 2000.0),
 }
 # How far the rod string's bottom may sit above the pump depth (fraction of the depth)
 # before it is an error: the pump's own length and a pull tube take a few metres.
