@@ -137,3 +137,31 @@ def test_zero_and_collinear_columns() -> None:
 def test_bad_input_is_refused(scores, kwargs, message) -> None:
     with pytest.raises(ValueError, match=message):
         long_run_covariance(scores, **kwargs)
+
+
+def _circular_bartlett(u: np.ndarray, m: int) -> np.ndarray:
+    """The sum over lags taken around the period: lag l pairs u_t with u_(t+l mod n)."""
+    out = u.T @ u
+    for lag in range(1, m):
+        gamma = np.roll(u, -lag, axis=0).T @ u
+        out += (1.0 - lag / m) * (gamma + gamma.T)
+    return out
+
+
+@pytest.mark.parametrize("m", [1, 3, 12])
+def test_around_a_period_the_lags_wrap_and_the_start_does_not_matter(m) -> None:
+    rng = np.random.default_rng(21)
+    u = _ar1(rng, 0.7, 40, q=2) * np.array([1.0, 50.0])
+    omega, info = long_run_covariance(u, prewhiten=False, bandwidth=m, circular=True)
+    assert info["bandwidth"] == m
+    np.testing.assert_allclose(omega, _circular_bartlett(u, m), rtol=1e-12,
+                               atol=1e-12 * np.abs(omega).max())
+    # With Andrews' bandwidth and the VAR(1) prewhitening too: every rotation of one period
+    # gives the same estimate; a series with two ends does not.
+    full, _ = long_run_covariance(u, circular=True)
+    ends, _ = long_run_covariance(u)
+    for shift in (1, 17, 33):
+        rotated = np.roll(u, shift, axis=0)
+        np.testing.assert_allclose(long_run_covariance(rotated, circular=True)[0], full,
+                                   rtol=1e-10)
+        assert not np.allclose(long_run_covariance(rotated)[0], ends, rtol=1e-3)

@@ -61,7 +61,8 @@ def _scaled_rows(model, names, with_scale=True):
 
 def _numbers(rows, names, values, scales):
     q = len(names)
-    s, vt, cov, hac, dse, stats = analyse_rows(rows.copy(), np.ones(q, dtype=np.bool_), -1, 1.0)
+    s, vt, cov, hac, dse, stats = analyse_rows(rows.copy(), np.ones(q, dtype=np.bool_), -1, 1.0,
+                                               False)
     return Numbers(names=tuple(names), inner=tuple(range(q)), values=np.asarray(values),
                    scales=np.asarray(scales), singular=s, vt=vt, cov_scaled=cov,
                    hac_scaled=hac, direction_se_hac=dse, rms=float(stats[1]),
@@ -221,14 +222,16 @@ def test_robust_covariance_is_the_sandwich(options) -> None:
     r = np.log(res.fitted / res.data) if res.residual == "log" else res.residuals
     n, q = jac.shape
     bread = np.linalg.inv(jac.T @ jac)
-    meat, _ = long_run_covariance(jac * r[:, None], prewhiten=False, bandwidth=5)
+    circular = state == "periodic"
+    meat, _ = long_run_covariance(jac * r[:, None], prewhiten=False, bandwidth=5,
+                                  circular=circular)
     cov = bread @ meat @ bread * n / (n - q)
     # The same from the engine's analysis, in its scaled coordinates.
     values = np.array([res.free_values()[nm] for nm in res.free])
     scales = np.where([nm in ("D", "offset") for nm in res.free], 1.0, values)
     rows = np.vstack([(jac * scales).T, r])
     _s, _vt, _cov, hac, _dse, _stats = analyse_rows(rows, np.ones(q, dtype=np.bool_), -1, 1.0,
-                                                    False, 5)
+                                                    circular, False, 5)
     engine = hac[:q, :q] * np.outer(scales, scales)
     np.testing.assert_allclose(np.sqrt(np.diag(engine)), np.sqrt(np.diag(cov)), rtol=1e-6)
 

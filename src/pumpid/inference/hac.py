@@ -10,6 +10,10 @@ covariance of the scores ``u_t = J_t r_t`` stays valid when the errors follow on
 autocorrelated series (Andrews & Monahan 1992): the scores are prewhitened by a VAR(1) fit,
 the whitened series gets a Bartlett-kernel (Newey-West) estimate with the bandwidth of
 Andrews (1991) from per-column AR(1) fits, and the result is recoloured by ``(I - A)^-1``.
+A periodic card (one stroke of a steady state) has no ends: its last sample is the first
+one's neighbour, and the prewhitening and the kernel's windows run around the period, so
+the estimate is the same wherever the card starts (with two ends, a short card's windows
+span half of it and the start moved a real stroke's errors by a factor of two).
 numpy and scipy have no HAC estimator (statsmodels has one, without prewhitening, and is a
 heavy dependency for a few dozen lines), and the fits need it compiled, once per card.
 """
@@ -38,9 +42,11 @@ _ANDREWS_BARTLETT = 1.1447
 
 
 @jit
-def _andrews_width(e):
-    """Andrews' AR(1) plug-in bandwidth for the Bartlett kernel; e is (q, n), rows alike."""
+def _andrews_width(e, circular):
+    """Andrews' AR(1) plug-in bandwidth for the Bartlett kernel; e is (q, n), rows alike,
+    ``circular``: the last sample is the first one's neighbour."""
     q, n = e.shape
+    pairs = n if circular else n - 1
     top = 0.0
     bottom = 0.0
     for i in range(q):
@@ -48,7 +54,9 @@ def _andrews_width(e):
         num = 0.0
         for k in range(n - 1):
             den += e[i, k] * e[i, k]
-            num += e[i, k] * e[i, k + 1]
+        den += e[i, n - 1] * e[i, n - 1] if circular else 0.0
+        for k in range(pairs):
+            num += e[i, k] * e[i, (k + 1) % n]
         if den > 0.0:
             rho = min(max(num / den, -PREWHITEN_CAP), PREWHITEN_CAP)
             # Weights 1/sigma_a^4 make alpha(1) independent of each row's scale.
@@ -85,23 +93,29 @@ def sandwich(b, m):
 
 
 @jit
-def _var1(x):
-    """Least-squares A of x_t = A x_{t-1} + e_t, for x of shape (q, n). (The inverses and
-    SVDs of q x q matrices here are the solver's Jacobi ones, not np.linalg's: numba
-    compiles a LAPACK wrapper for each of those.)"""
-    x0 = np.ascontiguousarray(x[:, :-1])
-    x1 = np.ascontiguousarray(x[:, 1:])
+def _var1(x, circular):
+    """Least-squares A of x_t = A x_{t-1} + e_t, for x of shape (q, n); ``circular``: x_0
+    follows x_{n-1}. (The inverses and SVDs of q x q matrices here are the solver's Jacobi
+    ones, not np.linalg's: numba compiles a LAPACK wrapper for each of those.)"""
+    if circular:
+        x0 = np.ascontiguousarray(x)
+        x1 = np.ascontiguousarray(np.concatenate((x[:, 1:], x[:, :1]), axis=1))
+    else:
+        x0 = np.ascontiguousarray(x[:, :-1])
+        x1 = np.ascontiguousarray(x[:, 1:])
     gram = _outer_sum(x0, x0)
     cross = _outer_sum(x1, x0)
     return _outer_sum(cross, lm.pseudo_inverse(gram, 1e-15).T)
 
 
 @jit
-def long_run_rows(x, prewhiten, bandwidth):
+def long_run_rows(x, prewhiten, bandwidth, circular):
     """Long-run covariance of finite, moderately scaled series in rows (q, N), N >= 3.
 
-    ``bandwidth`` <= 0 selects Andrews' rule. Returns (omega (q, q), bandwidth used,
-    prewhitening persistence, capped).
+    ``bandwidth`` <= 0 selects Andrews' rule. ``circular``: the series is one period of a
+    periodic one (its last sample is the first one's neighbour, as on a steady stroke's
+    card), so the prewhitening and the kernel's lags run around it; otherwise it has two
+    ends. Returns (omega (q, q), bandwidth used, prewhitening persistence, capped).
     """
     q, n = x.shape
     # Rows of very different sizes make A's singular values (the cap's measure) reflect
@@ -121,7 +135,7 @@ def long_run_rows(x, prewhiten, bandwidth):
     persistence = 0.0
     e = xs
     if prewhiten and q > 0:
-        a = _var1(xs)
+        a = _var1(xs, circular)
         left, sv, right = lm.small_svd(a)
         persistence = sv[0]
         if persistence > PREWHITEN_CAP:
@@ -130,16 +144,18 @@ def long_run_rows(x, prewhiten, bandwidth):
             for j in range(q):
                 sv[j] = min(sv[j], PREWHITEN_CAP)
             a = _outer_sum(left * sv, right.T)
-        e = np.empty((q, n - 1))
+        # Around a period every sample has a predecessor; a series with ends loses its first.
+        n_e = n if circular else n - 1
+        e = np.empty((q, n_e))
         for i in range(q):
-            for k in range(n - 1):
-                acc = xs[i, k + 1]
+            for k in range(n_e):
+                acc = xs[i, (k + 1) % n]
                 for j in range(q):
                     acc -= a[i, j] * xs[j, k]
                 e[i, k] = acc
     n_e = e.shape[1]
     if bandwidth <= 0:
-        width = _andrews_width(e) if q > 0 else 1.0
+        width = _andrews_width(e, circular) if q > 0 else 1.0
         if math.isfinite(width):
             m = int(min(max(1.0, float(np.round(width))), float(n_e)))
         else:
@@ -151,17 +167,22 @@ def long_run_rows(x, prewhiten, bandwidth):
         omega = _outer_sum(e, e)
     else:
         # Bartlett weights (m - |l|)/m are the self-convolution of a length-m box: m * Omega
-        # is W W^T, with W the sums of e over every window of m samples (partial windows at
-        # the ends included): one cumulative sum, O(N q), positive semi-definite.
-        total = n_e + m - 1
+        # is W W^T, with W the sums of e over every window of m samples: one cumulative sum,
+        # O(N q), positive semi-definite. A series with ends has partial windows at them;
+        # around a period every window is whole (the sum over e taken twice in a row).
+        total = n_e if circular else n_e + m - 1
         windows = np.empty((q, total))
         for i in range(q):
-            csum = np.zeros(n_e + 1)
-            for k in range(n_e):
-                csum[k + 1] = csum[k] + e[i, k]
+            csum = np.zeros(2 * n_e + 1)
+            for k in range(2 * n_e):
+                csum[k + 1] = csum[k] + e[i, k % n_e]
             for j in range(total):
-                hi = min(j + 1, n_e)
-                lo = max(j + 1 - m, 0)
+                if circular:
+                    hi = j + m
+                    lo = j
+                else:
+                    hi = min(j + 1, n_e)
+                    lo = max(j + 1 - m, 0)
                 windows[i, j] = csum[hi] - csum[lo]
         omega = _outer_sum(windows, windows) / m
     if prewhiten and q > 0:
@@ -175,7 +196,8 @@ def long_run_rows(x, prewhiten, bandwidth):
 
 
 def long_run_covariance(
-    scores: ArrayLike, *, prewhiten: bool = True, bandwidth: int | None = None
+    scores: ArrayLike, *, prewhiten: bool = True, bandwidth: int | None = None,
+    circular: bool = False,
 ) -> tuple[Array, dict[str, Any]]:
     """Long-run covariance ``sum_{t,s} E[u_t u_s^T]`` of a score series (HAC estimate).
 
@@ -193,6 +215,10 @@ def long_run_covariance(
         ``1 - |l|/m`` for ``|l| < m``; ``m = 1`` keeps lag 0 only. At most the length of the
         (prewhitened) series: larger values are cut to it. Default: Andrews' (1991) AR(1)
         plug-in rule on the prewhitened series.
+    circular : bool, optional
+        The series is one period of a periodic one (default False): its last sample is the
+        first one's neighbour, so the prewhitening and the kernel's lags run around it, and
+        the estimate does not depend on which sample comes first.
 
     Returns
     -------
@@ -219,6 +245,6 @@ def long_run_covariance(
     peak[~(peak > 0)] = 1.0
     omega, m, persistence, capped = long_run_rows(
         np.ascontiguousarray(x / peak[:, None]), prewhiten,
-        0 if bandwidth is None else int(bandwidth))
+        0 if bandwidth is None else int(bandwidth), bool(circular))
     info = {"bandwidth": int(m), "prewhitening": float(persistence), "capped": bool(capped)}
     return omega * np.outer(peak, peak), info

@@ -122,24 +122,46 @@ def calibrate_robust(nums: Numbers) -> tuple[Numbers, dict[str, Any]]:
 
 
 @jit
-def _ar1_correlate(x, rho):
+def _ar1_correlate(x, rho, circular):
     """``R x`` for the AR(1) correlation ``R_ij = rho^|i - j|``, column by column: the
     recursion forwards plus backwards, minus ``x`` (O(N q), no N x N matrix).
+
+    ``circular``: ``x`` is one period of a periodic series, and ``R`` the correlation of a
+    stationary AR(1) process around it, ``(rho^d + rho^(N - d)) / (1 + rho^N)`` at a
+    distance of ``d`` samples. Each recursion then starts from its exact state, the value
+    it reaches after one period divided by ``1 - rho^N`` (the geometric sum of all the
+    periods before).
 
     By hand rather than ``scipy.signal.lfilter`` twice: importing ``scipy.signal`` cost
     every command half a second of its start (0.55 of ``import pumpid``'s 1.13 s).
     """
     n, q = x.shape
     out = np.empty((n, q))
+    wrap = 1.0 / (1.0 - rho**n) if circular else 0.0
     for j in range(q):
         acc = 0.0
+        if circular:
+            for i in range(n):
+                acc = x[i, j] + rho * acc
+            acc *= wrap
         for i in range(n):
             acc = x[i, j] + rho * acc
             out[i, j] = acc
         acc = 0.0
+        if circular:
+            for i in range(n - 1, -1, -1):
+                acc = x[i, j] + rho * acc
+            acc *= wrap
         for i in range(n - 1, -1, -1):
             acc = x[i, j] + rho * acc
             out[i, j] += acc - x[i, j]
+    if circular:
+        # The forward and backward sums count the sample itself (1 + rho^N) / (1 - rho^N)
+        # times: scaled to a unit diagonal.
+        norm = (1.0 - rho**n) / (1.0 + rho**n)
+        for i in range(n):
+            for j in range(q):
+                out[i, j] *= norm
     return out
 
 
@@ -158,7 +180,9 @@ def with_ar1_floor(nums: Numbers, rows: Array, offset_col: int) -> tuple[Numbers
 
     ``rows`` (q + 1, N): the solver's Jacobian columns and the residual last (as
     :func:`~pumpid.inference.uncertainty.analyse_rows` takes them); ``offset_col`` the
-    offset's column (-1: none), scaled like the analysis by the data's range.
+    offset's column (-1: none), scaled like the analysis by the data's range. On a card
+    that is one period of a steady state (``nums.circular``) the correlation runs around
+    the period.
     Returns the new numbers and the AR(1) coefficient used.
     """
     inner = list(nums.inner)
@@ -166,7 +190,7 @@ def with_ar1_floor(nums: Numbers, rows: Array, offset_col: int) -> tuple[Numbers
     n = rows.shape[1]
     if qi == 0 or nums.dof <= 0 or n < 4:
         return nums, math.nan
-    rho = lag1(rows[-1])
+    rho = lag1(rows[-1], nums.circular)
     if math.isnan(rho):
         return nums, math.nan
     rho = min(max(rho + (1.0 + 3.0 * rho) / n, 0.0), 0.99)
@@ -179,7 +203,7 @@ def with_ar1_floor(nums: Numbers, rows: Array, offset_col: int) -> tuple[Numbers
     kept = s > 1e-10 * s[0]
     bread = (vt[kept].T / s[kept] ** 2) @ vt[kept]
     gamma0 = 2.0 * nums.cost / nums.dof
-    meat = gamma0 * (js.T @ _ar1_correlate(np.ascontiguousarray(js), rho))
+    meat = gamma0 * (js.T @ _ar1_correlate(np.ascontiguousarray(js), rho, nums.circular))
     ar1 = bread @ meat @ bread
     hac = nums.hac_scaled[:qi, :qi]
     var = np.fmax(np.diag(hac), np.diag(ar1))
@@ -272,7 +296,7 @@ class SerialTest:
                 "white_sd": self.white_sd, "z": self.z, "serial": self.serial}
 
 
-def serial_test(rows: Array) -> SerialTest | None:
+def serial_test(rows: Array, circular: bool = False) -> SerialTest | None:
     """Are a fit's residuals serially correlated? Their lag-1 autocorrelation against its
     exact distribution under independent noise for residuals of this fit.
 
@@ -290,12 +314,17 @@ def serial_test(rows: Array) -> SerialTest | None:
     ``M e``), so its moments are the ratio of the forms' moments: mean ``tr(A) / nu`` and
     variance ``2 (nu tr(A^2) - tr(A)^2) / (nu^2 (nu + 2))`` with ``A = M D M``.
     ``tr(A) = -tr(Q' D Q)`` and ``tr(A^2) = (N - 1) / 2 - 2 |D Q|^2 + |Q' D Q|^2`` from an
-    orthonormal basis ``Q`` of the columns: O(N q), no N x N matrix.
+    orthonormal basis ``Q`` of the columns: O(N q), no N x N matrix. Around a period
+    (``circular``) ``D`` also joins the last sample to the first, and ``tr(D^2)`` is
+    ``N / 2``.
 
     Parameters
     ----------
     rows : ndarray, shape (q + 1, N)
         The Jacobian's columns at the answer, then the residual.
+    circular : bool, optional
+        The card is one period of a steady state: its last sample is the first one's
+        neighbour (:func:`~pumpid.inference.uncertainty.lag1`).
 
     Returns
     -------
@@ -316,16 +345,20 @@ def serial_test(rows: Array) -> SerialTest | None:
     nu = n - q.shape[1]
     if nu < 3:
         return None
-    dq = np.zeros_like(q)
-    dq[1:] += 0.5 * q[:-1]
-    dq[:-1] += 0.5 * q[1:]
+    if circular:
+        dq = 0.5 * (np.roll(q, 1, axis=0) + np.roll(q, -1, axis=0))
+    else:
+        dq = np.zeros_like(q)
+        dq[1:] += 0.5 * q[:-1]
+        dq[:-1] += 0.5 * q[1:]
     qdq = q.T @ dq
     tr_a = -float(np.trace(qdq))
-    tr_a2 = 0.5 * (n - 1) - 2.0 * float(np.sum(dq * dq)) + float(np.sum(qdq * qdq))
+    tr_d2 = 0.5 * n if circular else 0.5 * (n - 1)
+    tr_a2 = tr_d2 - 2.0 * float(np.sum(dq * dq)) + float(np.sum(qdq * qdq))
     var = 2.0 * (nu * tr_a2 - tr_a**2) / (nu**2 * (nu + 2.0))
     if not var > 0:
         return None
-    return SerialTest(lag1(rows[-1]), tr_a / nu, math.sqrt(var))
+    return SerialTest(lag1(rows[-1], circular), tr_a / nu, math.sqrt(var))
 
 
 def shown_errors(unc: Uncertainty | None, serial: bool, robust_cov: Array | None = None,

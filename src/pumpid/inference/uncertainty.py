@@ -77,7 +77,7 @@ HAC_METHOD = (
 
 
 @jit
-def analyse_rows(rows, inner, offset_col, span, prewhiten=True, bandwidth=0):
+def analyse_rows(rows, inner, offset_col, span, circular, prewhiten=True, bandwidth=0):
     """The numbers behind one fit's uncertainty from its Jacobian columns and residual.
 
     ``rows`` (q + 1, N): d r / d z for the solver coordinates z (ln of the positive values,
@@ -87,8 +87,10 @@ def analyse_rows(rows, inner, offset_col, span, prewhiten=True, bandwidth=0):
     singular vectors (q, q), the covariance and the HAC covariance in scaled coordinates
     over the inner coordinates (q, q; first ``qi`` rows), the robust standard error of each
     direction (q,) and statistics (6,): usable, residual RMS, lag-1 autocorrelation, HAC
-    bandwidth, prewhitening persistence, capped. ``prewhiten`` and ``bandwidth`` (0:
-    Andrews' rule) configure the long-run covariance (:func:`long_run_rows`).
+    bandwidth, prewhitening persistence, capped. ``circular``: the rows are one period of a
+    steady state, the last sample the first one's neighbour (the serial statistics run
+    around it and do not depend on where the card starts). ``prewhiten`` and ``bandwidth``
+    (0: Andrews' rule) configure the long-run covariance (:func:`long_run_rows`).
     """
     q = rows.shape[0] - 1
     n = rows.shape[1]
@@ -137,6 +139,8 @@ def analyse_rows(rows, inner, offset_col, span, prewhiten=True, bandwidth=0):
             ss += cur * cur
             cross += cur * prev
             prev = cur
+        if circular:
+            cross += prev * (r[0] - mean) / peak
     stats[2] = cross / ss if (n > 2 and ss > 0.0) else 0.0
     if qi == 0 or not np.all(np.isfinite(rr)):
         stats[0] = 1.0
@@ -179,7 +183,7 @@ def analyse_rows(rows, inner, offset_col, span, prewhiten=True, bandwidth=0):
                     scores[kk, t] += w * js[jj, t]
         for t in range(n):
             scores[kk, t] *= r[t] / (rms * s[c])
-    omega, m, persistence, capped = long_run_rows(scores, prewhiten, bandwidth)
+    omega, m, persistence, capped = long_run_rows(scores, prewhiten, bandwidth, circular)
     stats[3] = m
     stats[4] = persistence
     stats[5] = 1.0 if capped else 0.0
@@ -200,11 +204,13 @@ def analyse_rows(rows, inner, offset_col, span, prewhiten=True, bandwidth=0):
 
 
 def diagnose_items(cards: NDArray[np.int64], z: Array, inner: NDArray[np.bool_], span: Array,
-                   data: Any, model: Any, settings: Any) -> tuple[Array, ...]:
+                   circular: NDArray[np.bool_], data: Any, model: Any, settings: Any
+                   ) -> tuple[Array, ...]:
     """The numbers behind the uncertainty of many (card, optimum) items.
 
     ``inner`` (m, q): the coordinates analysed (boundary parameters left out); ``span``
-    (m,): the data's range per item (the offset's unit step). Returns singular values
+    (m,): the data's range per item (the offset's unit step); ``circular`` (m,): the item's
+    card is one period of a steady state (:func:`analyse_rows`). Returns singular values
     (m, q), right singular vectors (m, q, q), the covariance and the HAC covariance in
     scaled coordinates (m, q, q; over the inner coordinates, first ``qi`` rows), the robust
     standard error of each direction (m, q) and statistics (m, 6): usable, residual RMS,
@@ -225,7 +231,7 @@ def diagnose_items(cards: NDArray[np.int64], z: Array, inner: NDArray[np.bool_],
     for i in range(m):
         if ok[i]:
             out = analyse_rows(drive.item_rows(buffer, starts, i, q), inner[i], offset_col,
-                               float(span[i]))
+                               float(span[i]), bool(circular[i]))
         else:
             nan_stats = np.full(6, math.nan)
             nan_stats[0] = 0.0
@@ -264,10 +270,11 @@ def residual_whiteness(residual: Sequence[float] | Array) -> dict[str, Any]:
     return _whiteness(0.0 if math.isnan(rho) else rho, int(r.size))
 
 
-def lag1(residual: Array) -> float:
+def lag1(residual: Array, circular: bool = False) -> float:
     """The lag-1 autocorrelation ``sum r_t r_(t+1) / sum r_t^2`` of the centred residuals
     (NaN for a constant or empty series): the one estimate every whiteness and serial test
-    of pumpid reads."""
+    of pumpid reads. ``circular``: the residuals are one period of a periodic series, the
+    last sample the first one's neighbour (the sum then takes that pair too)."""
     r = np.asarray(residual, dtype=float)
     if r.size == 0:
         return math.nan
@@ -277,7 +284,8 @@ def lag1(residual: Array) -> float:
     if not peak > 0 or not math.isfinite(peak):
         return math.nan
     r = r / peak
-    return float(r[1:] @ r[:-1]) / float(r @ r)
+    cross = float(r[1:] @ r[:-1]) + (float(r[-1] * r[0]) if circular else 0.0)
+    return cross / float(r @ r)
 
 
 def _whiteness(rho: float, n: int) -> dict[str, Any]:
@@ -336,6 +344,8 @@ class Numbers:
     #: Names analysed on their own scale besides D and the offset (an own model's signed
     #: parameters); every other name is positive, analysed on the log scale.
     additive: tuple[str, ...] = ()
+    #: The card is one period of a steady state: its serial statistics run around it.
+    circular: bool = False
 
     @property
     def exact(self) -> bool:
@@ -449,10 +459,12 @@ def numbers(problem: Problem, cards: NDArray[np.int64], z: Array, inner: NDArray
     """:func:`diagnose_items` for many (card, optimum) items, as :class:`Numbers`."""
     m = cards.size
     span = np.array([float(np.ptp(problem.card(int(k))[2])) or 1.0 for k in cards])
+    circular = np.array([problem.initial_states[int(k)] == "periodic" for k in cards],
+                        dtype=np.bool_)
     data, model, settings = problem.arrays
     s, vt, cov, hac, dse, stats = diagnose_items(
         np.ascontiguousarray(cards, dtype=np.int64), np.ascontiguousarray(z),
-        np.ascontiguousarray(inner), span, data, model, settings)
+        np.ascontiguousarray(inner), span, circular, data, model, settings)
     names = problem.free_names
     p = problem.n_free
     out = []
@@ -483,7 +495,7 @@ def numbers(problem: Problem, cards: NDArray[np.int64], z: Array, inner: NDArray
             direction_se_hac=dse[i], rms=rms, rho=float(stats[i, 2]),
             bandwidth=float(stats[i, 3]), persistence=float(stats[i, 4]),
             capped=bool(stats[i, 5] == 1.0), n=n, cost=0.5 * rms * rms * n,
-            usable=bool(stats[i, 0] == 1.0), spread=spread))
+            usable=bool(stats[i, 0] == 1.0), spread=spread, circular=bool(circular[i])))
     return out
 
 

@@ -123,7 +123,7 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
     num, calibration = calibrate_robust(num)
     own_null = not num.exact and fit_null_matters(num.n, len(num.names))
     rows = rows_of() if own_null else None
-    test = None if rows is None else serial_test(rows)
+    test = None if rows is None else serial_test(rows, num.circular)
     if test is not None:
         calibration["serial_test"] = test.to_dict()
         serial = test.serial

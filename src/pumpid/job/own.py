@@ -443,7 +443,8 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
         signed = np.arange(prob.q) >= prob.n_log
         scaled = rows.copy()
         scaled[: prob.q][signed] *= spread
-        s, vt, cov, hac, dse, stats = analyse_rows(scaled.copy(), inner, -1, 1.0)
+        s, vt, cov, hac, dse, stats = analyse_rows(scaled.copy(), inner, -1, 1.0,
+                                                   bool(model.periodic))
         scales = prob.chain(theta) * np.where(signed, spread, 1.0)
         nums = Numbers(names=free_names, inner=tuple(int(i) for i in np.flatnonzero(inner)),
                        values=theta[prob.free], scales=scales, singular=s, vt=vt,
@@ -451,7 +452,7 @@ def _result(prob: _Item, out: SolverOutcome, z0: Array, lo: Array, hi: Array,
                        rms=float(stats[1]), rho=float(stats[2]), bandwidth=float(stats[3]),
                        persistence=float(stats[4]), capped=bool(stats[5] == 1.0), n=n,
                        cost=0.5 * float(stats[1]) ** 2 * n, usable=bool(stats[0] == 1.0),
-                       spread=spread,
+                       spread=spread, circular=bool(model.periodic),
                        additive=tuple(nm for i, nm in zip(prob.free, free_names, strict=True)
                                       if not model.parameters[i].positive))
         said = assess(nums, lambda: scaled, -1, model_names=names, gauge_fixed=False,

@@ -508,7 +508,7 @@ def compile_first(problem: Problem, k: int) -> bool:
         lambda: drive.summary_rows(np.zeros(0, np.int64), q, np.empty(0),
                                    np.zeros(1, np.int64), np.zeros(0, np.bool_), data,
                                    settings),
-        lambda: analyse_rows(rows, np.ones(q, np.bool_), -1, 1.0),
+        lambda: analyse_rows(rows, np.ones(q, np.bool_), -1, 1.0, True),
         lambda: compile_ranking(problem, k),
     )
     for warm_up in warm_ups:

@@ -117,6 +117,10 @@ class OwnModel(abc.ABC):
     #: How it simulates and from what state, in words (for reports).
     integrator: str = "the model's own simulator"
     initial_state: str = "defined by the model"
+    #: The data item is one period of a steady state (a stroke that repeats): its last
+    #: sample is the first one's neighbour, and the errors' serial statistics run around
+    #: the period, so they do not depend on which sample the record starts at.
+    periodic: bool = False
     #: Analyse the answer: its errors, identifiability and derived quantities. A model that
     #: only searches for a start of another fit may say False: its result then has the
     #: values, cost, fit statistics and the solver's status alone (no ``uncertainty``), and

@@ -221,6 +221,7 @@ class PumpSystem(OwnModel):
     integrator = ("lumped damped wave equation of the tapered string, stepped to a periodic "
                   "stroke, driven by the measured polished-rod position")
     initial_state = "periodic (one stroke)"
+    periodic = True
     output = "polished-rod load"
 
     def __init__(self, surface: SurfaceCard, elements: int = ELEMENTS, derive: bool = True,
