@@ -266,3 +266,30 @@ def test_errors_far_wider_than_the_scatter_do_not_hide_a_step(n_cards: int) -> N
     steady = results_table(20, n_cards, cv=0.004, seed=6)
     steady["d_stiffness_se"] = 0.7 * steady["d_stiffness"]
     assert detect_changes(steady, ["stiffness"]).empty
+
+
+def test_a_pump_quantity_is_trended_where_the_identification_determines_it() -> None:
+    # A steady pump (fluid load 32 kN, 1 % scatter) whose identification is undetermined
+    # on every third card of the history's second half and on its last card, with the
+    # 12 +- 55 kN such a fit gives: those values are not the pump's. The well's latest
+    # fluid load had been that 12 kN; it is the last card that determines it.
+    rng = np.random.default_rng(9)
+    n = 60
+    frame = results_table(1, n, cv=0.01, seed=9)
+    value = 32.0 * np.exp(0.01 * rng.standard_normal(n))
+    wrong = ((np.arange(n) >= n // 2) & (np.arange(n) % 3 == 0)) | (np.arange(n) == n - 1)
+    value[wrong] = 12.0 + rng.standard_normal(wrong.sum())
+    frame["identify_status"] = np.where(wrong, "undetermined", "converged")
+    frame["pump_fluid_load"] = value
+    frame["pump_fluid_load_se"] = np.where(wrong, 55.0, 0.5)
+    frame["pump_fluid_load_unit"] = "kN"
+    frame["pump_fluid_load_determined"] = ~wrong
+    assert "pump_fluid_load_determined" not in available_quantities(frame)
+    assert detect_changes(frame, ["pump_fluid_load"]).empty
+    latest = summarise_wells(frame, quantities=["pump_fluid_load"]).iloc[0]
+    assert latest["latest_pump_fluid_load"] == pytest.approx(value[n - 2])
+    assert latest["latest_pump_fluid_load_unit"] == "kN"
+    # Without the column (a run with no identification's verdict) every value counts.
+    blind = summarise_wells(frame.drop(columns="pump_fluid_load_determined"),
+                            quantities=["pump_fluid_load"]).iloc[0]
+    assert blind["latest_pump_fluid_load"] == pytest.approx(value[n - 1])

@@ -51,6 +51,9 @@ def test_identified_quantities_with_errors_and_units(identified) -> None:
             assert held.any() and (got.loc[held, "fillage"] == 1.0).all()
             se = se[~held]
         assert se.notna().all() and (se > 0).all()
+        # Each value says whether the card determines it; a full pump's held fillage counts.
+        assert got[f"pump_{name}_determined"].notna().all()
+    assert got["pump_fluid_load_determined"].all() and got["pump_fillage_determined"].all()
     assert set(got["pump_fillage_unit"]) == {"fraction"}
     assert set(got["pump_fluid_load_unit"]) == {"lbf"}
     # the load lines are the diagnostic's only
@@ -75,6 +78,8 @@ def test_a_card_that_cannot_be_identified_keeps_its_row(identified) -> None:
     assert "pump not identified (invalid-input)" in row["warnings"]
     for name in PUMP_QUANTITIES:
         assert pd.isna(row[f"pump_{name}"]) and pd.isna(row[f"downhole_{name}"])
+        if name in IDENTIFIED:
+            assert pd.isna(row[f"pump_{name}_determined"])
     assert all(pd.isna(row[c]) for c in ("pump_damping", "pump_r2", "pump_fillage_se"))
     assert row["status"] in ("converged", "boundary", "undetermined", "poor-fit", "failed")
 

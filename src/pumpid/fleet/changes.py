@@ -260,8 +260,10 @@ def available_quantities(table: pd.DataFrame, *, parameters: bool = False) -> li
 def _columns(quantity: str) -> tuple[str, list[str], str | None, str | None, str]:
     """Value column, standard-error columns, determined column, unit column, kind."""
     if is_pump_quantity(quantity):  # the pump quantities (pumpid.fleet.downhole)
-        # The identification's standard error (absent without it: the scatter alone).
-        return quantity, [f"{quantity}_se"], None, f"{quantity}_unit", "pump"
+        # The identification's standard error and whether it determines the value (both
+        # absent without it: the scatter alone, every computed card).
+        return (quantity, [f"{quantity}_se"], f"{quantity}_determined", f"{quantity}_unit",
+                "pump")
     if quantity.startswith("p_"):
         return quantity, [f"{quantity}_se", f"{quantity}_se_hac"], None, None, "parameter"
     col = f"d_{quantity}"

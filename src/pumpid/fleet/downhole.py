@@ -200,7 +200,7 @@ def pump_schema(base: pa.Schema, identify: bool = False) -> pa.Schema:
     for name in PUMP_QUANTITIES:
         extra += [(f"{PUMP_PREFIX}{name}", f), (f"{PUMP_PREFIX}{name}_unit", s)]
         if identify and name in IDENTIFIED:
-            extra.append((f"{PUMP_PREFIX}{name}_se", f))
+            extra += [(f"{PUMP_PREFIX}{name}_se", f), (f"{PUMP_PREFIX}{name}_determined", b)]
     if identify:
         extra += [(f"downhole_{name}", f) for name in PUMP_QUANTITIES]
         extra += [("identify_status", s), ("identify_reason", s), ("pump_damping", f),
@@ -302,6 +302,12 @@ def _identified_columns(row: dict[str, Any], fit: PumpFit | None) -> None:
         if name in IDENTIFIED:
             row[f"{PUMP_PREFIX}{name}_se"] = None if entry is None else _finite(
                 entry["stderr"])
+            # Trended only where the identification determines it, as the lumped fits'
+            # quantities are: an undetermined pump's fluid load of 12 +- 55 kN had been
+            # trended beside its diagnostic card's 32.5. A full pump's held fillage is the
+            # model the card chose (the pump is full), and counts.
+            row[f"{PUMP_PREFIX}{name}_determined"] = None if entry is None else bool(
+                entry["determined"] or entry["held"])
         if entry is not None:
             row[f"{PUMP_PREFIX}{name}_unit"] = entry["unit"]
     damping = fit.damping()
