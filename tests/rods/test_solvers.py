@@ -200,6 +200,13 @@ def test_a_multi_stroke_record_is_refused_and_its_strokes_computed() -> None:
     assert refused.status == "invalid-input" and "several strokes" in refused.reason
     strokes = diagnose_cards(split_strokes(record), well)
     assert len(strokes) >= 2 and all(r.ok for r in strokes)
+    # One spike in the position does not hide the strokes: counted on the position's
+    # robust range (as the card readers count them), not its extremes, which put every
+    # other sample below mid-stroke and let the record through as one stroke.
+    spiked = s / INCH
+    spiked[150] = 10 * spiked.max()
+    refused = diagnose_card(record.replace(position=spiked), well)
+    assert refused.status == "invalid-input" and "several strokes" in refused.reason
 
 
 def test_a_loop_that_does_not_close_is_said() -> None:

@@ -19,7 +19,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..cards import BARREL_M3, LOAD_UNITS, POSITION_UNITS, PSI_PA, Card, loop_work
+from ..cards import (
+    BARREL_M3,
+    LOAD_UNITS,
+    POSITION_UNITS,
+    PSI_PA,
+    Card,
+    loop_work,
+    strokes_seen,
+)
 from .fd import fd_diagnostic
 from .fourier import StringArrays, fourier_diagnostic, harmonic_count
 from .quantities import PumpMeasure, measure_pump_cards
@@ -207,17 +215,6 @@ def quantity_units(well: Well, card: Card) -> dict[str, tuple[str, float]]:
             "intake_pressure": _PRESSURE_UNITS[well.system]}
 
 
-def _upward_passes(position: Array) -> int:
-    """How often the position rises from below 35 % to above 65 % of its range."""
-    low, high = float(np.min(position)), float(np.max(position))
-    if not high > low:
-        return 0
-    h = (np.asarray(position) - low) / (high - low)
-    band = np.where(h < 0.35, -1, np.where(h > 0.65, 1, 0))
-    band = band[band != 0]
-    return int(np.count_nonzero((band[1:] == 1) & (band[:-1] == -1)))
-
-
 def surface_arrays(card: Card) -> tuple[Array, Array, float, list[str]]:
     """A surface card as the wave equation takes it: SI position (m) and load (N), the stroke
     period (s) and notes on what was assumed.
@@ -249,7 +246,7 @@ def surface_arrays(card: Card) -> tuple[Array, Array, float, list[str]]:
             raise ValueError("the card's sample times are not uniform; the downhole solvers "
                              "need one stroke sampled uniformly in time")
         period = dt * card.n
-        passes = _upward_passes(card.position)
+        passes = strokes_seen(card.position)[0]
         if not card.periodic and passes > 1:
             raise ValueError(f"the card holds several strokes ({passes} upward passes through "
                              "mid-stroke); split it into strokes first (pumpid.cards."

@@ -17,6 +17,7 @@ from ..cards import PSI_PA
 
 __all__ = [
     "GRAVITY",
+    "LB_FT3",
     "MATERIALS",
     "WATER_DENSITY",
     "Fluid",
@@ -31,11 +32,13 @@ __all__ = [
 GRAVITY = 9.80665
 #: Density of water for specific gravities, kg/m^3.
 WATER_DENSITY = 1000.0
+#: One pound per cubic foot in kg/m^3 (0.45359237 kg over 0.3048^3 m^3, to the last digit).
+LB_FT3 = 16.01846337396014
 #: Rod materials by name: (Young's modulus in Pa, density in kg/m^3). Steel: 30.5e6 psi and
 #: 490 lb/ft^3, the values rod-pumping practice uses; fiberglass: 7.2e6 psi and 2000 kg/m^3
 #: (about 125 lb/ft^3), a typical glass-fibre sucker rod body.
 MATERIALS: dict[str, tuple[float, float]] = {
-    "steel": (30.5e6 * PSI_PA, 490.0 * 16.01846337396014),
+    "steel": (30.5e6 * PSI_PA, 490.0 * LB_FT3),
     "fiberglass": (7.2e6 * PSI_PA, 2000.0),
 }
 # How far the rod string's bottom may sit above the pump depth (fraction of the depth)

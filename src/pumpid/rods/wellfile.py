@@ -25,18 +25,27 @@ from pathlib import Path
 from typing import Any
 
 from ..cards import POSITION_UNITS, PSI_PA
-from .well import MATERIALS, WATER_DENSITY, Fluid, Pump, Taper, Tubing, Well, WellError
+from .well import (
+    LB_FT3,
+    MATERIALS,
+    WATER_DENSITY,
+    Fluid,
+    Pump,
+    Taper,
+    Tubing,
+    Well,
+    WellError,
+)
 
 __all__ = ["UNITS", "WellFile", "read_well_file", "wells_from_dict"]
 
-_LB_FT3 = 16.01846337396014
 
 #: Accepted units per quantity and their size in SI.
 UNITS: dict[str, dict[str, float]] = {
     "length": {k: POSITION_UNITS[k] for k in ("ft", "m")},
     "diameter": {k: POSITION_UNITS[k] for k in ("in", "mm", "cm", "m")},
     "modulus": {"psi": PSI_PA, "Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9},
-    "density": {"lb/ft3": _LB_FT3, "kg/m3": 1.0, "g/cm3": 1000.0},
+    "density": {"lb/ft3": LB_FT3, "kg/m3": 1.0, "g/cm3": 1000.0},
     "pressure": {"psi": PSI_PA, "Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "bar": 1e5},
 }
 # Units of the quantities a file need not name, by the system its length unit implies.
