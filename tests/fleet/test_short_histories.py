@@ -3,6 +3,10 @@ tests, at their simulated false-alarm rate; shorter ones are named as not tested
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -190,3 +194,28 @@ def test_the_figure_draws_a_drift_through_its_cards(tmp_path) -> None:
     files = write_fleet_report(table, tmp_path, quantities=["stiffness"], steady_sample=0)
     assert (tmp_path / "well_W0001.png").exists()
     assert "steady drift" in files["report"].read_text(encoding="utf-8")
+
+
+def test_thresholds_are_stored_on_disk_and_a_bad_store_ignored(tmp_path) -> None:
+    # A report in a new process took the same simulations again at every run (3.6 of its
+    # 9 s on the demo's pump field). A second process reads the stored value (here made
+    # recognisable by hand), and a store that cannot be read is simulated around.
+    code = ("from pumpid.fleet.thresholds import two_segment_threshold as f; "
+            "print(repr(f(12, alpha=0.02, replicates=4000)))")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+
+    def run() -> float:
+        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                             text=True, check=True)
+        return float(out.stdout.strip())
+
+    first = run()
+    files = list((tmp_path / "pumpid").glob("thresholds-*.json"))
+    assert len(files) == 1
+    table = json.loads(files[0].read_text(encoding="utf-8"))
+    assert len(table) == 2 and first in table.values()  # heavy-tailed and Gaussian noise
+    files[0].write_text(json.dumps({k: 123.0 for k in table}), encoding="utf-8")
+    assert run() == 123.0
+    files[0].write_text("{not json", encoding="utf-8")
+    assert run() == first
+    assert two_segment_threshold(12, alpha=0.02, replicates=4000) == first

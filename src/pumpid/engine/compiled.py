@@ -27,7 +27,7 @@ import numpy as np
 from numba.core.compiler_lock import global_compiler_lock
 
 __all__ = ["COLD_SECONDS", "COMPILED_MODULES", "MAIN_JOB", "OPT_LEVELS", "PUMP_COLD_SECONDS",
-           "PUMP_JOB", "cache_dir",
+           "PUMP_JOB", "cache_base", "cache_dir",
            "compiling_aside", "copy_into", "jit", "pending_aside", "registered", "uncached",
            "wait_aside"]
 
@@ -92,6 +92,14 @@ OPT_LEVELS: dict[str, int] = {"drive.items": 2, "drive.summary_rows": 1,
 _DISPATCHERS: dict[str, Any] = {}
 
 
+def cache_base() -> Path:
+    """The folder of pumpid's caches: ``pumpid`` under ``NUMBA_CACHE_DIR``, else under
+    ``XDG_CACHE_HOME``, else under ``~/.cache`` (read at each call; not created here)."""
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.environ.get("XDG_CACHE_HOME") or str(
+        Path.home() / ".cache")
+    return Path(base) / "pumpid"
+
+
 @functools.cache
 def cache_dir() -> Path:
     """The folder of this build's compiled cache (created on first use)."""
@@ -102,10 +110,7 @@ def cache_dir() -> Path:
         digest.update((package / name).read_bytes())
     digest.update(numba.__version__.encode())
     digest.update(repr(sorted(OPT_LEVELS.items())).encode())
-    base = os.environ.get("NUMBA_CACHE_DIR") or os.environ.get("XDG_CACHE_HOME") or str(
-        Path.home() / ".cache")
-    folder = Path(base) / "pumpid" / digest.hexdigest()[:16]
-    return folder
+    return cache_base() / digest.hexdigest()[:16]
 
 
 @contextlib.contextmanager
