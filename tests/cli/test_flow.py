@@ -180,3 +180,19 @@ def test_a_bad_fluid_or_pipe_is_named_by_its_option():
     with pytest.raises(ValueError, match=r"^--radius must be positive"):
         run(["flow", "simulate", "--K", "10", "--rho", "1000", "--radius=-5e-3",
              "--length", "1", "--dp", "1e5"])
+
+
+def test_a_negative_value_in_exponent_notation_follows_its_option(tmp_path, capsys):
+    # "--dp -1e5" was refused ("expected one argument": argparse reads -1e5 as an option);
+    # the pumpid command reads it as --dp=-1e5.
+    from pumpid.cli import main
+
+    spaced, joined = tmp_path / "spaced.csv", tmp_path / "joined.csv"
+    assert main(["flow", "simulate", *FLUID, "--n", "1", "--dp", "-1e5", "--samples", "51",
+                 "-o", str(spaced)]) == 0
+    assert main(["flow", "simulate", *FLUID, "--n", "1", "--dp=-1e5", "--samples", "51",
+                 "-o", str(joined)]) == 0
+    assert spaced.read_text() == joined.read_text()
+    assert float(spaced.read_text().splitlines()[1].split(",")[1]) == -1e5
+    # An option's value that is not a number is left to argparse as before.
+    assert main(["flow", "simulate", *FLUID, "--dp", "--samples", "51"]) == 2

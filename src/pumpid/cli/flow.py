@@ -303,9 +303,7 @@ def add_flow_parser(subparsers: Any) -> argparse.ArgumentParser:
 
     p = sub.add_parser("simulate", help="reference pipe-flow simulation -> CSV t, dp, q (SI)")
     _add_fluid_arguments(p)
-    p.add_argument("--dp", type=float, help="pressure-drop step from rest at t = 0 [Pa]; "
-                                           "a negative one as --dp=-1e5 (the shell's "
-                                           "'--dp -1e5' reads -1e5 as an option)")
+    p.add_argument("--dp", type=float, help="pressure-drop step from rest at t = 0 [Pa]")
     p.add_argument("--dp-file", help="CSV with a pressure-drop history (columns t, dp)")
     p.add_argument("--t-col", help="time column of --dp-file (t)")
     p.add_argument("--dp-col", help="pressure-drop column of --dp-file (dp)")

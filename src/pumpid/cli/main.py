@@ -82,11 +82,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _negative_values(argv: Sequence[str]) -> list[str]:
+    """``--opt -1e5`` as ``--opt=-1e5``: argparse reads a negative number in exponent
+    notation (or ``-inf``) after an option as another option ("expected one argument")."""
+    out: list[str] = []
+    for token in argv:
+        prev = out[-1] if out else ""
+        if (token.startswith("-") and prev.startswith("-") and "=" not in prev
+                and prev not in ("-", "--")):
+            try:
+                float(token)
+            except ValueError:
+                pass
+            else:
+                out[-1] = f"{prev}={token}"
+                continue
+        out.append(token)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``pumpid`` command; returns the exit status."""
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args = parser.parse_args(_negative_values(sys.argv[1:] if argv is None else argv))
     except SystemExit as exc:
         # argparse has printed the usage and the problem (or the help, or the version).
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
