@@ -213,6 +213,25 @@ def test_parameters_and_options() -> None:
     assert no_quantities.empty
 
 
+def test_a_parameter_is_trended_only_where_its_fit_determines_it() -> None:
+    # Every card's fit left c1 undetermined (error inf): an alert on it had been sized at
+    # "-68.8 standard errors". Its own verdict (p_NAME_determined) decides; a table
+    # written before that column reads an infinite error as not determined.
+    table = results_table(1, 100, seed=1)
+    table["p_c1"] = 50 * np.exp(0.01 * np.random.default_rng(2).standard_normal(100))
+    table.loc[60:, "p_c1"] *= 0.85
+    table["p_c1_se"] = np.inf
+    table["p_c1_determined"] = False
+    assert "p_c1_determined" not in available_quantities(table, parameters=True)
+    assert detect_changes(table, ["p_c1"]).empty
+    assert detect_changes(table.drop(columns="p_c1_determined"), ["p_c1"]).empty
+    # Where the fits determine it, the step is found.
+    table["p_c1_se"] = 0.5
+    table["p_c1_determined"] = True
+    found = detect_changes(table, ["p_c1"])
+    assert len(found) == 1 and found.iloc[0]["direction"] == "down"
+
+
 def test_a_resonance_that_echoes_the_stroke_is_not_trended_unless_asked() -> None:
     # Well W0000's natural frequency steps 40 % with the pumping speed; its fits mark it
     # as an echo of the stroke (not a property of the well): no alert by default, the

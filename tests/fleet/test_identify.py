@@ -56,9 +56,8 @@ def test_identified_quantities_with_errors_and_units(identified) -> None:
     assert got["pump_fluid_load_determined"].all() and got["pump_fillage_determined"].all()
     assert set(got["pump_fillage_unit"]) == {"fraction"}
     assert set(got["pump_fluid_load_unit"]) == {"lbf"}
-    # the load lines are the diagnostic's only
-    assert got["pump_upper_load_line"].isna().all()
-    assert got["downhole_upper_load_line"].notna().all()
+    # the load lines are the diagnostic's only, as pumpid downhole gives them
+    assert (got["pump_upper_load_line"] == got["downhole_upper_load_line"]).all()
     # fillage measured on the identified pump card, fluid load as the pump made them
     assert (got["pump_fillage"] - got["fillage"]).abs().max() < 0.03
     assert ((got["pump_fluid_load"] / got["fluid_load"] - 1).abs() < 0.03).all()
@@ -303,3 +302,36 @@ def test_the_command_identifying_pumps_runs_on_worker_processes(identified, tmp_
 
     monkeypatch.setattr(multiprocessing, "Lock", refused)
     assert engine(stray, "--out", str(tmp_path / "f"), "--well-file", wells) == "local"
+
+
+@pytest.mark.realdata
+def test_a_pump_not_identified_has_the_values_pumpid_downhole_gives(shared_raw: Path,
+                                                                     tmp_path: Path,
+                                                                     capsys) -> None:
+    # fj1's identification is undetermined: pumpid downhole gives the diagnostic card's
+    # quantities (fluid load 32.5 kN), and the batch table's pump_fluid_load had been the
+    # identification's unusable 12 kN under the same name. Not trended either way.
+    from pumpid.cli import main
+
+    from ..rods.test_realcards import FOLDER, well_file
+
+    well, entry = well_file(shared_raw, "fj1", tmp_path)
+    field = tmp_path / "field"
+    field.mkdir()
+    shutil.copy(shared_raw / FOLDER / entry["card_csv"], field / "fj1.csv")
+    spm = f"{float(entry['spm']):g}"
+    assert main(["downhole", str(field / "fj1.csv"), "--well", str(well), "--spm", spm,
+                 "--json"]) == 6
+    shown = json.loads(capsys.readouterr().out)["cards"][0]
+    assert shown["identification"]["status"] == "undetermined"
+    main(["batch", str(field), "--out", str(tmp_path / "results"), "--well-file", str(well),
+          "--pump-only", "--spm", spm, "--quiet"])
+    row = read_results(tmp_path / "results").iloc[0]
+    assert row["identify_status"] == "undetermined"
+    for name, q in shown["pump"].items():
+        assert row[f"pump_{name}"] == pytest.approx(q["value"], rel=1e-9), name
+        assert row[f"pump_{name}_unit"] == q["unit"]
+        if name in IDENTIFIED:
+            assert pd.isna(row[f"pump_{name}_se"]) and not row[f"pump_{name}_determined"]
+    assert row["pump_damping"] == pytest.approx(shown["damping"]["value"])
+    assert row["pump_damping_rule"] == shown["damping"]["rule"]

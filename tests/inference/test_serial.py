@@ -164,8 +164,11 @@ def test_determined_parameters_follow_the_error_shown() -> None:
               options=FitOptions(observe="u2", min_r2=OPEN_GATE))
     assert res.errors_shown == "robust"
     determined = set(res.determined["parameters"])
+    row = res.to_row()
     for name, value in res.params.items():
         assert (name in determined) == (res.stderr[name] <= abs(value)), name
+        # The results table says it too, for the fleet's trends of parameters.
+        assert row[f"p_{name}_determined"] == (name in determined), name
     assert determined != set(res.params)  # the weak direction (k0, m) is not
 
 
@@ -204,6 +207,36 @@ def test_real_strokes_that_determine_nothing_are_not_converged(shared_raw) -> No
         assert 0.75 <= ratio <= 1.25 and not fn.well_property
         assert any("echoes the imposed motion" in w for w in res.warnings)
         assert res.to_row()["d_natural_frequency_well_property"] is False
+
+
+@pytest.mark.realdata
+def test_a_record_of_several_strokes_says_so_and_its_echo_is_checked(shared_raw,
+                                                                     tmp_path) -> None:
+    # fj2's stroke three times over, with its time: fitted from rest as one record, it was
+    # converged with its resonance (1.06 x the stroke frequency) a determined property of
+    # the well, and nothing said the record held several strokes.
+    import pandas as pd
+
+    one = pd.read_csv(shared_raw / "cmcm2012_rod_pump" / "fj2_surface_card.csv")
+    n, period = len(one), 15.0
+    path = tmp_path / "fj2_three.csv"
+    pd.DataFrame({"t_s": np.arange(3 * n) * period / n,
+                  "position_m": np.tile(one["position_m"], 3),
+                  "load_kN": np.tile(one["load_kN"], 3)}).to_csv(path, index=False)
+    (record,) = read_cards(path)
+    assert not record.periodic
+    said = [w for w in record.warnings if "holds several strokes in its own time" in w]
+    assert len(said) == 1 and f"one every {n} samples" in said[0] and "15 s" in said[0]
+    res = fit(Kelvin, record)
+    fn = res.derived["natural_frequency"]
+    assert 0.75 <= fn.value * period <= 1.25 and not fn.well_property
+    assert any("echoes the imposed motion" in w for w in res.warnings)
+    # One stroke in its own time is one period: nothing of the kind said.
+    path1 = tmp_path / "fj2_one.csv"
+    pd.DataFrame({"t_s": np.arange(n) * period / n, "position_m": one["position_m"],
+                  "load_kN": one["load_kN"]}).to_csv(path1, index=False)
+    (stroke,) = read_cards(path1)
+    assert stroke.periodic and not any("several strokes" in w for w in stroke.warnings)
 
 
 def test_a_resonance_on_the_stroke_frequency_is_not_a_well_property() -> None:

@@ -202,8 +202,10 @@ def test_an_unusable_identification_gives_its_residual_autocorrelation(
 def test_a_batch_row_gives_the_damping_of_the_values_it_gives(shared_raw: Path,
                                                                tmp_path: Path) -> None:
     # fj1's identification is undetermined, so the diagnostic card used the default rule's
-    # 0.05; the row's identified quantities came with pump_damping 0.05 beside them, not
-    # the 0.64 that made them.
+    # 0.05: the row's quantities are that card's (as pumpid downhole gives them), and
+    # pump_damping the 0.05 that made them, without an error (the identified quantities
+    # had once sat beside 0.05, then beside the fit's own 0.64 while the diagnostic card's
+    # values were shown by pumpid downhole).
     import pandas as pd
 
     well, entry = well_file(shared_raw, "fj1", tmp_path)
@@ -216,7 +218,8 @@ def test_a_batch_row_gives_the_damping_of_the_values_it_gives(shared_raw: Path,
     row = pd.read_parquet(tmp_path / "res").iloc[0]
     assert row["identify_status"] == "undetermined"
     assert row["downhole_damping"] == pytest.approx(0.05)
-    assert row["pump_damping"] > 0.3 and row["pump_damping_se"] > 0
+    assert row["pump_damping"] == pytest.approx(0.05) and pd.isna(row["pump_damping_se"])
+    assert row["pump_fluid_load"] == pytest.approx(row["downhole_fluid_load"])
 
 
 def test_the_energy_balance_leads_with_the_card_used(shared_raw: Path, tmp_path: Path,

@@ -112,7 +112,7 @@ a value is flagged only when it is implausible in every unit it could be in.
   above).
 """
 
-from ._common import one_period, repeats_first, stroke_period
+from ._common import one_period, repeats_first, stroke_period, with_record_warnings
 from ._errors import CardError
 from ._plausible import (
     leading_padding,
@@ -133,7 +133,7 @@ from ._readers import (
     read_cards,
     read_cards_and_errors,
 )
-from ._rises import strokes_seen, time_from_rate
+from ._rises import record_stroke, several_strokes, strokes_seen, time_from_rate
 from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
 from ._strokes import split_strokes
 from ._text import interpret_name
@@ -183,11 +183,14 @@ __all__ = [
     "read_card",
     "read_cards",
     "read_cards_and_errors",
+    "record_stroke",
     "repeats_first",
+    "several_strokes",
     "split_strokes",
     "stroke_period",
     "stroke_rate_warning",
     "strokes_seen",
     "time_from_rate",
     "trailing_padding",
+    "with_record_warnings",
 ]

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from ._errors import CardError
 from ._plausible import padding_dropped, plausibility_warnings, stroke_rate_warning
-from ._rises import strokes_seen, time_from_rate
+from ._rises import record_stroke, several_strokes, time_from_rate
 from ._strokes import split_strokes
 from ._text import iter_lines, normalize_name, number_problem, parse_number
 from ._types import Card
@@ -556,7 +556,16 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     # displacement a thousand times too small and no word.
     slow = stroke_rate_warning(raw.card_id, stroke_period(card),
                                raw.t_field if time_source == "file" else None, rate_where)
-    return card.replace(warnings=(*card.warnings, slow)) if slow else card
+    return with_record_warnings(card, slow)
+
+
+def with_record_warnings(card: Card, slow: str | None) -> Card:
+    """``card`` with the stroke-rate warning ``slow`` (if any) and, for a record in its own
+    time, the warning that it holds several strokes (:func:`several_strokes`)."""
+    several = (several_strokes(card.card_id, card.position, card.t)
+               if card.time_source == "file" and not card.periodic else None)
+    added = tuple(w for w in (slow, several) if w)
+    return card.replace(warnings=(*card.warnings, *added)) if added else card
 
 
 def stroke_period(card: Card) -> float | None:
@@ -574,12 +583,7 @@ def stroke_period(card: Card) -> float | None:
     """
     if card.period is not None:
         return card.period
-    if card.t is None or card.n < 3:
-        return None
-    rises, per_stroke = strokes_seen(card.position)
-    if rises < 2:
-        return None
-    return per_stroke * float(card.t[-1] - card.t[0]) / (card.n - 1)
+    return record_stroke(card.position, card.t)
 
 
 #: Largest departure of a time column's steps from their mean (relative) that is still a

@@ -10,7 +10,8 @@ import math
 
 import numpy as np
 
-__all__ = ["BAND_HIGH", "BAND_LOW", "mid_stroke_band", "strokes_seen", "time_from_rate",
+__all__ = ["BAND_HIGH", "BAND_LOW", "mid_stroke_band", "record_stroke", "several_strokes",
+           "strokes_seen", "time_from_rate",
            "upward_crossings"]
 
 # Hysteresis levels, as fractions of the robust position range. A stroke boundary needs the
@@ -129,3 +130,61 @@ def time_from_rate(card_id: str, position: np.ndarray, period: float, what: str
         f"from {what} for each stroke (t_i = i*T/{per_stroke:.6g}, T = {period:.6g} s) and "
         "it is a record, not one period (split_strokes, on the command line --split-strokes, "
         "fits its strokes one by one)")
+
+
+def record_stroke(position: np.ndarray, t: np.ndarray | None) -> float | None:
+    """The duration of one stroke of a record in its own time (s): the median samples
+    between two rises through mid-stroke (:func:`strokes_seen`) times the mean step; None
+    without time or with fewer than two rises.
+
+    Parameters
+    ----------
+    position : ndarray
+        The samples, in time order.
+    t : ndarray or None
+        Their times (s).
+
+    Returns
+    -------
+    float or None
+    """
+    if t is None or t.size < 3:
+        return None
+    rises, per_stroke = strokes_seen(position)
+    if rises < 2:
+        return None
+    return per_stroke * float(t[-1] - t[0]) / (t.size - 1)
+
+
+def several_strokes(card_id: str, position: np.ndarray, t: np.ndarray | None
+                    ) -> str | None:
+    """The warning for a record in its own time that holds several strokes (None for one
+    stroke, or without time).
+
+    Such a record is fitted from rest, as one transient, a start a pumping well never had:
+    three copies of one stroke were ``converged`` with the natural frequency, damping ratio
+    and stiffness called determined where the stroke alone determines none of them, and
+    nothing said it held several strokes.
+
+    Parameters
+    ----------
+    card_id : str
+    position : ndarray
+        The samples, in time order.
+    t : ndarray or None
+        Their times (s).
+
+    Returns
+    -------
+    str or None
+    """
+    stroke = record_stroke(position, t)
+    if stroke is None:
+        return None
+    rises, per_stroke = strokes_seen(position)
+    return (f"card {card_id!r} holds several strokes in its own time: its position rises "
+            f"through mid-stroke {rises} times, one every {per_stroke:.6g} samples (a stroke "
+            f"of about {stroke:.4g} s); it is fitted as one record from rest, a start a "
+            "pumping well never had (split_strokes, on the command line --split-strokes, "
+            "fits each stroke as one period)")
+

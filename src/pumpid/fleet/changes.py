@@ -265,7 +265,8 @@ def _columns(quantity: str) -> tuple[str, list[str], str | None, str | None, str
         return (quantity, [f"{quantity}_se"], f"{quantity}_determined", f"{quantity}_unit",
                 "pump")
     if quantity.startswith("p_"):
-        return quantity, [f"{quantity}_se", f"{quantity}_se_hac"], None, None, "parameter"
+        return (quantity, [f"{quantity}_se", f"{quantity}_se_hac"], f"{quantity}_determined",
+                None, "parameter")
     col = f"d_{quantity}"
     return col, [f"{col}_se"], f"{col}_determined", f"{col}_unit", "derived"
 
@@ -344,6 +345,12 @@ def _quantity(
              else frame["status"].isin(USABLE_STATUSES)).to_numpy()
     if det_col is not None and det_col in frame.columns:
         keep &= frame[det_col].fillna(False).astype(bool).to_numpy()
+    elif kind == "parameter" and se_cols[0] in frame.columns:
+        # A table written before parameters had their own verdict: a value whose error is
+        # infinite or unknown is not determined (an alert on c1 had been sized at "-68.8
+        # standard errors" from cards whose own errors were all infinite).
+        shown = pd.to_numeric(frame[se_cols[0]], errors="coerce").to_numpy(dtype=float)
+        keep &= np.isfinite(shown)
     if not asked and f"{col}_well_property" in frame.columns:  # an echo of the stroke: skip
         keep &= frame[f"{col}_well_property"].fillna(True).astype(bool).to_numpy()
     se = np.full(values.size, np.nan)

@@ -54,6 +54,7 @@ from pumpid.cards import (
     stroke_period,
     stroke_rate_warning,
     time_from_rate,
+    with_record_warnings,
 )
 
 __all__ = ["ParquetCardError", "iter_parquet_cards", "read_parquet_cards"]
@@ -266,7 +267,7 @@ def _card(
     card = one_period(card) if order_col == "t" else card
     slow = stroke_rate_warning(card_id, stroke_period(card), "t" if order_col == "t" else None,
                                "the spm column")
-    return card.replace(warnings=(*card.warnings, slow)) if slow else card
+    return with_record_warnings(card, slow)
 
 
 def iter_parquet_cards(

@@ -84,6 +84,7 @@ import pyarrow as pa
 from pumpid.engine.threads import run_chunks
 from pumpid.pump import PumpFit, PumpSystem, identify_cards
 from pumpid.pump.identify import SHOWN
+from pumpid.pump.identify_report import DownholeCard
 from pumpid.rods import DownholeResult, WellFile, diagnose_cards, read_well_file
 
 from .inputs import BadItem, CardItem
@@ -259,7 +260,7 @@ def add_pump_columns(items: Sequence[CardItem | BadItem], rows: list[dict[str, A
             continue
         _diagnostic_columns(row, res, spec.identify)
         if spec.identify:
-            _identified_columns(row, fits[k])
+            _identified_columns(row, fits[k], res)
         if not spec.lumped:
             _fit_columns(row, fits[k])
 
@@ -289,28 +290,35 @@ def _finite(value: Any) -> float | None:
     return value if math.isfinite(value) else None
 
 
-def _identified_columns(row: dict[str, Any], fit: PumpFit | None) -> None:
+def _identified_columns(row: dict[str, Any], fit: PumpFit | None,
+                        diagnostic: DownholeResult) -> None:
     if fit is None:  # not reached: every readable card is identified
         return
     row["identify_status"] = fit.status
     row["identify_reason"] = fit.reason
     usable = fit.ok and fit.status in IDENTIFIED_USABLE
-    quantities = fit.quantities() if usable else {}
+    # The pump's quantities as pumpid downhole gives them (one meaning for pump_<q> in both
+    # tables): the identification's where it is used, else the diagnostic card's, without
+    # an error. The same fj1 card's fluid load read 2.69 klbf here (an undetermined
+    # identification's) and 7.32 klbf in pumpid downhole's table.
+    shown = DownholeCard.of(diagnostic, fit)
+    pump = shown.pump()
     for name in PUMP_QUANTITIES:
-        entry = quantities.get(name)
+        entry = pump.get(name)
         row[f"{PUMP_PREFIX}{name}"] = None if entry is None else _finite(entry["value"])
+        if entry is not None:
+            row[f"{PUMP_PREFIX}{name}_unit"] = entry["unit"]
         if name in IDENTIFIED:
             row[f"{PUMP_PREFIX}{name}_se"] = None if entry is None else _finite(
                 entry["stderr"])
-            # Trended only where the identification determines it, as the lumped fits'
-            # quantities are: an undetermined pump's fluid load of 12 +- 55 kN had been
-            # trended beside its diagnostic card's 32.5. A full pump's held fillage is the
-            # model the card chose (the pump is full), and counts.
+            # Trended only where the identification is used and determines it, as the
+            # lumped fits' quantities are; a full pump's held fillage is the model the
+            # card chose (the pump is full) and counts. A diagnostic card's value shown
+            # instead is not trended: it is drawn at another damping than the identified
+            # cards' beside it (fj2's fluid load 24.2 kN at the default against 20.7).
             row[f"{PUMP_PREFIX}{name}_determined"] = None if entry is None else bool(
-                entry["determined"] or entry["held"])
-        if entry is not None:
-            row[f"{PUMP_PREFIX}{name}_unit"] = entry["unit"]
-    damping = fit.damping()
+                shown.identified and (entry.get("determined") or entry.get("held")))
+    damping = shown.damping()
     row["pump_damping_rule"] = damping["rule"] or None
     if not usable:
         for key in ("pump_damping", "pump_damping_se", "pump_r2", "pump_residual_rho"):
@@ -319,12 +327,11 @@ def _identified_columns(row: dict[str, Any], fit: PumpFit | None) -> None:
         return
     assert fit.fit is not None
     white = fit.fit.whiteness
-    # The damping of the fit whose quantities the row gives: a poor fit's fluid load of
-    # 3174 lbf sat beside the default rule's 0.05, the diagnostic card's damping (which
-    # downhole_damping gives).
-    own = fit.damping(used=False)
-    row["pump_damping"] = _finite(own["value"])
-    row["pump_damping_se"] = _finite(own["stderr"])
+    # The damping the row's quantities were made with (the identified one, with its error,
+    # where the identification is used; else the diagnostic card's): a poor fit's fluid
+    # load of 3174 lbf had sat beside the default rule's 0.05.
+    row["pump_damping"] = _finite(damping["value"])
+    row["pump_damping_se"] = _finite(damping["stderr"])
     row["pump_r2"] = _finite(fit.fit.r2)
     row["pump_residual_rho"] = None if white is None else _finite(
         white.get("lag1_autocorrelation"))

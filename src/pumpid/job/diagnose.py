@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..cards import record_stroke
 from ..engine import drive
 from ..engine.problem import WINDOW, Problem
 from ..engine.solvers import LevenbergMarquardt
@@ -236,8 +237,7 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                 serial=serial, limits=[(b.name, b.direction) for b in card.limits],
                 floor=_derived_reach(problem, z, scale, opens[j]))
             _offset_gauge(problem, int(cards[i]), card, units[int(cards[i])])
-            period = (float(problem.period[int(cards[i])])
-                      if problem.initial_states[int(cards[i])] == "periodic" else None)
+            period = _stroke_of(problem, int(cards[i]))
             card.derived, echo = echo_of(card.derived, period)
             if echo is not None:
                 card.warnings.append(echo)
@@ -246,6 +246,17 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
         warning = said.warning_for(card.uncertainty)
         if warning:
             card.warnings.append(warning)
+
+
+def _stroke_of(problem: Problem, k: int) -> float | None:
+    """Card k's stroke period (s): a periodic card's period, a record's time between two
+    rises of its observation through mid-stroke (a record of several strokes fitted from
+    rest had its resonance on the stroke frequency called a property of the well), else
+    None."""
+    if problem.initial_states[k] == "periodic":
+        return float(problem.period[k])
+    t, _load, d = problem.card(k)
+    return record_stroke(d, t)
 
 
 def _thresholds(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],

@@ -9,7 +9,8 @@ Every table of fits -- ``pumpid batch``'s Parquet folder, ``FitBatch.to_frame()`
   samples, evaluations, units;
 * per parameter ``p_NAME``, ``p_NAME_se`` (the error shown: the robust one where the
   residuals are serially correlated), ``p_NAME_se_hac``, ``p_NAME_se_white``,
-  ``p_NAME_unit``; then ``scale``, ``offset`` and ``offset_se`` (in ``position_unit``);
+  ``p_NAME_determined`` (the fit calls it determined), ``p_NAME_unit``; then ``scale``,
+  ``offset`` and ``offset_se`` (in ``position_unit``);
 * per derived quantity ``d_NAME``, ``d_NAME_se`` (shown), ``d_NAME_se_hac``,
   ``d_NAME_se_white``, ``d_NAME_determined``, ``d_NAME_well_property``, ``d_NAME_unit``.
 
@@ -47,7 +48,7 @@ FIT: tuple[tuple[str, str], ...] = (
     ("n_samples", "int"), ("nfev", "int"), ("position_unit", "string"),
     ("load_unit", "string"))
 _PARAM = (("", "float"), ("_se", "float"), ("_se_hac", "float"), ("_se_white", "float"),
-          ("_unit", "string"))
+          ("_determined", "bool"), ("_unit", "string"))
 _DERIVED = (("", "float"), ("_se", "float"), ("_se_hac", "float"), ("_se_white", "float"),
             ("_determined", "bool"), ("_well_property", "bool"), ("_unit", "string"))
 
@@ -112,11 +113,13 @@ def fit_row(result: Any) -> dict[str, Any]:
         "position_unit": result.units.position, "load_unit": result.units.load})
     se, se_hac, se_white = result.stderr, result.stderr_hac, result.stderr_white
     units = result.param_units()
+    known = set(result.determined.get("parameters", ()))
     for name, value in result.params.items():
         row[f"p_{name}"] = value
         row[f"p_{name}_se"] = float(se.get(name, math.nan))
         row[f"p_{name}_se_hac"] = float(se_hac.get(name, math.nan))
         row[f"p_{name}_se_white"] = float(se_white.get(name, math.nan))
+        row[f"p_{name}_determined"] = name in known
         row[f"p_{name}_unit"] = units.get(name)
     row["scale"] = result.scale
     row["offset"] = result.offset
