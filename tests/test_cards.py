@@ -269,7 +269,17 @@ class TestCsv:
         np.testing.assert_allclose(a.t, np.arange(24) * 7.5 / 24)
         assert any("time rebuilt from 8 SPM" in n for n in a.notes)
 
+    def test_one_card_of_one_well_is_named_by_its_file(self, tmp_path):
+        # A per-card export with a well column and no card column: 16 files of one well
+        # had each card called by the well's id (the run then told them apart by source).
+        pos, load = synthetic_stroke(30)
+        rows = ["well_id,position_in,load_lbf"] + [
+            f"W-7,{p},{f}" for p, f in zip(pos, load, strict=True)]
+        card = read_card(write(tmp_path, "W-7_0412.csv", "\n".join(rows)), spm=6.0)
+        assert (card.card_id, card.well_id) == ("W-7_0412", "W-7")
+
     def test_tsv_with_well_column_ms_time_and_bracket_units(self):
+        # Two wells in one file without a card column: each well's card by its well.
         cards = read_cards(DATA / "two_wells.tsv")
         assert [(c.card_id, c.well_id) for c in cards] == [("PAD-3", "PAD-3"), ("PAD-4", "PAD-4")]
         assert all(c.position_unit == "m" and c.load_unit == "kN" for c in cards)
@@ -309,8 +319,10 @@ class TestCsv:
         pos, load = synthetic_stroke(25)
         lines = ["A,B,C,D"] + [f"{i},{load[i]},{pos[i]},{i * 0.1:.2f}" for i in range(25)]
         p = write(tmp_path, "odd.csv", "\n".join(lines))
-        with pytest.raises(CardError, match="no position or load column"):
+        with pytest.raises(CardError, match="no position or load column") as info:
             read_cards(p)
+        # The command line's options beside the API's (only columns={...} was said).
+        assert "--position-col NAME --load-col NAME" in str(info.value)
         card = read_card(p, columns={"position": "C", "load": "b", "t": "D"})
         np.testing.assert_allclose(card.position, pos)
         assert card.dt == pytest.approx(0.1)

@@ -151,3 +151,26 @@ def test_one_stroke_with_its_time_is_one_period_as_from_every_file(tmp_path: Pat
     frame.to_parquet(tmp_path / "timed.parquet")
     (card,) = read_parquet_cards(tmp_path / "timed.parquet")
     assert card.periodic and card.period == pytest.approx(10.0)
+
+
+def test_the_callers_stroke_rate_wins_as_for_every_file(tmp_path: Path) -> None:
+    # A run's --spm re-timed its CSV and JSON cards and left its Parquet ones at their own
+    # spm column, without a word.
+    _long(["a"]).to_parquet(tmp_path / "x.parquet")
+    (card,) = read_parquet_cards(tmp_path / "x.parquet", spm=12.0)
+    assert card.period == pytest.approx(5.0) and card.spm == pytest.approx(12.0)
+    np.testing.assert_allclose(card.t, np.arange(30) * 5.0 / 30)
+    assert any("not from the file's own (6 SPM" in w for w in card.warnings)
+    (same,) = read_parquet_cards(tmp_path / "x.parquet", period=10.0)
+    assert same.period == pytest.approx(10.0) and not same.warnings
+    with pytest.raises(ValueError, match="not both"):
+        read_parquet_cards(tmp_path / "x.parquet", spm=6.0, period=10.0)
+
+
+def test_a_parquet_file_given_as_a_card_file_is_named(tmp_path: Path) -> None:
+    from pumpid.cards import read_cards
+
+    _long(["a"]).to_parquet(tmp_path / "x.parquet")
+    with pytest.raises(CardError, match="a Parquet file, not a text card file") as info:
+        read_cards(tmp_path / "x.parquet")
+    assert "encoding" not in str(info.value)

@@ -180,7 +180,8 @@ def test_reversed_card_is_said_and_identified(tmp_path: Path, surface, capsys) -
     # had said "fitted as given" and two notes "fitted reversed" and "used reversed".
     assert text.count("it is taken as stored in reverse time order and used reversed; a "
                       "position measured downwards must be negated instead") == 1, text
-    assert "fitted as given" not in text and "the rod string in reverse time order" in text
+    assert "fitted as given" not in text
+    assert "the rod string's model reads it in reverse time order" in text
     code, doc = run_json(capsys, str(cards), "--well", well, "--spm", str(SPM), "--card",
                          "card1")
     got = doc["cards"][0]
@@ -526,3 +527,23 @@ def test_the_padding_dropped_is_said_without_verbose(tmp_path: Path, surface, ca
     out = capsys.readouterr().out
     assert code == 0 and "note: padding dropped: the last 30 of 150 samples" in out, out
     assert "note: load unit" not in out  # the other reading notes: --verbose
+
+
+def test_the_well_files_assumptions_are_said_in_the_text(tmp_path: Path, surface,
+                                                         capsys) -> None:
+    # A well file without tubing, a material whose density is replaced, and rods listed
+    # from the bottom: the JSON said the first two, the terminal none, and nothing said the
+    # third (it changes the identification).
+    doc = json.loads(json.dumps(WELL))
+    well = doc["wells"]["W-1"]
+    del well["tubing"]
+    well["rods"] = well["rods"][::-1]
+    well["rods"][0]["density"] = 7850
+    doc["units"]["density"] = "kg/m3"
+    cards = write_cards(tmp_path / "c.csv", surface)
+    main(["downhole", str(cards), "--well", str(write_well(tmp_path / "w.json", doc)),
+          "--spm", str(SPM), "--card", "card0", "--no-identify"])
+    text = capsys.readouterr().out
+    assert "no tubing entry: the tubing is taken as anchored" in text
+    assert "the given density replaces that of steel" in text
+    assert "rods[1] is thicker than rods[0] above it" in text and "from the bottom" in text

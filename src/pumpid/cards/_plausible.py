@@ -400,8 +400,8 @@ def plausibility_warnings(
         out.append(
             f"{label}: its loop turns the wrong way for a card in time order (higher loads "
             "while the position falls): stored in reverse time order, or the position "
-            "measured downwards (then negate it)? The lumped fit takes it as given, the "
-            "rod string in reverse time order")
+            "measured downwards (then negate it)? The lumped fit takes it as given; the "
+            "rod string's model reads it in reverse time order")
     first, held = _held_run(position, load)
     if held >= max(3, PADDING_SHARE * position.size):
         # A frozen transmitter or a stopped unit: a moving rod never holds both its

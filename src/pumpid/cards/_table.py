@@ -56,6 +56,16 @@ def _cli_hint(position: int, load: int) -> str:
     )
 
 
+def _card_id(cols: Any, key_i: int | None, card_i: int | None, kid: int, stem: str,
+             blocks: int) -> str:
+    """A card's id: its card column's, else the file's name where the file holds one card
+    of one well (a per-card export with a well column: 16 files of one well had all been
+    called by the well's id), else its well's."""
+    if key_i is None or (card_i is None and blocks == 1):
+        return stem
+    return str(cols[key_i].names[kid])
+
+
 def resolve_columns(
     o: Opts, header: list[str] | None, ncols: int, header_line: int | None
 ) -> tuple[dict[str, int], dict[str, str | None], list[str], bool]:
@@ -120,8 +130,9 @@ def resolve_columns(
             missing = [r for r in ("position", "load") if r not in roles]
             raise o.error(
                 f"no {' or '.join(missing)} column recognised in the header "
-                f"({', '.join(map(repr, header))}); name them e.g. 'position_in', 'load_lbf' "
-                "or pass columns={'position': ..., 'load': ...}",
+                f"({', '.join(map(repr, header))}); name them e.g. 'position_in', 'load_lbf', "
+                "or say which they are: columns={'position': ..., 'load': ...} (command "
+                "line: --position-col NAME --load-col NAME)",
                 line=header_line,
                 field=missing[0],
             )
@@ -484,7 +495,7 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         end = bounds[b + 1]
         lines = lines_all[start:end]
         notes = list(col_notes)
-        card_id = cols[key_i].names[kid] if key_i is not None else o.stem
+        card_id = _card_id(cols, key_i, card_i, kid, o.stem, len(blocks))
         raw = Raw(
             position=pos_all[start:end],
             load=load_all[start:end],
@@ -593,7 +604,7 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
     for b, (kid, start, _line0, firsts) in enumerate(blocks):
         if b in skip:
             continue
-        card_id = cols[key_i].names[kid] if key_i is not None else o.stem
+        card_id = _card_id(cols, key_i, card_i, kid, o.stem, len(blocks))
         try:
             if b in broken:
                 raise broken[b]

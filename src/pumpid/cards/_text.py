@@ -203,6 +203,13 @@ def decode(data: bytes | str, *, path: str, encoding: str | None) -> tuple[str, 
                     f"decoded as {label}, detected from its pattern of zero bytes (no "
                     "byte-order mark)"
                 )
+            elif data[:4] == b"PAR1":
+                raise CardError(
+                    "a Parquet file, not a text card file: Parquet card datasets are read by "
+                    "pumpid batch (pumpid.fleet.read_parquet_cards); to look at one of its "
+                    "cards here, write it out as CSV first",
+                    path=path,
+                )
             elif b"\x00" in data:
                 k = data.index(b"\x00")
                 raise CardError(

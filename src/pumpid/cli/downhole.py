@@ -174,7 +174,8 @@ _ALWAYS_SAID = ("reverse", "intake pressure is negative", "tubing-head pressure 
                 "no fluid entry", "not corrected for tubing stretch",
                 "less the free tubing's stretch", "padding dropped",
                 "differs from the well file's", "the loop does not close",
-                "below the rods' weight", "harmonics asked")
+                "below the rods' weight", "harmonics asked", "taken as anchored",
+                "replace those of", "replaces that of", "listed from the bottom")
 
 
 class _Json:

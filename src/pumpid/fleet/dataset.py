@@ -149,6 +149,7 @@ def _card(
     position_unit: str | None,
     load_unit: str | None,
     min_samples: int,
+    given: float | None = None,
 ) -> Card:
     def err(message: str, column: str | None = None) -> CardError:
         return CardError(f"card {card_id!r}: {message}", path=path, field=column)
@@ -211,6 +212,20 @@ def _card(
     time_source = "none"
     periodic = False
     warnings: list[str] = []
+    if given is not None and order_col == "t":
+        notes.append(f"the stroke rate {60.0 / given:.6g} SPM (given by the caller) is not "
+                     "used: the card's time comes from the file")
+    elif given is not None:
+        # The caller's rate first, then the file's, as the card files' readers take them: a
+        # run's --spm re-timed its CSV and JSON cards and left its Parquet ones, unsaid.
+        if spm is not None:
+            notes.append("stroke rate given by the caller overrides the one in the file "
+                         "(the spm column)")
+            if not math.isclose(60.0 / spm, given, rel_tol=1e-9):
+                warnings.append(f"the card's time is rebuilt from the stroke rate given "
+                                f"({60.0 / given:.6g} SPM), not from the file's own "
+                                f"({spm:.6g} SPM, the spm column)")
+        spm = 60.0 / given
     if order_col == "t":
         t = order
         time_source = "file"
@@ -275,6 +290,8 @@ def iter_parquet_cards(
     *,
     position_unit: str | None = None,
     load_unit: str | None = None,
+    spm: float | None = None,
+    period: float | None = None,
     min_samples: int = 20,
 ) -> Iterator[Card | CardError]:
     """Read cards from the Parquet long layout, yielding an error in place of a bad card.
@@ -288,6 +305,10 @@ def iter_parquet_cards(
         are read in sorted order.
     position_unit, load_unit : str, optional
         Units of every card; they win over the files' unit columns.
+    spm, period : float, optional
+        The stroke rate (strokes per minute) or period (s) of every card without a ``t``
+        column; they win over the files' ``spm`` column (a warning says where they differ).
+        At most one.
     min_samples : int, default 20
         Fewer samples than this in a card is an error.
 
@@ -304,6 +325,14 @@ def iter_parquet_cards(
     CardError
         Only when ``path`` itself does not exist or a folder holds no Parquet file.
     """
+    if spm is not None and period is not None:
+        raise ValueError("give the stroke rate (spm) or the period, not both")
+    given = None
+    for value, name in ((spm, "spm"), (period, "period")):
+        if value is not None:
+            if not (math.isfinite(float(value)) and float(value) > 0):
+                raise ValueError(f"{name} must be positive and finite, got {value!r}")
+            given = 60.0 / float(value) if name == "spm" else float(value)
     for file in _files(Path(os.fspath(path))):
         try:
             frame = pd.read_parquet(file)
@@ -333,6 +362,7 @@ def iter_parquet_cards(
                     position_unit=position_unit,
                     load_unit=load_unit,
                     min_samples=min_samples,
+                    given=given,
                 )
             except CardError as exc:
                 yield ParquetCardError(exc, card_id=str(card_id), well_id=_well_of(group))
@@ -347,6 +377,8 @@ def read_parquet_cards(
     *,
     position_unit: str | None = None,
     load_unit: str | None = None,
+    spm: float | None = None,
+    period: float | None = None,
     min_samples: int = 20,
 ) -> list[Card]:
     """Read every card of the Parquet long layout; stop at the first problem.
@@ -357,6 +389,9 @@ def read_parquet_cards(
         A ``.parquet`` file or a folder of them (see :func:`iter_parquet_cards`).
     position_unit, load_unit : str, optional
         Units of every card; they win over the files' unit columns.
+    spm, period : float, optional
+        The stroke rate or period of every card without time (see
+        :func:`iter_parquet_cards`).
     min_samples : int, default 20
         Fewer samples than this in a card is an error.
 
@@ -372,7 +407,8 @@ def read_parquet_cards(
     """
     cards = []
     for item in iter_parquet_cards(
-        path, position_unit=position_unit, load_unit=load_unit, min_samples=min_samples
+        path, position_unit=position_unit, load_unit=load_unit, spm=spm, period=period,
+        min_samples=min_samples,
     ):
         if isinstance(item, CardError):
             raise item

@@ -230,7 +230,8 @@ def _source(name: str, reader_source: str, base: str) -> str:
 def _cards_of(file: InputFile, options: ReadOptions) -> Iterator[Card | CardError]:
     if _is_parquet(file.path):
         for got in iter_parquet_cards(file.path, position_unit=options.position_unit,
-                                      load_unit=options.load_unit):
+                                      load_unit=options.load_unit, spm=options.spm,
+                                      period=options.period):
             yield (dataclasses.replace(got, well_id=options.well_id)
                    if options.well_id is not None and isinstance(got, Card) else got)
         return
