@@ -723,6 +723,25 @@ class TestSplitStrokes:
         assert "partial stroke after sample" in strokes[0].notes[-1]
         assert all(s.n == 60 for s in strokes)
 
+    def test_a_flat_bottom_at_the_records_end_ends_the_last_stroke(self):
+        # Three copies of one stroke whose bottom holds the lowest position for three
+        # samples (its first two and its last, as a public card's): the last stroke lost
+        # its last sample to the tail bottom, and with it its period and fit. The record's
+        # own warning that it holds several strokes is not the strokes'.
+        n = 60
+        one = 50 * (1 - np.cos(2 * np.pi * np.arange(n) / n))
+        one[[1, -1]] = 0.0
+        pos = np.tile(one, 3)
+        load = np.tile(8000 + 2000 * np.tanh(4 * np.sin(2 * np.pi * np.arange(n) / n)), 3)
+        card = Card(position=pos, load=load, t=np.arange(3 * n) * 0.1, time_source="file",
+                    card_id="flat", warnings=("card 'flat' holds several strokes in its own "
+                                              "time: ...",))
+        strokes = split_strokes(card)
+        assert [s.n for s in strokes] == [n, n, n]
+        assert all(s.period == pytest.approx(6.0) for s in strokes)
+        np.testing.assert_array_equal(strokes[-1].position, strokes[0].position)
+        assert not any("several strokes" in w for s in strokes for w in s.warnings)
+
     def test_record_starting_at_top(self):
         strokes = split_strokes(record(strokes=4, phase=np.pi))
         assert len(strokes) == 3 and all(s.n == 60 for s in strokes)

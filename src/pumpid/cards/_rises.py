@@ -10,14 +10,19 @@ import math
 
 import numpy as np
 
-__all__ = ["BAND_HIGH", "BAND_LOW", "mid_stroke_band", "record_stroke", "several_strokes",
-           "strokes_seen", "time_from_rate",
+__all__ = ["BAND_HIGH", "BAND_LOW", "SEVERAL", "mid_stroke_band", "record_stroke",
+           "several_strokes", "strokes_seen", "time_from_rate",
            "upward_crossings"]
 
 # Hysteresis levels, as fractions of the robust position range. A stroke boundary needs the
 # rod to go below LOW and then above HIGH, so noise around mid-stroke (or a wiggle at the
 # bottom) cannot create extra strokes.
 BAND_LOW, BAND_HIGH = 0.35, 0.65
+
+
+#: What the readers' warnings say of a record of several strokes (a stroke cut from it by
+#: :func:`~pumpid.cards.split_strokes` does not carry them).
+SEVERAL = "holds several strokes"
 
 
 def upward_crossings(pos: np.ndarray, lo: float, hi: float) -> np.ndarray:
@@ -125,7 +130,7 @@ def time_from_rate(card_id: str, position: np.ndarray, period: float, what: str
     if rises < 2:
         return np.arange(n) * (period / n), None
     return np.arange(n) * (period / per_stroke), (
-        f"card {card_id!r} holds several strokes, not one: its position rises through "
+        f"card {card_id!r} {SEVERAL}, not one: its position rises through "
         f"mid-stroke {rises} times, one every {per_stroke:.6g} samples; its time is rebuilt "
         f"from {what} for each stroke (t_i = i*T/{per_stroke:.6g}, T = {period:.6g} s) and "
         "it is a record, not one period (split_strokes, on the command line --split-strokes, "
@@ -182,7 +187,7 @@ def several_strokes(card_id: str, position: np.ndarray, t: np.ndarray | None
     if stroke is None:
         return None
     rises, per_stroke = strokes_seen(position)
-    return (f"card {card_id!r} holds several strokes in its own time: its position rises "
+    return (f"card {card_id!r} {SEVERAL} in its own time: its position rises "
             f"through mid-stroke {rises} times, one every {per_stroke:.6g} samples (a stroke "
             f"of about {stroke:.4g} s); it is fitted as one record from rest, a start a "
             "pumping well never had (split_strokes, on the command line --split-strokes, "

@@ -7,7 +7,7 @@ from itertools import pairwise
 import numpy as np
 
 from ._errors import CardError
-from ._rises import BAND_LOW, mid_stroke_band
+from ._rises import BAND_LOW, SEVERAL, mid_stroke_band
 from ._types import Card
 
 __all__ = ["split_strokes"]
@@ -122,6 +122,17 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
             (pos[tail:].max() - pos[tail] >= _TURN * span) or (pos[tail] - bottom <= level)
         )
     bounds = ([head] if head_ok else []) + interior + ([tail] if tail_ok else [])
+    if tail_ok and len(bounds) >= 2 and tail < card.n:
+        # A flat bottom of stroke (samples holding the lowest position) leaves the last
+        # boundary on any of them: where the record ends within the usual stroke length of
+        # the last boundary but one, the samples after the tail bottom end that stroke, not
+        # begin another (three copies of one stroke gave the last one a sample less, and
+        # another fit).
+        usual = float(np.median(np.diff(ups)))
+        last = bounds[-2]
+        if abs(card.n - last - usual) < abs(tail - last - usual) and card.n - tail <= max(
+                1.0, 0.05 * usual):
+            bounds[-1] = card.n
     if len(bounds) < 2:
         raise CardError(
             f"card {card.card_id!r}: no complete stroke found (a record with several strokes "
@@ -140,8 +151,8 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
     dropped = []
     if bounds[0] > 0:
         dropped.append(f"partial stroke before sample {bounds[0]}")
-    if bounds[-1] < card.n - 1:
-        dropped.append(f"partial stroke after sample {bounds[-1]}")
+    if bounds[-1] < card.n:
+        dropped.append(f"partial stroke after sample {bounds[-1] - 1}")
     if len(kept) < len(segments):
         dropped.append(f"{len(segments) - len(kept)} stroke(s) shorter than {min_samples} samples")
 
@@ -151,7 +162,10 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
         meta = {**card.metadata, "stroke_index": k, "sample_range": (a, b)}
         if card.t is not None:
             t = card.t[a:b] - card.t[a]
-            period = float(card.t[b] - card.t[a])
+            # A stroke that ends the record ends one step after its last sample.
+            end = (float(card.t[b]) if b < card.n
+                   else float(card.t[-1]) + float(np.median(np.diff(card.t))))
+            period = end - float(card.t[a])
             spm = 60.0 / period
             meta["t0"] = float(card.t[a])
         for key, value in card.metadata.items():
@@ -179,6 +193,8 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
                 # say which part of it this card is.
                 source=f"{card.source}, samples {a}-{b - 1}" if card.source else "",
                 metadata=meta,
+                # The record's warning that it holds several strokes is not this stroke's.
+                warnings=tuple(w for w in card.warnings if SEVERAL not in w),
                 note=note,
             )
         )
