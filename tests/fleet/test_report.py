@@ -430,3 +430,17 @@ def test_wells_in_other_units_are_converted_for_the_views_across_wells(tmp_path:
     page = write_fleet_report(frame, tmp_path / "c", quantities=["stiffness"],
                               steady_sample=0)["report"].read_text(encoding="utf-8")
     assert "too few wells for a histogram" in page
+
+
+def test_a_small_alerted_change_is_labelled_with_its_size() -> None:
+    # An alerted change of 0.3 % was labelled "+0%" on its panel (the alerts' text said
+    # +0.3 %).
+    from pumpid.fleet.figures import well_figure
+
+    frame = results_table(1, 80, cv=0.0005, seed=3, steps={0: ("stiffness", 1.003, 40)})
+    frame["d_stiffness_se"] = 1e-4 * frame["d_stiffness"]
+    alerts = detect_changes(frame, ["stiffness"])
+    assert len(alerts) == 1
+    fig = well_figure(frame, ["stiffness"], {"stiffness": "lbf/in"}, alerts, "W0000")
+    labels = [t.get_text() for t in fig.axes[0].texts]
+    assert f"{alerts['change_rel'].iloc[0]:+.1%}" in labels and "+0%" not in labels

@@ -236,3 +236,16 @@ def test_the_energy_balance_leads_with_the_card_used(shared_raw: Path, tmp_path:
     said = page[page.index("work per stroke: "):].split(".\n")[0]
     assert said.startswith("work per stroke: the measured surface card ")
     assert "the fitted surface card " in said and said.endswith("(the identification, not used)")
+
+
+def test_an_unused_identification_says_whose_quantities_are_shown(shared_raw: Path,
+                                                                  tmp_path: Path,
+                                                                  capsys) -> None:
+    # fj1's fit reason ends "determined derived quantities: gross_stroke, net_stroke,
+    # displacement", and the values printed below it were the diagnostic card's.
+    well, entry = well_file(shared_raw, "fj1", tmp_path)
+    main(["downhole", str(shared_raw / FOLDER / entry["card_csv"]), "--well", str(well),
+          "--spm", f"{float(entry['spm']):g}"])
+    text = capsys.readouterr().out
+    why = next(line for line in text.splitlines() if "why not identified" in line)
+    assert why.endswith("; the quantities below are the diagnostic pump card's")

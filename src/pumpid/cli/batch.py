@@ -106,6 +106,16 @@ def _downhole(args: argparse.Namespace) -> Any:
     if args.well_file is None:
         if (args.damping is not None or args.harmonics is not None or args.no_identify
                 or args.pump_only):
+            given = [flag for flag, on in (("--damping", args.damping is not None),
+                                           ("--harmonics", args.harmonics is not None),
+                                           ("--no-identify", args.no_identify),
+                                           ("--pump-only", args.pump_only)) if on]
+            if getattr(args, "resume", False):
+                # The run's own well file and downhole options are used: "need --well-file"
+                # was said to a run that has one.
+                raise ValueError(f"{', '.join(given)}: a resumed run keeps its own well file "
+                                 "and downhole options; to change them, write a new run to "
+                                 "another folder")
             raise ValueError("--damping, --harmonics, --no-identify and --pump-only need "
                              "--well-file")
         return None

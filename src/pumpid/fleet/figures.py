@@ -344,8 +344,9 @@ def well_figure(group: pd.DataFrame, quantities: Sequence[str], units: dict[str,
             xc = x_all[key].iloc[0]
             ax.axvline(xc, color="#b00020", lw=1.2, ls="--",
                        label="first card of a change" if _ == mine.index[0] else None)
-            # On a white box: the after-change values sit at the top of the axis too.
-            ax.annotate(f"{a['change_rel']:+.0%}", (xc, 0.98), xycoords=("data", "axes fraction"),
+            # On a white box: the after-change values sit at the top of the axis too. To a
+            # tenth of a per cent, as the alerts' text: an alerted 0.3 % read "+0%".
+            ax.annotate(f"{a['change_rel']:+.1%}", (xc, 0.98), xycoords=("data", "axes fraction"),
                         xytext=(4, -10), textcoords="offset points", color="#b00020",
                         fontsize=8, fontweight="bold",
                         bbox={"boxstyle": "round,pad=0.15", "facecolor": "white",

@@ -261,8 +261,11 @@ class DownholeCard:
                         f"{_fmt(self.residual_autocorrelation())}")
             # The reason on a line of its own: inside the head's parentheses it nested
             # them four deep.
+            # The values below are the diagnostic card's: "determined derived quantities:
+            # gross_stroke, ..." in the fit's reason read as if they were shown.
             head += (f"; pump not identified ({self.fit.status}{fit}); diagnostic pump card"
-                     f"\n  why not identified: {printable(self.fit.reason)}")
+                     f"\n  why not identified: {printable(self.fit.reason)}; the quantities "
+                     "below are the diagnostic pump card's")
         q = self.pump()
         parts = [f"{name.replace('_', ' ')} "
                  + format_error(q[name]["value"], q[name]["stderr"], q[name]["unit"])
