@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._errors import CardError
+from ._rises import strokes_seen
 from ._roles import detect_column_roles
 from ._units import LOAD_UNITS, POSITION_UNITS
 
@@ -403,7 +404,11 @@ def plausibility_warnings(
             "measured downwards (then negate it)? The lumped fit takes it as given; the "
             "rod string's model reads it in reverse time order")
     first, held = _held_run(position, load)
-    if held >= max(3, PADDING_SHARE * position.size):
+    # 5 % of a stroke, not of the record: on a record of seven strokes a stretch frozen for
+    # a third of one stroke went unsaid.
+    rises, per_stroke = strokes_seen(position)
+    stroke = per_stroke if rises >= 2 and math.isfinite(per_stroke) else position.size
+    if held >= max(3, PADDING_SHARE * stroke):
         # A frozen transmitter or a stopped unit: a moving rod never holds both its
         # position and its load to every digit for 5 % of a stroke. (At the card's end or
         # start such a run is padding, dropped by the readers.)
