@@ -742,6 +742,20 @@ class TestSplitStrokes:
         np.testing.assert_array_equal(strokes[-1].position, strokes[0].position)
         assert not any("several strokes" in w for s in strokes for w in s.warnings)
 
+    def test_a_short_last_stroke_keeps_its_end(self):
+        # Strokes of 100, 100, 100 and 94 samples, then the first 5 of another upstroke:
+        # the last stroke ends at its own bottom, the 5 are a partial stroke (a fix for
+        # flat bottoms must not give them to it).
+        parts = [50 * (1 - np.cos(2 * np.pi * np.arange(m) / m)) for m in (100, 100, 100, 94)]
+        pos = np.concatenate([*parts, 50 * (1 - np.cos(2 * np.pi * np.arange(5) / 100))])
+        load = 8000 + 40 * pos
+        card = Card(position=pos, load=load, t=np.arange(pos.size) * 0.1,
+                    time_source="file", card_id="short")
+        strokes = split_strokes(card)
+        assert [s.n for s in strokes] == [100, 100, 100, 94]
+        assert strokes[-1].period == pytest.approx(9.4)
+        assert "partial stroke after sample 393" in strokes[-1].notes[-1]
+
     def test_a_frozen_stretch_of_a_record_is_weighed_against_a_stroke(self, tmp_path):
         # 10 samples frozen in a record of five 60-sample strokes: a sixth of a stroke,
         # under 5 % of the record, went unsaid.

@@ -135,6 +135,15 @@ def test_resume_skips_what_is_written_and_refuses_other_runs(field, local_run,
         run_batch([str(folder)], out, fit=FitSpec("msd"), partition_size=PARTS)
     with pytest.raises(ResultsFolderError, match="option fit"):
         run_batch([str(folder)], out, fit=FitSpec("kelvin"), resume=True)
+    # A run written with other columns (an earlier pumpid of the same version number) is
+    # not resumed into one table with this one's: its parts' new columns were dropped on
+    # reading, and a column kept its name with another meaning.
+    older = dict(manifest, table=[c for c in manifest["table"] if not c.endswith(
+        "_determined")])
+    (out / MANIFEST).write_text(json.dumps(older))
+    with pytest.raises(ResultsFolderError, match="written by an earlier pumpid"):
+        run_batch([], out, resume=True)
+    (out / MANIFEST).write_text(json.dumps(manifest))
     summary = run_batch([], out, resume=True)  # inputs and options: the run's own
     assert (summary.fitted, summary.skipped) == (3 * PARTS, 2000 - 3 * PARTS)
     pd.testing.assert_frame_equal(read_results(out), local_run[2])

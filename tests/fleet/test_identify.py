@@ -231,7 +231,7 @@ def test_pump_only_is_kept_on_resume_and_checked(identified, tmp_path: Path) -> 
 @pytest.mark.parametrize(("extra", "words"), [
     (["--pump-only"], "need --well-file"),
     # A resumed run keeps its own well file: "need --well-file" was said to one that has it.
-    (["--resume", "--damping", "0.1"], "--damping: a resumed run keeps its own well file"),
+    (["--resume", "--damping", "0.1"], "--damping: a resumed run keeps its own downhole"),
     (["--well-file", "WELLS", "--pump-only", "--no-identify"], "--no-identify"),
     (["--well-file", "WELLS", "--pump-only", "--model", "msd"], "lumped fit's options"),
     # The default model asked for by name was run as if left out.

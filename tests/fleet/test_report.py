@@ -444,3 +444,15 @@ def test_a_small_alerted_change_is_labelled_with_its_size() -> None:
     fig = well_figure(frame, ["stiffness"], {"stiffness": "lbf/in"}, alerts, "W0000")
     labels = [t.get_text() for t in fig.axes[0].texts]
     assert f"{alerts['change_rel'].iloc[0]:+.1%}" in labels and "+0%" not in labels
+
+
+def test_a_parameter_with_infinite_errors_is_not_drawn_from_an_older_table() -> None:
+    # The change detection reads an infinite error as not determined where a table has no
+    # p_NAME_determined; the figures drew those values all the same.
+    from pumpid.fleet.figures import quantity_values
+
+    frame = results_table(1, 20, seed=2)
+    frame["p_c1"] = 50.0
+    frame["p_c1_se"] = np.where(np.arange(20) < 5, np.inf, 1.0)
+    _value, _se, ok = quantity_values(frame, "p_c1")
+    assert ok.tolist() == [False] * 5 + [True] * 15

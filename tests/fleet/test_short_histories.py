@@ -216,6 +216,7 @@ def test_thresholds_are_stored_on_disk_and_a_bad_store_ignored(tmp_path) -> None
     assert len(table) == 2 and first in table.values()  # heavy-tailed and Gaussian noise
     files[0].write_text(json.dumps({k: 123.0 for k in table}), encoding="utf-8")
     assert run() == 123.0
-    files[0].write_text("{not json", encoding="utf-8")
-    assert run() == first
+    for bad in ("{not json", "[]", '{"a": null}'):  # unreadable, or not a table of numbers
+        files[0].write_text(bad, encoding="utf-8")
+        assert run() == first
     assert two_segment_threshold(12, alpha=0.02, replicates=4000) == first

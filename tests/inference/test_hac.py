@@ -165,3 +165,14 @@ def test_around_a_period_the_lags_wrap_and_the_start_does_not_matter(m) -> None:
         np.testing.assert_allclose(long_run_covariance(rotated, circular=True)[0], full,
                                    rtol=1e-10)
         assert not np.allclose(long_run_covariance(rotated)[0], ends, rtol=1e-3)
+
+
+def test_around_a_period_no_window_is_longer_than_half_of_it() -> None:
+    # A window longer than half the period meets itself from the other side: the estimate
+    # fell by (n - m) / m, to 0 at m = n. The bandwidth is cut to n / 2.
+    u = _ar1(np.random.default_rng(22), 0.9, 40, q=1)
+    u -= u.mean()
+    omega, info = long_run_covariance(u, prewhiten=False, bandwidth=40, circular=True)
+    assert info["bandwidth"] == 20
+    np.testing.assert_allclose(omega, _circular_bartlett(u, 20), rtol=1e-12)
+    assert omega[0, 0] > 0

@@ -239,6 +239,27 @@ def test_a_record_of_several_strokes_says_so_and_its_echo_is_checked(shared_raw,
     assert stroke.periodic and not any("several strokes" in w for w in stroke.warnings)
 
 
+def test_a_period_that_leaves_a_gap_keeps_the_ends() -> None:
+    # The serial statistics run around the period only where the samples fill it: with a
+    # period given longer than their span the last sample is not the first one's
+    # neighbour.
+    from pumpid.inference.uncertainty import lag1
+
+    period = 6.0
+    truth = Kelvin(k0=400.0, m=5.0, c1=40.0, k1=80.0)
+    t = np.arange(60) * period / 60
+    load = well_load(t, period=period, seed=5)
+    clean = simulate(truth, t, load, initial_state="periodic", period=period)
+    data = clean + 0.01 * np.ptp(clean) * np.random.default_rng(4).standard_normal(t.size)
+    for given, circular in ((period, True), (1.2 * period, False)):
+        res = fit(truth, (t, load, data),
+                  options=FitOptions(initial_state="periodic", period=given, offset=True))
+        r = res.residuals
+        assert res.whiteness["lag1_autocorrelation"] == pytest.approx(lag1(r, circular),
+                                                                       abs=1e-9)
+        assert lag1(r, circular) != pytest.approx(lag1(r, not circular), abs=1e-6)
+
+
 def test_a_resonance_on_the_stroke_frequency_is_not_a_well_property() -> None:
     def quantities(fn: float) -> dict[str, Derived]:
         return {"natural_frequency": Derived("natural_frequency", fn, "Hz", 0.01, 0.01, True,

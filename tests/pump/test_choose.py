@@ -86,3 +86,18 @@ def test_the_cli_chooses_per_card_and_shows_the_ranking(capsys) -> None:
     assert main(["fit", path, "--model", "auto", "--observe", "u"]) == 2
     assert "--model auto" in capsys.readouterr().err
     assert np.isfinite(doc["cards"][0]["r2"])
+
+
+def test_the_ranking_reads_a_periodic_cards_residuals_around_the_period() -> None:
+    # Its lag-1 autocorrelation had two ends where the fit's own whiteness check ran
+    # around the stroke: one card's residuals read 0.954 and 0.97 in one report.
+    from pumpid.inference.uncertainty import lag1
+
+    choice = choose_model(EXAMPLE[0])
+    fits = [c.result for c in choice.candidates if c.result is not None]
+    best = min(fits, key=lambda r: r.cost)
+    assert best.initial_state == "periodic"
+    residual = np.asarray(best.fitted) - np.asarray(best.data)
+    assert choice.rho == pytest.approx(lag1(residual, True))
+    assert best.whiteness["lag1_autocorrelation"] == pytest.approx(lag1(residual, True),
+                                                                    abs=1e-9)

@@ -561,7 +561,19 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
 
 def with_record_warnings(card: Card, slow: str | None) -> Card:
     """``card`` with the stroke-rate warning ``slow`` (if any) and, for a record in its own
-    time, the warning that it holds several strokes (:func:`several_strokes`)."""
+    time, the warning that it holds several strokes (:func:`several_strokes`).
+
+    Parameters
+    ----------
+    card : Card
+        As read.
+    slow : str or None
+        :func:`stroke_rate_warning`'s word on its stroke rate.
+
+    Returns
+    -------
+    Card
+    """
     several = (several_strokes(card.card_id, card.position, card.t)
                if card.time_source == "file" and not card.periodic else None)
     added = tuple(w for w in (slow, several) if w)

@@ -189,7 +189,7 @@ def several_strokes(card_id: str, position: np.ndarray, t: np.ndarray | None
     rises, per_stroke = strokes_seen(position)
     return (f"card {card_id!r} {SEVERAL} in its own time: its position rises "
             f"through mid-stroke {rises} times, one every {per_stroke:.6g} samples (a stroke "
-            f"of about {stroke:.4g} s); it is fitted as one record from rest, a start a "
-            "pumping well never had (split_strokes, on the command line --split-strokes, "
-            "fits each stroke as one period)")
+            f"of about {stroke:.4g} s); a lumped fit takes it as one record from rest, a start "
+            "a pumping well never had, and pumpid downhole refuses it (split_strokes, on the "
+            "command line --split-strokes, makes each stroke a card of one period)")
 

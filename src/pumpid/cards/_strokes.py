@@ -25,6 +25,20 @@ def _noise_sd(x: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
 
 
+def _run_start(x: np.ndarray, i: int) -> int:
+    """The first sample of the run of samples equal to ``x[i]`` that holds sample ``i``."""
+    while i > 0 and x[i - 1] == x[i]:
+        i -= 1
+    return i
+
+
+def _run_end(x: np.ndarray, i: int) -> int:
+    """The last sample of the run of samples equal to ``x[i]`` that holds sample ``i``."""
+    while i + 1 < x.size and x[i + 1] == x[i]:
+        i += 1
+    return i
+
+
 def _whole(card: Card) -> Card:
     """A card holding one stroke, returned whole and marked as one period."""
     changes: dict[str, object] = {"card_id": f"{card.card_id}#0", "periodic": True}
@@ -122,17 +136,14 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
             (pos[tail:].max() - pos[tail] >= _TURN * span) or (pos[tail] - bottom <= level)
         )
     bounds = ([head] if head_ok else []) + interior + ([tail] if tail_ok else [])
-    if tail_ok and len(bounds) >= 2 and tail < card.n:
-        # A flat bottom of stroke (samples holding the lowest position) leaves the last
-        # boundary on any of them: where the record ends within the usual stroke length of
-        # the last boundary but one, the samples after the tail bottom end that stroke, not
-        # begin another (three copies of one stroke gave the last one a sample less, and
-        # another fit).
-        usual = float(np.median(np.diff(ups)))
-        last = bounds[-2]
-        if abs(card.n - last - usual) < abs(tail - last - usual) and card.n - tail <= max(
-                1.0, 0.05 * usual):
-            bounds[-1] = card.n
+    if tail_ok and interior and _run_end(raw, tail) == card.n - 1:
+        # The record ends on a flat bottom of stroke (samples holding one lowest position),
+        # cut short by its end: its boundary goes where the other bottoms' boundaries sit
+        # in their flat runs. Three copies of one stroke whose bottom was its last sample
+        # and its first two had the last stroke end a sample early, with another period
+        # and fit.
+        shift = int(np.median([b - _run_start(raw, b) for b in interior]))
+        bounds[-1] = min(card.n, _run_start(raw, tail) + shift)
     if len(bounds) < 2:
         raise CardError(
             f"card {card.card_id!r}: no complete stroke found (a record with several strokes "

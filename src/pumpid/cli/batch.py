@@ -113,9 +113,9 @@ def _downhole(args: argparse.Namespace) -> Any:
             if getattr(args, "resume", False):
                 # The run's own well file and downhole options are used: "need --well-file"
                 # was said to a run that has one.
-                raise ValueError(f"{', '.join(given)}: a resumed run keeps its own well file "
-                                 "and downhole options; to change them, write a new run to "
-                                 "another folder")
+                raise ValueError(f"{', '.join(given)}: a resumed run keeps its own downhole "
+                                 "options (its well file, or none); to change them, write a "
+                                 "new run to another folder")
             raise ValueError("--damping, --harmonics, --no-identify and --pump-only need "
                              "--well-file")
         return None

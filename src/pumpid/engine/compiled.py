@@ -43,6 +43,7 @@ COMPILED_MODULES = (
     "engine/start/equation_error.py",
     "engine/start/harmonics.py",
     "inference/hac.py",
+    "inference/serial.py",
     "inference/uncertainty.py",
     "rods/march.py",
     "rods/quantities.py",
@@ -94,7 +95,12 @@ _DISPATCHERS: dict[str, Any] = {}
 
 def cache_base() -> Path:
     """The folder of pumpid's caches: ``pumpid`` under ``NUMBA_CACHE_DIR``, else under
-    ``XDG_CACHE_HOME``, else under ``~/.cache`` (read at each call; not created here)."""
+    ``XDG_CACHE_HOME``, else under ``~/.cache`` (read at each call; not created here).
+
+    Returns
+    -------
+    pathlib.Path
+    """
     base = os.environ.get("NUMBA_CACHE_DIR") or os.environ.get("XDG_CACHE_HOME") or str(
         Path.home() / ".cache")
     return Path(base) / "pumpid"

@@ -44,7 +44,7 @@ from pumpid.pump import PumpSystem
 from pumpid.pump.runner import FitSpec, fit_cards_each
 from pumpid.report.spreadsheet import to_csv as spreadsheet_csv
 from pumpid.result import CardInfo
-from pumpid.result.table import FIT, fit_row, identity_of, unfitted_row
+from pumpid.result.table import fit_row, identity_of, unfitted_row
 from pumpid.version import __version__
 
 from .defaults import IDENTIFY_PARTITION_SIZE, PARTITION_SIZE
@@ -361,7 +361,14 @@ def run_batch(
                     "new run")
             progress.note(text)
             warnings.warn(text, UserWarning, stacklevel=2)
-    manifest = {"pumpid": __version__, "table": [name for name, _kind in FIT],
+    pump_only = downhole is not None and not downhole.lumped
+    schema = results_schema(() if pump_only else fit.model_classes())
+    if downhole is not None:
+        schema = pump_schema(schema, identify=downhole.identify)
+    # Every column of the run's table: a run written with other columns (an earlier pumpid
+    # of the same version number) is not resumed into one table with this one's (its
+    # parts' pump_fluid_load and this run's would mean two things, its new columns dropped).
+    manifest = {"pumpid": __version__, "table": list(schema.names),
                 "inputs": [os.fspath(i) for i in inputs],
                 # Absolute, for a resume without inputs to search the same folders again.
                 "input_paths": ([str(Path(os.fspath(i)).resolve()) for i in inputs] if inputs
@@ -379,10 +386,6 @@ def run_batch(
     except BaseException:
         runner.close()
         raise
-    pump_only = downhole is not None and not downhole.lumped
-    schema = results_schema(() if pump_only else fit.model_classes())
-    if downhole is not None:
-        schema = pump_schema(schema, identify=downhole.identify)
     summary = BatchSummary(results=folder, pump_only=pump_only)
     summary.engine = runner.description
     started = time.monotonic()

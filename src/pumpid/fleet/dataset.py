@@ -281,7 +281,7 @@ def _card(
     # Parquet the same stroke was fitted from rest. A stroke no pumping unit has is said.
     card = one_period(card) if order_col == "t" else card
     slow = stroke_rate_warning(card_id, stroke_period(card), "t" if order_col == "t" else None,
-                               "the spm column")
+                               "the stroke rate given" if given is not None else "the spm column")
     return with_record_warnings(card, slow)
 
 

@@ -121,6 +121,10 @@ def quantity_values(frame: pd.DataFrame, quantity: str, unit: str | None = None
     det = f"{col}_determined"
     if det in frame.columns:
         ok &= frame[det].fillna(False).astype(bool)
+    elif quantity.startswith("p_") and f"{col}_se" in frame.columns:
+        # As the change detection reads a table written before parameters had their own
+        # verdict: an infinite or unknown error is not determined.
+        ok &= np.isfinite(pd.to_numeric(frame[f"{col}_se"], errors="coerce"))
     # A value the card's fit calls an echo of the stroke is not the well's: the plots show
     # what the change detection trends (a stroke frequency drawn as the well's resonance
     # contradicted the card's own warning).

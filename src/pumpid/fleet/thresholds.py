@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import TypeVar
 
 import numpy as np
+import scipy
 import scipy.stats
 from numpy.typing import NDArray
 
@@ -76,10 +77,10 @@ _TABLES: dict[Path, dict[str, float]] = {}
 
 
 def _store_file() -> Path:
-    """The file of stored thresholds: named by this module's source and numpy's version (a
-    change to either may change what the simulations give)."""
+    """The file of stored thresholds: named by this module's source and numpy's and scipy's
+    versions (a change to any may change what the simulations give)."""
     digest = hashlib.sha256(Path(__file__).read_bytes())
-    digest.update(np.__version__.encode())
+    digest.update(f"{np.__version__} {scipy.__version__}".encode())
     return cache_base() / f"thresholds-{digest.hexdigest()[:16]}.json"
 
 
@@ -87,8 +88,20 @@ def stored(func: F) -> F:
     """Cache a simulated threshold in the process and on disk, by its arguments.
 
     The simulations are seeded, so a stored value is the one the simulation would give. A
-    file that cannot be read or written is ignored (the value is simulated instead): the
-    cache only saves time.
+    file that cannot be read or written, or that holds anything but a table of numbers, is
+    ignored (the value is simulated instead): the cache only saves time. Two processes
+    writing at once may each keep only their own values (both are right).
+
+    Parameters
+    ----------
+    func : callable
+        A function of positional, hashable arguments whose ``repr`` is stable, returning a
+        float.
+
+    Returns
+    -------
+    callable
+        The same function, its values cached.
     """
     @functools.lru_cache(maxsize=512)
     @functools.wraps(func)
@@ -97,7 +110,7 @@ def stored(func: F) -> F:
         table = _TABLES.get(path)
         if table is None:
             table = {}
-            with contextlib.suppress(OSError, ValueError):
+            with contextlib.suppress(OSError, ValueError, TypeError, AttributeError):
                 loaded = json.loads(path.read_text(encoding="utf-8"))
                 table = {str(k): float(v) for k, v in loaded.items()}
             _TABLES[path] = table
@@ -110,9 +123,13 @@ def stored(func: F) -> F:
             path.parent.mkdir(parents=True, exist_ok=True)
             # Written whole and renamed: a process reading it never sees half a file.
             handle, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-            with os.fdopen(handle, "w", encoding="utf-8") as out:
-                json.dump(table, out)
-            os.replace(tmp, path)
+            try:
+                with os.fdopen(handle, "w", encoding="utf-8") as out:
+                    json.dump(table, out)
+                os.replace(tmp, path)
+            finally:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
         return value
 
     return wrapper  # type: ignore[return-value]

@@ -454,13 +454,25 @@ def uncertainty_of(nums: Numbers, undetermined: Sequence[int], notes: Sequence[s
     )
 
 
+def _one_period(problem: Problem, k: int) -> bool:
+    """Card k is one whole period of a steady state, sampled uniformly: its last sample is
+    its first one's neighbour (not so where a period given leaves a gap after it)."""
+    if problem.initial_states[k] != "periodic" or not problem.uniform[k]:
+        return False
+    t = problem.card(k)[0]
+    if t.size < 2:
+        return False
+    period = float(problem.period[k])
+    step = float(t[-1] - t[0]) / (t.size - 1)
+    return abs(period - t.size * step) <= 1e-6 * period
+
+
 def numbers(problem: Problem, cards: NDArray[np.int64], z: Array, inner: NDArray[np.bool_],
             ) -> list[Numbers]:
     """:func:`diagnose_items` for many (card, optimum) items, as :class:`Numbers`."""
     m = cards.size
     span = np.array([float(np.ptp(problem.card(int(k))[2])) or 1.0 for k in cards])
-    circular = np.array([problem.initial_states[int(k)] == "periodic" for k in cards],
-                        dtype=np.bool_)
+    circular = np.array([_one_period(problem, int(k)) for k in cards], dtype=np.bool_)
     data, model, settings = problem.arrays
     s, vt, cov, hac, dse, stats = diagnose_items(
         np.ascontiguousarray(cards, dtype=np.int64), np.ascontiguousarray(z),
