@@ -366,3 +366,39 @@ def test_a_periodic_card_s_errors_do_not_depend_on_its_first_sample() -> None:
         assert turned.errors_shown == base.errors_shown
         for name in base.free:
             assert turned.stderr[name] == pytest.approx(base.stderr[name], rel=1e-3), name
+
+
+@pytest.mark.parametrize("circular", [False, True])
+def test_the_ar1_floor_is_the_ar1_sandwich(circular: bool) -> None:
+    # The floor's covariance against the sandwich with the AR(1) correlation written out
+    # as a matrix: rho^|i - j| with two ends, (rho^d + rho^(N - d)) / (1 + rho^N) at a
+    # distance d around the period (a stationary AR(1) of period N).
+    from pumpid.inference.serial import with_ar1_floor
+    from pumpid.inference.uncertainty import Numbers, analyse_rows, lag1
+
+    rng = np.random.default_rng(7)
+    n, q = 40, 3
+    cols = rng.standard_normal((q, n))
+    noise = np.zeros(n)
+    for i in range(1, 3 * n):
+        noise[i % n] = 0.7 * noise[(i - 1) % n] + rng.standard_normal()
+    resid = noise - cols.T @ np.linalg.lstsq(cols.T, noise, rcond=None)[0]
+    rows = np.vstack([cols, resid])
+    s, vt, cov, hac, dse, stats = analyse_rows(rows.copy(), np.ones(q, np.bool_), -1, 1.0,
+                                               circular)
+    nums = Numbers(names=("a", "b", "c"), inner=(0, 1, 2), values=np.ones(q),
+                   scales=np.ones(q), singular=s, vt=vt, cov_scaled=cov,
+                   hac_scaled=np.zeros_like(hac), direction_se_hac=dse, rms=float(stats[1]),
+                   rho=float(stats[2]), bandwidth=float(stats[3]),
+                   persistence=float(stats[4]), capped=bool(stats[5]), n=n,
+                   cost=0.5 * float(resid @ resid), usable=True, circular=circular)
+    floored, rho = with_ar1_floor(nums, rows, -1)
+    expected_rho = min(max(lag1(resid, circular) + (1 + 3 * lag1(resid, circular)) / n, 0.0),
+                       0.99)
+    assert rho == pytest.approx(expected_rho)
+    d = np.abs(np.subtract.outer(np.arange(n), np.arange(n)))
+    corr = ((rho**d + rho ** (n - d)) / (1 + rho**n)) if circular else rho**d
+    bread = np.linalg.inv(cols @ cols.T)
+    gamma0 = float(resid @ resid) / (n - q)
+    sandwich = bread @ (gamma0 * cols @ corr @ cols.T) @ bread
+    np.testing.assert_allclose(floored.hac_scaled, sandwich, rtol=1e-9)
