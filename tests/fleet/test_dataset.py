@@ -167,10 +167,17 @@ def test_the_callers_stroke_rate_wins_as_for_every_file(tmp_path: Path) -> None:
         read_parquet_cards(tmp_path / "x.parquet", spm=6.0, period=10.0)
 
 
-def test_a_parquet_file_given_as_a_card_file_is_named(tmp_path: Path) -> None:
+def test_a_parquet_file_is_read_by_pumpid_fit_and_named_by_the_text_readers(
+        tmp_path: Path, capsys) -> None:
+    # pumpid fit and pumpid downhole called a Parquet card file's bytes an encoding
+    # problem: a card a batch run found odd could not be looked at on its own.
     from pumpid.cards import read_cards
+    from pumpid.cli import main
 
-    _long(["a"]).to_parquet(tmp_path / "x.parquet")
+    _long(["a", "b"], position_unit="in", load_unit="lbf").to_parquet(tmp_path / "x.parquet")
     with pytest.raises(CardError, match="a Parquet file, not a text card file") as info:
         read_cards(tmp_path / "x.parquet")
     assert "encoding" not in str(info.value)
+    assert main(["fit", str(tmp_path / "x.parquet"), "--card", "b", "--brief"]) in (0, 5, 6)
+    out = capsys.readouterr().out
+    assert "source=x.parquet, card b" in out and "# 1 card:" in out

@@ -205,9 +205,9 @@ def decode(data: bytes | str, *, path: str, encoding: str | None) -> tuple[str, 
                 )
             elif data[:4] == b"PAR1":
                 raise CardError(
-                    "a Parquet file, not a text card file: Parquet card datasets are read by "
-                    "pumpid batch (pumpid.fleet.read_parquet_cards); to look at one of its "
-                    "cards here, write it out as CSV first",
+                    "a Parquet file, not a text card file: read Parquet card datasets with "
+                    "pumpid.fleet.read_parquet_cards (the pumpid commands read them "
+                    "themselves)",
                     path=path,
                 )
             elif b"\x00" in data:

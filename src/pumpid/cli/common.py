@@ -19,12 +19,13 @@ from __future__ import annotations
 import collections
 import contextlib
 import math
+import os
 import sys
 import warnings
 from collections.abc import Iterator, Sequence
 from typing import Any, TextIO
 
-from ..cards import printable
+from ..cards import Card, CardError, printable
 from ..engine import compiled
 from ..report.words import plural
 
@@ -53,6 +54,7 @@ __all__ = [
     "fmt",
     "initial_state_option",
     "model_option",
+    "parquet_cards",
     "parse_assignments",
     "plural",
     "rate_option",
@@ -458,3 +460,45 @@ class WarningCounter:
         return (f"note: {plural(total, 'numerical warning')} {were} raised and not shown "
                 f"({top}); each "
                 "card's status and warnings say whether its fit is usable")
+
+
+def parquet_cards(path: str, *, position_unit: str | None, load_unit: str | None,
+                  spm: float | None, period: float | None, well_id: str | None
+                  ) -> tuple[list[Card], list[CardError]] | None:
+    """The cards of a Parquet card file, as ``pumpid batch`` reads them, each bad card an
+    error in its place; None for a file that is not Parquet.
+
+    ``pumpid fit`` and ``pumpid downhole`` read them too, so that a card a batch run found
+    odd can be looked at on its own (the text readers had called the file's bytes an
+    encoding problem).
+
+    Parameters
+    ----------
+    path : str
+    position_unit, load_unit : str or None
+        Units of every card (over the file's unit columns).
+    spm, period : float or None
+        The stroke rate or period of every card without time (over the file's spm column).
+    well_id : str or None
+        The well of every card (over the file's).
+
+    Returns
+    -------
+    (cards, errors) or None
+    """
+    from ..fleet.dataset import iter_parquet_cards
+    from ..fleet.inputs import is_parquet
+
+    # Sniffed only in a regular file: opening a named pipe to read its first bytes waits
+    # for a writer (the text readers refuse such a file by what it is).
+    if not (os.path.isfile(path) and is_parquet(path)):
+        return None
+    cards: list[Card] = []
+    errors: list[CardError] = []
+    for got in iter_parquet_cards(path, position_unit=position_unit, load_unit=load_unit,
+                                  spm=spm, period=period):
+        if isinstance(got, CardError):
+            errors.append(got)
+        else:
+            cards.append(got if well_id is None else got.replace(well_id=well_id))
+    return cards, errors

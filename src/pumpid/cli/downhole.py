@@ -47,6 +47,7 @@ from .common import (
     err,
     exit_status,
     fmt,
+    parquet_cards,
     rate_option,
 )
 from .select import selected
@@ -90,9 +91,16 @@ def _read(path: str, args: argparse.Namespace) -> list[Card]:
 
     columns = columns_option(args.columns, t=args.t_col, load=args.load_col,
                              position=args.position_col)
-    cards = read_cards(path, format=args.format, position_unit=args.position_unit,
-                       load_unit=args.load_unit, spm=args.spm, period=args.period,
-                       columns=columns, encoding=args.encoding, well_id=args.well_id)
+    got = parquet_cards(path, position_unit=args.position_unit, load_unit=args.load_unit,
+                        spm=args.spm, period=args.period, well_id=args.well_id)
+    if got is not None:
+        cards, errors = got
+        if errors:  # as the text readers: a bad card stops the file
+            raise errors[0]
+    else:
+        cards = read_cards(path, format=args.format, position_unit=args.position_unit,
+                           load_unit=args.load_unit, spm=args.spm, period=args.period,
+                           columns=columns, encoding=args.encoding, well_id=args.well_id)
     if args.card is None and not args.split_strokes:
         return cards
     # As pumpid fit chooses them: a stroke's id RECORD#k after its record is split (it

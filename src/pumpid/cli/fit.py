@@ -51,6 +51,7 @@ from .common import (
     columns_option,
     err,
     exit_status,
+    parquet_cards,
     plural,
     rate_option,
 )
@@ -178,6 +179,10 @@ def _read_file(path: str, setup: FitSetup) -> tuple[list[Card], list[CardError]]
     (a CardError is raised only when the whole file cannot be read)."""
     from ..cards import read_cards_and_errors
 
+    got = parquet_cards(path, **{k: setup.read[k] for k in (
+        "position_unit", "load_unit", "spm", "period", "well_id")})
+    if got is not None:
+        return got
     read = read_cards_and_errors(path, **setup.read)
     return read.cards, read.errors
 

@@ -43,6 +43,7 @@ __all__ = [
     "InputFile",
     "ReadOptions",
     "find_inputs",
+    "is_parquet",
     "iter_items",
 ]
 
@@ -210,7 +211,8 @@ def _kind(path: Path) -> str:
     return "a special file"
 
 
-def _is_parquet(path: str) -> bool:
+def is_parquet(path: str) -> bool:
+    """Whether ``path`` is a Parquet file (by its name, else by its first bytes)."""
     if path.lower().endswith(_PARQUET_SUFFIXES):
         return True
     try:
@@ -228,7 +230,7 @@ def _source(name: str, reader_source: str, base: str) -> str:
 
 
 def _cards_of(file: InputFile, options: ReadOptions) -> Iterator[Card | CardError]:
-    if _is_parquet(file.path):
+    if is_parquet(file.path):
         for got in iter_parquet_cards(file.path, position_unit=options.position_unit,
                                       load_unit=options.load_unit, spm=options.spm,
                                       period=options.period):
@@ -324,7 +326,7 @@ def _bad_file(file: InputFile, error: Exception) -> BadItem:
         where = error.place
         source = f"{file.name}, {where}" if where else file.name
         well, when = None, None
-        if not _is_parquet(file.path):
+        if not is_parquet(file.path):
             try:
                 well, when = _stated_identity(file.path)
             except Exception:  # best effort: the file's row must be written whatever it holds
