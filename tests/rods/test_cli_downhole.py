@@ -547,3 +547,31 @@ def test_the_well_files_assumptions_are_said_in_the_text(tmp_path: Path, surface
     assert "no tubing entry: the tubing is taken as anchored" in text
     assert "the given density replaces that of steel" in text
     assert "rods[1] is thicker than rods[0] above it" in text and "from the bottom" in text
+
+
+def test_a_parquet_card_file_gives_the_csv_files_answer(tmp_path: Path, surface,
+                                                        capsys) -> None:
+    # The same card from the Parquet long layout pumpid batch reads: the same pump card;
+    # a bad card in it stops the file with its reason, as from a text file.
+    import pandas as pd
+
+    cards = write_cards(tmp_path / "cards.csv", surface)
+    table = pd.read_csv(cards)
+    table["sample"] = table.groupby("card_id").cumcount()
+    long = table.rename(columns={"position_in": "position", "load_lbf": "load"}).assign(
+        position_unit="in", load_unit="lbf", spm=SPM)
+    long.to_parquet(tmp_path / "cards.parquet", index=False)
+    well = str(write_well(tmp_path / "well.json"))
+    _, from_csv = run_json(capsys, str(cards), "--well", well, "--spm", str(SPM), "--card",
+                           "card1", "--no-identify")
+    _, from_parquet = run_json(capsys, str(tmp_path / "cards.parquet"), "--well", well,
+                               "--card", "card1", "--no-identify")
+    a, b = from_csv["cards"][0], from_parquet["cards"][0]
+    assert b["status"] == a["status"] == "computed"
+    for name, q in a["pump"].items():
+        assert b["pump"][name]["value"] == pytest.approx(q["value"], rel=1e-9), name
+    long.loc[long.index[3], "load"] = float("nan")
+    long.to_parquet(tmp_path / "bad.parquet", index=False)
+    code, doc = run_json(capsys, str(tmp_path / "bad.parquet"), "--well", well, "--card",
+                         "card1", "--no-identify")
+    assert code == 2 and "NaN value in load" in json.dumps(doc)
