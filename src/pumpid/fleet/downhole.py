@@ -100,8 +100,9 @@ PUMP_QUANTITIES = ("gross_stroke", "net_stroke", "fluid_load", "fillage", "upper
                    "lower_load_line", "displacement", "intake_pressure")
 #: Those the identification gives with a standard error (:meth:`PumpFit.quantities`).
 IDENTIFIED = tuple(q for q in PUMP_QUANTITIES if q in SHOWN)
-#: Identification statuses whose quantities are written and trended (as the fleet trends
-#: the fits of the lumped models: a poor fit still says where the pump is).
+#: Identification statuses whose fit's own figures are written (R^2, residual
+#: autocorrelation, damping); its quantities are the row's where it is used (converged or
+#: boundary, as pumpid downhole uses it), else the diagnostic card's are, not trended.
 IDENTIFIED_USABLE = ("converged", "boundary", "undetermined", "poor-fit")
 #: Those trended by default: the load lines are the fluid load's ingredients, and each more
 #: quantity tested costs every other some sensitivity (the false-alarm rate is split).
