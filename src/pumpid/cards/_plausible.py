@@ -405,9 +405,11 @@ def plausibility_warnings(
             "rod string's model reads it in reverse time order")
     first, held = _held_run(position, load)
     # 5 % of a stroke, not of the record: on a record of seven strokes a stretch frozen for
-    # a third of one stroke went unsaid.
-    rises, per_stroke = strokes_seen(position)
-    stroke = per_stroke if rises >= 2 and math.isfinite(per_stroke) else position.size
+    # a third of one stroke went unsaid. (Strokes counted only for a run worth weighing.)
+    stroke = float(position.size)
+    if held >= 3:
+        rises, per_stroke = strokes_seen(position)
+        stroke = per_stroke if rises >= 2 and math.isfinite(per_stroke) else stroke
     if held >= max(3, PADDING_SHARE * stroke):
         # A frozen transmitter or a stopped unit: a moving rod never holds both its
         # position and its load to every digit for 5 % of a stroke. (At the card's end or

@@ -153,12 +153,19 @@ def record_stroke(position: np.ndarray, t: np.ndarray | None) -> float | None:
     -------
     float or None
     """
+    return _stroke_of(position, t)[2]
+
+
+def _stroke_of(position: np.ndarray, t: np.ndarray | None
+               ) -> tuple[int, float, float | None]:
+    """Rises through mid-stroke, samples per stroke and the stroke's duration (s; None
+    without time or with fewer than two rises)."""
     if t is None or t.size < 3:
-        return None
+        return 0, math.nan, None
     rises, per_stroke = strokes_seen(position)
     if rises < 2:
-        return None
-    return per_stroke * float(t[-1] - t[0]) / (t.size - 1)
+        return rises, per_stroke, None
+    return rises, per_stroke, per_stroke * float(t[-1] - t[0]) / (t.size - 1)
 
 
 def several_strokes(card_id: str, position: np.ndarray, t: np.ndarray | None
@@ -183,10 +190,9 @@ def several_strokes(card_id: str, position: np.ndarray, t: np.ndarray | None
     -------
     str or None
     """
-    stroke = record_stroke(position, t)
+    rises, per_stroke, stroke = _stroke_of(position, t)
     if stroke is None:
         return None
-    rises, per_stroke = strokes_seen(position)
     return (f"card {card_id!r} {SEVERAL} in its own time: its position rises "
             f"through mid-stroke {rises} times, one every {per_stroke:.6g} samples (a stroke "
             f"of about {stroke:.4g} s); a lumped fit takes it as one record from rest, a start "

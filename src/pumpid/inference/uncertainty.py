@@ -52,6 +52,7 @@ __all__ = [
     "residual_whiteness",
     "t_quantile",
     "uncertainty_of",
+    "whole_period",
     "widened",
 ]
 
@@ -454,9 +455,11 @@ def uncertainty_of(nums: Numbers, undetermined: Sequence[int], notes: Sequence[s
     )
 
 
-def _one_period(problem: Problem, k: int) -> bool:
-    """Card k is one whole period of a steady state, sampled uniformly: its last sample is
-    its first one's neighbour (not so where a period given leaves a gap after it)."""
+def whole_period(problem: Problem, k: int) -> bool:
+    """Whether the problem's card ``k`` is one whole period of a steady state, sampled
+    uniformly: its last sample is its first one's neighbour (not so where a period given
+    leaves a gap after it). Its serial statistics then run around the period, and its
+    fundamental's share of the data is measured."""
     if problem.initial_states[k] != "periodic" or not problem.uniform[k]:
         return False
     t = problem.card(k)[0]
@@ -472,7 +475,7 @@ def numbers(problem: Problem, cards: NDArray[np.int64], z: Array, inner: NDArray
     """:func:`diagnose_items` for many (card, optimum) items, as :class:`Numbers`."""
     m = cards.size
     span = np.array([float(np.ptp(problem.card(int(k))[2])) or 1.0 for k in cards])
-    circular = np.array([_one_period(problem, int(k)) for k in cards], dtype=np.bool_)
+    circular = np.array([whole_period(problem, int(k)) for k in cards], dtype=np.bool_)
     data, model, settings = problem.arrays
     s, vt, cov, hac, dse, stats = diagnose_items(
         np.ascontiguousarray(cards, dtype=np.int64), np.ascontiguousarray(z),

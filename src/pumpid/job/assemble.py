@@ -19,6 +19,7 @@ from ..cards import open_stroke
 from ..engine import drive
 from ..engine.problem import Problem
 from ..inference.echo import FUNDAMENTAL_ONLY, FUNDAMENTAL_WORSE, fundamental_share
+from ..inference.uncertainty import whole_period
 from ..models import Model, model_class
 from ..result import BoundaryInfo, FitResult, Status, Units
 from .options import JobOptions
@@ -178,9 +179,7 @@ def build_result(problem: Problem, k: int, card: CardState, options: JobOptions,
             **({"C": scale_unit} if scale_unit != "1" else {})})
     boundary = (BoundaryInfo(card.limits, reduced) if card.limits else None)
     state = problem.initial_states[k]
-    one_period = (state == "periodic" and problem.uniform[k] and problem.residual == "linear"
-                  and t.size > 1 and abs(problem.period[k] - t.size * (t[1] - t[0]))
-                  <= 1e-6 * problem.period[k])
+    one_period = problem.residual == "linear" and whole_period(problem, k)
     r2_fundamental = fundamental_share(d) if one_period else math.nan
     gap = open_stroke(d) if state == "periodic" else None
     if gap is not None:
