@@ -67,8 +67,9 @@ def _check_columns(path: str, columns: list[str], rows: int) -> None:
 def cmd_report(args: argparse.Namespace) -> int:
     """Write the fleet report; print where, and the alerts in one line each."""
 
-    from ..fleet.changes import available_quantities, card_counts, detect_changes
+    from ..fleet.changes import card_counts, detect_changes
     from ..fleet.events import count_events, ordered_by_event
+    from ..fleet.quantities import available_quantities
     from ..fleet.report import write_fleet_report
     from ..fleet.store import read_results
 

@@ -111,11 +111,18 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from pumpid.models import model_class
-
 from .detectors import median_se, robust_sigma, scan_cusum, scan_two_segments
-from .downhole import is_pump_quantity, pump_quantities, pump_usable
+from .downhole import pump_usable
 from .events import change_size, events_of, number_events
+from .quantities import (
+    STATUSES,
+    USABLE_STATUSES,
+    available_quantities,
+    columns_of,
+    counted,
+    larger_error,
+    parameter_unit,
+)
 from .thresholds import MIN_SEGMENT, cusum_threshold
 
 __all__ = [
@@ -138,10 +145,6 @@ __all__ = [
 
 #: The well of rows whose ``well_id`` is missing (files that could not be read).
 UNKNOWN_WELL = "(unknown well)"
-#: Every status a results row can have.
-STATUSES = ("converged", "boundary", "undetermined", "poor-fit", "failed", "invalid-input")
-#: Statuses whose values are trended (the others are counted only).
-USABLE_STATUSES = ("converged", "boundary", "undetermined", "poor-fit")
 #: Columns of :func:`detect_changes`' result, in order.
 ALERT_COLUMNS = (
     "well_id", "quantity", "unit", "first_card_id", "first_time", "alarm_card_id",
@@ -228,66 +231,6 @@ def is_duplicate(table: pd.DataFrame) -> pd.Series:
     return dup.notna() & (dup.astype(str) != "")
 
 
-def available_quantities(table: pd.DataFrame, *, parameters: bool = False) -> list[str]:
-    """Names of the quantities a table holds: derived ones, then (optionally) parameters.
-
-    Derived quantity ``NAME`` is the column ``d_NAME``; parameter ``NAME`` is listed as
-    ``p_NAME`` (its column name), so the two kinds cannot collide.
-
-    Parameters
-    ----------
-    table : pandas.DataFrame
-        A results table.
-    parameters : bool, default False
-        Also list the model parameters.
-
-    Returns
-    -------
-    list of str
-    """
-    suffixes = ("_se", "_se_hac", "_se_white", "_determined", "_well_property", "_unit")
-    derived = [
-        c[2:] for c in table.columns
-        if isinstance(c, str) and c.startswith("d_") and not c.endswith(suffixes)
-    ]  # fmt: skip
-    params = [
-        c for c in table.columns
-        if parameters and isinstance(c, str) and c.startswith("p_") and not c.endswith(suffixes)
-    ]  # fmt: skip
-    return derived + params + pump_quantities(table)  # pump_NAME: pumpid.fleet.downhole
-
-
-def _columns(quantity: str) -> tuple[str, list[str], str | None, str | None, str]:
-    """Value column, standard-error columns, determined column, unit column, kind."""
-    if is_pump_quantity(quantity):  # the pump quantities (pumpid.fleet.downhole)
-        # The identification's standard error and whether it determines the value (both
-        # absent without it: the scatter alone, every computed card).
-        return (quantity, [f"{quantity}_se"], f"{quantity}_determined", f"{quantity}_unit",
-                "pump")
-    if quantity.startswith("p_"):
-        return (quantity, [f"{quantity}_se", f"{quantity}_se_hac"], f"{quantity}_determined",
-                None, "parameter")
-    col = f"d_{quantity}"
-    return col, [f"{col}_se"], f"{col}_determined", f"{col}_unit", "derived"
-
-
-def _parameter_unit(frame: pd.DataFrame, quantity: str) -> str:
-    """A parameter's unit from the model's own description, when the table allows it."""
-    name = quantity[2:]
-    try:
-        models = frame["model"].dropna().unique()
-        if len(models) != 1:
-            return "model units"
-        info = {p.name: p for p in model_class(str(models[0])).param_info()}[name]
-        load = str(frame["load_unit"].dropna().iloc[0])
-        position = str(frame["position_unit"].dropna().iloc[0])
-        return info.unit_for(load, position)
-    except (KeyError, IndexError, ValueError, AttributeError):
-        # No model column, several models, unknown units, or a model class without unit
-        # descriptions: say so rather than guess.
-        return "model units"
-
-
 @dataclass(frozen=True)
 class _Usable:
     """The usable rows of a table, each well's in its order, with per-well bounds."""
@@ -338,31 +281,15 @@ def _quantity(
     """One quantity over the usable rows: values, standard errors, which rows count, the
     unit of each well, and the kind (derived or parameter)."""
     frame = usable.frame
-    col, se_cols, det_col, unit_col, kind = _columns(q)
-    values = pd.to_numeric(frame[col], errors="coerce").to_numpy(dtype=float)
-    keep = np.isfinite(values)
-    keep &= (pump_usable(frame) if kind == "pump"
-             else frame["status"].isin(USABLE_STATUSES)).to_numpy()
-    if det_col is not None and det_col in frame.columns:
-        keep &= frame[det_col].fillna(False).astype(bool).to_numpy()
-    elif kind == "parameter" and se_cols[0] in frame.columns:
-        # A table written before parameters had their own verdict: a value whose error is
-        # infinite or unknown is not determined (an alert on c1 had been sized at "-68.8
-        # standard errors" from cards whose own errors were all infinite).
-        shown = pd.to_numeric(frame[se_cols[0]], errors="coerce").to_numpy(dtype=float)
-        keep &= np.isfinite(shown)
-    if not asked and f"{col}_well_property" in frame.columns:  # an echo of the stroke: skip
-        keep &= frame[f"{col}_well_property"].fillna(True).astype(bool).to_numpy()
-    se = np.full(values.size, np.nan)
-    for c in se_cols:
-        if c in frame.columns:
-            other = pd.to_numeric(frame[c], errors="coerce").to_numpy(dtype=float)
-            se = np.fmax(se, np.where(other >= 0, other, np.nan))  # the larger error
+    cols = columns_of(q)
+    values = pd.to_numeric(frame[cols.value], errors="coerce").to_numpy(dtype=float)
+    keep = counted(frame, q, values, asked=asked)
+    se = larger_error(frame, q)
     n_wells = len(usable.wells)
     code = np.repeat(np.arange(n_wells), np.diff(usable.bounds))
     units = [""] * n_wells
-    if unit_col is not None and unit_col in frame.columns:
-        stated = frame[unit_col].to_numpy(dtype=object)
+    if cols.unit is not None and cols.unit in frame.columns:
+        stated = frame[cols.unit].to_numpy(dtype=object)
         # A well's unit is the one most of its kept values state; a well with no kept value
         # (every card left the quantity undetermined) still has the unit its rows state,
         # which does not depend on whether the value is known.
@@ -379,10 +306,10 @@ def _quantity(
             # that states no unit is taken to share the well's).
             well_unit = np.array(units, dtype=object)[code]
             keep &= ~pd.notna(stated) | (stated.astype(str) == well_unit)
-    elif kind == "parameter":
-        units = [_parameter_unit(frame.iloc[usable.bounds[i]:usable.bounds[i + 1]], q)
+    elif cols.kind == "parameter":
+        units = [parameter_unit(frame.iloc[usable.bounds[i]:usable.bounds[i + 1]], q)
                  for i in range(n_wells)]  # fmt: skip
-    return values, se, keep, units, kind
+    return values, se, keep, units, cols.kind
 
 
 # --------------------------------------------------------------------------- public API
@@ -466,9 +393,9 @@ def detect_changes(
     names = list(quantities) if quantities is not None else available_quantities(
         frame, parameters=parameters)  # fmt: skip
     for q in names:
-        if _columns(q)[0] not in frame.columns:
+        if columns_of(q).value not in frame.columns:
             raise ValueError(
-                f"no column {_columns(q)[0]!r} for quantity {q!r}; the table has "
+                f"no column {columns_of(q).value!r} for quantity {q!r}; the table has "
                 f"{', '.join(available_quantities(frame, parameters=True)) or 'none'}"
             )
     rows: list[dict[str, Any]] = []
@@ -590,7 +517,7 @@ def history_coverage(
     """
     frame = load_results(table)
     names = list(quantities) if quantities is not None else available_quantities(frame)
-    names = [q for q in names if _columns(q)[0] in frame.columns]
+    names = [q for q in names if columns_of(q).value in frame.columns]
     rows: list[dict[str, Any]] = []
     if not frame.empty and names:
         usable = _prepare(frame)
@@ -636,7 +563,7 @@ def summarise_wells(
     """
     frame = load_results(table)
     names = list(quantities) if quantities is not None else available_quantities(frame)
-    names = [q for q in names if _columns(q)[0] in frame.columns]
+    names = [q for q in names if columns_of(q).value in frame.columns]
     alerts = alerts if alerts is not None else pd.DataFrame(columns=list(ALERT_COLUMNS))
     if frame.empty:
         return pd.DataFrame(columns=["well_id", "cards"])

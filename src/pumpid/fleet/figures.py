@@ -19,8 +19,7 @@ from pumpid.cards import printable
 from pumpid.report.units import unit_factor
 from pumpid.report.words import plural
 
-from .changes import USABLE_STATUSES
-from .downhole import PUMP_PREFIX, is_pump_quantity, pump_usable
+from .quantities import USABLE_STATUSES, columns_of, counted, larger_error
 
 __all__ = [
     "MIN_WELLS_HISTOGRAM",
@@ -70,8 +69,8 @@ def column_unit(frame: pd.DataFrame, summary: pd.DataFrame, quantity: str) -> st
     (whether or not their value is determined: a quantity no card determined still has its
     unit), else the one most wells' latest values have (parameters: from the model)."""
     stated = pd.Series(dtype=object)
-    own = f"{quantity}_unit" if is_pump_quantity(quantity) else f"d_{quantity}_unit"
-    if not quantity.startswith("p_") and own in frame.columns:
+    own = columns_of(quantity).unit  # None for a parameter
+    if own is not None and own in frame.columns:
         stated = frame[own].dropna().astype(str)
     if not len(stated) and f"latest_{quantity}_unit" in summary.columns:
         stated = summary[f"latest_{quantity}_unit"].dropna().astype(str)
@@ -103,34 +102,18 @@ def quantity_values(frame: pd.DataFrame, quantity: str, unit: str | None = None
     value, se : pandas.Series
     usable : pandas.Series of bool
     """
-    col = quantity if quantity.startswith(("p_", PUMP_PREFIX)) else f"d_{quantity}"
-    value = pd.to_numeric(frame[col], errors="coerce")
-    se = pd.Series(np.nan, index=frame.index)
-    for c in (f"{col}_se", f"{col}_se_hac"):
-        if c in frame.columns:
-            se = np.fmax(se, pd.to_numeric(frame[c], errors="coerce"))
-    if unit and f"{col}_unit" in frame.columns:
-        stated = frame[f"{col}_unit"]
+    cols = columns_of(quantity)
+    value = pd.to_numeric(frame[cols.value], errors="coerce")
+    se = pd.Series(larger_error(frame, quantity), index=frame.index)
+    if unit and cols.unit is not None and cols.unit in frame.columns:
+        stated = frame[cols.unit]
         factors = {u: unit_factor(str(u), unit) for u in stated.dropna().unique()}
         factor = stated.map(lambda u: 1.0 if pd.isna(u) else factors[u])
         factor = pd.to_numeric(factor, errors="coerce")  # None (not convertible): NaN
         value, se = value * factor, se * factor
-    ok = frame["status"].isin(USABLE_STATUSES) & value.notna() & np.isfinite(value)
-    if is_pump_quantity(quantity):  # counts when the pump card was computed
-        ok = pump_usable(frame) & value.notna() & np.isfinite(value)
-    det = f"{col}_determined"
-    if det in frame.columns:
-        ok &= frame[det].fillna(False).astype(bool)
-    elif quantity.startswith("p_") and f"{col}_se" in frame.columns:
-        # As the change detection reads a table written before parameters had their own
-        # verdict: an infinite or unknown error is not determined.
-        ok &= np.isfinite(pd.to_numeric(frame[f"{col}_se"], errors="coerce"))
-    # A value the card's fit calls an echo of the stroke is not the well's: the plots show
-    # what the change detection trends (a stroke frequency drawn as the well's resonance
-    # contradicted the card's own warning).
-    prop = f"{col}_well_property"
-    if prop in frame.columns:
-        ok &= frame[prop].fillna(True).astype(bool)
+    # The change detection's rows (pumpid.fleet.quantities.counted): the plots show what
+    # it trends.
+    ok = pd.Series(counted(frame, quantity, value.to_numpy(dtype=float)), index=frame.index)
     return value, se, ok
 
 
@@ -162,11 +145,11 @@ def unit_mix(frame: pd.DataFrame, quantity: str, unit: str) -> tuple[list[str], 
     converted : list of str
     left_out : int
     """
-    col = quantity if quantity.startswith(("p_", PUMP_PREFIX)) else f"d_{quantity}"
-    if not unit or f"{col}_unit" not in frame.columns:
+    own = columns_of(quantity).unit
+    if not unit or own is None or own not in frame.columns:
         return [], 0
     _, _, ok = quantity_values(frame, quantity)
-    stated = frame.loc[np.asarray(ok, dtype=bool), f"{col}_unit"].dropna().astype(str)
+    stated = frame.loc[np.asarray(ok, dtype=bool), own].dropna().astype(str)
     others = sorted(set(stated) - {unit})
     converted = [u for u in others if unit_factor(u, unit) is not None]
     left = int(stated.isin([u for u in others if u not in converted]).sum())

@@ -37,10 +37,7 @@ from pumpid.report.spreadsheet import to_csv
 
 from .changes import (
     SHORT_MIN_CARDS,
-    STATUSES,
     UNKNOWN_WELL,
-    USABLE_STATUSES,
-    available_quantities,
     detect_changes,
     history_coverage,
     is_duplicate,
@@ -62,6 +59,7 @@ from .figures import (
     unit_text,
     well_figure,
 )
+from .quantities import STATUSES, USABLE_STATUSES, available_quantities
 
 __all__ = ["write_fleet_report"]
 

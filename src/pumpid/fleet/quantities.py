@@ -1,0 +1,221 @@
+"""One quantity of a results table: its columns, and which rows count for it.
+
+The change detection (:mod:`.changes`) and the report's figures (:mod:`.figures`) trend the
+same values: a card counts for a quantity when its fit (or, for a pump quantity, its pump)
+is usable, the value is finite, the card determines it and the fit does not call it an echo
+of the stroke. The rule lives here once; each had kept its own copy, and a fix made in one
+(an older table's infinite parameter errors read as not determined) had to be made in the
+other by hand.
+
+Column conventions: a derived quantity ``NAME`` is the column ``d_NAME``, a parameter
+``p_NAME``, a pump quantity ``pump_NAME`` (:mod:`.downhole`); beside each value, ``_se``
+(and ``_se_hac`` for a parameter), ``_determined``, ``_unit`` (derived and pump quantities)
+and ``_well_property`` (derived quantities that can echo the stroke). Missing optional
+columns are read as unknown.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from pumpid.models import model_class
+
+from .downhole import is_pump_quantity, pump_quantities, pump_usable
+
+__all__ = [
+    "STATUSES",
+    "USABLE_STATUSES",
+    "QuantityColumns",
+    "available_quantities",
+    "columns_of",
+    "counted",
+    "larger_error",
+    "parameter_unit",
+]
+
+#: Every status a results row can have.
+STATUSES = ("converged", "boundary", "undetermined", "poor-fit", "failed", "invalid-input")
+#: Statuses whose values are trended (the others are counted only).
+USABLE_STATUSES = ("converged", "boundary", "undetermined", "poor-fit")
+#: Column suffixes beside a value (never a quantity of their own).
+_SUFFIXES = ("_se", "_se_hac", "_se_white", "_determined", "_well_property", "_unit")
+
+
+@dataclass(frozen=True)
+class QuantityColumns:
+    """Where one quantity lives in a results table.
+
+    Attributes
+    ----------
+    value : str
+        The value's column.
+    errors : tuple of str
+        Its standard errors' columns (the larger one is used).
+    determined : str
+        The column saying whether the card determines it.
+    unit : str or None
+        The column stating its unit (None: a parameter, whose unit the model gives).
+    kind : str
+        ``"derived"``, ``"parameter"`` or ``"pump"``.
+    """
+
+    value: str
+    errors: tuple[str, ...]
+    determined: str
+    unit: str | None
+    kind: str
+
+
+def columns_of(quantity: str) -> QuantityColumns:
+    """The columns of a quantity named as :func:`available_quantities` names it.
+
+    Parameters
+    ----------
+    quantity : str
+        A derived quantity's name, ``p_<name>`` or ``pump_<name>``.
+
+    Returns
+    -------
+    QuantityColumns
+    """
+    if is_pump_quantity(quantity):
+        # The identification's standard error and whether it determines the value (both
+        # absent without it: the scatter alone, every computed card).
+        return QuantityColumns(quantity, (f"{quantity}_se",), f"{quantity}_determined",
+                               f"{quantity}_unit", "pump")
+    if quantity.startswith("p_"):
+        return QuantityColumns(quantity, (f"{quantity}_se", f"{quantity}_se_hac"),
+                               f"{quantity}_determined", None, "parameter")
+    col = f"d_{quantity}"
+    return QuantityColumns(col, (f"{col}_se",), f"{col}_determined", f"{col}_unit",
+                           "derived")
+
+
+def available_quantities(table: pd.DataFrame, *, parameters: bool = False) -> list[str]:
+    """Names of the quantities a table holds: derived ones, then (optionally) parameters,
+    then pump quantities.
+
+    Derived quantity ``NAME`` is the column ``d_NAME``; parameter ``NAME`` is listed as
+    ``p_NAME`` (its column name), so the two kinds cannot collide.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A results table.
+    parameters : bool, default False
+        Also list the model parameters.
+
+    Returns
+    -------
+    list of str
+    """
+    derived = [
+        c[2:] for c in table.columns
+        if isinstance(c, str) and c.startswith("d_") and not c.endswith(_SUFFIXES)
+    ]  # fmt: skip
+    params = [
+        c for c in table.columns
+        if parameters and isinstance(c, str) and c.startswith("p_") and not c.endswith(_SUFFIXES)
+    ]  # fmt: skip
+    return derived + params + pump_quantities(table)
+
+
+def larger_error(frame: pd.DataFrame, quantity: str) -> NDArray[np.float64]:
+    """Each row's standard error of a quantity: the larger of its error columns (NaN where
+    none is known; a negative entry is read as unknown).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Rows of a results table.
+    quantity : str
+        As for :func:`columns_of`.
+
+    Returns
+    -------
+    numpy.ndarray
+    """
+    se = np.full(len(frame), np.nan)
+    for c in columns_of(quantity).errors:
+        if c in frame.columns:
+            other = pd.to_numeric(frame[c], errors="coerce").to_numpy(dtype=float)
+            se = np.fmax(se, np.where(other >= 0, other, np.nan))
+    return se
+
+
+def counted(frame: pd.DataFrame, quantity: str, values: NDArray[np.float64], *,
+            asked: bool = False) -> NDArray[np.bool_]:
+    """Which rows' values of a quantity are trended.
+
+    A row counts when its value is finite; its fit's status is usable (a pump quantity:
+    its pump was identified, or its downhole card computed); the card determines the value
+    (a table written before parameters had their own verdict: the parameter's error is
+    finite; an alert on c1 had been sized at "-68.8 standard errors" from cards whose own
+    errors were all infinite); and, unless ``asked``, the fit does not call the value an
+    echo of the stroke (a stroke frequency drawn as the well's resonance contradicted the
+    card's own warning).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Rows of a results table.
+    quantity : str
+        As for :func:`columns_of`.
+    values : numpy.ndarray
+        The quantity's values on those rows (converted to another unit where the caller
+        needs it; NaN where that cannot be).
+    asked : bool, default False
+        The user named the quantity: its echoes of the stroke count too.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+    """
+    cols = columns_of(quantity)
+    keep = np.isfinite(np.asarray(values, dtype=float))
+    usable = pump_usable(frame) if cols.kind == "pump" else frame["status"].isin(
+        USABLE_STATUSES)
+    keep &= usable.to_numpy(dtype=bool)
+    if cols.determined in frame.columns:
+        keep &= frame[cols.determined].fillna(False).astype(bool).to_numpy()
+    elif cols.kind == "parameter" and cols.errors[0] in frame.columns:
+        shown = pd.to_numeric(frame[cols.errors[0]], errors="coerce").to_numpy(dtype=float)
+        keep &= np.isfinite(shown)
+    prop = f"{cols.value}_well_property"
+    if not asked and prop in frame.columns:
+        keep &= frame[prop].fillna(True).astype(bool).to_numpy()
+    return keep
+
+
+def parameter_unit(frame: pd.DataFrame, quantity: str) -> str:
+    """A parameter's unit from the model's own description, when the table allows it.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Rows of a results table (their ``model``, ``load_unit`` and ``position_unit``).
+    quantity : str
+        ``p_<name>``.
+
+    Returns
+    -------
+    str
+        The unit, or ``"model units"`` where the rows do not say one model and its units.
+    """
+    name = quantity[2:]
+    try:
+        models = frame["model"].dropna().unique()
+        if len(models) != 1:
+            return "model units"
+        info = {p.name: p for p in model_class(str(models[0])).param_info()}[name]
+        load = str(frame["load_unit"].dropna().iloc[0])
+        position = str(frame["position_unit"].dropna().iloc[0])
+        return info.unit_for(load, position)
+    except (KeyError, IndexError, ValueError, AttributeError):
+        # No model column, several models, unknown units, or a model class without unit
+        # descriptions: say so rather than guess.
+        return "model units"

@@ -1,0 +1,96 @@
+"""Which rows count for a quantity: one rule for the change detection and the figures."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from pumpid.fleet.changes import detect_changes, history_coverage
+from pumpid.fleet.figures import quantity_values
+from pumpid.fleet.quantities import (
+    available_quantities,
+    columns_of,
+    counted,
+    larger_error,
+)
+
+
+def _table() -> pd.DataFrame:
+    """Twelve cards of one well, each a different reason to count or not."""
+    n = 12
+    frame = pd.DataFrame({
+        "well_id": "W1", "card_id": [f"c{i:02d}" for i in range(n)],
+        "time": pd.Timestamp("2024-01-01", tz="UTC") + pd.to_timedelta(np.arange(n), unit="D"),
+        "model": "kelvin", "status": "converged", "position_unit": "in", "load_unit": "lbf",
+        "d_static_stiffness": 100.0 + np.resize([0.5, -0.3, 0.1, -0.4], n),
+        "d_static_stiffness_se": 2.0, "d_static_stiffness_determined": True,
+        "d_static_stiffness_unit": "lbf/in",
+        "d_natural_frequency": 0.1, "d_natural_frequency_se": 0.001,
+        "d_natural_frequency_determined": True, "d_natural_frequency_unit": "Hz",
+        "d_natural_frequency_well_property": True,
+        "p_k0": 400.0, "p_k0_se": 10.0, "p_k0_se_hac": 30.0,
+    })  # fmt: skip
+    frame.loc[1, "status"] = "failed"
+    frame.loc[2, "d_static_stiffness"] = np.inf
+    frame.loc[3, "d_static_stiffness_determined"] = False
+    frame.loc[4, "d_natural_frequency_well_property"] = False
+    frame.loc[5, "p_k0_se"] = np.inf
+    frame.loc[6, "d_static_stiffness_se"] = -1.0
+    return frame
+
+
+def test_columns_of_each_kind() -> None:
+    derived = columns_of("static_stiffness")
+    assert (derived.value, derived.errors, derived.unit, derived.kind) == (
+        "d_static_stiffness", ("d_static_stiffness_se",), "d_static_stiffness_unit", "derived")
+    param = columns_of("p_k0")
+    assert (param.value, param.errors, param.unit, param.kind) == (
+        "p_k0", ("p_k0_se", "p_k0_se_hac"), None, "parameter")
+    pump = columns_of("pump_fluid_load")
+    assert (pump.value, pump.determined, pump.unit, pump.kind) == (
+        "pump_fluid_load", "pump_fluid_load_determined", "pump_fluid_load_unit", "pump")
+
+
+def test_counted_rows() -> None:
+    frame = _table()
+    values = frame["d_static_stiffness"].to_numpy(dtype=float)
+    keep = counted(frame, "static_stiffness", values)
+    # Not the failed fit, the infinite value nor the undetermined one.
+    assert np.flatnonzero(~keep).tolist() == [1, 2, 3]
+    freq = frame["d_natural_frequency"].to_numpy(dtype=float)
+    # An echo of the stroke counts only when asked for.
+    assert np.flatnonzero(~counted(frame, "natural_frequency", freq)).tolist() == [1, 4]
+    assert np.flatnonzero(~counted(frame, "natural_frequency", freq, asked=True)).tolist() == [1]
+
+
+def test_parameters_of_an_older_table_count_where_their_error_is_finite() -> None:
+    frame = _table()
+    values = frame["p_k0"].to_numpy(dtype=float)
+    assert np.flatnonzero(~counted(frame, "p_k0", values)).tolist() == [1, 5]
+    frame["p_k0_determined"] = True
+    frame.loc[7, "p_k0_determined"] = False
+    # The table's own verdict where it has one.
+    assert np.flatnonzero(~counted(frame, "p_k0", values)).tolist() == [1, 7]
+
+
+def test_larger_error() -> None:
+    frame = _table()
+    assert larger_error(frame, "p_k0")[0] == 30.0
+    se = larger_error(frame, "static_stiffness")
+    assert np.isnan(se[6]) and se[0] == 2.0
+
+
+def test_the_figures_and_the_change_detection_count_the_same_cards() -> None:
+    frame = _table()
+    for q in available_quantities(frame, parameters=True):
+        _, _, ok = quantity_values(frame, q)
+        cover = history_coverage(frame, [q])
+        assert int(cover["cards"].iloc[0]) == int(ok.sum()), q
+    # The same rows are trended: a step made on the uncounted rows alone is not seen.
+    stepped = frame.copy()
+    stepped.loc[[1, 3], "d_static_stiffness"] = 1e4
+    assert detect_changes(stepped, quantities=["static_stiffness"]).empty
+    # ... while the same step on counted rows is.
+    seen = frame.copy()
+    seen.loc[6:, "d_static_stiffness"] *= 1.5
+    assert not detect_changes(seen, quantities=["static_stiffness"]).empty
