@@ -116,6 +116,29 @@ def test_a_boundary_fit_s_errors_reach_the_interior_within_the_noise(index: int)
 
 
 @pytest.mark.realdata
+def test_a_resonance_beyond_the_samples_is_not_determined(shared_raw) -> None:
+    # A field card of 200 samples over 10 s (half the sampling rate: 10 Hz) whose fit
+    # placed the resonance at 478 Hz, m = 2.1e-6 kN*s^2/m, and called the natural frequency
+    # determined (478 +- 238 Hz); its positions come in steps of 0.01 m, so most second
+    # differences vanish and the doubt about the first answer read "4.01e+14 times the
+    # data's noise".
+    path = shared_raw / "shapeformer_oilfield2d" / "OilfieldData2d_TEST_subset360.ts"
+    card = read_cards(path, position_unit="m", load_unit="kN", spm=6)[312]
+    fit = pumpid.fit(pumpid.Kelvin, card)
+    nyquist = 0.5 / float(card.t[1] - card.t[0])
+    pair = [fit.derived[n] for n in ("natural_frequency", "damping_ratio")]
+    assert fit.derived["natural_frequency"].value > nyquist
+    assert not any(d.determined or d.well_property for d in pair)
+    assert all(f"({nyquist:.4g} Hz, half their rate)" in d.note for d in pair)
+    said = [w for w in fit.warnings if "lies above the highest frequency" in w]
+    assert len(said) == 1 and "not determine the natural frequency and damping ratio" in said[0]
+    assert set(fit.determined["not_well_property"]) == {"natural_frequency", "damping_ratio"}
+    doubt = [w for w in fit.warnings if "wider search" in w]
+    assert doubt and "times the data's noise" not in doubt[0]
+    assert "which the samples put at zero" in doubt[0]
+
+
+@pytest.mark.realdata
 def test_an_undetermined_fit_says_which_determined_quantity_is_an_echo(shared_raw) -> None:
     # "determined derived quantities: natural_frequency" beside a warning that the natural
     # frequency echoes the stroke: the reason now says it is not the well's.

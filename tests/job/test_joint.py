@@ -195,3 +195,18 @@ def test_records_from_a_given_state_are_not_checked_for_an_echo() -> None:
     assert joint.status in (pumpid.Status.CONVERGED, pumpid.Status.BOUNDARY), joint.reason
     assert all(d.well_property for d in joint.derived.values())
     assert not any("stroke frequency" in w for w in joint.warnings)
+
+
+@pytest.mark.realdata
+def test_a_joint_resonance_beyond_the_samples_is_not_determined(shared_raw) -> None:
+    # Two field cards of 200 samples over 10 s whose own fits place the resonance at
+    # 480-520 Hz: the joint fit does too, and says its samples show only an alias of it.
+    path = shared_raw / "shapeformer_oilfield2d" / "OilfieldData2d_TEST_subset360.ts"
+    read = read_cards(path, position_unit="m", load_unit="kN", spm=6)
+    fit = pumpid.fit(pumpid.Kelvin, [read[181], read[312]],
+                     options=dataclasses.replace(pumpid.FitOptions.for_cards(), joint=True))
+    fn = fit.derived["natural_frequency"]
+    assert fn.value > 10.0 and not fn.determined and not fn.well_property
+    assert any("lies above the highest frequency the card's samples can show (10 Hz" in w
+               for w in fit.warnings)
+    assert "natural_frequency" in fit.determined["not_well_property"]

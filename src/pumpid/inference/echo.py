@@ -13,6 +13,14 @@ frequencies of one of the first ``ECHO_HARMONICS`` harmonics (the stroke frequen
 alone: see there why). The oscillating pair's
 quantities (natural frequency, damping ratio) are then marked as not a property of the well,
 with the reason in words, and the fleet's change detection leaves them out.
+
+:func:`alias_of` names the other resonance a card cannot tell: one above half its sampling
+rate. The exact discrete model of a lightly damped pair beyond that frequency rings at an
+alias of it between the samples, which can follow part of what the model otherwise misses;
+on public field cards of 200 samples (Nyquist frequency 10 Hz) three fits placed it at
+480-680 Hz with masses of 1.5-2.1e-6 kN*s^2/m, each crawling from ripple to ripple of the
+cost toward m -> 0 until the solver's budget ran out, and called the natural frequency
+"determined" (478 +- 238 Hz).
 """
 
 from __future__ import annotations
@@ -27,7 +35,7 @@ from numpy.typing import NDArray
 from .derived import Derived
 
 __all__ = ["ECHO_BAND", "ECHO_HARMONICS", "FUNDAMENTAL_ONLY", "FUNDAMENTAL_WORSE",
-           "PAIR_QUANTITIES", "echo_of", "fundamental_share"]
+           "PAIR_QUANTITIES", "alias_of", "echo_of", "fundamental_share"]
 
 #: Harmonics of the stroke frequency checked (1: the stroke frequency itself). Only the
 #: stroke frequency: every echo seen on real cards sits there (a real well's 76 cards at
@@ -94,6 +102,48 @@ def echo_of(derived: Mapping[str, Derived], period: float | None
     warning = (f"{note[0].upper()}{note[1:]}. A card holds only the stroke frequency and its "
                f"harmonics, so it cannot tell where the rod string's own resonance is: the "
                f"{names} are not properties of the well (not trended by the fleet report)")
+    return out, warning
+
+
+def alias_of(derived: Mapping[str, Derived], step: float | None
+             ) -> tuple[dict[str, Derived], str | None]:
+    """Mark the oscillating pair's quantities when its resonance lies beyond the samples.
+
+    Parameters
+    ----------
+    derived : mapping of name -> Derived
+        A fit's derived quantities.
+    step : float or None
+        The card's sampling step (s; its median where the steps differ); None or NaN:
+        nothing is checked.
+
+    Returns
+    -------
+    derived : dict
+        The quantities, those of the pair marked not determined and not a property of the
+        well, with a note, where the natural frequency exceeds half the sampling rate.
+    warning : str or None
+        The finding in words (None when the resonance lies within what the samples show).
+    """
+    out = dict(derived)
+    fn = derived.get("natural_frequency")
+    if fn is None or step is None or not (math.isfinite(step) and step > 0) \
+            or not (math.isfinite(fn.value) and fn.value > 0):
+        return out, None
+    nyquist = 0.5 / step
+    if not fn.value > nyquist:
+        return out, None
+    note = (f"the fitted resonance (natural frequency {fn.value:.4g} Hz) lies above the "
+            f"highest frequency the card's samples can show ({nyquist:.4g} Hz, half their "
+            f"rate): the samples hold only an alias of it")
+    for name in PAIR_QUANTITIES:
+        if name in out:
+            out[name] = dataclasses.replace(out[name], determined=False,
+                                            well_property=False, note=note)
+    names = " and ".join(n.replace("_", " ") for n in PAIR_QUANTITIES if n in out)
+    warning = (f"{note[0].upper()}{note[1:]}, which the model uses to follow part of what it "
+               f"otherwise misses. The card does not determine the {names} (not properties "
+               f"of the well, not trended)")
     return out, warning
 
 

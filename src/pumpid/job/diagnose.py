@@ -24,7 +24,7 @@ from ..engine.solvers import LevenbergMarquardt
 from ..engine.spectrum import SEARCH_HARMONICS
 from ..engine.start import flat_spans, inertia_index
 from ..inference.derived import derived_of
-from ..inference.echo import echo_of
+from ..inference.echo import alias_of, echo_of
 from ..inference.identifiability import findings_of, whiteness_warning
 from ..inference.serial import (
     Errors,
@@ -239,13 +239,22 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
             _offset_gauge(problem, int(cards[i]), card, units[int(cards[i])])
             period = _stroke_of(problem, int(cards[i]))
             card.derived, echo = echo_of(card.derived, period)
-            if echo is not None:
-                card.warnings.append(echo)
+            card.derived, alias = alias_of(card.derived, _step_of(problem, int(cards[i])))
+            found = [w for w in (echo, alias) if w is not None]
+            if found:
+                card.warnings.extend(found)
                 card.determined["not_well_property"] = [
                     n for n, d in card.derived.items() if not d.well_property]
         warning = said.warning_for(card.uncertainty)
         if warning:
             card.warnings.append(warning)
+
+
+def _step_of(problem: Problem, k: int) -> float | None:
+    """Card k's sampling step (s): the median of its steps, None for fewer than two
+    samples."""
+    t = problem.card(k)[0]
+    return float(np.median(np.diff(t))) if t.size >= 2 else None
 
 
 def _stroke_of(problem: Problem, k: int) -> float | None:

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from ..engine.problem import CardData
 from ..engine.simulate import simulate_sensitivities
 from ..inference.derived import derived_of
-from ..inference.echo import echo_of
+from ..inference.echo import alias_of, echo_of
 from ..models import Model, OwnModel, Parameter
 from ..result import FitBatch, FitResult, Units
 
@@ -141,12 +141,21 @@ class StackedCards(OwnModel):
         return self.echo(derived)[0]
 
     def echo(self, derived: Mapping[str, Any]) -> tuple[dict[str, Any], str | None]:
-        """:func:`pumpid.inference.echo.echo_of` against each card's stroke frequency: the
-        quantities (the pair marked where it sits on any card's) and the finding in words
-        (None when it is clear of every card's, or a card is not one period)."""
+        """:func:`pumpid.inference.echo.alias_of` against the coarsest card's sampling, else
+        :func:`pumpid.inference.echo.echo_of` against each card's stroke frequency: the
+        quantities (the pair marked where its resonance lies beyond the samples or on a
+        card's stroke frequency) and the finding in words (None when it is clear of both, an
+        echo checked only where every card is one period)."""
         periods = [r.period for r in self.records
                    if isinstance(r.initial_state, str) and r.initial_state == "periodic"
                    and r.period is not None]
+        # The coarsest card's samples show the least: a resonance beyond them is an alias
+        # there (pumpid.inference.echo.alias_of).
+        steps = [float(np.median(np.diff(np.asarray(r.t, dtype=float))))
+                 for r in self.records if np.size(r.t) >= 2]
+        aliased, alias = alias_of(derived, max(steps) if steps else None)
+        if alias is not None:
+            return aliased, alias
         if len(periods) != len(self.records):
             return dict(derived), None
         for period in dict.fromkeys(float(p) for p in periods):

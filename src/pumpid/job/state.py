@@ -233,8 +233,14 @@ def doubt(problem: Problem, k: int, card: CardState) -> str:
     d = problem.card(k)[2]
     floor = 1e-9 * float(np.ptp(d))
     if card.rmse > 2.0 * card.noise + floor:
-        times = f"{card.rmse / card.noise:.3g} times" if card.noise > 0 else "above"
-        return f"the first answer's error was {times} the data's noise (above twice)"
+        if card.noise > floor:
+            return (f"the first answer's error was {card.rmse / card.noise:.3g} times the "
+                    "data's noise (above twice)")
+        # "4.01e+14 times the data's noise" on a field card whose positions come in steps
+        # of 0.01 m: most second differences vanish, and so does their median.
+        return ("the first answer's error was above the data's noise, which the samples "
+                "put at zero (most of their second differences vanish: positions recorded in "
+                "steps or straight runs)")
     # A residual at rounding level has no structure worth a search, whatever its shape.
     ratio, p_value = card.band
     if card.rmse > floor and p_value < BAND_P and ratio >= BAND_RATIO:
