@@ -121,7 +121,8 @@ def alias_of(derived: Mapping[str, Derived], step: float | None
     -------
     derived : dict
         The quantities, those of the pair marked not determined and not a property of the
-        well, with a note, where the natural frequency exceeds half the sampling rate.
+        well, with a note, where the pair rings (damping ratio below 1) at a natural
+        frequency above half the sampling rate that has a finite error.
     warning : str or None
         The finding in words (None when the resonance lies within what the samples show).
     """
@@ -131,7 +132,13 @@ def alias_of(derived: Mapping[str, Derived], step: float | None
             or not (math.isfinite(fn.value) and fn.value > 0):
         return out, None
     nyquist = 0.5 / step
-    if not fn.value > nyquist:
+    zeta = derived.get("damping_ratio")
+    # Only a pair that rings has an alias to lend: past critical damping (boundary fits whose
+    # "pair" is two real poles, damping ratios of 340-570 at an arbitrary k0) nothing rings.
+    # A frequency with no finite error moves with a limit the fit ran to (m -> 0 at the
+    # window's edge), whose own words say so.
+    if not (fn.value > nyquist and math.isfinite(fn.stderr)) or zeta is None \
+            or not zeta.value < 1.0:
         return out, None
     note = (f"the fitted resonance (natural frequency {fn.value:.4g} Hz) lies above the "
             f"highest frequency the card's samples can show ({nyquist:.4g} Hz, half their "
