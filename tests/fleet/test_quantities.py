@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from pumpid.fleet.changes import detect_changes, history_coverage
+from pumpid.fleet.changes import detect_changes, history_coverage, summarise_wells
 from pumpid.fleet.figures import quantity_values
 from pumpid.fleet.quantities import (
     available_quantities,
@@ -36,6 +36,8 @@ def _table() -> pd.DataFrame:
     frame.loc[4, "d_natural_frequency_well_property"] = False
     frame.loc[5, "p_k0_se"] = np.inf
     frame.loc[6, "d_static_stiffness_se"] = -1.0
+    # A poor fit's reason says to check the record before using its numbers.
+    frame.loc[8, "status"] = "poor-fit"
     return frame
 
 
@@ -55,22 +57,23 @@ def test_counted_rows() -> None:
     frame = _table()
     values = frame["d_static_stiffness"].to_numpy(dtype=float)
     keep = counted(frame, "static_stiffness", values)
-    # Not the failed fit, the infinite value nor the undetermined one.
-    assert np.flatnonzero(~keep).tolist() == [1, 2, 3]
+    # Not the failed fit, the infinite value, the undetermined one nor the poor fit.
+    assert np.flatnonzero(~keep).tolist() == [1, 2, 3, 8]
     freq = frame["d_natural_frequency"].to_numpy(dtype=float)
     # An echo of the stroke counts only when asked for.
-    assert np.flatnonzero(~counted(frame, "natural_frequency", freq)).tolist() == [1, 4]
-    assert np.flatnonzero(~counted(frame, "natural_frequency", freq, asked=True)).tolist() == [1]
+    assert np.flatnonzero(~counted(frame, "natural_frequency", freq)).tolist() == [1, 4, 8]
+    assert np.flatnonzero(~counted(frame, "natural_frequency", freq,
+                                   asked=True)).tolist() == [1, 8]
 
 
 def test_parameters_of_an_older_table_count_where_their_error_is_finite() -> None:
     frame = _table()
     values = frame["p_k0"].to_numpy(dtype=float)
-    assert np.flatnonzero(~counted(frame, "p_k0", values)).tolist() == [1, 5]
+    assert np.flatnonzero(~counted(frame, "p_k0", values)).tolist() == [1, 5, 8]
     frame["p_k0_determined"] = True
     frame.loc[7, "p_k0_determined"] = False
     # The table's own verdict where it has one.
-    assert np.flatnonzero(~counted(frame, "p_k0", values)).tolist() == [1, 7]
+    assert np.flatnonzero(~counted(frame, "p_k0", values)).tolist() == [1, 7, 8]
 
 
 def test_larger_error() -> None:
@@ -94,3 +97,13 @@ def test_the_figures_and_the_change_detection_count_the_same_cards() -> None:
     seen = frame.copy()
     seen.loc[6:, "d_static_stiffness"] *= 1.5
     assert not detect_changes(seen, quantities=["static_stiffness"]).empty
+
+
+def test_a_poor_fit_is_never_a_well_s_latest_value() -> None:
+    # A field well's latest natural frequency had come from its last card, a poor fit (R^2
+    # 0.24, a stroke that did not close) whose reason said to check it before using it.
+    frame = _table()
+    frame.loc[11, "status"] = "poor-fit"
+    frame.loc[11, "d_static_stiffness"] = 555.0
+    latest = summarise_wells(frame, quantities=["static_stiffness"])
+    assert float(latest["latest_static_stiffness"].iloc[0]) == frame.loc[10, "d_static_stiffness"]

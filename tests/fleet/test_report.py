@@ -124,8 +124,8 @@ def test_cards_without_well_ids_are_not_called_unreadable_or_too_short(tmp_path:
     files = write_fleet_report(frame, tmp_path, quantities=["stiffness"])
     page = files["report"].read_text(encoding="utf-8")
     assert "unreadable input)</td><td>90 cards" not in page
-    assert ("cards used for trends (converged, boundary, undetermined, poor-fit, with a well "
-            "id)</td><td>0 cards") in page
+    assert ("cards used for trends (converged, boundary, undetermined, with a well id)"
+            "</td><td>0 cards") in page
     assert "too short" not in page.split('id="alerts"')[1].split("</section>")[0]
     assert "the cards carry no well id" in page
 

@@ -7,12 +7,13 @@ Method
 ------
 For each well and each quantity (by default every derived quantity ``d_NAME`` of the
 table; model parameters ``p_NAME`` on request), the cards whose fit is usable (status
-``converged``, ``boundary`` or ``poor-fit``), whose value is finite and, where the table
-says so, determined by the data, are put in time order (in the table's card order when no
-card of the well has a time; a card without a time in a well whose other cards have one is
-counted and set aside, :func:`is_undated_among_dated`). The analysis scale is the
-logarithm when every value is positive, so that a change is relative and a constant
-coefficient of variation is a constant noise level; otherwise the values themselves.
+``converged``, ``boundary`` or ``undetermined``; not ``poor-fit``), whose value is finite
+and, where the table says so, determined by the data, are put in time order (in the
+table's card order when no card of the well has a time; a card without a time in a well
+whose other cards have one is counted and set aside, :func:`is_undated_among_dated`). The
+analysis scale is the logarithm when every value is positive, so that a change is relative
+and a constant coefficient of variation is a constant noise level; otherwise the values
+themselves.
 
 1. **Reference.** The first ``min_cards`` cards of a segment set its level and noise: the
    level is their median ``m``; the card-to-card scatter is ``sigma = 1.4826 MAD(diff) /

@@ -39,8 +39,10 @@ __all__ = [
 
 #: Every status a results row can have.
 STATUSES = ("converged", "boundary", "undetermined", "poor-fit", "failed", "invalid-input")
-#: Statuses whose values are trended (the others are counted only).
-USABLE_STATUSES = ("converged", "boundary", "undetermined", "poor-fit")
+#: Statuses whose values are trended (the others are counted only). Not ``poor-fit``: its
+#: reason tells the user to check the record before using the numbers, and a card at
+#: R^2 0.24 that did not close had been a field well's latest natural frequency.
+USABLE_STATUSES = ("converged", "boundary", "undetermined")
 #: Column suffixes beside a value (never a quantity of their own).
 _SUFFIXES = ("_se", "_se_hac", "_se_white", "_determined", "_well_property", "_unit")
 
