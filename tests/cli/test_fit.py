@@ -231,7 +231,9 @@ def test_the_short_output_marks_an_echo_and_a_fundamental_alone(tmp_path: Path,
     out = capsys.readouterr().out
     assert "natural frequency = " in out
     assert "(an echo of the stroke, not the well's)" in out
-    assert "the rest is noise)" in out and "of the rest)" not in out
+    # At the noise level, not "noise": a field card's correlated residual of that size had
+    # read "the rest is noise" beside "the residuals are not white noise".
+    assert "the rest at the noise level)" in out and "of the rest)" not in out
     # --verbose's table marks the offset as the short output does (it said "(fitted)").
     assert main(["fit", str(path), "--period", str(period), "--verbose"]) in (0, 6)
     table = capsys.readouterr().out
@@ -240,3 +242,29 @@ def test_the_short_output_marks_an_echo_and_a_fundamental_alone(tmp_path: Path,
     # The error table gives no relative error of an offset (its zero is a convention).
     rows = [ln.split() for ln in table.splitlines() if ln.startswith("  offset  ")]
     assert len(rows) >= 2 and rows[1][2] == "-", rows
+
+
+def test_a_column_of_date_time_stamps_can_be_left_unread(tmp_path: Path, capsys) -> None:
+    # A controller's export with a stamp per sample: the error told a command-line user to
+    # pass columns={'t': None} (Python), which no option took; a column named otherwise was
+    # dropped, and the card said "no time in the file".
+    n, period = 100, 10.0
+    phase = 2 * np.pi * np.arange(n) / n
+    stamps = [f"2024-05-01 10:00:{s:09.6f}" for s in np.arange(n) * period / n]
+    rows = "".join(f"{s},{50 * (1 - np.cos(p)):.6f},{8000 + 3000 * np.sin(p - 0.4):.3f}\n"
+                   for s, p in zip(stamps, phase, strict=True))
+    named_t = tmp_path / "stamped.csv"
+    named_t.write_text("time,position_in,load_lbf\n" + rows)
+    assert main(["fit", str(named_t)]) == 2
+    err = capsys.readouterr().err
+    assert "date/time stamps are not read as time" in err and "--columns t=- --spm" in err
+    assert main(["fit", str(named_t), "--columns", "t=-", "--spm", "6"]) in (0, 6)
+    out = capsys.readouterr().out
+    assert "invalid-input" not in out and "time rebuilt from" in out
+    other = tmp_path / "other.csv"
+    other.write_text("timestamp,position_in,load_lbf\n" + rows)
+    main(["fit", str(other)])
+    out = " ".join(capsys.readouterr().out.split())
+    assert ("column 'timestamp' has varying non-numeric values ('2024-05-01 10:00:00.000000', "
+            "...; date/time stamps are not read as time); not kept") in out
+    assert "no time read from the file" in out

@@ -512,8 +512,9 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
     else:
         time_source = "none"
         notes.append(
-            "no time in the file and no SPM or period given: the card has no time axis; give "
-            "the stroke rate (spm= or period=, command line --spm or --period) to rebuild it"
+            "no time read from the file and no SPM or period given: the card has no time "
+            "axis; give the stroke rate (spm= or period=, command line --spm or --period) to "
+            "rebuild it"
         )
     for name, arr in arrays.items():
         meta.setdefault(name, arr)

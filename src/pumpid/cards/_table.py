@@ -265,7 +265,8 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
             if c == t_i and (any(ch in tok for ch in ":/T") or tok.count("-") > 1):
                 raise o.error(
                     f"{exc.reason}: date/time stamps are not read as time; convert them "
-                    "to seconds, or ignore the column with columns={'t': None}",
+                    "to seconds, or read no time column and give the stroke rate "
+                    "(command line: --columns t=- --spm N; Python: columns={'t': None})",
                     line=lineno,
                     field=names[c],
                 ) from exc
@@ -633,7 +634,8 @@ def _keep_extra(
         if np.all(t == t[0]):
             raw.metadata[name] = scalar(first)
         else:
-            notes.append(f"column {name!r} has varying non-numeric values; not kept")
+            notes.append(f"column {name!r} has varying non-numeric values ({first!r}, ...; "
+                         "date/time stamps are not read as time); not kept")
         return
     if np.all(v == v[0]) or np.all(np.isnan(v)):
         raw.metadata[name] = scalar(first)

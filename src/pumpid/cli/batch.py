@@ -303,7 +303,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                     help="the well of every card of the inputs (over their own; for files "
                          "of one well without a well column)")
     rd.add_argument("--columns", metavar="ROLE=COL[,...]",
-                    help="column roles, e.g. position=1,load=0 (names or 0-based indices)")
+                    help="column roles, e.g. position=1,load=0 (names or 0-based indices; "
+                         "t=- reads no time column)")
     rd.add_argument("--t-col", help="time column (name, or index for tables without header)")
     rd.add_argument("--load-col", help="load column")
     rd.add_argument("--position-col", help="position column")

@@ -242,7 +242,8 @@ def add_card_options(p: Any) -> None:
                         "is a card, one period (ids CARD#0, CARD#1, ...)")
     p.add_argument("--columns", metavar="ROLE=COL[,...]",
                    help="column roles, e.g. position=1,load=0 (names or 0-based indices; "
-                        "roles t, position, load, card, well, spm, period)")
+                        "roles t, position, load, card, well, spm, period; t=- reads no "
+                        "time column)")
     p.add_argument("--t-col", help="time column (name, or index for tables without header)")
     p.add_argument("--load-col", help="load column")
     p.add_argument("--position-col", "--displacement-col", dest="position_col",
@@ -357,7 +358,8 @@ def check_fit_options(cls: Any, *, observe: str | None = None, scale: str | None
 def columns_option(spec: str | None, **single: str | None) -> dict[str, Any] | None:
     """Column roles from ``--columns ROLE=COL,...`` and the single ``--t-col``-style options.
 
-    A column is a header name or a 0-based index (digits).
+    A column is a header name or a 0-based index (digits); ``-`` gives the role no column
+    (``t=-``: a column of date/time stamps is not read as time, the stroke rate is given).
     """
     cols: dict[str, Any] = {}
     for part in (spec or "").split(","):
@@ -371,7 +373,7 @@ def columns_option(spec: str | None, **single: str | None) -> dict[str, Any] | N
     for role, col in single.items():
         if col is not None:
             cols[role] = col
-    out = {k: int(v) if v.isdigit() else v for k, v in cols.items()}
+    out = {k: None if v == "-" else int(v) if v.isdigit() else v for k, v in cols.items()}
     return out or None
 
 

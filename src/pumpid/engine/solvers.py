@@ -45,8 +45,10 @@ class Stop(enum.Enum):
              "standard errors of the exact optimum)")
     STEP = ("step", True, "converged: relative step ||dx||/||x0|| = {eps:.3g} <= eps0 = "
             "{eps0:g} (eq. 21)")
-    BUDGET = ("budget", False, "stopped: the maximum number of model evaluations "
-              "({budget}) was reached")
+    # "Of one solve": a card's fit runs several (the search, the limits' checks), and a
+    # batch summary listed 3,782 evaluations beside "the maximum (2000) was reached".
+    BUDGET = ("budget", False, "stopped: the maximum number of model evaluations of one "
+              "solve ({budget}) was reached")
     ITERATIONS = ("iterations", False, "stopped: {iterations} iterations without meeting "
                   "eps0 = {eps0:g}")
     NOT_FINITE = ("not-finite", False, "the model's response is not finite at the starting "

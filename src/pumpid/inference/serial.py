@@ -404,8 +404,8 @@ def shown_errors(unc: Uncertainty | None, serial: bool, robust_cov: Array | None
 
 def widening(unc: Uncertainty | None) -> str | None:
     """How much wider the errors shown are than the independent-noise ones, in words
-    ("72-80x"), where the robust ones are shown (None elsewhere, or where no value has
-    both errors finite)."""
+    ("72-80x"; "up to 24x" where some value's two errors agree), where the robust ones are
+    shown (None elsewhere, or where no value has both errors finite)."""
     if not isinstance(unc, Errors) or unc.shown != "robust":
         return None
     ratios = [unc.stderr[n] / w for n, w in unc.stderr_white.items()
@@ -417,7 +417,10 @@ def widening(unc: Uncertainty | None) -> str | None:
         return f"{x:.0f}" if x >= 10 else f"{x:.2g}"
 
     low, high = times(min(ratios)), times(max(ratios))
-    return f"{low}x" if low == high else f"{low}-{high}x"
+    if low == high:
+        return f"{low}x"
+    # "1-24x smaller": a value whose two errors agree is not smaller at all.
+    return f"up to {high}x" if low == "1" else f"{low}-{high}x"
 
 
 def unbounded(unc: Uncertainty, name: str) -> Uncertainty:

@@ -44,9 +44,10 @@ def beyond_text(result: FitResult, short: bool = False) -> str:
     alone = fmt(result.r2_fundamental, 6)
     share = f"{100 * max(beyond, 0.0):.1f} %"
     if result.determined.get("signal_beyond_fundamental") is False:
-        # Nothing beyond the fundamental but noise: "explains 0.0 % of the rest" blamed the
-        # model for what no model can explain.
-        return (f" (fundamental alone {alone}: the rest is noise)" if short else
+        # Nothing beyond the fundamental above the noise level: "explains 0.0 % of the rest"
+        # blamed the model for what no model can explain, and "the rest is noise" stood
+        # beside "the residuals are not white noise" on field cards.
+        return (f" (fundamental alone {alone}: the rest at the noise level)" if short else
                 f" (the stroke's fundamental alone: {alone}; what it leaves is at the noise "
                 "level)")
     if short:
