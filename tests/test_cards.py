@@ -697,10 +697,12 @@ class TestSplitStrokes:
         strokes = split_strokes(record())
         assert len(strokes) == 5
         assert [s.card_id for s in strokes] == [f"rec#{k}" for k in range(5)]
-        for s in strokes:
+        for k, s in enumerate(strokes):
             assert s.n == 60 and s.periodic and s.t[0] == 0.0
             assert s.period == pytest.approx(6.0) and s.spm == pytest.approx(10.0)
-            assert "cut from 'rec'" in s.notes[-1]
+            # Its id's number and its place among the strokes ("stroke 0 of 5" read as one
+            # short).
+            assert f"stroke #{k} ({k + 1} of 5) cut from 'rec'" in s.notes[-1]
         assert strokes[2].metadata["t0"] == pytest.approx(12.0)
         # Each stroke's source says which samples of the record it is (every stroke said
         # the record's whole span of lines).

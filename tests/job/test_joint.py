@@ -77,6 +77,24 @@ def test_the_cli_fits_the_files_cards_jointly(capsys) -> None:
     alone = [ln.split("alone: ")[1] for ln in out.splitlines() if "alone: " in ln]
     assert len(alone) == 2 and all("lbf/in" in a and "lbf*s^2/in" in a for a in alone)
     assert main(["fit", EXAMPLE, "--joint", "--model", "auto"]) == 2
+    # --brief's line per card has no place for one fit of several cards: it was ignored.
+    assert main(["fit", EXAMPLE, "--joint", "--brief"]) == 2
+    assert "--brief" in capsys.readouterr().err
+
+
+@pytest.mark.realdata
+def test_a_cards_offset_is_flagged_where_the_joint_static_stiffness_is_not(shared_raw,
+                                                                          capsys) -> None:
+    # Sandia's SX6I03 pair: k1 and the static stiffness not determined, and each card's
+    # offset at zero load (its level less the mean load over that stiffness) printed as
+    # -74.9981 in, unflagged, where the card's own fit calls its offset not determined.
+    main(["fit", str(shared_raw / "sandia_dds" / "surface_cards.csv"), "--card", "SX6I03A",
+          "--card", "SX6I03B", "--joint"])
+    out = capsys.readouterr().out
+    per_card = [ln for ln in out.splitlines() if ln.strip().startswith("SX6I03") and "level" in ln]
+    assert len(per_card) == 2
+    assert all("in (not determined), R^2" in ln for ln in per_card), per_card
+    assert "static_stiffness" in out
 
 
 @pytest.mark.realdata

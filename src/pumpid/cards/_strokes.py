@@ -184,7 +184,8 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
             if isinstance(value, np.ndarray) and value.shape == (card.n,):
                 meta[key] = value[a:b]
         note = (
-            f"stroke {k} of {len(kept)} cut from {card.card_id!r} at position minima "
+            # The ids count from 0 (CARD#0): "stroke 0 of 6" read as one short.
+            f"stroke #{k} ({k + 1} of {len(kept)}) cut from {card.card_id!r} at position minima "
             f"(samples {a}-{b - 1}"
             + (f", t0 = {card.t[a]:.6g} s, time restarted at 0" if card.t is not None else "")
             + "); treated as one period"

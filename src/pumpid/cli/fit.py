@@ -481,19 +481,26 @@ def _joint_text(joint: FitResult) -> str:
     lines = [joint.report(), "", "  per card: level (position at its mean load), offset (at "
              "zero load), R^2, RMSE, and the card's own fit:"]
     units = joint.param_units()
+    # The offset at zero load is the level less the mean load over the static stiffness: a
+    # card's own fit flags it where that stiffness is not determined, and so does this.
+    stiff = joint.derived.get("static_stiffness")
+    loose = " (not determined)" if stiff is not None and not stiff.determined else ""
     for c in joint.application["joint"]["cards"]:
         own = ", ".join(f"{k} = {v:.4g} {unit_text(units.get(k, ''))}".rstrip()
                         for k, v in c["single"].items())
         lines.append(f"  {c['card']}: level = {c['level']:.6g} {pos}, offset = "
-                     f"{c['offset']:.6g} {pos}, R^2 = {c['r2']:.6f}, RMSE = {c['rmse']:.4g} "
-                     f"{pos}; alone: RMSE = {c['rmse_alone']:.4g} {pos}, {own}")
+                     f"{c['offset']:.6g} {pos}{loose}, R^2 = {c['r2']:.6f}, RMSE = "
+                     f"{c['rmse']:.4g} {pos}; alone: RMSE = {c['rmse_alone']:.4g} {pos}, "
+                     f"{own}")
     return "\n".join(lines)
 
 
 def _cmd_joint(args: argparse.Namespace, setup: FitSetup) -> int:
     """--joint: one parameter set for every card of the files (``FitOptions(joint=True)``)."""
-    if setup.auto or setup.x0_extras is not None or args.out or args.predict:
-        raise CliError("--joint takes one model (not auto), no --x0, --out or --predict")
+    if setup.auto or setup.x0_extras is not None or args.out or args.predict or args.brief:
+        # --brief's line per card has no place for one fit of several cards: it was ignored.
+        raise CliError("--joint takes one model (not auto), no --x0, --out, --predict or "
+                       "--brief")
     cards: list[Card] = []
     for path, read, refused in _inputs(args, setup, _Predictor(None, setup)):
         if isinstance(read, CardError):

@@ -193,8 +193,12 @@ class DerivedInfo:
 
 #: The quantities of :meth:`Model.derived_values`, by the number of states.
 _TIME_CONSTANT = DerivedInfo("time_constant", "s", "time constant of the real pole (-1/pole)")
+# "Of the oscillating pair" beside a damping ratio of 1.4 contradicted itself: past critical
+# damping the pair is two real poles, and |pole| is their geometric mean.
 _NATURAL = DerivedInfo("natural_frequency", "Hz",
-                       "natural frequency of the oscillating pair of poles (|pole| / 2 pi)")
+                       "natural frequency of the pair of poles (|pole| / 2 pi; with a damping "
+                       "ratio above 1 the pair is two real poles and this is their geometric "
+                       "mean, nothing oscillates)")
 _DAMPING = DerivedInfo("damping_ratio", "1",
                        "damping ratio of that pair (-Re pole / |pole|; above 1: two real "
                        "poles, overdamped)")
