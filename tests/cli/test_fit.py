@@ -135,6 +135,7 @@ def test_prediction_of_another_card(two_cards: Path, capsys) -> None:
     assert main(["fit", str(two_cards), *U, "--card", "W-1", "--predict", "W-2"]) == 0
     out = capsys.readouterr().out
     assert "prediction of card W-2: R^2 = " in out
+    assert "(the card's fundamental alone: " in out
 
 
 def test_warnings_are_shortened_to_their_first_sentence() -> None:

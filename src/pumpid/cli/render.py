@@ -144,6 +144,14 @@ def _params(res: FitResult, *, errors: bool = True) -> list[str]:
     return out
 
 
+def _prediction_scores(pred: Prediction, res: FitResult) -> str:
+    """A prediction's R^2 beside its card's fundamental alone, and its RMSE."""
+    alone = (f" (the card's fundamental alone: {fmt(pred.r2_fundamental, 6)})"
+             if math.isfinite(pred.r2_fundamental) else "")
+    return (f"R^2 = {fmt(pred.r2, 6)}{alone}, RMSE = {fmt(pred.rmse, 4)} "
+            f"{unit_text(res.units.position)}")
+
+
 def _robust_note(res: FitResult) -> str | None:
     """Which errors the ± are, where they are not the independent-noise ones (the run's
     header says that the card says so)."""
@@ -257,9 +265,8 @@ class TextPrinter:
                  if n not in self._file_notes]
         lines += [ln for n in notes for ln in _wrap(f"note: {printable(n)}")]
         if row.prediction is not None:
-            lines += _wrap(f"prediction of card {printable(row.prediction.card)}: R^2 = "
-                           f"{fmt(row.prediction.r2, 6)}, RMSE = {fmt(row.prediction.rmse, 4)} "
-                           f"{unit_text(res.units.position)}")
+            lines += _wrap(f"prediction of card {printable(row.prediction.card)}: "
+                           f"{_prediction_scores(row.prediction, res)}")
         choice = res.application.get("model_choice")
         if choice:
             lines += ["  " + ln for ln in model_choice_text(choice).splitlines()]
@@ -277,9 +284,8 @@ class TextPrinter:
         for w in row.warnings:
             lines.append(f"  - {printable(w)}")
         if row.prediction is not None:
-            lines.append(f"  prediction of card {printable(row.prediction.card)}: R^2 = "
-                         f"{fmt(row.prediction.r2, 6)}, RMSE = {fmt(row.prediction.rmse, 4)} "
-                         f"{unit_text(res.units.position)}")
+            lines.append(f"  prediction of card {printable(row.prediction.card)}: "
+                         f"{_prediction_scores(row.prediction, res)}")
         if row.output:
             lines.append(f"  outputs: {printable(row.output)}")
         lines.append("")

@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..cards import Card
 from ..engine.simulate import InitialState, simulate
+from ..inference.echo import fundamental_share
 from ..job import FitOptions, card_record
 from ..result import FitResult, Prediction
 
@@ -76,5 +77,10 @@ def predict_card(result: FitResult, card: Card) -> Prediction:
     predicted = predict(result, t, card.load, initial_state=record.initial_state,
                         period=record.period)
     scores = evaluate_prediction(card.position, predicted)
+    alone = math.nan
+    if isinstance(record.initial_state, str) and record.initial_state == "periodic" \
+            and np.allclose(np.diff(t), t[1] - t[0], rtol=1e-6):
+        alone = fundamental_share(np.asarray(card.position, dtype=float))
     return Prediction(card=card.card_id, t=t, load=np.asarray(card.load),
-                      measured=np.asarray(card.position), predicted=predicted, **scores)
+                      measured=np.asarray(card.position), predicted=predicted,
+                      r2_fundamental=alone, **scores)

@@ -125,7 +125,12 @@ def jsonable(value: Any) -> Any:
 
 @dataclass(frozen=True)
 class Prediction:
-    """A fitted model's prediction of another record (the paper's Fig. 9)."""
+    """A fitted model's prediction of another record (the paper's Fig. 9).
+
+    ``r2_fundamental`` is the R^2 of the predicted card's stroke fundamental alone (NaN off
+    a periodic card): any linear model reproduces that much from any load, so the
+    prediction's R^2 means something only beside it.
+    """
 
     card: str | None
     t: Array
@@ -134,10 +139,12 @@ class Prediction:
     predicted: Array
     rmse: float
     r2: float
+    r2_fundamental: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """The scores (no arrays)."""
-        return {"card": self.card, "rmse": self.rmse, "r2": self.r2}
+        return {"card": self.card, "rmse": self.rmse, "r2": self.r2,
+                "r2_fundamental": self.r2_fundamental}
 
     def __getitem__(self, key: str) -> Any:
         # Dictionary-style access to the fields (``pred["r2"]``).
