@@ -61,6 +61,16 @@ FUNDAMENTAL_WORSE = -0.05
 PAIR_QUANTITIES = ("natural_frequency", "damping_ratio")
 
 
+def _mark_pair(out: dict[str, Derived], note: str, **also: bool) -> str:
+    """Mark the pair's quantities in ``out`` (in place) not the well's, with ``note`` and
+    any other changes; returns their names in words ("natural frequency and damping
+    ratio")."""
+    for name in PAIR_QUANTITIES:
+        if name in out:
+            out[name] = dataclasses.replace(out[name], well_property=False, note=note, **also)
+    return " and ".join(n.replace("_", " ") for n in PAIR_QUANTITIES if n in out)
+
+
 def echo_of(derived: Mapping[str, Derived], period: float | None
             ) -> tuple[dict[str, Derived], str | None]:
     """Mark the oscillating pair's quantities when its resonance sits on a harmonic.
@@ -95,10 +105,7 @@ def echo_of(derived: Mapping[str, Derived], period: float | None
     note = (f"the fitted resonance sits on {where} (natural frequency {fn.value:.4g} Hz = "
             f"{ratio:.3f} x the stroke frequency {stroke:.4g} Hz): the model echoes the "
             f"imposed motion, and this follows the pumping speed, not the well")
-    for name in PAIR_QUANTITIES:
-        if name in out:
-            out[name] = dataclasses.replace(out[name], well_property=False, note=note)
-    names = " and ".join(n.replace("_", " ") for n in PAIR_QUANTITIES if n in out)
+    names = _mark_pair(out, note)
     warning = (f"{note[0].upper()}{note[1:]}. A card holds only the stroke frequency and its "
                f"harmonics, so it cannot tell where the rod string's own resonance is: the "
                f"{names} are not properties of the well (not trended by the fleet report)")
@@ -143,11 +150,7 @@ def alias_of(derived: Mapping[str, Derived], step: float | None
     note = (f"the fitted resonance (natural frequency {fn.value:.4g} Hz) lies above the "
             f"highest frequency the card's samples can show ({nyquist:.4g} Hz, half their "
             f"rate): the samples hold only an alias of it")
-    for name in PAIR_QUANTITIES:
-        if name in out:
-            out[name] = dataclasses.replace(out[name], determined=False,
-                                            well_property=False, note=note)
-    names = " and ".join(n.replace("_", " ") for n in PAIR_QUANTITIES if n in out)
+    names = _mark_pair(out, note, determined=False)
     warning = (f"{note[0].upper()}{note[1:]}, which the model uses to follow part of what it "
                f"otherwise misses. The card does not determine the {names} (not properties "
                f"of the well, not trended)")
