@@ -269,3 +269,6 @@ def test_a_column_of_date_time_stamps_can_be_left_unread(tmp_path: Path, capsys)
     assert ("column 'timestamp' has varying non-numeric values ('2024-05-01 10:00:00.000000', "
             "...; date/time stamps are not read as time); not kept") in out
     assert "no time read from the file" in out
+    # Only a role a card can do without reads no column.
+    assert main(["fit", str(named_t), "--columns", "position=-", "--spm", "6"]) == 2
+    assert "position needs a column" in capsys.readouterr().err

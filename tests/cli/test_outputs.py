@@ -70,6 +70,10 @@ def test_one_card_writes_into_the_folder_and_a_rerun_says_what_it_replaces(
     # result.json is the report in machine form: the prediction the report shows is in it.
     said = json.loads((out / "result.json").read_text())["prediction"]
     assert said["card"] == "W-2" and 0 < said["rmse"] and said["r2"] <= 1
+    # ... with the predicted card's fundamental alone beside its R^2, in both.
+    assert 0 < said["r2_fundamental"] <= 1
+    assert "R² of the card&#x27;s fundamental alone" in (out / "report.html").read_text() or \
+        "R² of the card's fundamental alone" in (out / "report.html").read_text()
     # Rerun without a prediction: the old prediction.png must not sit beside the new report.
     assert main(["fit", str(path), *U, "--card", "W-1", "--out", str(out)]) == 0
     err = capsys.readouterr().err

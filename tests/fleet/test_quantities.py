@@ -4,15 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from pumpid.fleet.changes import detect_changes, history_coverage, summarise_wells
-from pumpid.fleet.figures import quantity_values
+from pumpid.fleet.figures import quantity_values, unit_mix
 from pumpid.fleet.quantities import (
     available_quantities,
     columns_of,
     counted,
+    flag,
     larger_error,
 )
+from pumpid.fleet.report import write_fleet_report
 
 
 def _table() -> pd.DataFrame:
@@ -47,7 +50,7 @@ def test_columns_of_each_kind() -> None:
         "d_static_stiffness", ("d_static_stiffness_se",), "d_static_stiffness_unit", "derived")
     param = columns_of("p_k0")
     assert (param.value, param.errors, param.unit, param.kind) == (
-        "p_k0", ("p_k0_se", "p_k0_se_hac"), None, "parameter")
+        "p_k0", ("p_k0_se", "p_k0_se_hac"), "p_k0_unit", "parameter")
     pump = columns_of("pump_fluid_load")
     assert (pump.value, pump.determined, pump.unit, pump.kind) == (
         "pump_fluid_load", "pump_fluid_load_determined", "pump_fluid_load_unit", "pump")
@@ -107,3 +110,45 @@ def test_a_poor_fit_is_never_a_well_s_latest_value() -> None:
     frame.loc[11, "d_static_stiffness"] = 555.0
     latest = summarise_wells(frame, quantities=["static_stiffness"])
     assert float(latest["latest_static_stiffness"].iloc[0]) == frame.loc[10, "d_static_stiffness"]
+
+
+def test_a_parameter_stated_in_another_unit_is_converted_for_the_views() -> None:
+    # Two wells' k0 in lbf/in and N/m: the views across wells had drawn 17513 N/m beside
+    # 100 lbf/in on one axis once a parameter's unit column was no longer read.
+    frame = _table().iloc[:4].copy()
+    frame["p_k0"] = [100.0, 101.0, 17513.0, 17600.0]
+    frame["p_k0_unit"] = ["lbf/in", "lbf/in", "N/m", "N/m"]
+    frame["status"] = "converged"
+    value, _se, ok = quantity_values(frame, "p_k0", "lbf/in")
+    assert value.to_numpy() == pytest.approx([100.0, 101.0, 100.0, 100.5], rel=1e-3)
+    assert ok.all()
+    assert unit_mix(frame, "p_k0", "lbf/in") == (["N/m"], 0)
+
+
+def test_flags_read_from_text_or_with_gaps() -> None:
+    text = pd.Series(["True", "False", None, "0", "1", "maybe"], dtype=object)
+    assert flag(text, default=False).tolist() == [True, False, False, False, True, False]
+    assert flag(text, default=True).tolist() == [True, False, True, False, True, True]
+    gaps = pd.Series([np.nan, 1.0, 0.0])
+    assert flag(gaps, default=True).tolist() == [True, True, False]
+    assert flag(pd.Series([True, False]), default=False).tolist() == [True, False]
+
+
+def test_the_report_s_own_detection_leaves_echoes_out(tmp_path) -> None:
+    # Thirty cards whose resonance is the well's, then thirty whose fits echo the stroke at
+    # 0.1 Hz: the report found its alerts with every quantity named, as if asked for, and
+    # alerted at card c33 on points none of its plots showed.
+    rng = np.random.default_rng(0)
+    n = 60
+    fn = np.r_[1.0 + 0.01 * rng.standard_normal(30), 0.1 + 0.001 * rng.standard_normal(30)]
+    frame = pd.DataFrame({
+        "well_id": "W", "card_id": [f"c{i}" for i in range(n)],
+        "time": pd.Timestamp("2024-01-01", tz="UTC") + pd.to_timedelta(np.arange(n), unit="D"),
+        "status": "converged", "d_natural_frequency": fn, "d_natural_frequency_se": 0.01,
+        "d_natural_frequency_determined": True, "d_natural_frequency_unit": "Hz",
+        "d_natural_frequency_well_property": np.arange(n) < 30,
+    })  # fmt: skip
+    files = write_fleet_report(frame, tmp_path)
+    assert pd.read_csv(files["alerts"]).empty
+    # Named, the echoes are trended: the user asked for them.
+    assert not detect_changes(frame, ["natural_frequency"]).empty

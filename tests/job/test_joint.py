@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -95,6 +96,10 @@ def test_a_cards_offset_is_flagged_where_the_joint_static_stiffness_is_not(share
     assert len(per_card) == 2
     assert all("in (not determined), R^2" in ln for ln in per_card), per_card
     assert "static_stiffness" in out
+    main(["fit", str(shared_raw / "sandia_dds" / "surface_cards.csv"), "--card", "SX6I03A",
+          "--card", "SX6I03B", "--joint", "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert [c["offset_determined"] for c in doc["cards"]] == [False, False]
 
 
 @pytest.mark.realdata

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from importlib import resources
 
 import numpy as np
@@ -133,3 +134,17 @@ def test_sandia_fit_one_stroke_predict_the_next(sandia_cards) -> None:
     assert pred.r2_fundamental == pytest.approx(
         pumpid.fit("kelvin", sandia_cards["SX6E03B"]).r2_fundamental, abs=1e-12)
     assert pred.to_dict()["r2_fundamental"] == pred.r2_fundamental
+
+
+def test_a_prediction_s_fundamental_is_measured_only_on_a_whole_period() -> None:
+    # A card whose samples cover 60 % of its period had been given a "fundamental alone" of
+    # 0.77, where the fit's own rule (one whole period) gives none.
+    first, second = _example_cards()
+    res = pumpid.fit("kelvin", first)
+    whole = predict_card(res, second)
+    assert 0.9 < whole.r2_fundamental < 1.0
+    part = Card(position=second.position[:120], load=second.load[:120], t=second.t[:120],
+                position_unit=second.position_unit, load_unit=second.load_unit,
+                card_id="part", period=second.period, spm=second.spm, time_source="spm",
+                periodic=True)
+    assert math.isnan(predict_card(res, part).r2_fundamental)

@@ -373,6 +373,10 @@ def columns_option(spec: str | None, **single: str | None) -> dict[str, Any] | N
     for role, col in single.items():
         if col is not None:
             cols[role] = col
+    needed = [k for k, v in cols.items() if v == "-" and k in ("position", "load")]
+    if needed:
+        raise CliError(f"--columns: {needed[0]} needs a column ('-' reads none: for t, card, "
+                       "well, spm or period)")
     out = {k: None if v == "-" else int(v) if v.isdigit() else v for k, v in cols.items()}
     return out or None
 

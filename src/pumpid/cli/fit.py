@@ -481,11 +481,10 @@ def _joint_text(joint: FitResult) -> str:
     lines = [joint.report(), "", "  per card: level (position at its mean load), offset (at "
              "zero load), R^2, RMSE, and the card's own fit:"]
     units = joint.param_units()
-    # The offset at zero load is the level less the mean load over the static stiffness: a
-    # card's own fit flags it where that stiffness is not determined, and so does this.
-    stiff = joint.derived.get("static_stiffness")
-    loose = " (not determined)" if stiff is not None and not stiff.determined else ""
     for c in joint.application["joint"]["cards"]:
+        # As a card's own fit flags its offset (at zero load) where the static stiffness is
+        # not determined.
+        loose = "" if c.get("offset_determined", True) else " (not determined)"
         own = ", ".join(f"{k} = {v:.4g} {unit_text(units.get(k, ''))}".rstrip()
                         for k, v in c["single"].items())
         lines.append(f"  {c['card']}: level = {c['level']:.6g} {pos}, offset = "

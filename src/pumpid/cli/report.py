@@ -86,8 +86,9 @@ def cmd_report(args: argparse.Namespace) -> int:
         quantities = available_quantities(table, parameters=True)
     # The alerts are found here and handed to the report, so that they are printed with the
     # ids as the files have them (alerts.csv neutralises text a spreadsheet would evaluate).
+    # --parameters names no quantity: an echo of the stroke stays out, as in the views.
     options = {"false_alarm": args.false_alarm, "min_cards": args.min_cards}
-    alerts = detect_changes(table, quantities, **options)
+    alerts = detect_changes(table, args.quantity, parameters=args.parameters, **options)
     paths = write_fleet_report(table, args.out, alerts=alerts, quantities=quantities,
                                max_wells_plotted=args.max_wells, **options)
     n = card_counts(table)

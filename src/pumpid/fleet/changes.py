@@ -289,7 +289,8 @@ def _quantity(
     n_wells = len(usable.wells)
     code = np.repeat(np.arange(n_wells), np.diff(usable.bounds))
     units = [""] * n_wells
-    if cols.unit is not None and cols.unit in frame.columns:
+    # A parameter's unit comes from the model (parameter_unit), as before tables stated it.
+    if cols.kind != "parameter" and cols.unit in frame.columns:
         stated = frame[cols.unit].to_numpy(dtype=object)
         # A well's unit is the one most of its kept values state; a well with no kept value
         # (every card left the quantity undetermined) still has the unit its rows state,

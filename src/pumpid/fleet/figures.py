@@ -69,9 +69,9 @@ def column_unit(frame: pd.DataFrame, summary: pd.DataFrame, quantity: str) -> st
     (whether or not their value is determined: a quantity no card determined still has its
     unit), else the one most wells' latest values have (parameters: from the model)."""
     stated = pd.Series(dtype=object)
-    own = columns_of(quantity).unit  # None for a parameter
-    if own is not None and own in frame.columns:
-        stated = frame[own].dropna().astype(str)
+    cols = columns_of(quantity)
+    if cols.kind != "parameter" and cols.unit in frame.columns:
+        stated = frame[cols.unit].dropna().astype(str)
     if not len(stated) and f"latest_{quantity}_unit" in summary.columns:
         stated = summary[f"latest_{quantity}_unit"].dropna().astype(str)
     stated = stated[stated != ""]
@@ -105,7 +105,7 @@ def quantity_values(frame: pd.DataFrame, quantity: str, unit: str | None = None
     cols = columns_of(quantity)
     value = pd.to_numeric(frame[cols.value], errors="coerce")
     se = pd.Series(larger_error(frame, quantity), index=frame.index)
-    if unit and cols.unit is not None and cols.unit in frame.columns:
+    if unit and cols.unit in frame.columns:
         stated = frame[cols.unit]
         factors = {u: unit_factor(str(u), unit) for u in stated.dropna().unique()}
         factor = stated.map(lambda u: 1.0 if pd.isna(u) else factors[u])
@@ -146,7 +146,7 @@ def unit_mix(frame: pd.DataFrame, quantity: str, unit: str) -> tuple[list[str], 
     left_out : int
     """
     own = columns_of(quantity).unit
-    if not unit or own is None or own not in frame.columns:
+    if not unit or own not in frame.columns:
         return [], 0
     _, _, ok = quantity_values(frame, quantity)
     stated = frame.loc[np.asarray(ok, dtype=bool), own].dropna().astype(str)

@@ -9,9 +9,9 @@ other by hand.
 
 Column conventions: a derived quantity ``NAME`` is the column ``d_NAME``, a parameter
 ``p_NAME``, a pump quantity ``pump_NAME`` (:mod:`.downhole`); beside each value, ``_se``
-(and ``_se_hac`` for a parameter), ``_determined``, ``_unit`` (derived and pump quantities)
-and ``_well_property`` (derived quantities that can echo the stroke). Missing optional
-columns are read as unknown.
+(and ``_se_hac`` for a parameter), ``_determined``, ``_unit`` and ``_well_property``
+(derived quantities that can echo the stroke). Missing optional columns are read as unknown;
+a flag column's missing entries as its default (not determined; a property of the well).
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ __all__ = [
     "available_quantities",
     "columns_of",
     "counted",
+    "flag",
     "larger_error",
     "parameter_unit",
 ]
@@ -59,8 +60,9 @@ class QuantityColumns:
         Its standard errors' columns (the larger one is used).
     determined : str
         The column saying whether the card determines it.
-    unit : str or None
-        The column stating its unit (None: a parameter, whose unit the model gives).
+    unit : str
+        The column stating its unit (a parameter's too: the change detection takes a
+        parameter's unit from the model instead, :func:`parameter_unit`).
     kind : str
         ``"derived"``, ``"parameter"`` or ``"pump"``.
     """
@@ -68,7 +70,7 @@ class QuantityColumns:
     value: str
     errors: tuple[str, ...]
     determined: str
-    unit: str | None
+    unit: str
     kind: str
 
 
@@ -91,7 +93,7 @@ def columns_of(quantity: str) -> QuantityColumns:
                                f"{quantity}_unit", "pump")
     if quantity.startswith("p_"):
         return QuantityColumns(quantity, (f"{quantity}_se", f"{quantity}_se_hac"),
-                               f"{quantity}_determined", None, "parameter")
+                               f"{quantity}_determined", f"{quantity}_unit", "parameter")
     col = f"d_{quantity}"
     return QuantityColumns(col, (f"{col}_se",), f"{col}_determined", f"{col}_unit",
                            "derived")
@@ -183,14 +185,42 @@ def counted(frame: pd.DataFrame, quantity: str, values: NDArray[np.float64], *,
         USABLE_STATUSES)
     keep &= usable.to_numpy(dtype=bool)
     if cols.determined in frame.columns:
-        keep &= frame[cols.determined].fillna(False).astype(bool).to_numpy()
+        keep &= flag(frame[cols.determined], default=False)
     elif cols.kind == "parameter" and cols.errors[0] in frame.columns:
         shown = pd.to_numeric(frame[cols.errors[0]], errors="coerce").to_numpy(dtype=float)
         keep &= np.isfinite(shown)
     prop = f"{cols.value}_well_property"
     if not asked and prop in frame.columns:
-        keep &= frame[prop].fillna(True).astype(bool).to_numpy()
+        keep &= flag(frame[prop], default=True)
     return keep
+
+
+def flag(column: pd.Series, *, default: bool) -> NDArray[np.bool_]:
+    """A flag column as booleans, its missing entries ``default``.
+
+    A table written to Parquet holds booleans (or nulls); one read back from CSV may hold
+    their text, where ``astype(bool)`` read "False" as True (any non-empty string), and
+    filling a float column of NaN with False is deprecated in pandas.
+
+    Parameters
+    ----------
+    column : pandas.Series
+        The flag column.
+    default : bool
+        What a missing or unreadable entry means.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+    """
+    if column.dtype == object or pd.api.types.is_string_dtype(column.dtype):
+        text = column.astype("string").str.strip().str.lower()
+        out = np.full(len(column), default)
+        out[text.isin(("true", "1", "1.0")).fillna(False).to_numpy(dtype=bool)] = True
+        out[text.isin(("false", "0", "0.0")).fillna(False).to_numpy(dtype=bool)] = False
+        return out
+    values = pd.to_numeric(column, errors="coerce").to_numpy(dtype=float)
+    return np.where(np.isnan(values), default, values != 0.0)
 
 
 def parameter_unit(frame: pd.DataFrame, quantity: str) -> str:

@@ -499,7 +499,9 @@ def write_fleet_report(
     min_short = int(detect_options.get("min_short_cards", SHORT_MIN_CARDS))
     given = alerts is not None
     if alerts is None:
-        alerts = detect_changes(frame, names, **detect_options)
+        # The quantities as the caller gave them: named ones are asked for (their echoes of
+        # the stroke trended too), the default leaves echoes out, as the views do.
+        alerts = detect_changes(frame, quantities, **detect_options)
     if not given or detect_options:
         # Alerts a caller found with these same options (the command line prints them
         # before the CSV neutralises their text) are described as if found here.

@@ -46,6 +46,7 @@ __all__ = [
     "Numbers",
     "Uncertainty",
     "analyse_rows",
+    "closes_period",
     "correlation_of",
     "diagnose_items",
     "lag1",
@@ -462,10 +463,27 @@ def whole_period(problem: Problem, k: int) -> bool:
     fundamental's share of the data is measured."""
     if problem.initial_states[k] != "periodic" or not problem.uniform[k]:
         return False
-    t = problem.card(k)[0]
-    if t.size < 2:
+    return closes_period(problem.card(k)[0], float(problem.period[k]))
+
+
+def closes_period(t: Array, period: float | None) -> bool:
+    """Whether uniformly spaced sample times ``t`` (s) cover one period of ``period`` s
+    whole: the sample after the last would be the first's one period on (no gap).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        The sample times, uniformly spaced (the caller's test).
+    period : float or None
+        The period (s).
+
+    Returns
+    -------
+    bool
+    """
+    t = np.asarray(t, dtype=float)
+    if t.size < 2 or period is None or not (math.isfinite(period) and period > 0):
         return False
-    period = float(problem.period[k])
     step = float(t[-1] - t[0]) / (t.size - 1)
     return abs(period - t.size * step) <= 1e-6 * period
 

@@ -166,10 +166,14 @@ class StackedCards(OwnModel):
 
 
 def joint_part(model: StackedCards, result: FitResult, ids: Sequence[str]) -> dict[str, Any]:
-    """The per-card part of a joint fit: each card's offset (at zero load), level, R^2, RMSE
-    and its own fit's parameters."""
+    """The per-card part of a joint fit: each card's offset (at zero load; whether it is
+    determined), level, R^2, RMSE and its own fit's parameters."""
     p = model.n_model
     values = np.array([result.params[n] for n in model.param_names()])
+    # A card's offset at zero load is its level less the mean load over the static
+    # stiffness: determined only where that stiffness is.
+    stiff = result.derived.get("static_stiffness")
+    offset_determined = stiff is None or bool(stiff.determined)
     cards = []
     at = 0
     fitted = np.asarray(result.fitted)
@@ -190,6 +194,7 @@ def joint_part(model: StackedCards, result: FitResult, ids: Sequence[str]) -> di
         cards.append({
             "card": ids[i], "level": float(values[p + i]),
             "offset": float(values[p + i]) - mean_response,
+            "offset_determined": offset_determined,
             "r2": 1.0 - float(res @ res) / sst if sst > 0 else math.nan,
             "rmse": math.sqrt(float(res @ res) / d.size),
             "rmse_alone": math.nan if single is None else float(single.rmse),

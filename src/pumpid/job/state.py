@@ -239,8 +239,8 @@ def doubt(problem: Problem, k: int, card: CardState) -> str:
         # "4.01e+14 times the data's noise" on a field card whose positions come in steps
         # of 0.01 m: most second differences vanish, and so does their median.
         return ("the first answer's error was above the data's noise, which the samples "
-                "put at zero (most of their second differences vanish: positions recorded in "
-                "steps or straight runs)")
+                "put at or near zero (most of their second differences vanish: values "
+                "recorded in steps or straight runs)")
     # A residual at rounding level has no structure worth a search, whatever its shape.
     ratio, p_value = card.band
     if card.rmse > floor and p_value < BAND_P and ratio >= BAND_RATIO:

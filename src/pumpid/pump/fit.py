@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..cards import Card
 from ..engine.simulate import InitialState, simulate
 from ..inference.echo import fundamental_share
+from ..inference.uncertainty import closes_period
 from ..job import FitOptions, card_record
 from ..result import FitResult, Prediction
 
@@ -78,8 +79,11 @@ def predict_card(result: FitResult, card: Card) -> Prediction:
                         period=record.period)
     scores = evaluate_prediction(card.position, predicted)
     alone = math.nan
+    # The fit's own rule: one whole period, uniformly sampled (a card covering 60 % of its
+    # period had been given a "fundamental alone" of 0.77).
     if isinstance(record.initial_state, str) and record.initial_state == "periodic" \
-            and np.allclose(np.diff(t), t[1] - t[0], rtol=1e-6):
+            and t.size >= 2 and np.allclose(np.diff(t), t[1] - t[0], rtol=1e-6) \
+            and closes_period(t, record.period):
         alone = fundamental_share(np.asarray(card.position, dtype=float))
     return Prediction(card=card.card_id, t=t, load=np.asarray(card.load),
                       measured=np.asarray(card.position), predicted=predicted,

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 import json
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from importlib import metadata
 from pathlib import Path
@@ -369,7 +370,11 @@ def write_outputs(
         # The file is the report's in machine form: the prediction it shows belongs in it
         # (the scores, as --json gives them; the arrays are the other record's data).
         source = prediction_source(result, prediction)
-        doc["prediction"] = {k: source.get(k) for k in ("card", "rmse", "r2")}
+        # NaN (no fundamental off a whole period) as null, as every other number here.
+        doc["prediction"] = {k: (None if isinstance(source[k], float)
+                                 and not math.isfinite(source[k]) else source[k])
+                             for k in ("card", "rmse", "r2", "r2_fundamental")
+                             if k in source}
     paths["json"] = atomic_write(out / "result.json", json.dumps(doc, indent=2) + "\n")
     paths["report"] = write_report(result, out, title=title, figures=pngs, notes=notes,
                                    prediction=prediction, extra_sections=extra_sections)

@@ -522,6 +522,11 @@ def prediction_html(result: FitResult, pred: Any) -> str | None:
     else:
         return None
     rows = [("RMSE", number(rmse), result.units.position), ("R²", number(r2, 8), "-")]
+    alone = pred.get("r2_fundamental") if isinstance(pred, Mapping) else None
+    if isinstance(alone, float) and math.isfinite(alone):
+        # Any linear model reproduces the card's fundamental from any load: the R^2 means
+        # something only beside it.
+        rows.append(("R² of the card's fundamental alone", number(alone, 8), "-"))
     return (f"<p>The fitted parameters (with the same C and offset) applied to the load of a "
             f"record the model was not fitted on: {escape(record)}.</p>\n"
             + table(("quantity", "value", "unit"), rows, num_cols=(1,)))
