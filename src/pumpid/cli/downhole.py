@@ -36,7 +36,7 @@ from ..pump.identify_report import DownholeCard, draw_identified
 from ..report.output import OutputError, OutputFolder, UniqueNames, atomic_write
 from ..report.spreadsheet import LINE_END, neutralise_row
 from ..result import jsonable
-from ..rods import DEFAULT_DAMPING, WellFile, diagnose_cards, read_well_file
+from ..rods import DEFAULT_DAMPING, REVERSED_NOTE, WellFile, diagnose_cards, read_well_file
 from ..rods.report import DownholeReport
 from .common import (
     EXIT_INTERRUPTED,
@@ -139,7 +139,13 @@ class _Text:
             print(line, file=self.stream)
         # The reader's warnings (position and load that look swapped gave a 29.6 m plunger
         # stroke without a word); its notes with the others below.
+        # A card the rod string read reversed says so in its note (REVERSED_NOTE): the
+        # reader's warning beside it repeated the fact and spoke of a lumped fit this command
+        # does not run.
+        reversed_read = REVERSED_NOTE in res.downhole.notes
         for warning in res.downhole.card.warnings:
+            if reversed_read and "turns the wrong way" in warning:
+                continue
             print(f"  warning: {printable(warning)}", file=self.stream)
         if not res.downhole.ok:
             return
