@@ -187,6 +187,9 @@ def test_reversed_card_is_said_and_identified(tmp_path: Path, surface, capsys) -
                          "card1")
     got = doc["cards"][0]
     assert got["identification"]["status"] == "converged"
+    # The damping's unit said one way (the identification's had read "1" beside it).
+    assert got["identification"]["fitted_damping"]["unit"] == got["damping"]["unit"] == \
+        got["downhole"]["damping"]["unit"] == "dimensionless (Gibbs' nu)"
     assert got["pump"]["fillage"]["value"] == pytest.approx(0.7, abs=0.02)
     # the fitted surface load comes back in the file's sample order, as the pump cards do
     measured = surface[1][1][::-1] / LBF

@@ -35,6 +35,7 @@ from ..cards import Card
 from ..job import FitOptions, LevenbergMarquardt, fit
 from ..result import FitResult
 from ..rods import (
+    DAMPING_UNIT,
     DEFAULT_DAMPING,
     DownholeResult,
     Well,
@@ -61,7 +62,6 @@ Array = NDArray[np.float64]
 #: The pump quantities of a card, in the order output gives them.
 SHOWN = ("fluid_load", "fillage", "gross_stroke", "net_stroke", "displacement",
          "intake_pressure")
-_DAMPING_UNIT = "dimensionless (Gibbs' nu)"
 #: A fitted liquid fraction from which the card is also tried as a full pump.
 FULL_PUMP = 0.98
 #: 95 % quantile of chi-square with two degrees of freedom (the full pump holds two).
@@ -253,7 +253,7 @@ class PumpFit:
         held = self.fit is not None and "damping" not in self.fit.free
         se = (math.hypot(_stderr(self.fit, "damping"), self.discretization.get("damping", 0.0))
               if value == fitted and not held else math.nan)
-        return {"value": _num(value), "stderr": _num(se), "unit": _DAMPING_UNIT,
+        return {"value": _num(value), "stderr": _num(se), "unit": DAMPING_UNIT,
                 "rule": self.damping_rule}
 
     def energy(self) -> dict[str, Any]:

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..cards import printable
-from ..rods import DownholeResult
+from ..rods import DAMPING_UNIT, DownholeResult
 from ..rods.figure import draw_cards
 from ..rods.report import quantity_mark
 from .identify import SHOWN, PumpFit
@@ -33,7 +33,6 @@ Array = NDArray[np.float64]
 
 #: Statuses of an identification whose values are shown (as for every other fit).
 USABLE = ("converged", "boundary")
-_DAMPING_UNIT = "dimensionless (Gibbs' nu)"
 #: Quantities measured on the diagnostic card only (the identification has no load lines).
 _DIAGNOSTIC_ONLY = ("upper_load_line", "lower_load_line")
 
@@ -144,7 +143,7 @@ class DownholeCard:
         se = None
         if self.identified and self.fit is not None:
             se = self.fit.damping()["stderr"]
-        return {"value": _num(self.downhole.damping), "stderr": se, "unit": _DAMPING_UNIT,
+        return {"value": _num(self.downhole.damping), "stderr": se, "unit": DAMPING_UNIT,
                 "rule": self.downhole.damping_rule}
 
     def r2(self) -> float | None:
@@ -184,7 +183,8 @@ class DownholeCard:
                                           "evaluations", "agreement", "consistency",
                                           "energy", "identifiability", "warnings",
                                           "notes")})
-        out["fitted_damping"] = d["parameters"]["damping"]
+        # The parameter table states the model's unit ("1"); the damping is said one way.
+        out["fitted_damping"] = {**d["parameters"]["damping"], "unit": DAMPING_UNIT}
         pump = self.fit.pump_card()
         card = self.downhole.card
         out["surface_fit"] = {"load": self.file_order(np.asarray(self.fit.fit.fitted)),

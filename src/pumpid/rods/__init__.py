@@ -30,6 +30,7 @@ surface_arrays
 
 from .diagnose import (
     CONVENTIONS,
+    DAMPING_UNIT,
     DEFAULT_DAMPING,
     METHODS,
     REVERSED_NOTE,
@@ -56,6 +57,7 @@ from .wellfile import WellFile, read_well_file, wells_from_dict
 
 __all__ = [
     "CONVENTIONS",
+    "DAMPING_UNIT",
     "DEFAULT_DAMPING",
     "MATERIALS",
     "METHODS",

@@ -34,7 +34,8 @@ from .quantities import PumpMeasure, measure_pump_cards
 from .well import GRAVITY, Well
 from .wellfile import WellFile
 
-__all__ = ["CONVENTIONS", "DEFAULT_DAMPING", "METHODS", "REVERSED_NOTE", "DownholeResult",
+__all__ = ["CONVENTIONS", "DAMPING_UNIT", "DEFAULT_DAMPING", "METHODS", "REVERSED_NOTE",
+           "DownholeResult",
            "diagnose_card", "diagnose_cards", "loop_work", "quantity_units", "surface_arrays",
            "wells_for"]
 
@@ -43,6 +44,9 @@ Array = NDArray[np.float64]
 #: The damping rule of this release when none is given: Gibbs' dimensionless factor 0.05
 #: for every well (light viscous damping, the low end of the range in use for diagnostics).
 DEFAULT_DAMPING = 0.05
+#: How every output states a damping factor's unit (the diagnostic's, the identification's:
+#: one JSON document had said it two ways, this and "1").
+DAMPING_UNIT = "dimensionless (Gibbs' nu)"
 METHODS = ("fourier", "fd")
 CONVENTIONS = ("effective", "true")
 # Units of the pump quantities that have no card unit, by the well file's system.
@@ -190,7 +194,7 @@ class DownholeResult:
         out["downhole"] = {
             "position": self.position[-1].tolist(), "load": self.load[-1].tolist(),
             "units": units, "convention": self.convention, "method": self.method,
-            "damping": {"value": self.damping, "unit": "dimensionless (Gibbs' nu)",
+            "damping": {"value": self.damping, "unit": DAMPING_UNIT,
                         "rule": self.damping_rule},
             "harmonics": self.harmonics, "reversed": self.reversed,
             "tapers": [{"depth": {"value": float(d), "unit": "m"},
