@@ -8,15 +8,14 @@ load columns are recognised from their shapes (see :mod:`pumpid.cards._roles`).
 
 from __future__ import annotations
 
-import csv
 import math
 from array import array
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ._cells import Column, cli_hint, detect_roles, keep_extra, looks_like_header, splitter
 from ._common import (
     Opts,
     Raw,
@@ -26,13 +25,11 @@ from ._common import (
     num,
     parse_flag,
     rate,
-    scalar,
     time_factor,
 )
 from ._common import file_unit as _file_unit
 from ._errors import CardError
-from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
-from ._text import interpret_name, is_complex_text, is_number, normalize_name, number_problem
+from ._text import interpret_name, normalize_name, number_problem
 
 __all__ = ["COLUMN_KEYS", "read_table"]
 
@@ -43,17 +40,8 @@ COLUMN_KEYS = {
     "closure": "closure",
 }  # fmt: skip
 
-# Rows of a headerless table looked at to recognise its columns.
-_DETECT_ROWS = 20_000
 # How the cells of a column are read.
 _NUM, _FLAG, _KEY, _ANY = "num", "flag", "key", "any"
-
-
-def _cli_hint(position: int, load: int) -> str:
-    return (
-        f"name them with columns={{'position': {position}, 'load': {load}}} "
-        f"(command line: --columns position={position},load={load})"
-    )
 
 
 def _card_id(cols: Any, key_i: int | None, card_i: int | None, kid: int, stem: str,
@@ -155,50 +143,6 @@ def resolve_columns(
     return roles, units, notes, pending
 
 
-class _Column:
-    """The cells of one column: floats, plus interned text for cells that are not numbers."""
-
-    __slots__ = ("first_text", "ids", "names", "texts", "values")
-
-    def __init__(self, with_values: bool = True) -> None:
-        self.values: array[float] | None = array("d") if with_values else None
-        self.ids: array[int] | None = None  # text id per row, -1 for numbers
-        self.texts: dict[str, int] = {}
-        self.names: list[str] = []
-        self.first_text: tuple[int, str] | None = None  # (line, token) of the first text
-
-    def intern(self, tok: str) -> int:
-        k = self.texts.get(tok)
-        if k is None:
-            k = self.texts[tok] = len(self.names)
-            self.names.append(tok)
-        return k
-
-    def has_text(self) -> bool:
-        return self.ids is not None
-
-
-def _splitter(o: Opts, delimiter: str | None) -> Callable[[str, int], list[str]]:
-    if delimiter is None:
-        return lambda line, _lineno: line.split()
-
-    def split(line: str, lineno: int) -> list[str]:
-        if '"' not in line:  # no quoting: a plain split is what the csv module would do
-            return [tok.strip() for tok in line.split(delimiter)]
-        try:
-            tokens = next(csv.reader([line], delimiter=delimiter, skipinitialspace=True))
-        except (csv.Error, StopIteration) as exc:
-            raise o.error(f"cannot split the line into fields: {exc}", line=lineno) from exc
-        return [tok.strip() for tok in tokens]
-
-    return split
-
-
-def _looks_like_header(tokens: list[str]) -> bool:
-    # Complex numbers are numbers written wrongly, not column names: refuse them later.
-    return any(tok and not is_number(tok) and not is_complex_text(tok) for tok in tokens)
-
-
 def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | CardError]:
     """Read a delimited or whitespace table; ``holder`` holds the text and is emptied.
 
@@ -209,12 +153,12 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
     first = next(rows, None)
     if first is None:
         raise o.error("no data rows")
-    split = _splitter(o, delimiter)
+    split = splitter(o, delimiter)
     first_line, first_text = first
     first_toks = split(first_text, first_line)
     header: list[str] | None = None
     pending_row: tuple[int, list[str]] | None = None
-    if _looks_like_header(first_toks):
+    if looks_like_header(first_toks):
         header = [h if h else f"column_{k}" for k, h in enumerate(first_toks)]
         ncols = len(header)
     else:
@@ -254,7 +198,7 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
             mode[c] = _KEY
         else:
             mode[c] = _ANY
-    cols = [_Column(with_values=mode[c] != _KEY) for c in range(ncols)]
+    cols = [Column(with_values=mode[c] != _KEY) for c in range(ncols)]
     line_no: array[int] = array("q")
     comma_used = [False]
 
@@ -426,7 +370,7 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
     if detect:
         if broken:  # the columns' shapes decide their roles: a broken row blurs them all
             raise broken[min(broken)]
-        roles_found = _detect(o, values, cols, roles, nrows)
+        roles_found = detect_roles(o, values, cols, roles, nrows)
         if roles_found is None:  # too few rows to judge: let the sample count refuse
             candidates = [c for c in range(ncols) if c not in roles.values()]
             roles["position"], roles["load"] = candidates[0], candidates[1]
@@ -481,7 +425,7 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         moderate_warning = (
             f"the position and load columns of this headerless file were recognised with only "
             f"{column_roles['words']} confidence ({column_roles['confidence']:.3f}): check them, "
-            f"and if they are wrong {_cli_hint(load_i, pos_i)}"
+            f"and if they are wrong {cli_hint(load_i, pos_i)}"
         )
 
     # ------------------------------------------------------------------ the cards
@@ -568,7 +512,7 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         for j, c in enumerate(extra):
             if c in used:
                 continue
-            _keep_extra(raw, names[c], values[c], text_ids[c], start, end, firsts[j], notes)
+            keep_extra(raw, names[c], values[c], text_ids[c], start, end, firsts[j], notes)
         if b in block_comma:
             notes.append("decimal commas read as decimal points")
         return raw
@@ -613,88 +557,3 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         except CardError as exc:
             out.append(exc.for_card(card_id, well_of(start, bounds[b + 1])))
     return out
-
-
-def _keep_extra(
-    raw: Raw,
-    name: str,
-    vals: NDArray[np.float64] | None,
-    ids: NDArray[np.int64] | None,
-    start: int,
-    end: int,
-    first: str,
-    notes: list[str],
-) -> None:
-    assert vals is not None
-    if name == "column_roles":  # the reader's own record keeps its key
-        name = "column_roles (column)"
-    v = vals[start:end]
-    t = None if ids is None else ids[start:end]
-    if t is not None and np.any(t >= 0):
-        if np.all(t == t[0]):
-            raw.metadata[name] = scalar(first)
-        else:
-            notes.append(f"column {name!r} has varying non-numeric values ({first!r}, ...; "
-                         "date/time stamps are not read as time); not kept")
-        return
-    if np.all(v == v[0]) or np.all(np.isnan(v)):
-        raw.metadata[name] = scalar(first)
-    else:
-        raw.row_arrays[name] = np.array(v)  # a copy: the file-wide column must not live on
-
-
-def _detect(
-    o: Opts,
-    values: list[NDArray[np.float64] | None],
-    cols: list[_Column],
-    roles: dict[str, int],
-    nrows: int,
-) -> ColumnRoles | None:
-    """Recognise position and load in a headerless table, or refuse."""
-    if nrows < o.min_samples:
-        return None
-    free = [c for c in range(len(cols)) if c not in roles.values()]
-    # Without a header every column was a number on the first row: text further down is a
-    # broken number, not a text column.
-    broken = [cols[c].first_text for c in free if cols[c].first_text is not None]
-    if broken:
-        lineno, tok = min(broken)  # type: ignore[type-var]
-        c = next(c for c in free if cols[c].first_text == (lineno, tok))
-        raise o.error(
-            number_problem(tok) if tok else "empty value where a number is expected",
-            line=lineno,
-            field=f"column_{c}",
-        )
-    try:
-        # A prefix of the rows decides as well as the whole (it holds many strokes), at a
-        # bounded cost in memory and time for very long headerless records.
-        found = detect_column_roles([values[c][:_DETECT_ROWS] for c in free])  # type: ignore[index]
-    except CardError as exc:
-        raise o.error(
-            f"no header, and the position and load columns cannot be recognised: {exc.reason}; "
-            + _cli_hint(free[0], free[1])
-        ) from exc
-    pos, load = free[found.position], free[found.load]
-    other = {free[k]: d for k, d in found.other.items()}
-    other.update({i: f"given role {r!r}" for r, i in roles.items()})
-    scores = {}
-    for pair, score in found.scores.items():
-        p, q = (int(k) for k in pair.split(","))
-        scores[f"{free[p]},{free[q]}"] = score
-    found = ColumnRoles(
-        position=pos,
-        load=load,
-        confidence=found.confidence,
-        words=found.words,
-        method=found.method,
-        other=dict(sorted(other.items())),
-        scores=scores,
-    )
-    if found.confidence < ROLE_CONFIDENCE_MIN:
-        raise o.error(
-            "no header, and which column is position and which is load cannot be told with "
-            f"confidence: the best guess, position = column {pos} and load = column {load}, "
-            f"has confidence {found.confidence:.2f} (below {ROLE_CONFIDENCE_MIN:g}); "
-            + _cli_hint(pos, load)
-        )
-    return found
