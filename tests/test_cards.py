@@ -374,13 +374,62 @@ class TestCsv:
             read_card(p, format="json")
         assert read_card(p, format="csv").n == 30
 
-    def test_timestamp_column_gets_a_hint(self, tmp_path):
+    def test_iso_stamps_are_read_as_seconds_from_the_cards_first(self, tmp_path):
+        # A controller's export stamps each sample; the card's time is seconds from its
+        # first stamp, and that stamp is the card's recording time.
         pos, load = synthetic_stroke(25)
-        rows = [f"2021-06-01 06:00:{i:02d},{pos[i]},{load[i]}" for i in range(25)]
+        rows = [f"2021-06-01 06:00:{10 + 0.4 * i:06.3f},{pos[i]},{load[i]}" for i in range(25)]
         p = write(tmp_path, "ts.csv", "time,position,load\n" + "\n".join(rows))
-        with pytest.raises(CardError, match=r"date/time stamps .* columns=\{'t': None\}") as info:
+        card = read_card(p)
+        assert card.time_source == "file" and card.t[0] == 0.0
+        np.testing.assert_allclose(card.t, 0.4 * np.arange(25), atol=1e-9)
+        assert card.metadata["time"].isoformat() == "2021-06-01T06:00:10+00:00"
+        assert any("no time zone: taken as UTC" in n for n in card.notes)
+        assert any("column 'time' holds ISO 8601 date/time stamps" in n for n in card.notes)
+        # With a zone, and a column named otherwise given as the time.
+        rows = [f"2021-06-01T06:00:{10 + 0.4 * i:06.3f}+02:00,{pos[i]},{load[i]}"
+                for i in range(25)]
+        p = write(tmp_path, "tz.csv", "stamp,position,load\n" + "\n".join(rows))
+        card = read_card(p, columns={"t": "stamp"})
+        assert card.metadata["time"].isoformat() == "2021-06-01T04:00:10+00:00"
+        np.testing.assert_allclose(card.t, 0.4 * np.arange(25), atol=1e-9)
+
+    def test_times_of_day_run_past_midnight(self, tmp_path):
+        pos, load = synthetic_stroke(25)
+        clock = [(86_395.0 + 0.5 * i) % 86_400 for i in range(25)]
+        rows = [f"{int(c // 3600):02d}:{int(c % 3600 // 60):02d}:{c % 60:04.1f},{pos[i]},{load[i]}"
+                for i, c in enumerate(clock)]
+        assert rows[0].startswith("23:59:55.0") and rows[-1].startswith("00:00:07.0")
+        card = read_card(write(tmp_path, "tod.csv", "time,position,load\n" + "\n".join(rows)))
+        np.testing.assert_allclose(card.t, 0.5 * np.arange(25), atol=1e-9)
+        assert "time" not in card.metadata  # a time of day has no date
+
+    def test_one_stamp_a_card_is_its_recording_time(self, tmp_path):
+        pos, load = synthetic_stroke(25)
+        rows = [f"A,2021-06-01 06:00:00,{pos[i]},{load[i]}" for i in range(25)]
+        rows += [f"B,2021-06-01 07:00:00,{pos[i]},{load[i]}" for i in range(25)]
+        p = write(tmp_path, "per_card.csv", "card,time,position,load\n" + "\n".join(rows))
+        a, b = read_cards(p, spm=6)
+        assert a.time_source == "spm" and a.metadata["time"].hour == 6
+        assert b.metadata["time"].hour == 7
+        assert any("one date/time stamp for the whole card" in n for n in a.notes)
+
+    @pytest.mark.parametrize(("cells", "line", "words"), [
+        (["06/01/2021 06:00:00", "06/01/2021 06:00:01"], 2, "is not an ISO 8601"),
+        (["2021-06-01 06:00:00", "06:00:01"], 3, "all dates with times or all times of day"),
+        (["2021-06-01 06:00:00", "2021-06-01 06:00:01+00:00"], 3, "a time zone or none"),
+        (["2021-06-01 06:00:00", "1.5"], 3, "'1.5' is not an ISO 8601"),
+        (["0.0", "2021-06-01 06:00:01"], 3, "follows numbers"),
+    ])
+    def test_other_stamps_are_refused_with_the_way_round(self, tmp_path, cells, line, words):
+        pos, load = synthetic_stroke(25)
+        cells = cells + [f"2021-06-01 06:00:{i:02d}" for i in range(2, 25)]
+        rows = [f"{cells[i]},{pos[i]},{load[i]}" for i in range(25)]
+        p = write(tmp_path, "ts.csv", "time,position,load\n" + "\n".join(rows))
+        with pytest.raises(CardError, match=r"ISO 8601 form only .* columns=\{'t': None\}") as info:
             read_cards(p)
-        assert info.value.line == 2 and info.value.field == "time"
+        assert words in str(info.value)
+        assert info.value.line == line and info.value.field == "time"
         assert read_card(p, columns={"t": None}).time_source == "none"
 
     def test_whitespace_table_with_header(self, tmp_path):

@@ -245,10 +245,10 @@ def test_the_short_output_marks_an_echo_and_a_fundamental_alone(tmp_path: Path,
     assert len(rows) >= 2 and rows[1][2] == "-", rows
 
 
-def test_a_column_of_date_time_stamps_can_be_left_unread(tmp_path: Path, capsys) -> None:
+def test_a_column_of_date_time_stamps_is_read_as_time(tmp_path: Path, capsys) -> None:
     # A controller's export with a stamp per sample: the error told a command-line user to
     # pass columns={'t': None} (Python), which no option took; a column named otherwise was
-    # dropped, and the card said "no time in the file".
+    # dropped, and the card said "no time in the file". ISO stamps are now the card's time.
     n, period = 100, 10.0
     phase = 2 * np.pi * np.arange(n) / n
     stamps = [f"2024-05-01 10:00:{s:09.6f}" for s in np.arange(n) * period / n]
@@ -256,19 +256,27 @@ def test_a_column_of_date_time_stamps_can_be_left_unread(tmp_path: Path, capsys)
                    for s, p in zip(stamps, phase, strict=True))
     named_t = tmp_path / "stamped.csv"
     named_t.write_text("time,position_in,load_lbf\n" + rows)
-    assert main(["fit", str(named_t)]) == 2
-    err = capsys.readouterr().err
-    assert "date/time stamps are not read as time" in err and "--columns t=- --spm" in err
-    assert main(["fit", str(named_t), "--columns", "t=-", "--spm", "6"]) in (0, 6)
-    out = capsys.readouterr().out
-    assert "invalid-input" not in out and "time rebuilt from" in out
+    assert main(["fit", str(named_t), "--json"]) in (0, 6)
+    card = json.loads(capsys.readouterr().out)["cards"][0]["card"]
+    assert card["time_source"] == "file" and card["period"] == pytest.approx(period)
+    assert card["time"] == "2024-05-01 10:00:00+00:00"
     other = tmp_path / "other.csv"
     other.write_text("timestamp,position_in,load_lbf\n" + rows)
     main(["fit", str(other)])
     out = " ".join(capsys.readouterr().out.split())
-    assert ("column 'timestamp' has varying non-numeric values ('2024-05-01 10:00:00.000000', "
-            "...; date/time stamps are not read as time); not kept") in out
+    assert ("column 'timestamp' has a date/time stamp per row ('2024-05-01 10:00:00.000000', "
+            "...); not kept: to read it as the card's time, name it the time column "
+            "(columns={'t': 'timestamp'}, command line --columns t=timestamp)") in out
     assert "no time read from the file" in out
-    # Only a role a card can do without reads no column.
-    assert main(["fit", str(named_t), "--columns", "position=-", "--spm", "6"]) == 2
+    assert main(["fit", str(other), "--columns", "t=timestamp"]) in (0, 6)
+    out = " ".join(capsys.readouterr().out.split())
+    assert "column 'timestamp' holds ISO 8601 date/time stamps" in out
+    # A form whose day and month cannot be told apart is refused, with the way round it.
+    us = tmp_path / "us.csv"
+    us.write_text("time,position_in,load_lbf\n" + rows.replace("2024-05-01", "05/01/2024"))
+    assert main(["fit", str(us)]) == 2
+    assert "ISO 8601 form only" in capsys.readouterr().err
+    assert main(["fit", str(us), "--columns", "t=-", "--spm", "6"]) in (0, 6)
+    assert "time rebuilt from" in capsys.readouterr().out
+    assert main(["fit", str(us), "--columns", "position=-", "--spm", "6"]) == 2
     assert "position needs a column" in capsys.readouterr().err

@@ -52,9 +52,12 @@ Conventions
   Below ``ROLE_CONFIDENCE_MIN`` (0.9) the read is refused and the message asks for
   ``columns=`` (command line ``--columns position=1,load=0``); below 0.95 the card gets a
   warning. Given ``columns=`` always win.
-* Time: a time column wins. Otherwise SPM or period (caller first, then the file) rebuilds
-  time assuming uniform sampling over ONE stroke: ``t_i = i*T/N`` for the ``N`` distinct
-  samples; such cards are marked ``periodic``. A card whose position rises through
+* Time: a time column wins; in a table it may hold ISO 8601 date/time stamps, one a sample
+  (seconds from the card's first stamp, which becomes its card time; a time of day runs on
+  past midnight; one stamp through a whole card is its card time only). Otherwise SPM or
+  period (caller first, then the file) rebuilds time assuming uniform sampling over ONE
+  stroke: ``t_i = i*T/N`` for the ``N`` distinct samples; such cards are marked
+  ``periodic``. A card whose position rises through
   mid-stroke (below 35 % then above 65 % of its range) twice or more holds several strokes:
   each gets the period, ``t_i = i*T/S`` with ``S`` the median number of samples between two
   rises, the card is a record (not ``periodic``) and a warning says so

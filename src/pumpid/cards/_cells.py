@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from ._common import Opts, Raw, scalar
 from ._errors import CardError
 from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
+from ._stamps import looks_like_stamp
 from ._text import is_complex_text, is_number, number_problem
 
 __all__ = [
@@ -97,9 +98,13 @@ def keep_extra(
     if t is not None and np.any(t >= 0):
         if np.all(t == t[0]):
             raw.metadata[name] = scalar(first)
+        elif looks_like_stamp(first):
+            notes.append(f"column {name!r} has a date/time stamp per row ({first!r}, ...); not "
+                         f"kept: to read it as the card's time, name it the time column "
+                         f"(columns={{'t': {name!r}}}, command line --columns t={name})")
         else:
-            notes.append(f"column {name!r} has varying non-numeric values ({first!r}, ...; "
-                         "date/time stamps are not read as time); not kept")
+            notes.append(f"column {name!r} has varying non-numeric values ({first!r}, ...); "
+                         "not kept")
         return
     if np.all(v == v[0]) or np.all(np.isnan(v)):
         raw.metadata[name] = scalar(first)

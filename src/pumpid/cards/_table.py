@@ -29,6 +29,7 @@ from ._common import (
 )
 from ._common import file_unit as _file_unit
 from ._errors import CardError
+from ._stamps import StampColumn, looks_like_stamp
 from ._text import interpret_name, normalize_name, number_problem
 
 __all__ = ["COLUMN_KEYS", "read_table"]
@@ -202,18 +203,32 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
     line_no: array[int] = array("q")
     comma_used = [False]
 
+    stamps = StampColumn()
+
+    def stamp_seconds(tok: str, lineno: int, c: int) -> float:
+        try:
+            if stamps.count == 0 and len(cols[c].values or ()):
+                raise ValueError(f"{tok!r} follows numbers: a column holds numbers or "
+                                 "date/time stamps, not both")
+            return stamps.seconds(tok)
+        except ValueError as exc:
+            raise o.error(
+                f"{exc}; date/time stamps are read as time in ISO 8601 form only "
+                "(2024-05-01 10:00:00.25, or 10:00:00.25 for a time of day): convert them "
+                "to that form or to seconds, or read no time column and give the stroke rate "
+                "(command line: --columns t=- --spm N; Python: columns={'t': None})",
+                line=lineno,
+                field=names[c],
+            ) from None
+
     def slow_number(tok: str, lineno: int, c: int) -> float:
+        if stamps.count and c == t_i:
+            return stamp_seconds(tok, lineno, c)
         try:
             value = num(o, tok, line=lineno, field=names[c], decimal_comma=decimal_comma)
-        except CardError as exc:
-            if c == t_i and (any(ch in tok for ch in ":/T") or tok.count("-") > 1):
-                raise o.error(
-                    f"{exc.reason}: date/time stamps are not read as time; convert them "
-                    "to seconds, or read no time column and give the stroke rate "
-                    "(command line: --columns t=- --spm N; Python: columns={'t': None})",
-                    line=lineno,
-                    field=names[c],
-                ) from exc
+        except CardError:
+            if c == t_i and looks_like_stamp(tok):
+                return stamp_seconds(tok, lineno, c)
             raise
         if decimal_comma and "," in tok:
             comma_used[0] = True
@@ -238,7 +253,7 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         if kind == _NUM:
 
             def read_num(tok: str, lineno: int) -> None:
-                if "_" not in tok:
+                if "_" not in tok and not (stamps.count and c == t_i):
                     try:
                         append(float(tok))
                         return
@@ -462,6 +477,8 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         )
         if moderate_warning is not None:
             raw.warnings.append(moderate_warning)
+        if stamps.count and raw.t is not None:
+            _stamped_time(raw, stamps, names[t_i] if t_i is not None else "t")
         if well_i is not None:
             ids = text_ids[well_i]
             assert ids is not None
@@ -557,3 +574,23 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         except CardError as exc:
             out.append(exc.for_card(card_id, well_of(start, bounds[b + 1])))
     return out
+
+
+def _stamped_time(raw: Raw, stamps: StampColumn, name: str) -> None:
+    """A card whose time column held date/time stamps: seconds from the card's first stamp,
+    whose date and time become the card's recording time (unless the file names one). A
+    column whose stamps do not change within the card stamps the card, not its samples."""
+    assert raw.t is not None
+    first = float(raw.t[0])
+    when = stamps.at(first)
+    if when is not None:
+        raw.metadata["first_sample_time"] = when.isoformat()
+    raw.t_factor = 1.0  # seconds already, whatever unit the column's name states
+    if raw.t.size > 1 and np.all(raw.t == first):
+        raw.t = None
+        raw.notes.append(f"column {name!r} holds one date/time stamp for the whole card: read "
+                         "as the card's recording time, not as a time per sample")
+        return
+    raw.t = raw.t - first
+    raw.notes.append(f"column {name!r} holds ISO 8601 date/time stamps: read as seconds from "
+                     "the card's first stamp")
