@@ -18,6 +18,7 @@ from pumpid.fleet.changes import detect_changes, history_coverage
 from pumpid.fleet.thresholds import (
     drift_statistic,
     drift_threshold,
+    stored,
     two_segment_statistic,
     two_segment_threshold,
 )
@@ -220,3 +221,23 @@ def test_thresholds_are_stored_on_disk_and_a_bad_store_ignored(tmp_path) -> None
         files[0].write_text(bad, encoding="utf-8")
         assert run() == first
     assert two_segment_threshold(12, alpha=0.02, replicates=4000) == first
+
+
+def test_a_stored_threshold_keeps_what_another_process_stored_meanwhile(tmp_path,
+                                                                        monkeypatch) -> None:
+    # Two reports run at once: each process wrote its own table whole, so the one that
+    # finished last dropped the other's values and the next run simulated them again.
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+
+    @stored
+    def square(x: int) -> float:
+        return float(x * x)
+
+    assert square(2) == 4.0
+    (path,) = (tmp_path / "pumpid").glob("thresholds-*.json")
+    other = json.loads(path.read_text(encoding="utf-8"))
+    other["cube(3,)"] = 27.0  # what another process stored after this one read the file
+    path.write_text(json.dumps(other), encoding="utf-8")
+    assert square(5) == 25.0
+    table = json.loads(path.read_text(encoding="utf-8"))
+    assert table == {"square(2,)": 4.0, "cube(3,)": 27.0, "square(5,)": 25.0}

@@ -84,6 +84,14 @@ def _store_file() -> Path:
     return cache_base() / f"thresholds-{digest.hexdigest()[:16]}.json"
 
 
+def _read_store(path: Path) -> dict[str, float]:
+    """The stored table, empty where the file is missing, unreadable or not a table."""
+    with contextlib.suppress(OSError, ValueError, TypeError, AttributeError):
+        loaded = json.loads(path.read_text(encoding="utf-8"))
+        return {str(k): float(v) for k, v in loaded.items()}
+    return {}
+
+
 def stored(func: F) -> F:
     """Cache a simulated threshold in the process and on disk, by its arguments.
 
@@ -109,15 +117,14 @@ def stored(func: F) -> F:
         path = _store_file()
         table = _TABLES.get(path)
         if table is None:
-            table = {}
-            with contextlib.suppress(OSError, ValueError, TypeError, AttributeError):
-                loaded = json.loads(path.read_text(encoding="utf-8"))
-                table = {str(k): float(v) for k, v in loaded.items()}
-            _TABLES[path] = table
+            table = _TABLES[path] = _read_store(path)
         key = f"{func.__name__}{args!r}"
         if key in table:
             return table[key]
         value = float(func(*args))
+        # What another process stored meanwhile is kept: the file is read again just before
+        # it is replaced (a simulation takes seconds, the read and the write a millisecond).
+        table.update({k: v for k, v in _read_store(path).items() if k not in table})
         table[key] = value
         with contextlib.suppress(OSError):
             path.parent.mkdir(parents=True, exist_ok=True)
