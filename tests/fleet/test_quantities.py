@@ -54,6 +54,8 @@ def test_columns_of_each_kind() -> None:
     pump = columns_of("pump_fluid_load")
     assert (pump.value, pump.determined, pump.unit, pump.kind) == (
         "pump_fluid_load", "pump_fluid_load_determined", "pump_fluid_load_unit", "pump")
+    # A well's unit for a parameter is the model's; its unit column only converts rows.
+    assert [c.unit_from_model for c in (derived, param, pump)] == [False, True, False]
 
 
 def test_counted_rows() -> None:

@@ -290,7 +290,7 @@ def _quantity(
     code = np.repeat(np.arange(n_wells), np.diff(usable.bounds))
     units = [""] * n_wells
     # A parameter's unit comes from the model (parameter_unit), as before tables stated it.
-    if cols.kind != "parameter" and cols.unit in frame.columns:
+    if not cols.unit_from_model and cols.unit in frame.columns:
         stated = frame[cols.unit].to_numpy(dtype=object)
         # A well's unit is the one most of its kept values state; a well with no kept value
         # (every card left the quantity undetermined) still has the unit its rows state,
@@ -308,7 +308,7 @@ def _quantity(
             # that states no unit is taken to share the well's).
             well_unit = np.array(units, dtype=object)[code]
             keep &= ~pd.notna(stated) | (stated.astype(str) == well_unit)
-    elif cols.kind == "parameter":
+    elif cols.unit_from_model:
         units = [parameter_unit(frame.iloc[usable.bounds[i]:usable.bounds[i + 1]], q)
                  for i in range(n_wells)]  # fmt: skip
     return values, se, keep, units, cols.kind

@@ -70,7 +70,7 @@ def column_unit(frame: pd.DataFrame, summary: pd.DataFrame, quantity: str) -> st
     unit), else the one most wells' latest values have (parameters: from the model)."""
     stated = pd.Series(dtype=object)
     cols = columns_of(quantity)
-    if cols.kind != "parameter" and cols.unit in frame.columns:
+    if not cols.unit_from_model and cols.unit in frame.columns:
         stated = frame[cols.unit].dropna().astype(str)
     if not len(stated) and f"latest_{quantity}_unit" in summary.columns:
         stated = summary[f"latest_{quantity}_unit"].dropna().astype(str)

@@ -61,8 +61,8 @@ class QuantityColumns:
     determined : str
         The column saying whether the card determines it.
     unit : str
-        The column stating its unit (a parameter's too: the change detection takes a
-        parameter's unit from the model instead, :func:`parameter_unit`).
+        The column stating its unit (a parameter's too; a well's unit for a parameter is
+        the model's instead, :attr:`unit_from_model`).
     kind : str
         ``"derived"``, ``"parameter"`` or ``"pump"``.
     """
@@ -72,6 +72,13 @@ class QuantityColumns:
     determined: str
     unit: str
     kind: str
+
+    @property
+    def unit_from_model(self) -> bool:
+        """Whether a well's unit for the quantity is the model's (a parameter's, from the
+        model and the table's units, :func:`parameter_unit`) rather than its unit column's,
+        which then only converts a row's value."""
+        return self.kind == "parameter"
 
 
 def columns_of(quantity: str) -> QuantityColumns:
