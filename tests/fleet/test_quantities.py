@@ -14,6 +14,7 @@ from pumpid.fleet.quantities import (
     counted,
     flag,
     larger_error,
+    with_asked,
 )
 from pumpid.fleet.report import write_fleet_report
 
@@ -67,8 +68,9 @@ def test_counted_rows() -> None:
     freq = frame["d_natural_frequency"].to_numpy(dtype=float)
     # An echo of the stroke counts only when asked for.
     assert np.flatnonzero(~counted(frame, "natural_frequency", freq)).tolist() == [1, 4, 8]
-    assert np.flatnonzero(~counted(frame, "natural_frequency", freq,
-                                   asked=True)).tolist() == [1, 8]
+    asked = with_asked(frame, ["natural_frequency"])
+    assert np.flatnonzero(~counted(asked, "natural_frequency", freq)).tolist() == [1, 8]
+    assert with_asked(frame, ["static_stiffness"]) is frame  # no verdict to drop
 
 
 def test_parameters_of_an_older_table_count_where_their_error_is_finite() -> None:
@@ -154,3 +156,31 @@ def test_the_report_s_own_detection_leaves_echoes_out(tmp_path) -> None:
     assert pd.read_csv(files["alerts"]).empty
     # Named, the echoes are trended: the user asked for them.
     assert not detect_changes(frame, ["natural_frequency"]).empty
+
+
+def test_a_named_quantity_s_echoes_are_drawn_and_listed_as_they_are_trended(tmp_path) -> None:
+    # Named, a quantity's echoes of the stroke were trended (an alert at the step to 0.1 Hz)
+    # while the wells table gave the well's latest value from before the step and the plots
+    # did not draw the points the alert stood on.
+    rng = np.random.default_rng(0)
+    n = 60
+    fn = np.r_[1.0 + 0.01 * rng.standard_normal(30), 0.1 + 0.001 * rng.standard_normal(30)]
+    frame = pd.DataFrame({
+        "well_id": "W", "card_id": [f"c{i}" for i in range(n)],
+        "time": pd.Timestamp("2024-01-01", tz="UTC") + pd.to_timedelta(np.arange(n), unit="D"),
+        "status": "converged", "d_natural_frequency": fn, "d_natural_frequency_se": 0.01,
+        "d_natural_frequency_determined": True, "d_natural_frequency_unit": "Hz",
+        "d_natural_frequency_well_property": np.arange(n) < 30,
+    })  # fmt: skip
+    files = write_fleet_report(frame, tmp_path / "named", quantities=["natural_frequency"])
+    assert not pd.read_csv(files["alerts"]).empty
+    wells = pd.read_csv(files["wells"])
+    assert wells.loc[0, "latest_natural_frequency"] == pytest.approx(fn[-1])
+    assert quantity_values(with_asked(frame, ["natural_frequency"]),
+                           "natural_frequency")[2].sum() == n
+    # Shown but not named (the command line's --parameters): echoes stay out everywhere.
+    files = write_fleet_report(frame, tmp_path / "shown", quantities=["natural_frequency"],
+                               asked=())
+    assert pd.read_csv(files["alerts"]).empty
+    assert pd.read_csv(files["wells"]).loc[0, "latest_natural_frequency"] == pytest.approx(
+        fn[29])

@@ -90,7 +90,8 @@ def cmd_report(args: argparse.Namespace) -> int:
     options = {"false_alarm": args.false_alarm, "min_cards": args.min_cards}
     alerts = detect_changes(table, args.quantity, parameters=args.parameters, **options)
     paths = write_fleet_report(table, args.out, alerts=alerts, quantities=quantities,
-                               max_wells_plotted=args.max_wells, **options)
+                               asked=args.quantity or (), max_wells_plotted=args.max_wells,
+                               **options)
     n = card_counts(table)
     alerted = alerts["well_id"].nunique() if len(alerts) else 0
     aside = [*([f"{plural(n['repeats'], 'repeat')} set aside"] if n["repeats"] else []),

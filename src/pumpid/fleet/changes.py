@@ -123,6 +123,7 @@ from .quantities import (
     counted,
     larger_error,
     parameter_unit,
+    with_asked,
 )
 from .thresholds import MIN_SEGMENT, cusum_threshold
 
@@ -277,14 +278,14 @@ def _prepare(frame: pd.DataFrame) -> _Usable:
 
 
 def _quantity(
-    usable: _Usable, q: str, asked: bool = False
+    usable: _Usable, q: str
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], list[str], str]:
     """One quantity over the usable rows: values, standard errors, which rows count, the
     unit of each well, and the kind (derived or parameter)."""
     frame = usable.frame
     cols = columns_of(q)
     values = pd.to_numeric(frame[cols.value], errors="coerce").to_numpy(dtype=float)
-    keep = counted(frame, q, values, asked=asked)
+    keep = counted(frame, q, values)
     se = larger_error(frame, q)
     n_wells = len(usable.wells)
     code = np.repeat(np.arange(n_wells), np.diff(usable.bounds))
@@ -327,6 +328,7 @@ def detect_changes(
     tail_dof: float = 5.0,
     outlier_fraction: float = 0.01,
     min_short_cards: int = SHORT_MIN_CARDS,
+    asked: Sequence[str] | None = None,
 ) -> pd.DataFrame:
     """Find persistent shifts in each well's fitted quantities (see the module docstring).
 
@@ -353,6 +355,10 @@ def detect_changes(
         The CUSUM's reference value and clipping level, in noise scales.
     tail_dof, outlier_fraction : float, default 5 and 0.01
         The steady-well noise the threshold is calibrated for (Student t and outliers).
+    asked : sequence of str, optional
+        Quantities the user named (default: ``quantities``): their values that fits call
+        an echo of the stroke are trended too (:func:`~pumpid.fleet.quantities.with_asked`);
+        the others' are not.
 
     Returns
     -------
@@ -381,7 +387,8 @@ def detect_changes(
         If a required column is missing, a requested quantity is not in the table, or an
         option is out of range.
     """
-    frame = load_results(table)
+    frame = with_asked(load_results(table),
+                       asked if asked is not None else quantities or ())
     if not 0 < false_alarm < 1:
         raise ValueError(f"false_alarm must be in (0, 1), got {false_alarm}")
     if isinstance(min_cards, bool) or not isinstance(min_cards, int) or min_cards < 5:
@@ -406,7 +413,7 @@ def detect_changes(
     alpha = false_alarm / len(names)
     usable = _prepare(frame)
     for q in names:
-        values, se, keep, units, kind = _quantity(usable, q, asked=quantities is not None)
+        values, se, keep, units, kind = _quantity(usable, q)
         for i, well in enumerate(usable.wells):
             part = slice(usable.bounds[i], usable.bounds[i + 1])
             k = keep[part]

@@ -16,6 +16,7 @@ a flag column's missing entries as its default (not determined; a property of th
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +37,7 @@ __all__ = [
     "flag",
     "larger_error",
     "parameter_unit",
+    "with_asked",
 ]
 
 #: Every status a results row can have.
@@ -158,17 +160,17 @@ def larger_error(frame: pd.DataFrame, quantity: str) -> NDArray[np.float64]:
     return se
 
 
-def counted(frame: pd.DataFrame, quantity: str, values: NDArray[np.float64], *,
-            asked: bool = False) -> NDArray[np.bool_]:
+def counted(frame: pd.DataFrame, quantity: str, values: NDArray[np.float64]
+            ) -> NDArray[np.bool_]:
     """Which rows' values of a quantity are trended.
 
     A row counts when its value is finite; its fit's status is usable (a pump quantity:
     its pump was identified, or its downhole card computed); the card determines the value
     (a table written before parameters had their own verdict: the parameter's error is
     finite; an alert on c1 had been sized at "-68.8 standard errors" from cards whose own
-    errors were all infinite); and, unless ``asked``, the fit does not call the value an
-    echo of the stroke (a stroke frequency drawn as the well's resonance contradicted the
-    card's own warning).
+    errors were all infinite); and the fit does not call the value an echo of the stroke
+    (a stroke frequency drawn as the well's resonance contradicted the card's own warning),
+    unless the user named the quantity (:func:`with_asked` drops that verdict).
 
     Parameters
     ----------
@@ -179,8 +181,6 @@ def counted(frame: pd.DataFrame, quantity: str, values: NDArray[np.float64], *,
     values : numpy.ndarray
         The quantity's values on those rows (converted to another unit where the caller
         needs it; NaN where that cannot be).
-    asked : bool, default False
-        The user named the quantity: its echoes of the stroke count too.
 
     Returns
     -------
@@ -197,9 +197,31 @@ def counted(frame: pd.DataFrame, quantity: str, values: NDArray[np.float64], *,
         shown = pd.to_numeric(frame[cols.errors[0]], errors="coerce").to_numpy(dtype=float)
         keep &= np.isfinite(shown)
     prop = f"{cols.value}_well_property"
-    if not asked and prop in frame.columns:
+    if prop in frame.columns:
         keep &= flag(frame[prop], default=True)
     return keep
+
+
+def with_asked(frame: pd.DataFrame, asked: Sequence[str]) -> pd.DataFrame:
+    """The table as counted for quantities the user named: their values that fits call an
+    echo of the stroke count too, in every view of a report as in its change detection.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        A results table.
+    asked : sequence of str
+        The quantities named (as for :func:`columns_of`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame`` without those quantities' ``<column>_well_property`` verdicts (the same
+        object where it has none of them).
+    """
+    drop = [f"{columns_of(q).value}_well_property" for q in asked]
+    drop = [c for c in drop if c in frame.columns]
+    return frame.drop(columns=drop) if drop else frame
 
 
 def flag(column: pd.Series, *, default: bool) -> NDArray[np.bool_]:

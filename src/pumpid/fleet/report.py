@@ -59,7 +59,7 @@ from .figures import (
     unit_text,
     well_figure,
 )
-from .quantities import STATUSES, USABLE_STATUSES, available_quantities
+from .quantities import STATUSES, USABLE_STATUSES, available_quantities, with_asked
 
 __all__ = ["write_fleet_report"]
 
@@ -444,6 +444,7 @@ def write_fleet_report(
     *,
     alerts: pd.DataFrame | None = None,
     quantities: Sequence[str] | None = None,
+    asked: Sequence[str] | None = None,
     max_wells_plotted: int = 24,
     steady_sample: int = 6,
     max_wells_listed: int = 500,
@@ -463,6 +464,9 @@ def write_fleet_report(
         ``quantities`` and ``detect_options``) when not given.
     quantities : sequence of str, optional
         Quantities to show (default: every derived quantity of the table).
+    asked : sequence of str, optional
+        Quantities the user named (default: ``quantities``): their values that fits call
+        an echo of the stroke are counted, trended and drawn too; the others' are not.
     max_wells_plotted : int, default 24
         Most alerted wells drawn (the largest changes first).
     steady_sample : int, default 6
@@ -485,7 +489,8 @@ def write_fleet_report(
     ValueError
         If the table lacks ``well_id``, ``card_id`` or ``status``, or a quantity is unknown.
     """
-    whole = load_results(results)
+    asked = asked if asked is not None else quantities or ()
+    whole = with_asked(load_results(results), asked)
     # A card exported twice counts once: its repeats are set aside before anything is
     # counted, trended or tested, and the summary says how many.
     repeats = is_duplicate(whole)
@@ -499,9 +504,9 @@ def write_fleet_report(
     min_short = int(detect_options.get("min_short_cards", SHORT_MIN_CARDS))
     given = alerts is not None
     if alerts is None:
-        # The quantities as the caller gave them: named ones are asked for (their echoes of
-        # the stroke trended too), the default leaves echoes out, as the views do.
-        alerts = detect_changes(frame, quantities, **detect_options)
+        # The quantities asked for count their echoes of the stroke (with_asked above), in
+        # the detection as in the views; the default leaves echoes out.
+        alerts = detect_changes(frame, quantities, asked=asked, **detect_options)
     if not given or detect_options:
         # Alerts a caller found with these same options (the command line prints them
         # before the CSV neutralises their text) are described as if found here.
