@@ -29,6 +29,7 @@ from pumpid.cards import (
     parse_cards,
     read_card,
     read_cards,
+    read_cards_and_errors,
     split_strokes,
 )
 
@@ -502,6 +503,32 @@ class TestJson:
         doc = [{"pos": list(pos), "force": list(load), "period": 6.0}] * 2
         cards = read_cards(write(tmp_path, "l.json", json.dumps(doc)))
         assert len(cards) == 2 and cards[1].card_id == "l[1]" and cards[0].period == 6.0
+
+    def test_a_list_of_wells_each_holding_its_cards(self, tmp_path):
+        # A per-well export, [{"well": ..., "cards": [...]}, ...], was refused as cards
+        # without position and load.
+        pos, load = synthetic_stroke(20)
+        card = {"position": list(pos), "load": list(load)}
+        doc = [{"well": "A", "spm": 6, "cards": [card, {**card, "card_id": "a2"}]},
+               {"well": "B", "spm": 5, "position_unit": "in", "cards": [
+                   {**card, "spm": 4}, {"card_id": "bad", "position": [1, 2]}]},
+               {"well": "C", "cards": {}}]
+        p = write(tmp_path, "wells.json", json.dumps(doc))
+        read = read_cards_and_errors(p)
+        assert [(c.card_id, c.well_id, c.spm) for c in read.cards] == [
+            ("wells[0][0]", "A", 6.0), ("a2", "A", 6.0), ("wells[1][0]", "B", 4.0)]
+        assert read.cards[2].position_unit == "in" and read.cards[0].position_unit is None
+        assert read.cards[1].source == "wells.json, [0].cards[1]"
+        bad, empty = read.errors
+        assert (bad.card_id, bad.well_id, bad.field) == ("bad", "B", "[1].cards[1]")
+        assert "missing 'load'" in str(bad)
+        assert (empty.well_id, empty.field) == ("C", "[2].cards")
+        assert "a group's 'cards' must be a non-empty list" in str(empty)
+        # The same under a document's "wells", with the document's own fields shared.
+        p = write(tmp_path, "field.json", json.dumps({"field": "North", "wells": doc[:1]}))
+        cards = read_cards(p)
+        assert [c.metadata["field"] for c in cards] == ["North", "North"]
+        assert cards[0].source == "field.json, wells[0].cards[0]"
 
 
 class TestWhitespace:

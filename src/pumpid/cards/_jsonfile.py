@@ -1,4 +1,6 @@
-"""JSON cards: one card object, a list of them, or ``{"cards": [...], <shared fields>}``."""
+"""JSON cards: one card object, a list of them, or ``{"cards": [...], <shared fields>}``;
+a list may hold groups too, ``[{"well": "A", "cards": [...]}, ...]`` (each group's fields
+shared by its cards)."""
 
 from __future__ import annotations
 
@@ -197,11 +199,14 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
         items: Any = doc
         prefix = ""
     elif isinstance(doc, dict):
-        cards_key = next((k for k in doc if isinstance(k, str) and k.lower() == "cards"), None)
+        cards_key = next((k for k in doc if isinstance(k, str)
+                          and k.lower() in ("cards", "wells")), None)
         if cards_key is not None:
             items = doc[cards_key]
             if not isinstance(items, list):
-                raise o.error("'cards' must be a list of card objects", field=cards_key)
+                raise o.error(f"{cards_key!r} must be a list of card or well objects",
+                              field=cards_key)
+            prefix = cards_key
             shared = {k: v for k, v in doc.items() if k != cards_key}
             if repaired:  # a bad value outside the cards is the whole file's
                 _raise_marked(o, shared, "")
@@ -211,19 +216,21 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
         raise o.error(f"top level must be an object or a list, got {type(doc).__name__}")
     if not items:
         raise o.error("no cards in the JSON document", field=prefix or None)
+    entries = _entries(o, items, prefix, shared, len(items) > 1 or isinstance(doc, list))
     out: list[Raw | CardError] = []
-    for k, item in enumerate(items):
-        where = f"{prefix}[{k}]" if (prefix or len(items) > 1 or isinstance(doc, list)) else ""
-        obj = {**shared, **item} if isinstance(item, dict) else shared
-        card_id, well_id = _ids(obj, o.stem if len(items) == 1 else f"{o.stem}[{k}]")
+    for where, item, obj, listed_id in entries:
+        default_id = o.stem if len(entries) == 1 else listed_id
+        card_id, well_id = _ids(obj, default_id)
         try:  # each card on its own: a broken one is an error in its place
+            if isinstance(item, CardError):
+                raise item
             if not isinstance(item, dict):
                 raise o.error(
                     f"a card must be an object, got {type(item).__name__}", field=where or None
                 )
-            if repaired:
-                _raise_marked(o, item, where)
-            out.append(_json_card(o, obj, where, k, len(items)))
+            if repaired:  # the card's own values and those its group gives it
+                _raise_marked(o, obj, where)
+            out.append(_json_card(o, obj, where, default_id))
         except CardError as exc:
             out.append(exc.for_card(card_id, well_id))
     if escaped:
@@ -234,6 +241,41 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
                     "\\ud800), which is not text: written escaped (as \\ud800) so that every "
                     "output can hold it"
                 )
+    return out
+
+
+def _cards_key(item: Any) -> str | None:
+    """The key of a group's list of cards (``"cards"`` in any case), None for a card."""
+    if not isinstance(item, dict):
+        return None
+    return next((k for k in item if isinstance(k, str) and k.lower() == "cards"), None)
+
+
+def _entries(o: Opts, items: list[Any], prefix: str, shared: dict[str, Any], indexed: bool
+             ) -> list[tuple[str, Any, dict[str, Any], str]]:
+    """The cards of a document's list, each as (where, its object, the object with the
+    fields it shares, a default id). An item holding ``"cards"`` is a group (a well's cards
+    with the fields they share, ``[{"well": "A", "cards": [...]}, ...]``); its cards take
+    its fields over the document's, and their own over both."""
+    out: list[tuple[str, Any, dict[str, Any], str]] = []
+    for k, item in enumerate(items):
+        where = f"{prefix}[{k}]" if (prefix or indexed) else ""
+        key = _cards_key(item)
+        if key is None:
+            obj = {**shared, **item} if isinstance(item, dict) else shared
+            out.append((where, item, obj, f"{o.stem}[{k}]"))
+            continue
+        group = {**shared, **{f: v for f, v in item.items() if f != key}}
+        cards = item[key]
+        if not isinstance(cards, list) or not cards:
+            problem = o.error(f"a group's {key!r} must be a non-empty list of card objects",
+                              field=f"{where}.{key}" if where else key)
+            out.append((where, problem, group, f"{o.stem}[{k}]"))
+            continue
+        for j, card in enumerate(cards):
+            obj = {**group, **card} if isinstance(card, dict) else group
+            inner = f"{where}.{key}[{j}]" if where else f"{key}[{j}]"
+            out.append((inner, card, obj, f"{o.stem}[{k}][{j}]"))
     return out
 
 
@@ -251,7 +293,7 @@ def _ids(obj: dict[str, Any], default: str) -> tuple[str, str | None]:
     return card_id, well_id
 
 
-def _json_card(o: Opts, obj: dict[str, Any], where: str, k: int, count: int) -> Raw:
+def _json_card(o: Opts, obj: dict[str, Any], where: str, default_id: str) -> Raw:
     def at(key: str) -> str:
         return f"{where}.{key}" if where else key
 
@@ -305,7 +347,7 @@ def _json_card(o: Opts, obj: dict[str, Any], where: str, k: int, count: int) -> 
     if "card" in found:
         card_id = _json_str(o, found["card"][1], at(found["card"][0]))
     else:
-        card_id = o.stem if count == 1 else f"{o.stem}[{k}]"
+        card_id = default_id
     well_id = None
     if "well" in found and found["well"][1] is not None:
         well_id = _json_str(o, found["well"][1], at(found["well"][0]))
