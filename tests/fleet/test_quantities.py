@@ -138,20 +138,26 @@ def test_flags_read_from_text_or_with_gaps() -> None:
     assert flag(pd.Series([True, False]), default=False).tolist() == [True, False]
 
 
-def test_the_report_s_own_detection_leaves_echoes_out(tmp_path) -> None:
-    # Thirty cards whose resonance is the well's, then thirty whose fits echo the stroke at
-    # 0.1 Hz: the report found its alerts with every quantity named, as if asked for, and
-    # alerted at card c33 on points none of its plots showed.
+def _echo_table() -> pd.DataFrame:
+    """Thirty cards whose resonance is the well's, then thirty whose fits echo the stroke
+    at 0.1 Hz."""
     rng = np.random.default_rng(0)
     n = 60
     fn = np.r_[1.0 + 0.01 * rng.standard_normal(30), 0.1 + 0.001 * rng.standard_normal(30)]
-    frame = pd.DataFrame({
+    return pd.DataFrame({
         "well_id": "W", "card_id": [f"c{i}" for i in range(n)],
         "time": pd.Timestamp("2024-01-01", tz="UTC") + pd.to_timedelta(np.arange(n), unit="D"),
         "status": "converged", "d_natural_frequency": fn, "d_natural_frequency_se": 0.01,
         "d_natural_frequency_determined": True, "d_natural_frequency_unit": "Hz",
         "d_natural_frequency_well_property": np.arange(n) < 30,
     })  # fmt: skip
+
+
+def test_the_report_s_own_detection_leaves_echoes_out(tmp_path) -> None:
+    # Thirty cards whose resonance is the well's, then thirty whose fits echo the stroke at
+    # 0.1 Hz: the report found its alerts with every quantity named, as if asked for, and
+    # alerted at card c33 on points none of its plots showed.
+    frame = _echo_table()
     files = write_fleet_report(frame, tmp_path)
     assert pd.read_csv(files["alerts"]).empty
     # Named, the echoes are trended: the user asked for them.
@@ -162,16 +168,8 @@ def test_a_named_quantity_s_echoes_are_drawn_and_listed_as_they_are_trended(tmp_
     # Named, a quantity's echoes of the stroke were trended (an alert at the step to 0.1 Hz)
     # while the wells table gave the well's latest value from before the step and the plots
     # did not draw the points the alert stood on.
-    rng = np.random.default_rng(0)
-    n = 60
-    fn = np.r_[1.0 + 0.01 * rng.standard_normal(30), 0.1 + 0.001 * rng.standard_normal(30)]
-    frame = pd.DataFrame({
-        "well_id": "W", "card_id": [f"c{i}" for i in range(n)],
-        "time": pd.Timestamp("2024-01-01", tz="UTC") + pd.to_timedelta(np.arange(n), unit="D"),
-        "status": "converged", "d_natural_frequency": fn, "d_natural_frequency_se": 0.01,
-        "d_natural_frequency_determined": True, "d_natural_frequency_unit": "Hz",
-        "d_natural_frequency_well_property": np.arange(n) < 30,
-    })  # fmt: skip
+    frame = _echo_table()
+    n, fn = len(frame), frame["d_natural_frequency"].to_numpy()
     files = write_fleet_report(frame, tmp_path / "named", quantities=["natural_frequency"])
     assert not pd.read_csv(files["alerts"]).empty
     wells = pd.read_csv(files["wells"])
