@@ -65,3 +65,24 @@ def test_every_task_shares_one_compiled_signature() -> None:
     assert res.converged, res.reason
     assert len(set(drive.items.signatures) - before) <= 1
     assert len(drive.items.signatures) <= len(before) + 1
+
+
+def test_a_card_timed_far_from_zero_is_still_uniformly_sampled() -> None:
+    # 0.02 s steps written after 777600 s (the ninth day of a record) differ by 3e-9 of a
+    # step in floating point: judged against 1e-9 alone, the card was simulated step by
+    # step as non-uniform, 37 s a fit instead of 64 ms. Its answer is the card's at zero.
+    period, n = 8.0, 200
+    t = np.arange(n) * period / n
+    load = well_load(t, period=period, seed=3)
+    data = simulate(TRUTH, t, load, initial_state="periodic", period=period) + 5.0
+    for start in (777600.0, 1.7e9):
+        late = start + t
+        assert np.ptp(np.diff(late)) > 1e-9 * period / n
+        problem = build_problem(Kelvin, [CardData(late, load, data, "periodic", period)],
+                                offset=True)
+        assert problem.uniform[0]
+    # Sampling that is not uniform stays so.
+    jitter = t + np.r_[0.0, 1e-6 * np.sin(np.arange(1, n))]
+    problem = build_problem(Kelvin, [CardData(jitter, load, data, "periodic", period)],
+                            offset=True)
+    assert not problem.uniform[0]
