@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -415,19 +416,69 @@ class TestCsv:
         assert b.metadata["time"].hour == 7
         assert any("one date/time stamp for the whole card" in n for n in a.notes)
 
+    def test_stamps_days_into_a_file_time_each_card_in_equal_steps(self, tmp_path):
+        # Seconds after the file's first stamp, days before, kept a card's 0.02 s steps only
+        # to 3e-9 of them: the fit took the card as non-uniformly sampled, 1000x slower.
+        pos, load = synthetic_stroke(25)
+        rows = []
+        for day in (0, 9):
+            start = np.datetime64("2024-03-01T00:00:00") + np.timedelta64(day, "D")
+            rows += [f"C{day},{start + np.timedelta64(20 * i, 'ms')},{pos[i]},{load[i]}"
+                     for i in range(25)]
+        p = write(tmp_path, "days.csv", "card,time,position,load\n" + "\n".join(rows))
+        first, late = read_cards(p)
+        assert np.all(np.diff(late.t) == np.diff(first.t))
+        np.testing.assert_allclose(late.t, 0.02 * np.arange(25), rtol=0, atol=1e-15)
+        assert late.metadata["time"].isoformat() == "2024-03-10T00:00:00+00:00"
+
+    def test_stamps_without_a_header_or_split_by_spaces(self, tmp_path):
+        # A headerless file's first row of stamps was taken for a header; in a whitespace
+        # table the README's own form was two fields.
+        pos, load = synthetic_stroke(25)
+        rows = [f"2021-06-01 06:00:{0.4 * i:06.3f},{pos[i]},{load[i]}" for i in range(25)]
+        card = read_card(write(tmp_path, "bare.csv", "\n".join(rows)))
+        assert any("no header: column 0 holds date/time stamps" in n for n in card.notes)
+        np.testing.assert_allclose(card.t, 0.4 * np.arange(25), atol=1e-12)
+        assert card.metadata["time"].isoformat() == "2021-06-01T06:00:00+00:00"
+        rows = [f"2021-06-01 06:00:{0.4 * i:06.3f}  {pos[i]}  {load[i]}" for i in range(25)]
+        card = read_card(write(tmp_path, "ws.txt", "time position load\n" + "\n".join(rows)))
+        np.testing.assert_allclose(card.t, 0.4 * np.arange(25), atol=1e-12)
+
+    def test_a_time_of_day_takes_its_date_from_a_date_column(self, tmp_path):
+        pos, load = synthetic_stroke(25)
+        rows = [f"2021-06-01,06:00:{0.4 * i:06.3f},{pos[i]},{load[i]}" for i in range(25)]
+        p = write(tmp_path, "dated.csv", "date,time,position,load\n" + "\n".join(rows))
+        assert read_card(p).metadata["time"].isoformat() == "2021-06-01T06:00:00+00:00"
+
+    def test_stamps_not_read_as_time_still_date_the_card(self, tmp_path):
+        pos, load = synthetic_stroke(25)
+        rows = [f"2021-06-01 06:00:{i:02d},{pos[i]},{load[i]}" for i in range(25)]
+        p = write(tmp_path, "ts.csv", "time,position,load\n" + "\n".join(rows))
+        card = read_card(p, columns={"t": None}, spm=6)
+        assert card.time_source == "spm"
+        assert card.metadata["time"].isoformat() == "2021-06-01T06:00:00+00:00"
+
     @pytest.mark.parametrize(("cells", "line", "words"), [
-        (["06/01/2021 06:00:00", "06/01/2021 06:00:01"], 2, "is not an ISO 8601"),
-        (["2021-06-01 06:00:00", "06:00:01"], 3, "all dates with times or all times of day"),
-        (["2021-06-01 06:00:00", "2021-06-01 06:00:01+00:00"], 3, "a time zone or none"),
-        (["2021-06-01 06:00:00", "1.5"], 3, "'1.5' is not an ISO 8601"),
+        (["06/01/2021 06:00:00", "06/01/2021 06:00:01"], 2,
+         "'06/01/2021 06:00:00' is not a date and time in ISO 8601 form; convert the column"),
+        (["2021-06-01 06:00:00", "06:00:01"], 3,
+         "all dates with times or all times of day, not both; write every stamp"),
+        (["2021-06-01 06:00:00", "2021-06-01 06:00:01+00:00"], 3, "a time zone or none does"),
+        (["2021-06-01 06:00:00", "1.5"], 3, "'1.5' is not a date and time"),
+        (["2021-06-01 06:00:00", ""], 3, "an empty time cell is not"),
         (["0.0", "2021-06-01 06:00:01"], 3, "follows numbers"),
+        # Stamps without a zone across a clock change, and stamps coarser than the samples.
+        (["2021-03-28 01:59:59", "2021-03-28 03:00:00"], 3, "jump ahead by an hour between "
+         "lines 2 and 3: a change between summer and winter time?"),
+        (["2021-06-01 06:00:00", "2021-06-01 06:00:00"], 3, "stamps of lines 2 and 3 are "
+         "the same"),
     ])
     def test_other_stamps_are_refused_with_the_way_round(self, tmp_path, cells, line, words):
         pos, load = synthetic_stroke(25)
         cells = cells + [f"2021-06-01 06:00:{i:02d}" for i in range(2, 25)]
         rows = [f"{cells[i]},{pos[i]},{load[i]}" for i in range(25)]
         p = write(tmp_path, "ts.csv", "time,position,load\n" + "\n".join(rows))
-        with pytest.raises(CardError, match=r"ISO 8601 form only .* columns=\{'t': None\}") as info:
+        with pytest.raises(CardError, match=r"no time column .* columns=\{'t': None\}") as info:
             read_cards(p)
         assert words in str(info.value)
         assert info.value.line == line and info.value.field == "time"
@@ -780,6 +831,11 @@ class TestSplitStrokes:
             # short).
             assert f"stroke #{k} ({k + 1} of 5) cut from 'rec'" in s.notes[-1]
         assert strokes[2].metadata["t0"] == pytest.approx(12.0)
+        # A dated record dates each stroke by its start (every stroke had the record's).
+        dated = record()
+        dated.metadata["time"] = datetime(2024, 5, 1, 10, tzinfo=UTC)
+        assert split_strokes(dated)[2].metadata["time"] == datetime(2024, 5, 1, 10, 0, 12,
+                                                                    tzinfo=UTC)
         # Each stroke's source says which samples of the record it is (every stroke said
         # the record's whole span of lines).
         cut = split_strokes(record().replace(source="rec.csv, lines 2-302"))

@@ -265,8 +265,9 @@ def test_a_column_of_date_time_stamps_is_read_as_time(tmp_path: Path, capsys) ->
     main(["fit", str(other)])
     out = " ".join(capsys.readouterr().out.split())
     assert ("column 'timestamp' has a date/time stamp per row ('2024-05-01 10:00:00.000000', "
-            "...); not kept: to read it as the card's time, name it the time column "
-            "(columns={'t': 'timestamp'}, command line --columns t=timestamp)") in out
+            "...): not read as the card's time (its first stamp dates the card); to read it "
+            "as the time, name it the time column (columns={'t': 'timestamp'}, command line "
+            "--columns t=timestamp)") in out
     assert "no time read from the file" in out
     assert main(["fit", str(other), "--columns", "t=timestamp"]) in (0, 6)
     out = " ".join(capsys.readouterr().out.split())
@@ -275,7 +276,7 @@ def test_a_column_of_date_time_stamps_is_read_as_time(tmp_path: Path, capsys) ->
     us = tmp_path / "us.csv"
     us.write_text("time,position_in,load_lbf\n" + rows.replace("2024-05-01", "05/01/2024"))
     assert main(["fit", str(us)]) == 2
-    assert "ISO 8601 form only" in capsys.readouterr().err
+    assert "is not a date and time in ISO 8601 form" in capsys.readouterr().err
     assert main(["fit", str(us), "--columns", "t=-", "--spm", "6"]) in (0, 6)
     assert "time rebuilt from" in capsys.readouterr().out
     assert main(["fit", str(us), "--columns", "position=-", "--spm", "6"]) == 2

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from ._common import Opts, Raw, scalar
 from ._errors import CardError
 from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
-from ._stamps import looks_like_stamp
+from ._stamps import is_stamp, join_stamps, parse_date
 from ._text import is_complex_text, is_number, number_problem
 
 __all__ = [
@@ -61,7 +61,9 @@ class Column:
 
 def splitter(o: Opts, delimiter: str | None) -> Callable[[str, int], list[str]]:
     if delimiter is None:
-        return lambda line, _lineno: line.split()
+        # A stamp written "2024-05-01 10:00:00" is two fields of a whitespace table.
+        return lambda line, _lineno: (join_stamps(line.split()) if ":" in line
+                                      else line.split())
 
     def split(line: str, lineno: int) -> list[str]:
         if '"' not in line:  # no quoting: a plain split is what the csv module would do
@@ -76,8 +78,10 @@ def splitter(o: Opts, delimiter: str | None) -> Callable[[str, int], list[str]]:
 
 
 def looks_like_header(tokens: list[str]) -> bool:
-    # Complex numbers are numbers written wrongly, not column names: refuse them later.
-    return any(tok and not is_number(tok) and not is_complex_text(tok) for tok in tokens)
+    # Complex numbers are numbers written wrongly, not column names: refuse them later;
+    # date/time stamps are a time column's values.
+    return any(tok and not is_number(tok) and not is_complex_text(tok) and not is_stamp(tok)
+               for tok in tokens)
 
 
 def keep_extra(
@@ -98,10 +102,13 @@ def keep_extra(
     if t is not None and np.any(t >= 0):
         if np.all(t == t[0]):
             raw.metadata[name] = scalar(first)
-        elif looks_like_stamp(first):
-            notes.append(f"column {name!r} has a date/time stamp per row ({first!r}, ...); not "
-                         f"kept: to read it as the card's time, name it the time column "
-                         f"(columns={{'t': {name!r}}}, command line --columns t={name})")
+        elif is_stamp(first) and parse_date(first) is None:
+            # Its first stamp is when the card was recorded, whether or not it times it.
+            raw.metadata.setdefault("first_sample_time", first)
+            notes.append(f"column {name!r} has a date/time stamp per row ({first!r}, ...): not "
+                         "read as the card's time (its first stamp dates the card); to read "
+                         f"it as the time, name it the time column (columns={{'t': {name!r}}}, "
+                         f"command line --columns t={name})")
         else:
             notes.append(f"column {name!r} has varying non-numeric values ({first!r}, ...); "
                          "not kept")
@@ -130,6 +137,8 @@ def detect_roles(
         lineno, tok = min(broken)  # type: ignore[type-var]
         c = next(c for c in free if cols[c].first_text == (lineno, tok))
         raise o.error(
+            (f"{tok!r} is a date/time stamp: name the column the time "
+             f"(columns={{'t': {c}}}, command line --columns t={c})") if is_stamp(tok) else
             number_problem(tok) if tok else "empty value where a number is expected",
             line=lineno,
             field=f"column_{c}",

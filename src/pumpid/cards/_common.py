@@ -262,7 +262,7 @@ def flat(x: NDArray[np.float64]) -> bool:
 
 # Field names (normalised) that state when a card was recorded, in order of preference.
 _STAMP_NAMES = ("timestamp", "time_stamp", "datetime", "date_time", "card_time", "card_date",
-                "time", "date", "first_sample_time")
+                "time", "first_sample_time", "date")
 
 
 def card_time(meta: dict[str, Any], notes: list[str]) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from datetime import datetime, timedelta
 from itertools import pairwise
 
 import numpy as np
@@ -74,7 +75,8 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
     -------
     list of Card
         Strokes with ids ``"<card_id>#<k>"`` (k from 0), time restarted at 0 (original start
-        in ``metadata["t0"]``), ``period``/``spm`` from the boundary times when time is
+        in ``metadata["t0"]``; a record's recording time ``metadata["time"]`` moved on by
+        it), ``period``/``spm`` from the boundary times when time is
         known, ``periodic=True`` and a note. A card holding a single stroke (no two bottoms
         of stroke with the rod seen turning around at both) is returned whole, as one stroke
         ``"<card_id>#0"`` marked ``periodic``.
@@ -179,6 +181,10 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
             period = end - float(card.t[a])
             spm = 60.0 / period
             meta["t0"] = float(card.t[a])
+            when = card.metadata.get("time")
+            if isinstance(when, datetime):
+                # The record's time is its first sample's: each stroke was recorded later.
+                meta["time"] = when + timedelta(seconds=float(card.t[a] - card.t[0]))
         for key, value in card.metadata.items():
             # Per-sample extra columns follow the samples they belong to.
             if isinstance(value, np.ndarray) and value.shape == (card.n,):

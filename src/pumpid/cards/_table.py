@@ -29,7 +29,14 @@ from ._common import (
 )
 from ._common import file_unit as _file_unit
 from ._errors import CardError
-from ._stamps import StampColumn, looks_like_stamp
+from ._stamps import (
+    StampColumn,
+    StampError,
+    is_stamp,
+    looks_like_stamp,
+    parse_date,
+    stamped_time,
+)
 from ._text import interpret_name, normalize_name, number_problem
 
 __all__ = ["COLUMN_KEYS", "read_table"]
@@ -167,6 +174,15 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         ncols = len(first_toks)
     hl = first_line if header is not None else None
     roles, unit_text, col_notes, detect = resolve_columns(o, header, ncols, hl)
+    if header is None and "t" not in roles and not any(
+            COLUMN_KEYS[k] == "t" for k in (o.columns or {})):
+        # A headerless table's column of date/time stamps can only be its time.
+        stamped = [k for k, tok in enumerate(first_toks) if k not in roles.values()
+                   and looks_like_stamp(tok) and is_stamp(tok)]
+        if len(stamped) == 1:
+            roles["t"] = stamped[0]
+            col_notes.append(f"no header: column {stamped[0]} holds date/time stamps, read "
+                             "as the time")
     names = header if header is not None else [f"column_{k}" for k in range(ncols)]
     where_cols = "header" if header is not None else "first row"
     decimal_comma = delimiter == ";"
@@ -205,30 +221,31 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
 
     stamps = StampColumn()
 
-    def stamp_seconds(tok: str, lineno: int, c: int) -> float:
+    def stamp_micros(tok: str, lineno: int, c: int) -> float:
         try:
             if stamps.count == 0 and len(cols[c].values or ()):
-                raise ValueError(f"{tok!r} follows numbers: a column holds numbers or "
-                                 "date/time stamps, not both")
-            return stamps.seconds(tok)
-        except ValueError as exc:
+                raise StampError(f"{tok!r} follows numbers: a column holds numbers or "
+                                 "date/time stamps, not both", form=False)
+            return stamps.micros(tok)
+        except StampError as exc:
+            fix = ("convert the column to that form (2024-05-01 10:00:00.25, or 10:00:00.25 "
+                   "for a time of day) or to seconds" if exc.form else
+                   "write every stamp of the column in one form")
             raise o.error(
-                f"{exc}; date/time stamps are read as time in ISO 8601 form only "
-                "(2024-05-01 10:00:00.25, or 10:00:00.25 for a time of day): convert them "
-                "to that form or to seconds, or read no time column and give the stroke rate "
-                "(command line: --columns t=- --spm N; Python: columns={'t': None})",
+                f"{exc}; {fix}, or read no time column and give the stroke rate (command "
+                "line: --columns t=- --spm N; Python: columns={'t': None})",
                 line=lineno,
                 field=names[c],
             ) from None
 
     def slow_number(tok: str, lineno: int, c: int) -> float:
         if stamps.count and c == t_i:
-            return stamp_seconds(tok, lineno, c)
+            return stamp_micros(tok, lineno, c)
         try:
             value = num(o, tok, line=lineno, field=names[c], decimal_comma=decimal_comma)
         except CardError:
             if c == t_i and looks_like_stamp(tok):
-                return stamp_seconds(tok, lineno, c)
+                return stamp_micros(tok, lineno, c)
             raise
         if decimal_comma and "," in tok:
             comma_used[0] = True
@@ -477,8 +494,6 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         )
         if moderate_warning is not None:
             raw.warnings.append(moderate_warning)
-        if stamps.count and raw.t is not None:
-            _stamped_time(raw, stamps, names[t_i] if t_i is not None else "t")
         if well_i is not None:
             ids = text_ids[well_i]
             assert ids is not None
@@ -530,6 +545,11 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
             if c in used:
                 continue
             keep_extra(raw, names[c], values[c], text_ids[c], start, end, firsts[j], notes)
+        if stamps.count and raw.t is not None and t_i is not None:
+            # A time of day takes its date from a date column's first row, if there is one.
+            on = next((d for j, c in enumerate(extra) if normalize_name(names[c]) == "date"
+                       and (d := parse_date(firsts[j])) is not None), None)
+            stamped_time(o, raw, stamps, names[t_i], on)
         if b in block_comma:
             notes.append("decimal commas read as decimal points")
         return raw
@@ -574,23 +594,3 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         except CardError as exc:
             out.append(exc.for_card(card_id, well_of(start, bounds[b + 1])))
     return out
-
-
-def _stamped_time(raw: Raw, stamps: StampColumn, name: str) -> None:
-    """A card whose time column held date/time stamps: seconds from the card's first stamp,
-    whose date and time become the card's recording time (unless the file names one). A
-    column whose stamps do not change within the card stamps the card, not its samples."""
-    assert raw.t is not None
-    first = float(raw.t[0])
-    when = stamps.at(first)
-    if when is not None:
-        raw.metadata["first_sample_time"] = when.isoformat()
-    raw.t_factor = 1.0  # seconds already, whatever unit the column's name states
-    if raw.t.size > 1 and np.all(raw.t == first):
-        raw.t = None
-        raw.notes.append(f"column {name!r} holds one date/time stamp for the whole card: read "
-                         "as the card's recording time, not as a time per sample")
-        return
-    raw.t = raw.t - first
-    raw.notes.append(f"column {name!r} holds ISO 8601 date/time stamps: read as seconds from "
-                     "the card's first stamp")
