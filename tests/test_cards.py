@@ -581,6 +581,35 @@ class TestJson:
         assert [c.metadata["field"] for c in cards] == ["North", "North"]
         assert cards[0].source == "field.json, wells[0].cards[0]"
 
+    def test_the_innermost_field_wins_however_it_is_spelled(self, tmp_path):
+        # A group's "Well" and "SPM" lost to the document's "well" and "spm": every card of
+        # the file went under the document's well, at its rate, without a word.
+        pos, load = synthetic_stroke(20)
+        card = {"position": list(pos), "load": list(load)}
+        doc = {"well": "unassigned", "spm": 7.0, "wells": [
+            {"Well": "SX6E03", "SPM": 8.5, "cards": [card, {**card, "well_id": "own"}]}]}
+        cards = read_cards(write(tmp_path, "spell.json", json.dumps(doc)))
+        assert [(c.well_id, c.spm) for c in cards] == [("SX6E03", 8.5), ("own", 8.5)]
+
+    @pytest.mark.parametrize(("doc", "field", "words"), [
+        ({"wells": [], "cards": []}, "cards", "the document has both 'wells' and 'cards'"),
+        ([{"well": "A", "spm": "fast", "cards": [{"position": [1.0], "load": [1.0]}]}],
+         "[0].spm", "spm must be a number"),
+        ([{"well": "A", "cards": [{"well": "B", "cards": []}]}], "[0].cards[0].cards",
+         "groups do not nest"),
+        ([{"t": ["2024-05-01 10:00:00"] * 20, "position": [1.0] * 20, "load": [1.0] * 20}],
+         "[0].t[0]", "date/time stamps are read in tables only"),
+    ])
+    def test_json_groups_refused_where_they_are_wrong(self, tmp_path, doc, field, words):
+        read = read_cards_and_errors if isinstance(doc, list) else read_cards
+        p = write(tmp_path, "bad.json", json.dumps(doc))
+        try:
+            found = read(p)
+            (error,) = found.errors
+        except CardError as exc:
+            error = exc
+        assert words in str(error) and error.field == field
+
 
 class TestWhitespace:
     def test_fortran_numbers_and_column_order(self):

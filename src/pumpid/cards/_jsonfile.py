@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 
 from ._common import Opts, Raw, file_unit, rate, time_factor
 from ._errors import CardError
+from ._stamps import looks_like_stamp
 from ._text import interpret_name, normalize_name
 
 __all__ = ["read_json"]
@@ -199,8 +200,12 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
         items: Any = doc
         prefix = ""
     elif isinstance(doc, dict):
-        cards_key = next((k for k in doc if isinstance(k, str)
-                          and k.lower() in ("cards", "wells")), None)
+        lists = [k for k in doc if isinstance(k, str) and k.lower() in ("cards", "wells")]
+        if len(lists) > 1:
+            raise o.error(f"the document has both {lists[0]!r} and {lists[1]!r}: give one list "
+                          "of cards or of wells (a well's own cards go in its object)",
+                          field=lists[1])
+        cards_key = lists[0] if lists else None
         if cards_key is not None:
             items = doc[cards_key]
             if not isinstance(items, list):
@@ -218,7 +223,7 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
         raise o.error("no cards in the JSON document", field=prefix or None)
     entries = _entries(o, items, prefix, shared, len(items) > 1 or isinstance(doc, list))
     out: list[Raw | CardError] = []
-    for where, item, obj, listed_id in entries:
+    for where, item, obj, origin, listed_id in entries:
         default_id = o.stem if len(entries) == 1 else listed_id
         card_id, well_id = _ids(obj, default_id)
         try:  # each card on its own: a broken one is an error in its place
@@ -230,7 +235,7 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
                 )
             if repaired:  # the card's own values and those its group gives it
                 _raise_marked(o, obj, where)
-            out.append(_json_card(o, obj, where, default_id))
+            out.append(_json_card(o, obj, where, default_id, origin))
         except CardError as exc:
             out.append(exc.for_card(card_id, well_id))
     if escaped:
@@ -251,31 +256,58 @@ def _cards_key(item: Any) -> str | None:
     return next((k for k in item if isinstance(k, str) and k.lower() == "cards"), None)
 
 
+def _role(key: str) -> str:
+    """What a field names, so that two spellings of one field (``Well``, ``well_id``) are
+    one: its role, else its normalised name."""
+    norm = normalize_name(key)
+    return _JSON_ROLE_EXTRA.get(norm) or interpret_name(key)[0] or norm
+
+
+def _over(outer: dict[str, Any], inner: dict[str, Any]) -> dict[str, Any]:
+    """``inner``'s fields over ``outer``'s, however each spells a field: a group's ``Well``
+    was beaten by the document's ``well`` (the first spelling read wins in a card)."""
+    mine = {_role(k) for k in inner}
+    return {**{k: v for k, v in outer.items() if _role(k) not in mine}, **inner}
+
+
+Entry = tuple[str, Any, dict[str, Any], dict[str, str], str]
+
+
 def _entries(o: Opts, items: list[Any], prefix: str, shared: dict[str, Any], indexed: bool
-             ) -> list[tuple[str, Any, dict[str, Any], str]]:
+             ) -> list[Entry]:
     """The cards of a document's list, each as (where, its object, the object with the
-    fields it shares, a default id). An item holding ``"cards"`` is a group (a well's cards
-    with the fields they share, ``[{"well": "A", "cards": [...]}, ...]``); its cards take
-    its fields over the document's, and their own over both."""
-    out: list[tuple[str, Any, dict[str, Any], str]] = []
+    fields it shares, where each of those fields is, a default id). An item holding
+    ``"cards"`` is a group (a well's cards with the fields they share, ``[{"well": "A",
+    "cards": [...]}, ...]``); its cards take its fields over the document's, and their own
+    over both."""
+    out: list[Entry] = []
     for k, item in enumerate(items):
         where = f"{prefix}[{k}]" if (prefix or indexed) else ""
         key = _cards_key(item)
         if key is None:
-            obj = {**shared, **item} if isinstance(item, dict) else shared
-            out.append((where, item, obj, f"{o.stem}[{k}]"))
+            mine = item if isinstance(item, dict) else {}
+            obj = _over(shared, mine)
+            origin = {f: ("" if f in shared and f not in mine else where) for f in obj}
+            out.append((where, item, obj, origin, f"{o.stem}[{k}]"))
             continue
-        group = {**shared, **{f: v for f, v in item.items() if f != key}}
+        fields = {f: v for f, v in item.items() if f != key}
+        group = _over(shared, fields)
+        group_origin = {f: ("" if f in shared and f not in fields else where) for f in group}
         cards = item[key]
         if not isinstance(cards, list) or not cards:
             problem = o.error(f"a group's {key!r} must be a non-empty list of card objects",
                               field=f"{where}.{key}" if where else key)
-            out.append((where, problem, group, f"{o.stem}[{k}]"))
+            out.append((where, problem, group, group_origin, f"{o.stem}[{k}]"))
             continue
         for j, card in enumerate(cards):
-            obj = {**group, **card} if isinstance(card, dict) else group
             inner = f"{where}.{key}[{j}]" if where else f"{key}[{j}]"
-            out.append((inner, card, obj, f"{o.stem}[{k}][{j}]"))
+            if _cards_key(card) is not None:
+                card = o.error("groups do not nest: a group's cards are card objects",
+                               field=f"{inner}.{_cards_key(card)}")
+            mine = card if isinstance(card, dict) else {}
+            obj = _over(group, mine)
+            origin = {f: (inner if f in mine else group_origin[f]) for f in obj}
+            out.append((inner, card, obj, origin, f"{o.stem}[{k}][{j}]"))
     return out
 
 
@@ -293,9 +325,12 @@ def _ids(obj: dict[str, Any], default: str) -> tuple[str, str | None]:
     return card_id, well_id
 
 
-def _json_card(o: Opts, obj: dict[str, Any], where: str, default_id: str) -> Raw:
+def _json_card(o: Opts, obj: dict[str, Any], where: str, default_id: str,
+               origin: dict[str, str]) -> Raw:
     def at(key: str) -> str:
-        return f"{where}.{key}" if where else key
+        # A field a group or the document gives is named where it is written.
+        path = origin.get(key.split(".", 1)[0], where)
+        return f"{path}.{key}" if path else key
 
     found: dict[str, tuple[str, Any, str | None]] = {}
     meta: dict[str, Any] = {}
@@ -341,7 +376,14 @@ def _json_card(o: Opts, obj: dict[str, Any], where: str, default_id: str) -> Raw
     t_factor = 1.0
     if "t" in found and found["t"][1] is not None:
         t_field = at(found["t"][0])
-        t = _json_numbers(o, found["t"][1], t_field)
+        try:
+            t = _json_numbers(o, found["t"][1], t_field)
+        except CardError as exc:
+            if "got '" in exc.reason and any(
+                    isinstance(v, str) and looks_like_stamp(v) for v in found["t"][1]):
+                raise o.error(f"{exc.reason}: a JSON card's time is in seconds (date/time "
+                              "stamps are read in tables only)", field=exc.field) from None
+            raise
         if "t" in units_obj:
             t_factor = time_factor(o, units_obj["t"][0], line=None, field=units_obj["t"][1])
     if "card" in found:
