@@ -182,3 +182,13 @@ def test_a_named_quantity_s_echoes_are_drawn_and_listed_as_they_are_trended(tmp_
     assert pd.read_csv(files["alerts"]).empty
     assert pd.read_csv(files["wells"]).loc[0, "latest_natural_frequency"] == pytest.approx(
         fn[29])
+
+
+def test_a_quantity_whose_values_are_all_echoes_says_so(tmp_path) -> None:
+    # The default report said "quantities asked for natural_frequency [Hz] (no usable value
+    # in any well: not trended)": nothing was asked, and 66 determined values were echoes.
+    frame = _echo_table().assign(d_natural_frequency_well_property=False)
+    page = write_fleet_report(frame, tmp_path)["report"].read_text(encoding="utf-8")
+    assert "<td>quantities asked for</td>" not in page and "<td>quantities</td>" in page
+    assert ("natural_frequency [Hz] (60 values, all echoes of the stroke, not the well&#x27;s "
+            "(name it to trend them: --quantity natural_frequency): not trended)") in page

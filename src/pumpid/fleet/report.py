@@ -215,13 +215,19 @@ def _no_value(frame: pd.DataFrame, quantity: str) -> str:
     identified on cards without a well id, where the missing id is the reason."""
     if quantity_values(frame, quantity)[2].any():
         return "usable values only on cards without a well id"
+    echoes = int(quantity_values(with_asked(frame, [quantity]), quantity)[2].sum())
+    if echoes:
+        # A quantity "with no usable value" whose 66 determined values were all echoes
+        # gave no hint of them, nor of how to see them.
+        return (f"{count_words(echoes, 'value')}, all echoes of the stroke, not the well's "
+                f"(name it to trend them: --quantity {quantity})")
     return "no usable value in any well"
 
 
 def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFrame,
                      quantities: Sequence[str], units: dict[str, str], settings: str,
-                     empty: Sequence[str], coverage_rows: Sequence[tuple[str, str]] = ()
-                     ) -> str:
+                     empty: Sequence[str], coverage_rows: Sequence[tuple[str, str]] = (),
+                     asked: bool = False) -> str:
     status = frame["status"].where(frame["status"].isin(STATUSES), "other")
     counts = status.value_counts().reindex([*STATUSES, "other"], fill_value=0)
     n = len(frame)
@@ -255,7 +261,7 @@ def _summary_section(frame: pd.DataFrame, named: pd.DataFrame, alerts: pd.DataFr
         ("period covered", span),
         # Each is trended where it has usable values; "quantities trended" listed some
         # marked "(not trended)".
-        ("quantities asked for", ", ".join(
+        ("quantities asked for" if asked else "quantities", ", ".join(
             f"{q} [{unit_text(units[q])}]" + (f" ({_no_value(frame, q)}: not trended)"
                                              if q in empty else "")
             for q in quantities) or "none"),
@@ -557,7 +563,8 @@ def write_fleet_report(
     empty = [q for q in names if not quantity_values(named, q)[2].any()]
     parts.append(_summary_section(frame, named, alerts, names, units, settings, empty,
                                   [*repeat_rows, *_coverage_rows(coverage, min_cards,
-                                                                 min_short)]))
+                                                                 min_short)],
+                                  asked=bool(asked)))
     pumps = ("" if identified is None else
              " These are the lumped model's statuses; the pump quantities count by the pump "
              "identification's, given in the summary and the wells table.")
