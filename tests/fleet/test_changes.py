@@ -203,6 +203,9 @@ def test_parameters_and_options() -> None:
     assert abs(alerts["first_index"].iloc[0] - 60) <= 3
     with pytest.raises(ValueError, match="no column 'd_speed'"):
         detect_changes(table, ["speed"])
+    # The name a results table shows: a derived quantity's column, d_ and all.
+    with pytest.raises(ValueError, match=r"named without its column's d_: stiffness\)$"):
+        detect_changes(table, ["d_stiffness"])
     with pytest.raises(ValueError, match="false_alarm"):
         detect_changes(table, false_alarm=0.0)
     with pytest.raises(ValueError, match="status"):

@@ -305,7 +305,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     rd.add_argument("--columns", metavar="ROLE=COL[,...]",
                     help="column roles, e.g. position=1,load=0 (names or 0-based indices; "
                          "t=- reads no time column)")
-    rd.add_argument("--t-col", help="time column (name, or index for tables without header)")
+    rd.add_argument("--t-col", help="time column (name, or index for tables without header): "
+                         "seconds, or ISO 8601 date/time stamps such as 2024-05-01 10:00:00.25")
     rd.add_argument("--load-col", help="load column")
     rd.add_argument("--position-col", help="position column")
     rd.add_argument("--split-strokes", action="store_true",

@@ -244,7 +244,8 @@ def add_card_options(p: Any) -> None:
                    help="column roles, e.g. position=1,load=0 (names or 0-based indices; "
                         "roles t, position, load, card, well, spm, period; t=- reads no "
                         "time column)")
-    p.add_argument("--t-col", help="time column (name, or index for tables without header)")
+    p.add_argument("--t-col", help="time column (name, or index for tables without header): "
+                        "seconds, or ISO 8601 date/time stamps such as 2024-05-01 10:00:00.25")
     p.add_argument("--load-col", help="load column")
     p.add_argument("--position-col", "--displacement-col", dest="position_col",
                    help="position/displacement column")

@@ -406,6 +406,8 @@ def detect_changes(
             raise ValueError(
                 f"no column {columns_of(q).value!r} for quantity {q!r}; the table has "
                 f"{', '.join(available_quantities(frame, parameters=True)) or 'none'}"
+                + (f" (a derived quantity is named without its column's d_: {q[2:]})"
+                   if q.startswith("d_") and columns_of(q[2:]).value in frame.columns else "")
             )
     rows: list[dict[str, Any]] = []
     if not names or frame.empty:
