@@ -484,6 +484,20 @@ class TestCsv:
         assert info.value.line == line and info.value.field == "time"
         assert read_card(p, columns={"t": None}).time_source == "none"
 
+    def test_a_time_column_rounded_by_its_file_is_uniform(self, tmp_path):
+        # 1/30 s written to six decimals: steps equal to 3e-5 of one. The card called itself
+        # uniformly sampled and the fit did not: simulated step by step, 21 s a fit.
+        pos, load = synthetic_stroke(30)
+        for record in (False, True):
+            rows = [f"{i / 30:.6f},{pos[i % 30]},{load[i % 30]}" for i in range(60 if record
+                                                                               else 30)]
+            card = read_card(write(tmp_path, "r.csv", "t_s,position,load\n" + "\n".join(rows)))
+            steps = np.diff(card.t)
+            assert np.ptp(steps) <= 1e-12 * steps[0]
+            assert steps[0] == pytest.approx(1 / 30, rel=1e-6)
+            assert any("time steps equal to within 0.003 % of a step, as the file rounded "
+                       "them" in n for n in card.notes)
+
     def test_whitespace_table_with_header(self, tmp_path):
         pos, load = synthetic_stroke(25)
         rows = [f"{i * 0.3:.2f}  {load[i]:.3f}  {pos[i]:.4f}" for i in range(25)]

@@ -552,7 +552,7 @@ def build(raw: Raw, o: Opts, said: set[str]) -> Card:
         )
     except CardError as exc:  # pragma: no cover - the checks above should catch everything
         raise o.error(f"{label}: {exc.reason}", line=raw.line, field=exc.field) from exc
-    card = one_period(card) if time_source == "file" else card
+    card = one_period(rounded_time(card)) if time_source == "file" else card
     # A time column in milliseconds named plainly "time" gave a stroke of 4 hours, a
     # displacement a thousand times too small and no word.
     slow = stroke_rate_warning(raw.card_id, stroke_period(card),
@@ -604,6 +604,32 @@ def stroke_period(card: Card) -> float | None:
 JITTER = 0.25
 
 
+def rounded_time(card: Card) -> Card:
+    """A card whose time steps are equal to 0.1 % (:attr:`Card.is_uniform`) but not to the
+    float precision of its times, given the uniform times its file rounded.
+
+    1/30 s written to six decimals varies the steps by 3e-5 of one: the card called itself
+    uniformly sampled, the fit did not, and simulated it step by step (21 s a fit instead
+    of 0.1 s). Its times become ``t_0 + i*dt`` (``dt`` from its first and last), and a note
+    says how far the file's were off.
+    """
+    t = card.t
+    if t is None or card.n < 3 or card.dt is None:
+        return card
+    dt = (float(t[-1]) - float(t[0])) / (card.n - 1)
+    times = float(t[0]) + np.arange(card.n) * dt
+    off = float(np.max(np.abs(t - times)))
+    spacing = 8.0 * np.finfo(float).eps * max(abs(float(t[0])), abs(float(t[-1])))
+    if off <= 1e-9 * dt + spacing:
+        return card
+    return card.replace(
+        t=times,
+        note=(f"time steps equal to within {100 * float(np.ptp(np.diff(t))) / dt:.2g} % of a "
+              f"step, as the file rounded them: taken as t_i = t_0 + i*dt with dt = {fmt(dt)} "
+              f"s (the file's times at most {fmt(off)} s off), so that the card is simulated "
+              "with one step"))
+
+
 def one_period(card: Card) -> Card:
     """A card whose own time spans a single stroke, uniformly sampled, as one period.
 
@@ -638,8 +664,9 @@ def one_period(card: Card) -> Card:
         times = card.t[0] + np.arange(card.n) * dt
         off = float(np.max(np.abs(card.t - times)))
         changes["t"] = times
-        apart = (f"{fmt(dt)} s apart on average, each step within {spread:.0%} of it: taken "
-                 f"as uniform, t_i = t_0 + i*dt, the file's times at most {fmt(off)} s off")
+        apart = (f"{fmt(dt)} s apart on average, each step within {100 * spread:.2g} % "
+                 f"of it: taken as uniform, t_i = t_0 + i*dt, the file's times at most "
+                 f"{fmt(off)} s off")
     return card.replace(
         periodic=True, period=period, spm=60.0 / period,
         note=(f"one stroke in the file's time ({card.n} samples, {apart}): treated as one "

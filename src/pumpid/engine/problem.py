@@ -112,15 +112,11 @@ def make_time(t: ArrayLike, min_samples: int = 2) -> tuple[Array, bool]:
         raise ValueError("t: the time steps overflow (times beyond the float range)")
     if (steps <= 0).any():
         i = int(np.flatnonzero(steps <= 0)[0])
-        raise ValueError(
-            f"t: time must be strictly increasing; t[{i + 1}] = {float(tt[i + 1])!r} s "
-            f"follows t[{i}] = {float(tt[i])!r} s"
-        )
+        raise ValueError(f"t: time must be strictly increasing; t[{i + 1}] = "
+                         f"{float(tt[i + 1])!r} s follows t[{i}] = {float(tt[i])!r} s")
     mean = (tt[-1] - tt[0]) / max(tt.size - 1, 1)
-    # Times far from zero (seconds of the day, since 1970, a stroke late in a record) hold
-    # their steps only to the float spacing of their size: 0.02 s steps at 777600 s differ
-    # by 3e-9 of a step, and judged against 1e-9 alone such a card was simulated step by
-    # step, 1000x slower.
+    # Times far from zero hold their steps to their float spacing only (3e-9 of a 0.02 s
+    # step at 777600 s): judged against 1e-9 alone, such a card was simulated step by step.
     spacing = 8.0 * np.finfo(float).eps * max(abs(float(tt[0])), abs(float(tt[-1])))
     uniform = bool(np.all(np.abs(steps - mean) <= _UNIFORM_RTOL * mean + spacing))
     return tt, uniform
