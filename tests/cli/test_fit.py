@@ -281,3 +281,17 @@ def test_a_column_of_date_time_stamps_is_read_as_time(tmp_path: Path, capsys) ->
     assert "time rebuilt from" in capsys.readouterr().out
     assert main(["fit", str(us), "--columns", "position=-", "--spm", "6"]) == 2
     assert "position needs a column" in capsys.readouterr().err
+
+
+def test_a_card_its_reader_refused_keeps_its_well_in_the_json(tmp_path: Path, capsys) -> None:
+    # pumpid batch recorded a broken card's well; pumpid fit --json dropped it.
+    phase = 2 * np.pi * np.arange(40) / 40
+    card = {"position": list(50 * (1 - np.cos(phase))), "load": list(8000 + 3000 * np.sin(phase))}
+    doc = [{"well": "W7", "spm": 6, "position_unit": "in", "load_unit": "lbf",
+            "cards": [card, {"card_id": "broken", "position": [1.0, 2.0]}]}]
+    path = tmp_path / "well.json"
+    path.write_text(json.dumps(doc))
+    main(["fit", str(path), "--json"])
+    refused = json.loads(capsys.readouterr().out)["cards"][0]
+    assert refused["status"] == "invalid-input"
+    assert refused["card"]["id"] == "broken" and refused["card"]["well"] == "W7"

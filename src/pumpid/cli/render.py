@@ -59,6 +59,8 @@ class Row:
     warnings: list[str] = field(default_factory=list)
     prediction: Prediction | None = None
     output: str | None = None
+    #: The well a card refused by its reader names (its result's card says it otherwise).
+    well_id: str | None = None
 
     @property
     def fitted(self) -> bool:
@@ -411,7 +413,7 @@ class JsonPrinter:
         else:
             obj = {"model": self._info.model if self._info else None, "status": row.status,
                    "converged": False, "reason": row.reason,
-                   "card": {"id": row.card_id, "source": row.source}}
+                   "card": {"id": row.card_id, "well": row.well_id, "source": row.source}}
         if row.card is not None and row.card.warnings:
             obj["data_warnings"] = list(row.card.warnings)
         if row.warnings:

@@ -15,7 +15,7 @@ __all__ = ["missing_rows", "refused_row", "selected"]
 def refused_row(error: CardError, path: str) -> Row:
     """The row of a card of ``path`` that its reader refused (file, line and field named)."""
     return Row(card_id=error.card_id, source=", ".join(p for p in (path, error.place) if p),
-               status="invalid-input", reason=str(error))
+               status="invalid-input", reason=str(error), well_id=error.well_id)
 
 
 def selected(cards: list[Card], path: str, args: argparse.Namespace,
