@@ -449,6 +449,16 @@ class TestCsv:
         rows = [f"2021-06-01,06:00:{0.4 * i:06.3f},{pos[i]},{load[i]}" for i in range(25)]
         p = write(tmp_path, "dated.csv", "date,time,position,load\n" + "\n".join(rows))
         assert read_card(p).metadata["time"].isoformat() == "2021-06-01T06:00:00+00:00"
+        # Not read as time, the times of day leave the date column's date alone (a time
+        # without a date had taken its place and been refused, so the card had none).
+        card = read_card(p, columns={"t": None}, spm=6)
+        assert card.metadata["time"].isoformat() == "2021-06-01T00:00:00+00:00"
+        # A whitespace table whose header names the date and the time apart.
+        rows = [f"2021-06-01 06:00:{0.4 * i:06.3f} {pos[i]} {load[i]}" for i in range(25)]
+        p = write(tmp_path, "apart.txt", "date time position load\n" + "\n".join(rows))
+        card = read_card(p)
+        np.testing.assert_allclose(card.t, 0.4 * np.arange(25), atol=1e-12)
+        assert card.metadata["time"].isoformat() == "2021-06-01T06:00:00+00:00"
 
     def test_stamps_not_read_as_time_still_date_the_card(self, tmp_path):
         pos, load = synthetic_stroke(25)
@@ -495,8 +505,15 @@ class TestCsv:
             steps = np.diff(card.t)
             assert np.ptp(steps) <= 1e-12 * steps[0]
             assert steps[0] == pytest.approx(1 / 30, rel=1e-6)
-            assert any("time steps equal to within 0.003 % of a step, as the file rounded "
-                       "them" in n for n in card.notes)
+            assert any("time steps equal to 3e-05 of a step (the file's rounding, or a "
+                       "logger's jitter)" in n for n in card.notes)
+        # A record whose rate changes by 0.09 % halfway keeps its times: off the grid by a
+        # step and more, not rounded.
+        t = np.cumsum(np.r_[0.0, np.where(np.arange(5999) < 3000, 0.02, 0.02 * 1.0009)])
+        rows = [f"{t[i]:.9f},{pos[i % 30]},{load[i % 30]}" for i in range(6000)]
+        card = read_card(write(tmp_path, "r.csv", "t_s,position,load\n" + "\n".join(rows)))
+        np.testing.assert_allclose(card.t, t, atol=1e-9)
+        assert not any("time steps equal to" in n for n in card.notes)
 
     def test_whitespace_table_with_header(self, tmp_path):
         pos, load = synthetic_stroke(25)
@@ -605,8 +622,24 @@ class TestJson:
         cards = read_cards(write(tmp_path, "spell.json", json.dumps(doc)))
         assert [(c.well_id, c.spm) for c in cards] == [("SX6E03", 8.5), ("own", 8.5)]
 
+    def test_a_group_s_units_and_recording_time_reach_its_cards(self, tmp_path):
+        # A card's own units object replaced its group's whole (position and load units
+        # lost); a group's recording "time" was dropped as if it were the cards' t.
+        pos, load = synthetic_stroke(20)
+        card = {"t": list(0.4 * np.arange(20)), "position": list(pos), "load": list(load)}
+        doc = {"units": {"position": "in"}, "wells": [
+            {"well": "A", "time": "2024-05-01T10:00:00Z", "units": {"load": "lbf"},
+             "cards": [{**card, "units": {"t": "s"}}]}]}
+        (read,) = read_cards(write(tmp_path, "u.json", json.dumps(doc)))
+        assert (read.position_unit, read.load_unit) == ("in", "lbf")
+        assert read.metadata["time"].isoformat() == "2024-05-01T10:00:00+00:00"
+        np.testing.assert_allclose(read.t, 0.4 * np.arange(20))
+
     @pytest.mark.parametrize(("doc", "field", "words"), [
-        ({"wells": [], "cards": []}, "cards", "the document has both 'wells' and 'cards'"),
+        ('[{"well": "A", "spm": abc, "cards": [{"position": [1], "load": [1]}]}]', "[0].spm",
+         "unparsable value 'abc'"),
+        ({"wells": [{"well": "A", "cards": []}], "cards": []}, "cards",
+         "the document has both 'wells' and 'cards'"),
         ([{"well": "A", "spm": "fast", "cards": [{"position": [1.0], "load": [1.0]}]}],
          "[0].spm", "spm must be a number"),
         ([{"well": "A", "cards": [{"well": "B", "cards": []}]}], "[0].cards[0].cards",
@@ -615,8 +648,8 @@ class TestJson:
          "[0].t[0]", "date/time stamps are read in tables only"),
     ])
     def test_json_groups_refused_where_they_are_wrong(self, tmp_path, doc, field, words):
-        read = read_cards_and_errors if isinstance(doc, list) else read_cards
-        p = write(tmp_path, "bad.json", json.dumps(doc))
+        read = read_cards_and_errors if isinstance(doc, list | str) else read_cards
+        p = write(tmp_path, "bad.json", doc if isinstance(doc, str) else json.dumps(doc))
         try:
             found = read(p)
             (error,) = found.errors
@@ -877,6 +910,8 @@ class TestSplitStrokes:
         # A dated record dates each stroke by its start (every stroke had the record's).
         dated = record()
         dated.metadata["time"] = datetime(2024, 5, 1, 10, tzinfo=UTC)
+        assert split_strokes(dated)[2].metadata["time"] == dated.metadata["time"]  # a date
+        dated.metadata["first_sample_time"] = "2024-05-01T10:00:00Z"  # its first stamp
         assert split_strokes(dated)[2].metadata["time"] == datetime(2024, 5, 1, 10, 0, 12,
                                                                     tzinfo=UTC)
         # Each stroke's source says which samples of the record it is (every stroke said

@@ -81,8 +81,9 @@ def test_a_card_timed_far_from_zero_is_still_uniformly_sampled() -> None:
         problem = build_problem(Kelvin, [CardData(late, load, data, "periodic", period)],
                                 offset=True)
         assert problem.uniform[0]
-    # Sampling that is not uniform stays so.
-    jitter = t + np.r_[0.0, 1e-6 * np.sin(np.arange(1, n))]
-    problem = build_problem(Kelvin, [CardData(jitter, load, data, "periodic", period)],
-                            offset=True)
-    assert not problem.uniform[0]
+    # Sampling that is not uniform stays so, near zero and far from it.
+    for start in (0.0, 777600.0):
+        jitter = start + t + np.r_[0.0, 1e-6 * np.sin(np.arange(1, n))]
+        problem = build_problem(Kelvin, [CardData(jitter, load, data, "periodic", period)],
+                                offset=True)
+        assert not problem.uniform[0]

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from ._common import Opts, Raw, scalar
 from ._errors import CardError
 from ._roles import ROLE_CONFIDENCE_MIN, ColumnRoles, detect_column_roles
-from ._stamps import is_stamp, join_stamps, parse_date
+from ._stamps import is_dated_stamp, is_stamp, parse_date
 from ._text import is_complex_text, is_number, number_problem
 
 __all__ = [
@@ -30,6 +30,8 @@ DETECT_ROWS = 20_000
 
 
 def cli_hint(position: int, load: int) -> str:
+    """How to name a headerless table's position and load columns, in Python and on the
+    command line."""
     return (
         f"name them with columns={{'position': {position}, 'load': {load}}} "
         f"(command line: --columns position={position},load={load})"
@@ -60,10 +62,10 @@ class Column:
 
 
 def splitter(o: Opts, delimiter: str | None) -> Callable[[str, int], list[str]]:
+    """A function splitting a line into its fields: on ``delimiter`` (quotes honoured), or on
+    whitespace where it is None."""
     if delimiter is None:
-        # A stamp written "2024-05-01 10:00:00" is two fields of a whitespace table.
-        return lambda line, _lineno: (join_stamps(line.split()) if ":" in line
-                                      else line.split())
+        return lambda line, _lineno: line.split()
 
     def split(line: str, lineno: int) -> list[str]:
         if '"' not in line:  # no quoting: a plain split is what the csv module would do
@@ -78,6 +80,7 @@ def splitter(o: Opts, delimiter: str | None) -> Callable[[str, int], list[str]]:
 
 
 def looks_like_header(tokens: list[str]) -> bool:
+    """Whether a table's first line names its columns (any field is words, not a value)."""
     # Complex numbers are numbers written wrongly, not column names: refuse them later;
     # date/time stamps are a time column's values.
     return any(tok and not is_number(tok) and not is_complex_text(tok) and not is_stamp(tok)
@@ -93,7 +96,12 @@ def keep_extra(
     end: int,
     first: str,
     notes: list[str],
+    hint: bool = True,
 ) -> None:
+    """Keep a column that is neither position nor load on the card: a value constant over
+    the card as metadata, varying numbers as a per-sample array, varying text as a note
+    (a column of stamps dates the card by its first; ``hint``: say how to read it as the
+    time, unless the caller asked for no time column)."""
     assert vals is not None
     if name == "column_roles":  # the reader's own record keeps its key
         name = "column_roles (column)"
@@ -103,12 +111,14 @@ def keep_extra(
         if np.all(t == t[0]):
             raw.metadata[name] = scalar(first)
         elif is_stamp(first) and parse_date(first) is None:
-            # Its first stamp is when the card was recorded, whether or not it times it.
-            raw.metadata.setdefault("first_sample_time", first)
-            notes.append(f"column {name!r} has a date/time stamp per row ({first!r}, ...): not "
-                         "read as the card's time (its first stamp dates the card); to read "
-                         f"it as the time, name it the time column (columns={{'t': {name!r}}}, "
-                         f"command line --columns t={name})")
+            dated = is_dated_stamp(first)
+            if dated:  # its first stamp is when the card was recorded, timed by it or not
+                raw.metadata.setdefault("first_sample_time", first)
+            notes.append(
+                f"column {name!r} has a date/time stamp per row ({first!r}, ...): not read as "
+                "the card's time" + (" (its first stamp dates the card)" if dated else "")
+                + (f"; to read it as the time, name it the time column (columns={{'t': "
+                   f"{name!r}}}, command line --columns t={name})" if hint else ""))
         else:
             notes.append(f"column {name!r} has varying non-numeric values ({first!r}, ...); "
                          "not kept")

@@ -605,13 +605,24 @@ JITTER = 0.25
 
 
 def rounded_time(card: Card) -> Card:
-    """A card whose time steps are equal to 0.1 % (:attr:`Card.is_uniform`) but not to the
-    float precision of its times, given the uniform times its file rounded.
+    """A card whose times lie on a uniform grid to 0.1 % of a step but not to their float
+    precision, given the grid's times.
 
     1/30 s written to six decimals varies the steps by 3e-5 of one: the card called itself
     uniformly sampled, the fit did not, and simulated it step by step (21 s a fit instead
-    of 0.1 s). Its times become ``t_0 + i*dt`` (``dt`` from its first and last), and a note
-    says how far the file's were off.
+    of 0.3 s). Its times become ``t_0 + i*dt`` (``dt`` from its first and last), and a note
+    says how far the file's were off. Times off the grid by more (a rate that changes, a
+    logger's drift) are left as they are.
+
+    Parameters
+    ----------
+    card : Card
+        As read, timed by its file.
+
+    Returns
+    -------
+    Card
+        ``card``, or a copy on the grid with a note.
     """
     t = card.t
     if t is None or card.n < 3 or card.dt is None:
@@ -619,15 +630,15 @@ def rounded_time(card: Card) -> Card:
     dt = (float(t[-1]) - float(t[0])) / (card.n - 1)
     times = float(t[0]) + np.arange(card.n) * dt
     off = float(np.max(np.abs(t - times)))
-    spacing = 8.0 * np.finfo(float).eps * max(abs(float(t[0])), abs(float(t[-1])))
-    if off <= 1e-9 * dt + spacing:
+    spacing = 4.0 * np.finfo(float).eps * max(abs(float(t[0])), abs(float(t[-1])))
+    if off <= 1e-9 * dt + spacing or off > 1e-3 * dt:
         return card
     return card.replace(
         t=times,
-        note=(f"time steps equal to within {100 * float(np.ptp(np.diff(t))) / dt:.2g} % of a "
-              f"step, as the file rounded them: taken as t_i = t_0 + i*dt with dt = {fmt(dt)} "
-              f"s (the file's times at most {fmt(off)} s off), so that the card is simulated "
-              "with one step"))
+        note=(f"time steps equal to {float(np.ptp(np.diff(t))) / dt:.1g} of a step (the "
+              f"file's rounding, or a logger's jitter): taken as t_i = t_0 + i*dt with dt = "
+              f"{fmt(dt)} s (the file's times at most {fmt(off)} s off), so that the card is "
+              "simulated with one step"))
 
 
 def one_period(card: Card) -> Card:

@@ -200,7 +200,9 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
         items: Any = doc
         prefix = ""
     elif isinstance(doc, dict):
-        lists = [k for k in doc if isinstance(k, str) and k.lower() in ("cards", "wells")]
+        lists = [k for k in doc if isinstance(k, str) and (k.lower() == "cards" or (
+            k.lower() == "wells" and isinstance(doc[k], list)
+            and any(_cards_key(w) is not None for w in doc[k])))]
         if len(lists) > 1:
             raise o.error(f"the document has both {lists[0]!r} and {lists[1]!r}: give one list "
                           "of cards or of wells (a well's own cards go in its object)",
@@ -233,8 +235,10 @@ def read_json(o: Opts, holder: list[str]) -> list[Raw | CardError]:
                 raise o.error(
                     f"a card must be an object, got {type(item).__name__}", field=where or None
                 )
-            if repaired:  # the card's own values and those its group gives it
-                _raise_marked(o, obj, where)
+            if repaired:  # each value named where it is written (the card's, its group's)
+                for path in dict.fromkeys(origin.values()):
+                    _raise_marked(o, {k: v for k, v in obj.items()
+                                      if origin.get(k, where) == path}, path)
             out.append(_json_card(o, obj, where, default_id, origin))
         except CardError as exc:
             out.append(exc.for_card(card_id, well_id))
@@ -265,9 +269,19 @@ def _role(key: str) -> str:
 
 def _over(outer: dict[str, Any], inner: dict[str, Any]) -> dict[str, Any]:
     """``inner``'s fields over ``outer``'s, however each spells a field: a group's ``Well``
-    was beaten by the document's ``well`` (the first spelling read wins in a card)."""
-    mine = {_role(k) for k in inner}
-    return {**{k: v for k, v in outer.items() if _role(k) not in mine}, **inner}
+    was beaten by the document's ``well`` (the first spelling read wins in a card). Objects
+    (``units``) merge, the inner entries winning; a recording ``time`` (text) and a card's
+    ``t`` (numbers) are two fields."""
+    mine = {_role(k): k for k in inner}
+    merged = dict(inner)
+    kept: dict[str, Any] = {}
+    for key, value in outer.items():
+        own = mine.get(_role(key))
+        if own is None or isinstance(value, list) != isinstance(inner[own], list):
+            kept[key] = value
+        elif isinstance(value, dict) and isinstance(inner[own], dict):
+            merged[own] = {**value, **inner[own]}
+    return {**kept, **merged}
 
 
 Entry = tuple[str, Any, dict[str, Any], dict[str, str], str]
@@ -341,6 +355,8 @@ def _json_card(o: Opts, obj: dict[str, Any], where: str, default_id: str,
         unit = None
         if role is None:
             role, _base, unit = interpret_name(key)
+        if role == "t" and isinstance(value, str):
+            role = None  # "time": "2024-05-01T10:00:00Z" says when, not a time axis
         if role is None or role in found:
             meta[key] = value
             continue

@@ -18,8 +18,8 @@ import numpy as np
 
 from ._common import Opts, Raw
 
-__all__ = ["StampColumn", "StampError", "is_stamp", "join_stamps", "looks_like_stamp",
-           "parse_date", "stamped_time"]
+__all__ = ["StampColumn", "StampError", "is_dated_stamp", "is_stamp", "join_stamps",
+           "looks_like_stamp", "parse_date", "stamped_time"]
 
 _MICROSECOND = timedelta(microseconds=1)
 _HOUR_US = 3_600_000_000
@@ -66,6 +66,13 @@ def is_stamp(tok: str) -> bool:
     except StampError:
         return False
     return True
+
+
+def is_dated_stamp(tok: str) -> bool:
+    """Whether ``tok`` is a date with a time of day (a moment, not a date or a time alone)."""
+    if not is_stamp(tok) or parse_date(tok) is not None:
+        return False
+    return not _parse(tok)[1]
 
 
 def parse_date(tok: str) -> date | None:

@@ -75,11 +75,11 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
     -------
     list of Card
         Strokes with ids ``"<card_id>#<k>"`` (k from 0), time restarted at 0 (original start
-        in ``metadata["t0"]``; a record's recording time ``metadata["time"]`` moved on by
-        it), ``period``/``spm`` from the boundary times when time is
-        known, ``periodic=True`` and a note. A card holding a single stroke (no two bottoms
-        of stroke with the rod seen turning around at both) is returned whole, as one stroke
-        ``"<card_id>#0"`` marked ``periodic``.
+        in ``metadata["t0"]``; a record dated by its first sample's stamp has each stroke's
+        ``metadata["time"]`` moved on by it), ``period``/``spm`` from the boundary times
+        when time is known, ``periodic=True`` and a note. A card holding a single stroke (no
+        two bottoms of stroke with the rod seen turning around at both) is returned whole, as
+        one stroke ``"<card_id>#0"`` marked ``periodic``.
 
     Raises
     ------
@@ -182,9 +182,11 @@ def split_strokes(card: Card, *, min_samples: int = 20) -> list[Card]:
             spm = 60.0 / period
             meta["t0"] = float(card.t[a])
             when = card.metadata.get("time")
-            if isinstance(when, datetime):
-                # The record's time is its first sample's: each stroke was recorded later.
+            if isinstance(when, datetime) and "first_sample_time" in card.metadata:
+                # A record dated by its first sample's stamp: each stroke was recorded later
+                # (a date alone, or a controller's stamp, may not be that sample's).
                 meta["time"] = when + timedelta(seconds=float(card.t[a] - card.t[0]))
+                meta["first_sample_time"] = meta["time"].isoformat()
         for key, value in card.metadata.items():
             # Per-sample extra columns follow the samples they belong to.
             if isinstance(value, np.ndarray) and value.shape == (card.n,):

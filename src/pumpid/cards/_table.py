@@ -33,6 +33,7 @@ from ._stamps import (
     StampColumn,
     StampError,
     is_stamp,
+    join_stamps,
     looks_like_stamp,
     parse_date,
     stamped_time,
@@ -170,10 +171,13 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         header = [h if h else f"column_{k}" for k, h in enumerate(first_toks)]
         ncols = len(header)
     else:
+        if delimiter is None:  # a stamp "2024-05-01 10:00:00" is two whitespace fields
+            first_toks = join_stamps(first_toks)
         pending_row = (first_line, first_toks)
         ncols = len(first_toks)
     hl = first_line if header is not None else None
     roles, unit_text, col_notes, detect = resolve_columns(o, header, ncols, hl)
+    no_time = any(COLUMN_KEYS[k] == "t" and v is None for k, v in (o.columns or {}).items())
     if header is None and "t" not in roles and not any(
             COLUMN_KEYS[k] == "t" for k in (o.columns or {})):
         # A headerless table's column of date/time stamps can only be its time.
@@ -228,9 +232,10 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
                                  "date/time stamps, not both", form=False)
             return stamps.micros(tok)
         except StampError as exc:
-            fix = ("convert the column to that form (2024-05-01 10:00:00.25, or 10:00:00.25 "
-                   "for a time of day) or to seconds" if exc.form else
-                   "write every stamp of the column in one form")
+            fix = ("write every stamp of the column in one form" if not exc.form else
+                   "every cell of a column of stamps must be one" if stamps.count else
+                   "convert the column to that form (2024-05-01 10:00:00.25, or 10:00:00.25 "
+                   "for a time of day) or to seconds")
             raise o.error(
                 f"{exc}; {fix}, or read no time column and give the stroke rate (command "
                 "line: --columns t=- --spm N; Python: columns={'t': None})",
@@ -330,7 +335,11 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         if pending_row is not None:
             yield pending_row[0], pending_row[1]
         for lineno, line in rows:
-            yield lineno, split(line, lineno)
+            toks = split(line, lineno)
+            # A whitespace table's date and time of day, one stamp split by its space; only
+            # where the row has more fields than the header (a header may name both).
+            yield lineno, (join_stamps(toks) if delimiter is None and len(toks) > ncols
+                           else toks)
 
     def pad(r: int, toks: list[str], problem: CardError) -> None:
         """Bring every column of a broken row ``r`` to ``r + 1`` cells, so the columns stay
@@ -544,9 +553,11 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         for j, c in enumerate(extra):
             if c in used:
                 continue
-            keep_extra(raw, names[c], values[c], text_ids[c], start, end, firsts[j], notes)
+            keep_extra(raw, names[c], values[c], text_ids[c], start, end, firsts[j], notes,
+                       hint=not no_time)
         if stamps.count and raw.t is not None and t_i is not None:
-            # A time of day takes its date from a date column's first row, if there is one.
+            # A time of day has no date of its own: a date column's first row gives the card
+            # its recording date.
             on = next((d for j, c in enumerate(extra) if normalize_name(names[c]) == "date"
                        and (d := parse_date(firsts[j])) is not None), None)
             stamped_time(o, raw, stamps, names[t_i], on)

@@ -117,7 +117,7 @@ def make_time(t: ArrayLike, min_samples: int = 2) -> tuple[Array, bool]:
     mean = (tt[-1] - tt[0]) / max(tt.size - 1, 1)
     # Times far from zero hold their steps to their float spacing only (3e-9 of a 0.02 s
     # step at 777600 s): judged against 1e-9 alone, such a card was simulated step by step.
-    spacing = 8.0 * np.finfo(float).eps * max(abs(float(tt[0])), abs(float(tt[-1])))
+    spacing = 4.0 * np.finfo(float).eps * max(abs(float(tt[0])), abs(float(tt[-1])))
     uniform = bool(np.all(np.abs(steps - mean) <= _UNIFORM_RTOL * mean + spacing))
     return tt, uniform
 
