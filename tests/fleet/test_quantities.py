@@ -190,5 +190,8 @@ def test_a_quantity_whose_values_are_all_echoes_says_so(tmp_path) -> None:
     frame = _echo_table().assign(d_natural_frequency_well_property=False)
     page = write_fleet_report(frame, tmp_path)["report"].read_text(encoding="utf-8")
     assert "<td>quantities asked for</td>" not in page and "<td>quantities</td>" in page
+    with pytest.raises(ValueError, match="asked for 'bogus', not in the table"):
+        write_fleet_report(frame, tmp_path / "bogus", asked=["bogus"])
     assert ("natural_frequency [Hz] (60 values, all echoes of the stroke, not the well&#x27;s "
-            "(name it to trend them: --quantity natural_frequency): not trended)") in page
+            "(name it to trend them: --quantity natural_frequency, Python asked=): not "
+            "trended)") in page

@@ -387,8 +387,7 @@ def detect_changes(
         If a required column is missing, a requested quantity is not in the table, or an
         option is out of range.
     """
-    frame = with_asked(load_results(table),
-                       asked if asked is not None else quantities or ())
+    frame = load_results(table)
     if not 0 < false_alarm < 1:
         raise ValueError(f"false_alarm must be in (0, 1), got {false_alarm}")
     if isinstance(min_cards, bool) or not isinstance(min_cards, int) or min_cards < 5:
@@ -409,6 +408,7 @@ def detect_changes(
                 + (f" (a derived quantity is named without its column's d_: {q[2:]})"
                    if q.startswith("d_") and columns_of(q[2:]).value in frame.columns else "")
             )
+    frame = with_asked(frame, asked if asked is not None else quantities or ())
     rows: list[dict[str, Any]] = []
     if not names or frame.empty:
         return pd.DataFrame(columns=list(ALERT_COLUMNS))

@@ -218,7 +218,16 @@ def with_asked(frame: pd.DataFrame, asked: Sequence[str]) -> pd.DataFrame:
     pandas.DataFrame
         ``frame`` without those quantities' ``<column>_well_property`` verdicts (the same
         object where it has none of them).
+
+    Raises
+    ------
+    ValueError
+        If a quantity asked for is not in the table (a name mistyped was ignored).
     """
+    unknown = [q for q in asked if columns_of(q).value not in frame.columns]
+    if unknown:
+        raise ValueError(f"asked for {', '.join(map(repr, unknown))}, not in the table; it has "
+                         f"{', '.join(available_quantities(frame, parameters=True)) or 'none'}")
     drop = [f"{columns_of(q).value}_well_property" for q in asked]
     drop = [c for c in drop if c in frame.columns]
     return frame.drop(columns=drop) if drop else frame

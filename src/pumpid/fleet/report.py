@@ -220,7 +220,7 @@ def _no_value(frame: pd.DataFrame, quantity: str) -> str:
         # A quantity "with no usable value" whose 66 determined values were all echoes
         # gave no hint of them, nor of how to see them.
         return (f"{count_words(echoes, 'value')}, all echoes of the stroke, not the well's "
-                f"(name it to trend them: --quantity {quantity})")
+                f"(name it to trend them: --quantity {quantity}, Python asked=)")
     return "no usable value in any well"
 
 
@@ -564,7 +564,7 @@ def write_fleet_report(
     parts.append(_summary_section(frame, named, alerts, names, units, settings, empty,
                                   [*repeat_rows, *_coverage_rows(coverage, min_cards,
                                                                  min_short)],
-                                  asked=bool(asked)))
+                                  asked=bool(asked) and set(names) <= set(asked)))
     pumps = ("" if identified is None else
              " These are the lumped model's statuses; the pump quantities count by the pump "
              "identification's, given in the summary and the wells table.")
