@@ -505,15 +505,19 @@ class TestCsv:
             steps = np.diff(card.t)
             assert np.ptp(steps) <= 1e-12 * steps[0]
             assert steps[0] == pytest.approx(1 / 30, rel=1e-6)
-            assert any("time steps equal to 3e-05 of a step (the file's rounding, or a "
-                       "logger's jitter)" in n for n in card.notes)
+            assert any("time written to 1e-06 s, a uniform grid rounded (steps equal to "
+                       "3e-05 of one)" in n for n in card.notes)
         # A record whose rate changes by 0.09 % halfway keeps its times: off the grid by a
         # step and more, not rounded.
         t = np.cumsum(np.r_[0.0, np.where(np.arange(5999) < 3000, 0.02, 0.02 * 1.0009)])
         rows = [f"{t[i]:.9f},{pos[i % 30]},{load[i % 30]}" for i in range(6000)]
         card = read_card(write(tmp_path, "r.csv", "t_s,position,load\n" + "\n".join(rows)))
         np.testing.assert_allclose(card.t, t, atol=1e-9)
-        assert not any("time steps equal to" in n for n in card.notes)
+        assert not any("a uniform grid rounded" in n for n in card.notes)
+        # Milliseconds at 30 samples a second: steps of 33 and 34 ms, a grid rounded.
+        rows = [f"{i / 30:.3f},{pos[i % 30]},{load[i % 30]}" for i in range(90)]
+        card = read_card(write(tmp_path, "ms.csv", "t_s,position,load\n" + "\n".join(rows)))
+        assert np.ptp(np.diff(card.t)) <= 1e-12 and card.dt == pytest.approx(1 / 30, rel=1e-4)
 
     def test_whitespace_table_with_header(self, tmp_path):
         pos, load = synthetic_stroke(25)

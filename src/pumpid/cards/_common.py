@@ -604,15 +604,26 @@ def stroke_period(card: Card) -> float | None:
 JITTER = 0.25
 
 
-def rounded_time(card: Card) -> Card:
-    """A card whose times lie on a uniform grid to 0.1 % of a step but not to their float
-    precision, given the grid's times.
+def _written_to(t: NDArray[np.float64]) -> float | None:
+    """The unit of the last decimal the times are written to (1e-3 for milliseconds), None
+    beyond nine decimals."""
+    for digits in range(10):
+        scaled = t * 10.0**digits
+        if np.max(np.abs(scaled - np.round(scaled))) <= 1e-6:
+            return 10.0**-digits
+    return None
 
-    1/30 s written to six decimals varies the steps by 3e-5 of one: the card called itself
-    uniformly sampled, the fit did not, and simulated it step by step (21 s a fit instead
-    of 0.3 s). Its times become ``t_0 + i*dt`` (``dt`` from its first and last), and a note
-    says how far the file's were off. Times off the grid by more (a rate that changes, a
-    logger's drift) are left as they are.
+
+def rounded_time(card: Card) -> Card:
+    """A card whose times are a uniform grid rounded to the decimals they are written to,
+    given the grid's times.
+
+    1/30 s written to six decimals varies the steps by 3e-5 of one, to milliseconds by 3 %:
+    the fit took such a card as sampled non-uniformly and simulated it step by step (21 s a
+    fit instead of 0.3 s). Where every time lies within one unit of its last decimal of a
+    uniform grid ``t_0 + i*dt`` (fitted by least squares), the card takes the grid's times,
+    and a note says how far the file's were off. Times off the grid by more (a rate that changes,
+    a logger's drift) are left as they are.
 
     Parameters
     ----------
@@ -625,20 +636,24 @@ def rounded_time(card: Card) -> Card:
         ``card``, or a copy on the grid with a note.
     """
     t = card.t
-    if t is None or card.n < 3 or card.dt is None:
+    if t is None or card.n < 3:
         return card
-    dt = (float(t[-1]) - float(t[0])) / (card.n - 1)
-    times = float(t[0]) + np.arange(card.n) * dt
+    # The grid the file rounded, by least squares: its ends are rounded too (the step from
+    # the first and last of 90 times to milliseconds at 30 a second was 1e-4 of one off).
+    k = np.arange(card.n) - (card.n - 1) / 2
+    dt = float(np.dot(k, t - t.mean()) / np.dot(k, k))
+    times = float(t.mean()) + k * dt
     off = float(np.max(np.abs(t - times)))
     spacing = 4.0 * np.finfo(float).eps * max(abs(float(t[0])), abs(float(t[-1])))
-    if off <= 1e-9 * dt + spacing or off > 1e-3 * dt:
+    unit = _written_to(np.asarray(t, dtype=float))
+    if off <= 1e-9 * dt + spacing or unit is None or off > unit * (1 + 1e-6) + spacing:
         return card
     return card.replace(
         t=times,
-        note=(f"time steps equal to {float(np.ptp(np.diff(t))) / dt:.1g} of a step (the "
-              f"file's rounding, or a logger's jitter): taken as t_i = t_0 + i*dt with dt = "
-              f"{fmt(dt)} s (the file's times at most {fmt(off)} s off), so that the card is "
-              "simulated with one step"))
+        note=(f"time written to {fmt(unit)} s, a uniform grid rounded (steps equal to "
+              f"{float(np.ptp(np.diff(t))) / dt:.1g} of one): taken as t_i = t_0 + i*dt with "
+              f"dt = {fmt(dt)} s (the file's times at most {fmt(off)} s off), so that the "
+              "card is simulated with one step"))
 
 
 def one_period(card: Card) -> Card:
