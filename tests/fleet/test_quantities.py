@@ -12,6 +12,7 @@ from pumpid.fleet.quantities import (
     available_quantities,
     columns_of,
     counted,
+    echo_count,
     flag,
     larger_error,
     with_asked,
@@ -195,3 +196,22 @@ def test_a_quantity_whose_values_are_all_echoes_says_so(tmp_path) -> None:
     assert ("natural_frequency [Hz] (60 values, all echoes of the stroke, not the well&#x27;s "
             "(name it to trend them: --quantity natural_frequency, Python asked=): not "
             "trended)") in page
+
+
+def test_the_command_line_says_when_a_named_quantity_s_echoes_are_trended(tmp_path,
+                                                                         capsys) -> None:
+    # Named, a quantity's echoes of the stroke are trended, and the alert at the step to
+    # 0.1 Hz was printed as a change of the well with no word that its values were echoes.
+    from pumpid.cli import main
+
+    frame = _echo_table()
+    assert echo_count(frame, "natural_frequency") == 30
+    assert echo_count(frame, "static_stiffness") == 0  # no such column: nothing named
+    frame.to_parquet(tmp_path / "results.parquet")
+    main(["report", str(tmp_path / "results.parquet"), "--out", str(tmp_path / "named"),
+          "--quantity", "natural_frequency"])
+    out = capsys.readouterr().out
+    assert ("natural_frequency: named, so its 30 values that echo the stroke are trended "
+            "too; a change in them may follow the pumping speed, not the well") in out
+    main(["report", str(tmp_path / "results.parquet"), "--out", str(tmp_path / "default")])
+    assert "echo the stroke" not in capsys.readouterr().out

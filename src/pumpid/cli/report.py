@@ -69,7 +69,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
     from ..fleet.changes import card_counts, detect_changes
     from ..fleet.events import count_events, ordered_by_event
-    from ..fleet.quantities import available_quantities
+    from ..fleet.quantities import available_quantities, echo_count
     from ..fleet.report import write_fleet_report
     from ..fleet.store import read_results
 
@@ -111,6 +111,13 @@ def cmd_report(args: argparse.Namespace) -> int:
               f"{a['quantity']} {a['before']:.4g} -> "
               f"{a['after']:.4g} {a['unit']} ({a['change_rel']:+.1%}, {a['change_se']:.3g} "
               f"standard errors) from card {printable(str(a['first_card_id']))}{drift}")
+    for q in args.quantity or ():
+        echoes = echo_count(table, q)
+        if echoes:
+            # Named, the stroke's echoes are trended: a change in pumping speed moves them.
+            print(f"  {q}: named, so its {plural(echoes, 'value')} that echo the stroke "
+                  "are trended too; a change in them may follow the pumping speed, not the "
+                  "well")
     print(f"report: {printable(str(paths['report']))}")
     print(f"alerts: {printable(str(paths['alerts']))}; wells: {printable(str(paths['wells']))}")
     return 0

@@ -34,6 +34,7 @@ __all__ = [
     "available_quantities",
     "columns_of",
     "counted",
+    "echo_count",
     "flag",
     "larger_error",
     "parameter_unit",
@@ -231,6 +232,29 @@ def with_asked(frame: pd.DataFrame, asked: Sequence[str]) -> pd.DataFrame:
     drop = [f"{columns_of(q).value}_well_property" for q in asked]
     drop = [c for c in drop if c in frame.columns]
     return frame.drop(columns=drop) if drop else frame
+
+
+def echo_count(frame: pd.DataFrame, quantity: str) -> int:
+    """How many of a quantity's values count only because the user named it: those its fits
+    call an echo of the stroke (an alert on them may follow the pumping speed).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Rows of a results table, as the fits wrote them (not :func:`with_asked`'s).
+    quantity : str
+        As for :func:`columns_of`.
+
+    Returns
+    -------
+    int
+    """
+    cols = columns_of(quantity)
+    if cols.value not in frame.columns:
+        return 0
+    values = pd.to_numeric(frame[cols.value], errors="coerce").to_numpy(dtype=float)
+    named = counted(with_asked(frame, [quantity]), quantity, values)
+    return int((named & ~counted(frame, quantity, values)).sum())
 
 
 def flag(column: pd.Series, *, default: bool) -> NDArray[np.bool_]:
