@@ -31,14 +31,17 @@ _JSON_ROLE_EXTRA = {
 }  # fmt: skip
 
 
-def _json_numbers(o: Opts, value: Any, where: str) -> NDArray[np.float64]:
+def _json_numbers(o: Opts, value: Any, where: str, time: bool = False) -> NDArray[np.float64]:
     if not isinstance(value, list):
         raise o.error(f"expected a list of numbers, got {type(value).__name__}", field=where)
     out = []
     for i, v in enumerate(value):
         if isinstance(v, bool) or not isinstance(v, int | float):
             shown = repr(v) if len(repr(v)) <= 40 else repr(v)[:37] + "..."
-            raise o.error(f"expected a number, got {shown}", field=f"{where}[{i}]")
+            stamp = time and isinstance(v, str) and looks_like_stamp(v)
+            raise o.error(f"expected a number, got {shown}" + (
+                ": a JSON card's time is in seconds (date/time stamps are read in tables "
+                "only)" if stamp else ""), field=f"{where}[{i}]")
         try:
             out.append(float(v))
         except OverflowError as exc:
@@ -287,6 +290,14 @@ def _over(outer: dict[str, Any], inner: dict[str, Any]) -> dict[str, Any]:
 Entry = tuple[str, Any, dict[str, Any], dict[str, str], str]
 
 
+def _layered(outer: dict[str, Any], outer_at: dict[str, str], inner: dict[str, Any],
+             path: str) -> tuple[dict[str, Any], dict[str, str]]:
+    """``inner``'s fields over ``outer``'s (:func:`_over`), and where each is written:
+    ``path`` for ``inner``'s, ``outer_at``'s place for the others."""
+    obj = _over(outer, inner)
+    return obj, {f: path if f in inner else outer_at[f] for f in obj}
+
+
 def _entries(o: Opts, items: list[Any], prefix: str, shared: dict[str, Any], indexed: bool
              ) -> list[Entry]:
     """The cards of a document's list, each as (where, its object, the object with the
@@ -295,18 +306,17 @@ def _entries(o: Opts, items: list[Any], prefix: str, shared: dict[str, Any], ind
     "cards": [...]}, ...]``); its cards take its fields over the document's, and their own
     over both."""
     out: list[Entry] = []
+    document = dict.fromkeys(shared, "")
     for k, item in enumerate(items):
         where = f"{prefix}[{k}]" if (prefix or indexed) else ""
         key = _cards_key(item)
         if key is None:
-            mine = item if isinstance(item, dict) else {}
-            obj = _over(shared, mine)
-            origin = {f: ("" if f in shared and f not in mine else where) for f in obj}
+            obj, origin = _layered(shared, document, item if isinstance(item, dict) else {},
+                                   where)
             out.append((where, item, obj, origin, f"{o.stem}[{k}]"))
             continue
-        fields = {f: v for f, v in item.items() if f != key}
-        group = _over(shared, fields)
-        group_origin = {f: ("" if f in shared and f not in fields else where) for f in group}
+        group, group_origin = _layered(shared, document,
+                                       {f: v for f, v in item.items() if f != key}, where)
         cards = item[key]
         if not isinstance(cards, list) or not cards:
             problem = o.error(f"a group's {key!r} must be a non-empty list of card objects",
@@ -318,9 +328,8 @@ def _entries(o: Opts, items: list[Any], prefix: str, shared: dict[str, Any], ind
             if _cards_key(card) is not None:
                 card = o.error("groups do not nest: a group's cards are card objects",
                                field=f"{inner}.{_cards_key(card)}")
-            mine = card if isinstance(card, dict) else {}
-            obj = _over(group, mine)
-            origin = {f: (inner if f in mine else group_origin[f]) for f in obj}
+            obj, origin = _layered(group, group_origin, card if isinstance(card, dict) else {},
+                                   inner)
             out.append((inner, card, obj, origin, f"{o.stem}[{k}][{j}]"))
     return out
 
@@ -329,7 +338,7 @@ def _ids(obj: dict[str, Any], default: str) -> tuple[str, str | None]:
     """A card's id and well as its object states them (for naming a broken card)."""
     card_id, well_id = default, None
     for key, value in obj.items():
-        role = _JSON_ROLE_EXTRA.get(normalize_name(key)) or interpret_name(key)[0]
+        role = _role(key)
         if isinstance(value, str) and value.startswith(_MARK):
             continue
         if role == "card" and isinstance(value, str | int) and not isinstance(value, bool):
@@ -392,14 +401,7 @@ def _json_card(o: Opts, obj: dict[str, Any], where: str, default_id: str,
     t_factor = 1.0
     if "t" in found and found["t"][1] is not None:
         t_field = at(found["t"][0])
-        try:
-            t = _json_numbers(o, found["t"][1], t_field)
-        except CardError as exc:
-            if "got '" in exc.reason and any(
-                    isinstance(v, str) and looks_like_stamp(v) for v in found["t"][1]):
-                raise o.error(f"{exc.reason}: a JSON card's time is in seconds (date/time "
-                              "stamps are read in tables only)", field=exc.field) from None
-            raise
+        t = _json_numbers(o, found["t"][1], t_field, time=True)
         if "t" in units_obj:
             t_factor = time_factor(o, units_obj["t"][0], line=None, field=units_obj["t"][1])
     if "card" in found:

@@ -177,12 +177,12 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         ncols = len(first_toks)
     hl = first_line if header is not None else None
     roles, unit_text, col_notes, detect = resolve_columns(o, header, ncols, hl)
-    no_time = any(COLUMN_KEYS[k] == "t" and v is None for k, v in (o.columns or {}).items())
-    if header is None and "t" not in roles and not any(
-            COLUMN_KEYS[k] == "t" for k in (o.columns or {})):
+    t_given = [v for k, v in (o.columns or {}).items() if COLUMN_KEYS[k] == "t"]
+    no_time = None in t_given  # the caller asked for no time column
+    if header is None and "t" not in roles and not t_given:
         # A headerless table's column of date/time stamps can only be its time.
-        stamped = [k for k, tok in enumerate(first_toks) if k not in roles.values()
-                   and looks_like_stamp(tok) and is_stamp(tok)]
+        stamped = [k for k, tok in enumerate(first_toks)
+                   if k not in roles.values() and is_stamp(tok)]
         if len(stamped) == 1:
             roles["t"] = stamped[0]
             col_notes.append(f"no header: column {stamped[0]} holds date/time stamps, read "
@@ -273,9 +273,10 @@ def read_table(o: Opts, holder: list[str], delimiter: str | None) -> list[Raw | 
         assert col.values is not None
         append = col.values.append
         if kind == _NUM:
+            is_t = c == t_i  # once a column, not once a cell
 
             def read_num(tok: str, lineno: int) -> None:
-                if "_" not in tok and not (stamps.count and c == t_i):
+                if "_" not in tok and not (is_t and stamps.count):
                     try:
                         append(float(tok))
                         return

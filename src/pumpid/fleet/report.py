@@ -59,7 +59,7 @@ from .figures import (
     unit_text,
     well_figure,
 )
-from .quantities import STATUSES, USABLE_STATUSES, available_quantities, with_asked
+from .quantities import STATUSES, USABLE_STATUSES, available_quantities, echo_count, with_asked
 
 __all__ = ["write_fleet_report"]
 
@@ -215,7 +215,7 @@ def _no_value(frame: pd.DataFrame, quantity: str) -> str:
     identified on cards without a well id, where the missing id is the reason."""
     if quantity_values(frame, quantity)[2].any():
         return "usable values only on cards without a well id"
-    echoes = int(quantity_values(with_asked(frame, [quantity]), quantity)[2].sum())
+    echoes = echo_count(frame, quantity)
     if echoes:
         # A quantity "with no usable value" whose 66 determined values were all echoes
         # gave no hint of them, nor of how to see them.
