@@ -431,9 +431,15 @@ def _why_robust(result: FitResult) -> str:
         lag1 = (result.whiteness or {}).get("lag1_autocorrelation", math.nan)
         return (f"the residuals' lag-1 autocorrelation {lag1:.2f} fails a one-sided 5 % "
                 "test of independence")
-    return (f"the residuals' lag-1 autocorrelation {test['lag1']:.2f} is {test['z']:.1f} "
-            "standard deviations above its value for independent noise: a one-sided 5 % "
-            "test")
+    said = (f"the residuals' lag-1 autocorrelation {test['lag1']:.2f} is {test['z']:.1f} "
+            "standard deviations above its value for independent noise")
+    if test.get("found", True) or not test.get("weak"):
+        return said + ": a one-sided 5 % test"
+    # A short card: the test could not have found the correlation that matters.
+    return (said + f", a one-sided 5 % test passes it, but {result.t.size} samples are "
+            "too few for that test to tell: residuals of noise correlated "
+            f"{test['alternative_rho']:g} from one sample to the next would stand only "
+            f"{test['power_z']:.1f} standard deviations above it on average")
 
 
 def diagnostics_text(result: FitResult) -> str:
