@@ -113,3 +113,15 @@ def compiled_once() -> None:
         card = synthetic_card(pumpid.Kelvin(k0=200.0, m=8.8, c1=40.0, k1=130.0), spm=8.0,
                               n_samples=60, observe="u", noise=0.002, seed=0)
         pumpid.fit(pumpid.Kelvin, card)
+
+
+def ar1_series(rng: np.random.Generator, rho: float, n: int) -> np.ndarray:
+    """``n`` samples of an AR(1) series of coefficient ``rho`` (after 200 discarded, to
+    forget the start), scaled to unit standard deviation."""
+    e = rng.standard_normal(n + 200)
+    out = np.empty_like(e)
+    out[0] = e[0]
+    for k in range(1, e.size):
+        out[k] = rho * out[k - 1] + e[k]
+    out = out[200:]
+    return out / out.std()

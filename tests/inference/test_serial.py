@@ -15,7 +15,7 @@ from pumpid.inference.echo import echo_of
 from pumpid.inference.serial import ALTERNATIVE_RHO, ROBUST_Z, robust_factor, serial_test
 from pumpid.result import Status, model_choice_text
 
-from ..conftest import well_load
+from ..conftest import ar1_series, well_load
 
 T = np.linspace(0.0, 20.0, 801)
 LOAD = well_load(T)
@@ -24,20 +24,10 @@ KELVIN = Kelvin(k0=120.0, m=2.0, c1=60.0, k1=90.0)
 OPEN_GATE = -np.finfo(float).max
 
 
-def _ar1(rng: np.random.Generator, rho: float, n: int) -> np.ndarray:
-    e = rng.standard_normal(n + 200)
-    out = np.empty_like(e)
-    out[0] = e[0]
-    for k in range(1, e.size):
-        out[k] = rho * out[k - 1] + e[k]
-    out = out[200:]
-    return out / out.std()
-
-
 def test_serially_correlated_residuals_show_the_robust_error_everywhere() -> None:
     rng = np.random.default_rng(5)
     clean = simulate(KELVIN, T, LOAD)
-    res = fit(KELVIN, (T, LOAD, clean + 0.01 * np.ptp(clean) * _ar1(rng, 0.8, T.size)))
+    res = fit(KELVIN, (T, LOAD, clean + 0.01 * np.ptp(clean) * ar1_series(rng, 0.8, T.size)))
     assert not res.whiteness["white"]
     assert res.errors_shown == "robust"
     for name in res.free:
@@ -72,7 +62,7 @@ def test_mild_correlation_shows_the_robust_error_before_the_warning() -> None:
     seen = 0
     for seed in range(40):
         rng = np.random.default_rng(seed)
-        res = fit(KELVIN, (T, LOAD, clean + 0.01 * np.ptp(clean) * _ar1(rng, 0.1, T.size)))
+        res = fit(KELVIN, (T, LOAD, clean + 0.01 * np.ptp(clean) * ar1_series(rng, 0.1, T.size)))
         test = res.extra["uncertainty"]["hac"]["serial_test"]
         assert res.errors_shown == ("robust" if test["z"] > ROBUST_Z else "white")
         assert test["serial"] == (res.errors_shown == "robust")
@@ -137,7 +127,7 @@ def test_a_short_card_s_correlated_residuals_get_the_robust_error() -> None:
     passed = caught = 0
     for seed in range(60):
         rng = np.random.default_rng(seed)
-        res = fit(truth, (t, load, clean + 0.01 * np.ptp(clean) * _ar1(rng, 0.8, t.size)),
+        res = fit(truth, (t, load, clean + 0.01 * np.ptp(clean) * ar1_series(rng, 0.8, t.size)),
                   options=options)
         if res.whiteness["lag1_autocorrelation"] <= ROBUST_Z / math.sqrt(t.size):
             passed += 1
@@ -221,7 +211,7 @@ def test_determined_parameters_follow_the_error_shown() -> None:
     # the one shown, pins to within 100 % of its value, and nothing else.
     rng = np.random.default_rng(0)
     clean = simulate(KELVIN, T, LOAD, observe="u2")
-    res = fit(KELVIN, (T, LOAD, clean + 0.2 * np.ptp(clean) * _ar1(rng, 0.9, T.size)),
+    res = fit(KELVIN, (T, LOAD, clean + 0.2 * np.ptp(clean) * ar1_series(rng, 0.9, T.size)),
               options=FitOptions(observe="u2", min_r2=OPEN_GATE))
     assert res.errors_shown == "robust"
     determined = set(res.determined["parameters"])
@@ -239,7 +229,7 @@ def test_a_fit_that_determines_no_parameter_is_not_converged() -> None:
     rng = np.random.default_rng(3)
     t = T[:200]
     clean = simulate(KELVIN, t, LOAD[:200])
-    res = fit(KELVIN, (t, LOAD[:200], clean + np.ptp(clean) * _ar1(rng, 0.95, t.size)),
+    res = fit(KELVIN, (t, LOAD[:200], clean + np.ptp(clean) * ar1_series(rng, 0.95, t.size)),
               options=FitOptions(fixed={"k0": 120.0, "m": 2.0}, min_r2=OPEN_GATE))
     assert not res.determined["parameters"]
     assert all(res.stderr[n] > res.params[n] for n in ("c1", "k1"))
@@ -368,7 +358,9 @@ def test_a_better_optimum_is_claimed_with_digits_that_differ() -> None:
 def test_real_card_words_and_units_match_the_numbers(shared_raw) -> None:
     card = read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")[0].with_dt(0.075)
     res = fit(Kelvin, card)
-    assert res.status is Status.BOUNDARY and res.boundary.reduced is not None
+    # k0 runs to infinity; within the noise the errors describe it comes back all the
+    # way, so nothing is determined, but the limit and its reduced model are reported.
+    assert res.status is Status.UNDETERMINED and res.boundary.reduced is not None
     # The reduced model's units are the card's (lbf, in), not N and m.
     units = res.to_dict()["reduced"]["units"]
     assert units == {"m": "lbf*s^2/in", "c": "lbf*s/in", "k": "lbf/in"}
