@@ -14,6 +14,7 @@ import pytest
 import pumpid
 from pumpid.cli import main
 
+from ..conftest import well_load
 from .conftest import cli_env
 
 
@@ -202,6 +203,25 @@ def test_the_warning_and_the_robust_line_give_one_widening(shared_raw, capsys) -
     line = re.search(r"assuming independence, ([0-9.-]+)x smaller", short)
     said = re.search(r"ci95_hac\), ([0-9.-]+)x the independent-noise ones", verbose)
     assert line and said and line.group(1) == said.group(1), (short, verbose)
+
+
+def test_a_card_too_short_to_test_says_why_its_errors_are_robust(tmp_path, capsys) -> None:
+    # 30 samples of white noise: the serial test cannot tell, so the robust errors are
+    # shown; the short output said "residuals serially correlated" of every robust card.
+    period = 7.5
+    truth = pumpid.Kelvin(k0=400.0, m=5.0, c1=40.0, k1=80.0)
+    t = np.arange(30) * period / 30
+    load = well_load(t, period=period, seed=3)
+    clean = pumpid.simulate(truth, t, load, initial_state="periodic", period=period)
+    noisy = clean + 0.01 * np.ptp(clean) * np.random.default_rng(2).standard_normal(t.size)
+    path = tmp_path / "short.csv"
+    np.savetxt(path, np.column_stack([t, load, noisy]), delimiter=",",
+               header="t,load,position", comments="")
+    main(["fit", str(path), "--period", "7.5"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "± robust: 30 samples, too few to test the residuals' independence" in out
+    assert "residuals serially correlated (lag-1" not in out
+    assert "serially correlated or too few to test (the card says so)" in out
 
 
 def test_python_m_pumpid_is_the_command() -> None:

@@ -164,9 +164,9 @@ def _run_info(setup: FitSetup, out: str | None) -> RunInfo:
               "yes": "; a position offset is fitted for every card",
               "no": "; no position offset is fitted"}[setup.offset]
     assumptions = [f"assumptions: {state}{offset}; ± is one standard error: robust to "
-                   "serial correlation on a card whose residuals are serially correlated (the "
-                   "card says so), else assuming independent residuals (--verbose: both, all "
-                   "diagnostics)"]
+                   "serial correlation on a card whose residuals are serially correlated or "
+                   "too few to test (the card says so), else assuming independent residuals "
+                   "(--verbose: both, all diagnostics)"]
     return RunInfo(model=cls.__name__, title=cls.title, observe=observe,
                    observe_meaning=cls.outputs.get(observe) if observe else None,
                    method=setup.options.get("method", "lm"), assumptions=tuple(assumptions),
