@@ -217,11 +217,14 @@ def test_a_card_too_short_to_test_says_why_its_errors_are_robust(tmp_path, capsy
     path = tmp_path / "short.csv"
     np.savetxt(path, np.column_stack([t, load, noisy]), delimiter=",",
                header="t,load,position", comments="")
-    main(["fit", str(path), "--period", "7.5"])
+    main(["fit", str(path), "--period", "7.5", "--out", str(tmp_path / "out")])
     out = " ".join(capsys.readouterr().out.split())
     assert "± robust: 30 samples, too few to test the residuals' independence" in out
     assert "residuals serially correlated (lag-1" not in out
     assert "serially correlated or too few to test (the card says so)" in out
+    # The HTML report raises no whiteness warning here: its table says why instead.
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert "the card's 30 samples are too few for a test of the residuals' independence" in page
 
 
 def test_python_m_pumpid_is_the_command() -> None:

@@ -289,7 +289,17 @@ def params_html(result: FitResult) -> str:
         rows.append(row("offset", result.offset, result.units.position,
                         _param_status(result, "offset"), "additive position offset"))
     value_cols = range(1, len(headers) - 2)
-    return table(headers, rows, cls="params", num_cols=[i for i in value_cols if i != 2])
+    out = table(headers, rows, cls="params", num_cols=[i for i in value_cols if i != 2])
+    unc = result.extra.get("uncertainty")
+    hac = unc.get("hac") if isinstance(unc, Mapping) else None
+    test = hac.get("serial_test") if isinstance(hac, Mapping) else None
+    if robust and isinstance(test, Mapping) and test.get("found") is False:
+        # Nothing else on the page says why: no whiteness warning is raised.
+        out += (f"<p>The robust errors are shown: the card's {result.t.size} samples are too "
+                "few for a test of the residuals' independence to tell independent noise "
+                "from noise correlated "
+                f"{test.get('alternative_rho', math.nan):g} from one sample to the next.</p>\n")
+    return out
 
 
 def derived_html(result: FitResult) -> str:
@@ -320,7 +330,8 @@ def derived_html(result: FitResult) -> str:
            "stroke frequency echoes the pumping speed)" if echo else "")
         + ".</p>\n"
         + table(("quantity", "value", "unit", "std. error (shown: robust where the "
-                 "residuals are serially correlated)", "std. error assuming independent "
+                 "residuals are serially correlated or too few to test)",
+                 "std. error assuming independent "
                  "noise", "determined", "meaning"), rows, num_cols=(1, 3, 4)))
 
 
