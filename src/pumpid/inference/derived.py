@@ -147,6 +147,7 @@ def derived_of(
     serial: bool = False,
     limits: Sequence[tuple[str, str]] = (),
     floor: NDArray[np.float64] | None = None,
+    robust_floor: NDArray[np.float64] | None = None,
 ) -> Mapping[str, Derived]:
     """The derived quantities of one fit.
 
@@ -156,10 +157,13 @@ def derived_of(
     theta : (p,) fitted parameters; observe : the observed output; scale : C.
     nums : the analysis at the optimum (None: values only, errors NaN).
     units : (load unit, position unit) of the data.
-    serial : the residuals failed the whiteness check (the robust error then counts too).
+    serial : the robust errors are shown (the residuals are serially correlated or too
+        few to test; the robust error then counts too).
     limits : (parameter, "zero" or "infinity") of each parameter at a boundary.
     floor : each quantity's smallest error (both kinds), or None: what a point elsewhere
         within the noise implies (its value there).
+    robust_floor : the robust error's own, where the noise the robust errors describe
+        reaches farther (None: ``floor``).
     """
     infos = cls.derived_info()
     values = cls.derived_values(theta, observe, scale)
@@ -175,6 +179,8 @@ def derived_of(
     if floor is not None:
         se = np.fmax(se, floor)
         se_hac = np.fmax(se_hac, floor)
+    if robust_floor is not None:
+        se_hac = np.fmax(se_hac, robust_floor)
     out: dict[str, Derived] = {}
     load, position = units
     for k, info in enumerate(infos):

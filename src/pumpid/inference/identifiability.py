@@ -152,8 +152,8 @@ def findings_of(
     """The findings of one card.
 
     ``boundaries``: (name, direction, limit description) of parameters at a boundary.
-    ``serial``: the residuals failed the whiteness check (practical identifiability then
-    looks at the robust errors too).
+    ``serial``: the robust errors are shown (serially correlated residuals, or too few to
+    test): practical identifiability then looks at the robust errors too.
     """
     sentences: list[str] = []
     determined: dict[str, Any] = {"gauge": None, "combinations": [], "parameters": [],

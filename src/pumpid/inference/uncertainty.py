@@ -532,11 +532,12 @@ def numbers(problem: Problem, cards: NDArray[np.int64], z: Array, inner: NDArray
     return out
 
 
-def widened(nums: Numbers, index: int, se: float) -> Numbers:
+def widened(nums: Numbers, index: int, se: float, robust_only: bool = False) -> Numbers:
     """The analysis with coordinate ``index``'s standard error raised to at least ``se``
     (in the analysis' scaled coordinates: relative for a positive parameter), in the white
-    and the robust covariances alike, its correlations kept; unchanged where it is larger
-    already, not finite, or the coordinate is not analysed.
+    and the robust covariances alike (``robust_only``: in the robust one alone), its
+    correlations kept; unchanged where it is larger already, not finite, or the coordinate
+    is not analysed.
 
     A local error is the cost's curvature at the answer; where the cost is known to stay
     within the noise much farther away (a flat, rippled direction), the error that holds
@@ -547,9 +548,9 @@ def widened(nums: Numbers, index: int, se: float) -> Numbers:
         return nums
     a = inner.index(index)
     out = []
-    for cov in (nums.cov_scaled, nums.hac_scaled):
+    for kind, cov in enumerate((nums.cov_scaled, nums.hac_scaled)):
         var = float(cov[a, a])
-        if not (math.isfinite(var) and 0 < var < se * se):
+        if (robust_only and kind == 0) or not (math.isfinite(var) and 0 < var < se * se):
             out.append(cov)
             continue
         factor = se / math.sqrt(var)

@@ -1,10 +1,10 @@
 """Diagnostics of every fitted card: uncertainty that holds, identifiability in words.
 
 Each card's analysis (:func:`pumpid.inference.uncertainty.numbers`, one compiled pass over
-the cards) gives the covariances; where the residuals are serially correlated the errors
-shown are the robust ones, with an AR(1) floor (:mod:`pumpid.inference.serial`). Then the
-findings in words, the derived quantities, the echo of the pumping speed and the offset's
-gauge.
+the cards) gives the covariances; where the residuals are serially correlated (or too few to
+test) the errors shown are the robust ones, with an AR(1) floor
+(:mod:`pumpid.inference.serial`). Then the findings in words, the derived quantities, the
+echo of the pumping speed and the offset's gauge.
 """
 
 from __future__ import annotations
@@ -28,15 +28,12 @@ from ..inference.echo import alias_of, echo_of
 from ..inference.identifiability import findings_of, whiteness_warning
 from ..inference.serial import (
     Errors,
-    calibrate_robust,
-    fit_null_matters,
+    Robust,
     robust_covariance,
-    serial_test,
-    serially_correlated,
+    robust_of,
     shown_errors,
     unbounded,
     widening,
-    with_ar1_floor,
 )
 from ..inference.uncertainty import (
     Numbers,
@@ -88,66 +85,18 @@ class Assessment:
                                  getattr(unc, "shown", "white") == "robust", widening(unc))
 
 
-@dataclass(frozen=True)
-class Robust:
-    """A fit's robust errors and whether they are the ones shown (:func:`robust_of`)."""
-
-    #: The numbers with their robust covariance calibrated (and floored where shown).
-    numbers: Numbers
-    serial: bool
-    calibration: Mapping[str, Any]
-
-    @property
-    def inflation(self) -> float:
-        """How many times its independent-noise variance a value's error shown is, at
-        most over the values (1 where the independent-noise errors are shown): the factor
-        a likelihood-ratio threshold computed for independent noise needs to describe the
-        same noise as the errors shown."""
-        if not self.serial:
-            return 1.0
-        qi = len(self.numbers.inner)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = (np.diag(self.numbers.hac_scaled)[:qi]
-                     / np.diag(self.numbers.cov_scaled)[:qi])
-        ratio = ratio[np.isfinite(ratio)]
-        return max(1.0, float(ratio.max())) if ratio.size else 1.0
-
-
-def robust_of(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int) -> Robust:
-    """The robust errors of one fit's numbers, calibrated, and whether they are shown.
-
-    Where the residuals are serially correlated, or too few to tell (tested against the
-    distribution of a fit's residuals where the fit moves it, which needs the Jacobian's
-    rows: ``rows_of`` computes them then, and for the floor), the robust errors are
-    floored by an AR(1) fit to the residuals and shown by default.
-    """
-    num, calibration = calibrate_robust(num)
-    own_null = not num.exact and fit_null_matters(num.n, len(num.names))
-    rows = rows_of() if own_null else None
-    test = None if rows is None else serial_test(rows, num.circular)
-    if test is not None:
-        calibration["serial_test"] = test.to_dict()
-        serial = test.serial
-    else:
-        serial = not num.exact and serially_correlated(num.rho, num.n)
-    if serial and rows is None:
-        rows = rows_of()
-    if serial and rows is not None:
-        num, calibration["ar1"] = with_ar1_floor(num, rows, offset_col)
-    return Robust(num, serial, calibration)
-
-
 def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *,
            model_names: Sequence[str], gauge_fixed: bool, initial_state: Any, residual: str,
            limits: Sequence[Limiting], unit: str,
            transform: Callable[[Numbers], Numbers] | None = None,
-           floors: Mapping[int, float] | None = None,
+           floors: Mapping[int, tuple[float, float]] | None = None,
            robust: Robust | None = None) -> Assessment:
     """The errors that hold and the identifiability in words for one fit's numbers.
 
     Where the residuals are serially correlated, or too few to tell, the robust errors are
     calibrated, floored by an AR(1) fit to the residuals and shown by default
-    (:func:`robust_of`); the independent-noise ones are kept under their own names.
+    (:func:`~pumpid.inference.serial.robust_of`); the independent-noise ones are kept under
+    their own names.
 
     Parameters
     ----------
@@ -165,19 +114,23 @@ def assess(num: Numbers, rows_of: Callable[[], Array | None], offset_col: int, *
         The unit of the residual variance.
     transform : callable, optional
         Applied to the numbers before the findings (a change of reported coordinates).
-    floors : mapping of int to float, optional
-        Coordinates whose error is raised to at least this (scaled coordinates) after the
-        transform: the errors a point elsewhere within the noise implies.
+    floors : mapping of int to (float, float), optional
+        Coordinates whose errors are raised to at least these (scaled coordinates) after
+        the transform: the errors a point elsewhere within the noise implies, the
+        independent-noise errors to the first, the robust ones to the second (the reach of
+        the noise they describe).
     robust : Robust, optional
-        :func:`robust_of`'s answer for these numbers, where it was needed earlier.
+        :func:`~pumpid.inference.serial.robust_of`'s answer for these numbers, where it was
+        needed earlier.
     """
     robust = robust or robust_of(num, rows_of, offset_col)
     num, serial, calibration = robust.numbers, robust.serial, dict(robust.calibration)
     if transform is not None:
         num = transform(num)
     local = num
-    for index, se in (floors or {}).items():
+    for index, (se, se_robust) in (floors or {}).items():
         num = widened(num, index, se)
+        num = widened(num, index, se_robust, robust_only=True)
     f = findings_of(num, model_names=model_names, gauge_fixed=gauge_fixed,
                     initial_state=initial_state, residual=residual,
                     boundaries=[(b.name, b.direction, b.limit) for b in limits], serial=serial)
@@ -236,21 +189,21 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
     tq, limits = _thresholds(problem, cards[idx], done, nums)
     flats = _flat_inertia(problem, cards[idx], done, tq, limits, workers)
     opens = _open_limits(problem, cards[idx], done, nums, tq, limits, workers)
-    # How far a boundary fit's limit reaches back is judged on the noise its errors
-    # describe: with serially correlated residuals a likelihood-ratio threshold made for
+    white = _interior_reach(problem, cards[idx], done, nums, tq, limits, workers)
+    # How far a boundary fit's limit reaches back, for the robust errors, is judged on the
+    # noise they describe: with serially correlated residuals the threshold made for
     # independent noise stops short, and the intervals of the other values missed the truth
     # (c1 held it on 0-10 % of the boundary fits of stat_coverage.py's short card at rho
-    # 0.5-0.8, against 88-91 % with the threshold raised by the errors' inflation).
-    inflated = np.array([done[j].cost + r.inflation * (limits[j] - done[j].cost)
-                         for j, r in enumerate(robust)])
-    inside = _interior_reach(problem, cards[idx], done, nums, tq, inflated, workers)
-    opens = [[*o, *n] for o, n in zip(opens, inside, strict=True)]
+    # 0.5-0.8, against 87-88 % with the threshold raised by the errors' inflation).
+    wider, times = _robust_limits(done, nums, robust, limits)
+    farther = _interior_reach(problem, cards[idx], done, nums, tq, wider, workers, times)
+    white_opens = [[*o, *n] for o, n in zip(opens, white, strict=True)]
+    robust_opens = [[*o, *(f or n)] for o, n, f in zip(opens, white, farther, strict=True)]
     for j, i in enumerate(idx):
         card = fits[i]
         k = int(cards[i])
         rows_of = rows_fns[j]
         flat = flats[j]
-        reach = _largest_reach(opens[j])
 
         def transform(n: Numbers, z: Array = card.z, k: int = k,
                       flat: tuple[int, float, float, float] | None = flat) -> Numbers:
@@ -263,16 +216,19 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                       limits=card.limits,
                       unit=("(ln of position)^2, dimensionless" if problem.residual == "log"
                             else squared(units[k].position)),
-                      transform=transform, floors=reach)
+                      transform=transform,
+                      floors=_floors(_largest_reach(white_opens[j]),
+                                     _largest_reach(robust_opens[j])))
         serial, unc = said.serial, said.uncertainty
         card.findings, card.determined = said.findings, said.determined
         card.uncertainty = unc
         if flat is not None and flat[1] > _local_error(nums[j], flat[0]):
             card.findings = (*card.findings, _flat_words(problem, names[flat[0]], flat[2],
                                                          flat[3], units[k]))
-        card.findings = (*card.findings, *(_open_words(problem, o, units[k]) for o in opens[j]
-                                           if not o.interior),
-                         *(_interior_words(problem, o, units[k]) for o in opens[j]
+        # The interior reach said is the one behind the errors shown.
+        said_opens = robust_opens[j] if serial else white_opens[j]
+        card.findings = (*card.findings, *(_open_words(problem, o, units[k]) for o in opens[j]),
+                         *(_interior_words(problem, o, units[k]) for o in said_opens
                            if o.interior))
         if problem.model.input_map is None:
             z = card.z
@@ -287,7 +243,8 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                 problem.model, theta_of(problem, z), observe=problem.observe, scale=scale,
                 nums=said.local, units=(units[int(cards[i])].load, units[int(cards[i])].position),
                 serial=serial, limits=[(b.name, b.direction) for b in card.limits],
-                floor=_derived_reach(problem, z, scale, opens[j]))
+                floor=_derived_reach(problem, z, scale, white_opens[j]),
+                robust_floor=_derived_reach(problem, z, scale, robust_opens[j]))
             _offset_gauge(problem, int(cards[i]), card, units[int(cards[i])])
             period = _stroke_of(problem, int(cards[i]))
             card.derived, echo = echo_of(card.derived, period)
@@ -387,6 +344,8 @@ class OpenLimit:
     #: A boundary fit's point the other way: the limit's parameter held as far from its
     #: limit as the noise allows (:func:`_interior_reach`).
     interior: bool = False
+    #: The noise judged against, in independent-noise variances (:func:`_robust_limits`).
+    inflation: float = 1.0
 
 
 def _items(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
@@ -456,13 +415,36 @@ def _open_limits(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Card
     return out
 
 
+def _robust_limits(fits: Sequence[CardState], nums: Sequence[Numbers],
+                   robust: Sequence[Robust], limits: Array) -> tuple[Array, Array]:
+    """Each card's threshold for the noise its robust errors describe, where they are
+    shown and it differs (NaN elsewhere), and that noise in independent-noise variances.
+
+    The threshold's excess over the answer's cost is multiplied by the errors' inflation
+    (:attr:`~pumpid.inference.serial.Robust.inflation`), at most the degrees of freedom:
+    the noise is never taken as worth less than one independent sample, so nothing costing
+    more than about 1 + t^2 times the answer is within it. On a real card whose robust
+    variances are 5,000-10,000 times the independent-noise ones (residuals whose lag-1
+    autocorrelation is 1.00), an uncapped threshold stood at 800 times the answer's cost,
+    above that of a flat line.
+    """
+    wider = np.full(len(fits), math.nan)
+    times = np.ones(len(fits))
+    for j, (card, num, r) in enumerate(zip(fits, nums, robust, strict=True)):
+        times[j] = min(r.inflation, max(float(num.dof), 1.0))
+        if times[j] > 1.0 and math.isfinite(limits[j]):
+            wider[j] = card.cost + times[j] * (limits[j] - card.cost)
+    return wider, times
+
+
 #: Halvings of the distance from a boundary fit's limit to the search window's far end.
 INTERIOR_STEPS = 7
 
 
 def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
                     nums: Sequence[Numbers], tq: Array, limits: Array,
-                    workers: int | None) -> list[list[OpenLimit]]:
+                    workers: int | None, inflation: Array | None = None
+                    ) -> list[list[OpenLimit]]:
     """How far from its limit a boundary fit's parameter goes within the noise threshold.
 
     A boundary fit reports its limiting model's values, with errors that hold with the
@@ -529,12 +511,13 @@ def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[C
         if not found[r]:
             continue
         reach = {b: float(moved[r, b]) for b in nums[i].inner if b < p and b != f}
-        # Each value's interval is the union of its intervals along the way: its reach to
-        # the farthest point plus its own error there (taken as the one at the limit).
+        # Each value's interval is the union of its intervals along the way: its largest
+        # reach plus its own error there (taken as the one at the limit).
         out[i].append(OpenLimit(lim, best[r].copy(), float(tq[i]),
                                 {b: v / float(tq[i]) + _local_error(nums[i], b)
                                  for b, v in reach.items()},
-                                interior=True))
+                                interior=True,
+                                inflation=1.0 if inflation is None else float(inflation[i])))
     return out
 
 
@@ -550,7 +533,10 @@ def _interior_words(problem: Problem, point: OpenLimit, units: Units) -> str:
               for i in problem.free_idx if i != i_lim]
     side = "down" if lim.direction == "infinity" else "up"
     unit = infos[i_lim].unit_for(units.load, units.position)
-    return (f"{lim.param} fits within the noise from its limit {side} to {theta[i_lim]:.3g} "
+    noise = ("the noise" if point.inflation <= 1.0 else
+             f"the noise the robust errors describe ({point.inflation:.3g} times the "
+             "independent-noise variance)")
+    return (f"{lim.param} fits within {noise} from its limit {side} to {theta[i_lim]:.3g} "
             f"{unit}, the other values refitted ({', '.join(others)}): the limit fits as "
             "well, not better, so every other value's error reaches its value there, not "
             "only its error with the limit taken.")
@@ -620,6 +606,13 @@ def _largest_reach(opens: Sequence[OpenLimit]) -> dict[int, float]:
         for b, se in o.errors.items():
             out[b] = max(out.get(b, 0.0), se)
     return out
+
+
+def _floors(white: Mapping[int, float],
+            robust: Mapping[int, float]) -> dict[int, tuple[float, float]]:
+    """Each coordinate's (independent-noise, robust) error floor from the two reaches."""
+    return {b: (white.get(b, 0.0), max(white.get(b, 0.0), robust.get(b, 0.0)))
+            for b in {*white, *robust}}
 
 
 def _local_error(num: Numbers, index: int) -> float:

@@ -216,8 +216,8 @@ class FitResult:
         """Standard error of every fitted value (empty when not computed): the error that
         holds for these residuals, robust to their serial correlation where their lag-1
         autocorrelation exceeds what independent noise leaves in a fit's residuals by a
-        one-sided 5 % test (:attr:`errors_shown`; :attr:`stderr_white` assumes white
-        noise)."""
+        one-sided 5 % test, or where the card is too short for that test to tell
+        (:attr:`errors_shown`; :attr:`stderr_white` assumes white noise)."""
         return dict(self.uncertainty.stderr) if self.uncertainty else {}
 
     @property
@@ -228,7 +228,8 @@ class FitResult:
     @property
     def errors_shown(self) -> str:
         """Which errors :attr:`stderr` and :attr:`ci95` are: ``"robust"`` (the residuals
-        are serially correlated: the autocorrelation-robust ones) or ``"white"``."""
+        are serially correlated, or too few to test: the autocorrelation-robust ones) or
+        ``"white"``."""
         return str(getattr(self.uncertainty, "shown", "white"))
 
     @property
@@ -460,8 +461,11 @@ def diagnostics_text(result: FitResult) -> str:
                          f"{float(unc.hac.get('factor', 1.0)):.3g} for the estimate's own "
                          f"spread; {_why_robust(result)}):")
             lines += error_table(result.free, values, units, unc.stderr, unc.ci95)
-            lines.append("  assuming independent noise (too narrow for these residuals: "
-                         "stderr_white, ci95_white):")
+            test = unc.hac.get("serial_test") or {}
+            lines.append("  assuming independent noise ("
+                         + ("too narrow for these residuals"
+                            if test.get("found", True) else "not testable on so few samples")
+                         + ": stderr_white, ci95_white):")
             lines += error_table(result.free, values, units, result.stderr_white,
                                   result.ci95_white)
         else:

@@ -8,7 +8,7 @@ Every table of fits -- ``pumpid batch``'s Parquet folder, ``FitBatch.to_frame()`
 * the fit (:data:`FIT`): model, observed output, status, reason, warnings, R^2, RMSE, cost,
   samples, evaluations, units;
 * per parameter ``p_NAME``, ``p_NAME_se`` (the error shown: the robust one where the
-  residuals are serially correlated), ``p_NAME_se_hac``, ``p_NAME_se_white``,
+  residuals are serially correlated or too few to test), ``p_NAME_se_hac``, ``p_NAME_se_white``,
   ``p_NAME_determined`` (the fit calls it determined), ``p_NAME_unit``; then ``scale``,
   ``offset`` and ``offset_se`` (in ``position_unit``);
 * per derived quantity ``d_NAME``, ``d_NAME_se`` (shown), ``d_NAME_se_hac``,
