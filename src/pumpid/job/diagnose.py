@@ -189,16 +189,18 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
     tq, limits = _thresholds(problem, cards[idx], done, nums)
     flats = _flat_inertia(problem, cards[idx], done, tq, limits, workers)
     opens = _open_limits(problem, cards[idx], done, nums, tq, limits, workers)
-    white = _interior_reach(problem, cards[idx], done, nums, tq, limits, workers)
     # How far a boundary fit's limit reaches back, for the robust errors, is judged on the
     # noise they describe: with serially correlated residuals the threshold made for
     # independent noise stops short, and the intervals of the other values missed the truth
     # (c1 held it on 0-10 % of the boundary fits of stat_coverage.py's short card at rho
     # 0.5-0.8, against 87-88 % with the threshold raised by the errors' inflation).
     wider, times = _robust_limits(done, nums, robust, limits)
-    farther = _interior_reach(problem, cards[idx], done, nums, tq, wider, workers, times)
+    white, farther = _interior_reach(problem, cards[idx], done, nums, tq, (limits, wider),
+                                     (np.ones(len(done)), times), workers)
     white_opens = [[*o, *n] for o, n in zip(opens, white, strict=True)]
-    robust_opens = [[*o, *(f or n)] for o, n, f in zip(opens, white, farther, strict=True)]
+    # The same list where the robust errors have no reach of their own (nothing to redo).
+    robust_opens = [[*o, *f] if f else w for o, w, f in zip(opens, white_opens, farther,
+                                                         strict=True)]
     for j, i in enumerate(idx):
         card = fits[i]
         k = int(cards[i])
@@ -244,7 +246,8 @@ def diagnose(problem: Problem, cards: NDArray[np.int64], fits: list[CardState],
                 nums=said.local, units=(units[int(cards[i])].load, units[int(cards[i])].position),
                 serial=serial, limits=[(b.name, b.direction) for b in card.limits],
                 floor=_derived_reach(problem, z, scale, white_opens[j]),
-                robust_floor=_derived_reach(problem, z, scale, robust_opens[j]))
+                robust_floor=(None if robust_opens[j] is white_opens[j] else
+                              _derived_reach(problem, z, scale, robust_opens[j])))
             _offset_gauge(problem, int(cards[i]), card, units[int(cards[i])])
             period = _stroke_of(problem, int(cards[i]))
             card.derived, echo = echo_of(card.derived, period)
@@ -442,9 +445,9 @@ INTERIOR_STEPS = 7
 
 
 def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
-                    nums: Sequence[Numbers], tq: Array, limits: Array,
-                    workers: int | None, inflation: Array | None = None
-                    ) -> list[list[OpenLimit]]:
+                    nums: Sequence[Numbers], tq: Array, thresholds: Sequence[Array],
+                    inflations: Sequence[Array], workers: int | None
+                    ) -> list[list[list[OpenLimit]]]:
     """How far from its limit a boundary fit's parameter goes within the noise threshold.
 
     A boundary fit reports its limiting model's values, with errors that hold with the
@@ -456,30 +459,38 @@ def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[C
     limit toward the search window's far end (bisection, ``INTERIOR_STEPS`` halvings; each
     point one solve on the card's harmonics from the last point within the threshold, the
     point reached then costed exactly); the farthest point within the profile's 95 %
-    threshold (``limits``: raised for the noise the errors shown describe, see
-    :attr:`Robust.inflation`) lies within every value's likelihood-ratio interval, so each
-    other value's interval spans its intervals along the way: its error is at least its
-    largest reach to a point within the threshold plus its own error at the limit. On that
-    short card at rho 0-0.5 the boundary fits' intervals of m then held the truth on 14 of
-    14 and 20 of 23 (its reach alone: 3 and 8); with the threshold made for independent
-    noise, c1's held it on 0-10 % of the boundary fits at rho 0.5-0.8, and with it raised,
-    on 88-91 % (k1 88-96 %, m all; 400 replicates).
+    threshold (each of ``thresholds``, with its ``inflations``: the independent-noise one,
+    and one raised for the noise the robust errors describe, :func:`_robust_limits`; their
+    bisections share each step's solve) lies within every value's likelihood-ratio
+    interval, so each other value's interval spans its intervals along the way: its error
+    is at least its largest reach to a point within the threshold plus its own error at
+    the limit. On that short card at rho 0-0.5 the boundary fits' intervals of m then held
+    the truth on 14 of 14 and 20 of 23 (its reach alone: 3 and 8); with the threshold made
+    for independent noise, c1's held it on 0-10 % of the boundary fits at rho 0.5-0.8, and
+    with it raised, on 87-88 % (k1 88-91 %, m all; 400 replicates).
+
+    Returns, for each threshold, each card's points.
     """
-    out: list[list[OpenLimit]] = [[] for _ in fits]
+    out: list[list[list[OpenLimit]]] = [[[] for _ in fits] for _ in thresholds]
     names = problem.model.param_names()
     free = list(problem.free_idx)
     rows: list[tuple[int, Limit, int]] = []
-    for i, card in enumerate(fits):
-        if not math.isfinite(limits[i]):
-            continue
-        for b in card.limits:
-            lim = next((m for m in problem.model.limits
-                        if m.param == b.name and m.direction == b.direction), None)
-            if lim is not None and names.index(lim.param) in free:
-                rows.append((i, lim, free.index(names.index(lim.param))))
+    # Every threshold's bisections in one batch: one solve a step for all of them.
+    which: list[int] = []
+    for k_set, limits in enumerate(thresholds):
+        for i, card in enumerate(fits):
+            if not math.isfinite(limits[i]):
+                continue
+            for b in card.limits:
+                lim = next((m for m in problem.model.limits
+                            if m.param == b.name and m.direction == b.direction), None)
+                if lim is not None and names.index(lim.param) in free:
+                    rows.append((i, lim, free.index(names.index(lim.param))))
+                    which.append(k_set)
     if not rows:
         return out
     owner, on, best, lo, hi = _items(problem, cards, fits, rows)
+    threshold = np.array([thresholds[k_set][i] for k_set, i in zip(which, owner, strict=True)])
     z_fit = best.copy()
     start = np.array([best[r, f] for r, (_i, _lim, f) in enumerate(rows)])
     far = np.array([lo[r, f] if lim.direction == "infinity" else hi[r, f]
@@ -500,7 +511,7 @@ def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[C
                               workers=workers)
         ends = np.where(np.all(np.isfinite(solved.z), axis=1)[:, None], solved.z, z0)
         costs = drive.cost_items(on, ends, *problem.arrays)
-        within = costs <= limits[owner]
+        within = costs <= threshold
         best[within] = ends[within]
         moved[within] = np.fmax(moved[within], np.abs(ends[within] - z_fit[within]))
         found |= within
@@ -513,11 +524,10 @@ def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[C
         reach = {b: float(moved[r, b]) for b in nums[i].inner if b < p and b != f}
         # Each value's interval is the union of its intervals along the way: its largest
         # reach plus its own error there (taken as the one at the limit).
-        out[i].append(OpenLimit(lim, best[r].copy(), float(tq[i]),
-                                {b: v / float(tq[i]) + _local_error(nums[i], b)
-                                 for b, v in reach.items()},
-                                interior=True,
-                                inflation=1.0 if inflation is None else float(inflation[i])))
+        out[which[r]][i].append(OpenLimit(
+            lim, best[r].copy(), float(tq[i]),
+            {b: v / float(tq[i]) + _local_error(nums[i], b) for b, v in reach.items()},
+            interior=True, inflation=float(inflations[which[r]][i])))
     return out
 
 
