@@ -242,3 +242,20 @@ def test_a_joint_resonance_beyond_the_samples_is_not_determined(shared_raw) -> N
     calm = {n: dataclasses.replace(d, value=v) for (n, d), v in
             zip(derived.items(), (1.0 / cards[0].period, 0.05), strict=True)}
     assert "the model echoes the imposed motion" in fit.model.echo(calm)[1]
+
+
+@pytest.mark.realdata
+def test_a_joint_boundary_fit_reaches_back_from_its_limit(shared_raw) -> None:
+    # A single card's boundary fit holds its limit's parameter back from the limit as far
+    # as the noise allows, and every other value's error reaches that far; a joint fit (an
+    # own model) did not: its independent-noise errors were those with k0 at its limit
+    # (c1 +- 0.186 lbf*s/in on SX6E03's pair) and no sentence said how far k0 comes back.
+    cards = {c.card_id: c for c in read_cards(shared_raw / "sandia_dds" / "surface_cards.csv")}
+    joint = pumpid.fit(pumpid.Kelvin, [cards["SX6E03A"], cards["SX6E03B"]], options=JOINT)
+    assert joint.status is pumpid.Status.BOUNDARY and joint.errors_shown == "robust"
+    (words,) = [f for f in joint.identifiability if f.startswith("k0 fits within the noise")]
+    dof = joint.data.size - len(joint.free)
+    assert f"the noise the robust errors describe ({dof} times the independent-noise" in words
+    held = float(words.split(" down to ")[1].split(" ")[0])
+    assert held < 1e4 < joint.params["k0"]
+    assert joint.stderr_white["c1"] > 1.0 and joint.stderr["c1"] >= joint.stderr_white["c1"]
