@@ -164,8 +164,7 @@ def _robust_note(res: FitResult) -> str | None:
     said = f" (lag-1 {lag1:.2f})" if lag1 is not None else ""
     times = widening(res.uncertainty)
     wider = f"; assuming independence, {times} smaller" if times else ""
-    test = (res.uncertainty.hac or {}).get("serial_test") or {}
-    if not test.get("found", True):
+    if not res.serial_test.get("found", True):
         return (f"± robust: {res.t.size} samples, too few to test the residuals' "
                 f"independence{said}{wider}")
     return f"± robust: residuals serially correlated{said}{wider}"

@@ -48,7 +48,7 @@ from ..result import Limiting, Units, squared
 from .options import START_SAMPLES
 from .state import CardState, numbers_for_true_offset, scale_offset, theta_of
 
-__all__ = ["Assessment", "assess", "diagnose"]
+__all__ = ["Assessment", "assess", "diagnose", "interior_sentence", "reach_limits"]
 
 Array = NDArray[np.float64]
 
@@ -280,6 +280,25 @@ def _stroke_of(problem: Problem, k: int) -> float | None:
     return record_stroke(d, t)
 
 
+def reach_limits(cost: float, dof: int, inflation: float = 1.0
+                 ) -> tuple[float, float, float, float]:
+    """The t quantile, the profile's 95 % cost threshold for independent noise, the one for
+    the noise the robust errors describe, and that noise in independent-noise variances.
+
+    The second threshold's excess over the answer's cost is the first's times the errors'
+    inflation (:attr:`~pumpid.inference.serial.Robust.inflation`), at most the degrees of
+    freedom: the noise is never taken as worth less than one independent sample, so
+    nothing costing more than about 1 + t^2 times the answer is within it. On a real card
+    whose robust variances are 5,000-10,000 times the independent-noise ones (residuals
+    whose lag-1 autocorrelation is 1.00), an uncapped threshold stood at 800 times the
+    answer's cost, above that of a flat line.
+    """
+    tq = t_quantile(0.975, dof)
+    white = cost * (1.0 + tq * tq / dof)
+    times = min(inflation, max(float(dof), 1.0))
+    return tq, white, cost + times * (white - cost), times
+
+
 def _thresholds(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardState],
                 nums: Sequence[Numbers]) -> tuple[Array, Array]:
     """Each card's t quantile and the cost threshold of the profile's 95 % likelihood-ratio
@@ -291,8 +310,7 @@ def _thresholds(problem: Problem, cards: NDArray[np.int64], fits: Sequence[CardS
     for i, (card, num) in enumerate(zip(fits, nums, strict=True)):
         if (num.usable and not num.exact and num.dof > 0
                 and problem.n_samples(int(cards[i])) <= START_SAMPLES):
-            tq[i] = t_quantile(0.975, num.dof)
-            limits[i] = card.cost * (1.0 + tq[i] * tq[i] / num.dof)
+            tq[i], limits[i] = reach_limits(card.cost, num.dof)[:2]
     return tq, limits
 
 
@@ -420,23 +438,17 @@ def _open_limits(problem: Problem, cards: NDArray[np.int64], fits: Sequence[Card
 
 def _robust_limits(fits: Sequence[CardState], nums: Sequence[Numbers],
                    robust: Sequence[Robust], limits: Array) -> tuple[Array, Array]:
-    """Each card's threshold for the noise its robust errors describe, where they are
-    shown and it differs (NaN elsewhere), and that noise in independent-noise variances.
-
-    The threshold's excess over the answer's cost is multiplied by the errors' inflation
-    (:attr:`~pumpid.inference.serial.Robust.inflation`), at most the degrees of freedom:
-    the noise is never taken as worth less than one independent sample, so nothing costing
-    more than about 1 + t^2 times the answer is within it. On a real card whose robust
-    variances are 5,000-10,000 times the independent-noise ones (residuals whose lag-1
-    autocorrelation is 1.00), an uncapped threshold stood at 800 times the answer's cost,
-    above that of a flat line.
-    """
+    """Each card's threshold for the noise its robust errors describe (:func:`reach_limits`),
+    where they are shown and it differs (NaN elsewhere), and that noise in
+    independent-noise variances."""
     wider = np.full(len(fits), math.nan)
     times = np.ones(len(fits))
     for j, (card, num, r) in enumerate(zip(fits, nums, robust, strict=True)):
-        times[j] = min(r.inflation, max(float(num.dof), 1.0))
-        if times[j] > 1.0 and math.isfinite(limits[j]):
-            wider[j] = card.cost + times[j] * (limits[j] - card.cost)
+        if not (math.isfinite(limits[j]) and r.inflation > 1.0):
+            continue
+        _tq, _white, wide, times[j] = reach_limits(card.cost, num.dof, r.inflation)
+        if times[j] > 1.0:
+            wider[j] = wide
     return wider, times
 
 
@@ -531,9 +543,24 @@ def _interior_reach(problem: Problem, cards: NDArray[np.int64], fits: Sequence[C
     return out
 
 
+def interior_sentence(name: str, direction: str, held: str, others: Sequence[str],
+                      inflation: float) -> str:
+    """The sentence of a boundary fit whose parameter ``name`` comes back from its limit
+    (``direction``: "infinity" or "zero") within the noise to ``held`` (value and unit),
+    the other values refitted (``others``: each "name value unit", or none to name) on a
+    threshold ``inflation`` times the independent-noise one's (:func:`reach_limits`)."""
+    side = "down" if direction == "infinity" else "up"
+    noise = ("the noise" if inflation <= 1.0 else
+             f"the noise the robust errors describe ({inflation:.3g} times the "
+             "independent-noise variance)")
+    values = f" ({', '.join(others)})" if others else ""
+    return (f"{name} fits within {noise} from its limit {side} to {held}, the other values "
+            f"refitted{values}: the limit fits as well, not better, so every other value's "
+            "error reaches its value there, not only its error with the limit taken.")
+
+
 def _interior_words(problem: Problem, point: OpenLimit, units: Units) -> str:
-    """The sentence of a boundary fit whose parameter goes back from its limit within the
-    noise."""
+    """:func:`interior_sentence` for a lumped fit's point, its values with their units."""
     lim = point.limit
     names = problem.model.param_names()
     infos = problem.model.param_info()
@@ -541,15 +568,9 @@ def _interior_words(problem: Problem, point: OpenLimit, units: Units) -> str:
     i_lim = names.index(lim.param)
     others = [f"{names[i]} {theta[i]:.3g} {infos[i].unit_for(units.load, units.position)}"
               for i in problem.free_idx if i != i_lim]
-    side = "down" if lim.direction == "infinity" else "up"
     unit = infos[i_lim].unit_for(units.load, units.position)
-    noise = ("the noise" if point.inflation <= 1.0 else
-             f"the noise the robust errors describe ({point.inflation:.3g} times the "
-             "independent-noise variance)")
-    return (f"{lim.param} fits within {noise} from its limit {side} to {theta[i_lim]:.3g} "
-            f"{unit}, the other values refitted ({', '.join(others)}): the limit fits as "
-            "well, not better, so every other value's error reaches its value there, not "
-            "only its error with the limit taken.")
+    return interior_sentence(lim.param, lim.direction, f"{theta[i_lim]:.3g} {unit}", others,
+                             point.inflation)
 
 
 def _open_words(problem: Problem, open_limit: OpenLimit, units: Units) -> str:

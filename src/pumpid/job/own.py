@@ -32,7 +32,7 @@ from ..engine import lm
 from ..engine.solvers import LevenbergMarquardt, PaperNewton, SolverOutcome, Stop, run_python
 from ..inference.identifiability import findings_of
 from ..inference.serial import robust_of
-from ..inference.uncertainty import Numbers, analyse_rows, t_quantile
+from ..inference.uncertainty import Numbers, analyse_rows
 from ..models.own import OwnModel
 from ..result import (
     BoundaryInfo,
@@ -46,7 +46,7 @@ from ..result import (
 )
 from .assemble import determination_gate, quality_gate
 from .boundary import LR_95
-from .diagnose import assess
+from .diagnose import assess, interior_sentence, reach_limits
 from .options import FitOptions
 
 __all__ = ["WINDOW_FACTOR", "fit_own"]
@@ -439,13 +439,9 @@ def _reach_floors(prob: _Item, z: Array, lo: Array, hi: Array, limits: Sequence[
     """
     floors: dict[int, tuple[float, float]] = {}
     words: list[str] = []
-    dof = nums.dof
-    if dof <= 0 or not math.isfinite(cost):
+    if nums.dof <= 0 or not math.isfinite(cost):
         return floors, words
-    tq = t_quantile(0.975, dof)
-    white = cost * (1.0 + tq * tq / dof)
-    times = min(inflation, float(dof))
-    wide = cost + times * (white - cost)
+    tq, white, wide, times = reach_limits(cost, nums.dof, inflation)
     # A signed coordinate is analysed in units of the data's range.
     per = np.where(np.arange(prob.q) >= prob.n_log, float(np.ptp(prob.y)) or 1.0, 1.0)
     inner = list(nums.inner)
@@ -465,17 +461,8 @@ def _reach_floors(prob: _Item, z: Array, lo: Array, hi: Array, limits: Sequence[
             floors[b] = (max(old[0], w), max(old[1], r))
         if point is not None:
             i_lim = prob.names.index(limit.name)
-            held = prob.theta(point)[i_lim]
-            unit = prob.model.parameters[i_lim].unit
-            noise = ("the noise" if times <= 1.0 else
-                     f"the noise the robust errors describe ({times:.3g} times the "
-                     "independent-noise variance)")
-            words.append(
-                f"{limit.name} fits within {noise} from its limit "
-                f"{'down' if limit.direction == 'infinity' else 'up'} to {held:.3g} {unit}, "
-                "the other values refitted: the limit fits as well, not better, so every "
-                "other value's error reaches its value there, not only its error with the "
-                "limit taken.")
+            held = f"{prob.theta(point)[i_lim]:.3g} {prob.model.parameters[i_lim].unit}"
+            words.append(interior_sentence(limit.name, limit.direction, held, (), times))
     return floors, words
 
 

@@ -290,10 +290,8 @@ def params_html(result: FitResult) -> str:
                         _param_status(result, "offset"), "additive position offset"))
     value_cols = range(1, len(headers) - 2)
     out = table(headers, rows, cls="params", num_cols=[i for i in value_cols if i != 2])
-    unc = result.extra.get("uncertainty")
-    hac = unc.get("hac") if isinstance(unc, Mapping) else None
-    test = hac.get("serial_test") if isinstance(hac, Mapping) else None
-    if robust and isinstance(test, Mapping) and test.get("found") is False:
+    test = result.serial_test
+    if robust and test.get("found") is False:
         # Nothing else on the page says why: no whiteness warning is raised.
         out += (f"<p>The robust errors are shown: the card's {result.t.size} samples are too "
                 "few for a test of the residuals' independence to tell independent noise "

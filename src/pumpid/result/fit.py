@@ -233,6 +233,14 @@ class FitResult:
         return str(getattr(self.uncertainty, "shown", "white"))
 
     @property
+    def serial_test(self) -> dict[str, Any]:
+        """The residuals' serial test behind :attr:`errors_shown` (its lag-1
+        autocorrelation, null mean and sd, ``found``: it finds them correlated, ``weak``:
+        too few samples for it to tell), or {} where the large-sample test decided."""
+        hac = self.uncertainty.hac if self.uncertainty is not None else None
+        return dict((hac or {}).get("serial_test") or {})
+
+    @property
     def stderr_white(self) -> dict[str, float]:
         """Standard errors that assume independent (white) noise, whatever is shown."""
         unc = self.uncertainty
@@ -426,8 +434,7 @@ def _why_robust(result: FitResult) -> str:
     eager 5 % test's figures (the warning asks for 99.5 %, so it can be absent)."""
     if not (result.whiteness or {}).get("white", True):
         return "see the warning below"
-    hac = result.uncertainty.hac if result.uncertainty is not None else None
-    test = (hac or {}).get("serial_test")
+    test = result.serial_test
     if not test:
         lag1 = (result.whiteness or {}).get("lag1_autocorrelation", math.nan)
         return (f"the residuals' lag-1 autocorrelation {lag1:.2f} fails a one-sided 5 % "
@@ -461,10 +468,10 @@ def diagnostics_text(result: FitResult) -> str:
                          f"{float(unc.hac.get('factor', 1.0)):.3g} for the estimate's own "
                          f"spread; {_why_robust(result)}):")
             lines += error_table(result.free, values, units, unc.stderr, unc.ci95)
-            test = unc.hac.get("serial_test") or {}
             lines.append("  assuming independent noise ("
                          + ("too narrow for these residuals"
-                            if test.get("found", True) else "not testable on so few samples")
+                            if result.serial_test.get("found", True)
+                            else "not testable on so few samples")
                          + ": stderr_white, ci95_white):")
             lines += error_table(result.free, values, units, result.stderr_white,
                                   result.ci95_white)
